@@ -1,0 +1,35 @@
+# rotsound: `make demo`, `make test`, `make bench` each run scripts/setup.sh first
+# (installs what is missing, quietly; idempotent).
+PY      := .venv/bin/python
+RANKS   ?= 2
+SCENE   ?= configs/quick.yaml
+# Open MPI refuses to start as root unless told; only then do we tell it.
+ifeq ($(shell id -u),0)
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+endif
+MPIRUN  := mpirun -n $(RANKS)
+PYTEST  := -m pytest --color=no -q
+
+.PHONY: setup demo test test-serial test-mpi bench clean
+setup:
+	@bash scripts/setup.sh
+
+demo: setup
+	$(MPIRUN) $(PY) -m solver run $(SCENE)
+	$(PY) -m solver plot $$($(PY) -m solver output-of $(SCENE))
+
+test: setup
+	@$(MAKE) --no-print-directory test-serial test-mpi
+
+test-serial:
+	timeout 1200 $(PY) $(PYTEST) tests
+
+test-mpi:
+	timeout 1200 $(MPIRUN) $(PY) $(PYTEST) -m "not serial_only" tests
+
+bench: setup
+	$(PY) scripts/bench_all.py
+
+clean:
+	rm -rf results .venv *.egg-info

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Install what rotsound needs on Debian 12, idempotently; silent when nothing is missing.
+#   - Debian's PETSc/SLEPc stack (ABI-matched with Debian's numpy) via apt, only if absent;
+#   - .venv made from /usr/bin/python3 with --system-site-packages;
+#   - the project installed editable into .venv without touching numpy/petsc4py.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PKGS=(python3-petsc4py python3-slepc4py python3-mpi4py python3-h5py-mpi python3-scipy
+      python3-matplotlib python3-yaml python3-pytest python3-pytest-timeout openmpi-bin
+      python3-venv)
+
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "rotsound setup: missing Debian packages. Run, then retry:" >&2
+    echo "  sudo apt-get update && sudo apt-get install -y --no-install-recommends ${missing[*]}" >&2
+    exit 1
+  fi
+  echo "rotsound setup: installing ${missing[*]}" >&2
+  apt-get update -qq >/dev/null
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+if [ ! -x .venv/bin/python ]; then
+  /usr/bin/python3 -m venv --system-site-packages .venv
+fi
+stamp=.venv/.rotsound-installed
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+  .venv/bin/python -m pip install -q --no-deps --no-build-isolation --disable-pip-version-check -e . >/dev/null
+  touch "$stamp"
+fi
