@@ -17,7 +17,7 @@ setup:
 
 demo: setup
 	$(MPIRUN) $(PY) -m solver run $(SCENE)
-	$(PY) -m solver plot $$($(PY) -m solver output-of $(SCENE))
+	$(PY) -m solver plot $(SCENE)
 
 test: setup
 	@$(MAKE) --no-print-directory test-serial test-mpi

@@ -1,1 +1,121 @@
-def main(): pass
+"""Command line: ``python -m solver {run,plot,keys} ...`` (also installed as ``rotsound``).
+
+    rotsound run SCENE.yaml [--set key.path=value ...] [-petsc_option value ...]
+    rotsound plot RESULTS.h5|SCENE.yaml
+    rotsound keys                      # the scene reference as a Markdown table
+
+Words starting with a single '-' are PETSc/SLEPc options (they win over the scene's
+``petsc:`` mapping).  Bad input stops every rank with one message and exit code 2; an
+unexpected error prints its traceback and aborts all ranks (no rank is left waiting).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+
+from . import config, petscopts
+from .errors import InputError
+
+EXIT_INPUT = 2
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="rotsound", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run a scene under mpirun or serially")
+    run.add_argument("scene", help="scene YAML file")
+    run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
+                     help="override a scene key (value parsed as YAML); repeatable")
+    plot = sub.add_parser("plot", help="figures from a results file (PNG and PDF beside it)")
+    plot.add_argument("results", help="results .h5 file, or the scene whose output to plot")
+    sub.add_parser("keys", help="print the scene key reference (Markdown)")
+    return parser
+
+
+class _ArgumentError(InputError):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise _ArgumentError(f"command line: {message} (see 'rotsound --help')")
+
+
+def load_scene(path: str, assignments: list[str], comm) -> config.Scene:
+    """Read on rank 0, broadcast, validate everywhere (same error on every rank). Collective."""
+    raw, error = None, None
+    if comm.rank == 0:
+        try:
+            raw = config.read_yaml(path)
+            for assignment in assignments:
+                config.set_key(raw, assignment)
+        except InputError as exc:
+            error = exc
+    raw, error = comm.bcast((raw, error), root=0)
+    if error is not None:
+        raise error
+    return config.build(config.Scene, raw)
+
+
+def _run(args, petsc_words, comm) -> None:
+    from . import petscenv, pipeline
+
+    scene = load_scene(args.scene, args.set, comm)
+    yaml_words = petscopts.to_argv(petscopts.flatten(scene.petsc))
+    argv = yaml_words + petsc_words  # later words win: the command line beats the scene
+    petscenv.init(argv)
+    pipeline.run(scene, comm, argv)
+
+
+def _plot(args) -> None:
+    from . import plots
+
+    target = args.results
+    if target.endswith((".yaml", ".yml")):
+        target = config.build(config.Scene, config.read_yaml(target)).output
+    for path in plots.plot_results(target):
+        print(f"wrote {path}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    words = sys.argv[1:] if argv is None else argv
+    ours, petsc_words = petscopts.split_argv(words)
+    parser = _parser()
+    parser.__class__ = _Parser
+    for action in parser._subparsers._group_actions:  # sub-parsers report errors the same way
+        for sub in action.choices.values():
+            sub.__class__ = _Parser
+    comm = None
+    try:
+        args = parser.parse_args(ours)
+        if args.command == "keys":
+            print("| key | default | meaning |\n|---|---|---|")
+            for key, default, doc in config.reference():
+                print(f"| `{key}` | `{default}` | {doc} |")
+            return 0
+        if args.command == "plot":
+            _plot(args)
+            return 0
+        if petsc_words and args.command != "run":
+            raise InputError(f"command line: PETSc options {petsc_words} only apply to 'run'")
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
+        _run(args, petsc_words, comm)
+        return 0
+    except InputError as exc:
+        if comm is None or comm.rank == 0:
+            print(f"rotsound: error: {exc}", file=sys.stderr, flush=True)
+        return EXIT_INPUT
+    except Exception:  # noqa: BLE001 - anything else: report and take every rank down
+        traceback.print_exc()
+        sys.stderr.flush()
+        if comm is not None and comm.size > 1:
+            comm.Abort(1)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,232 @@
+"""Scenes: YAML run descriptions parsed into frozen, validated dataclasses.
+
+Every field carries its documentation, default and allowed range in ``metadata``; the README
+reference is printed from the same source (``python -m solver keys``).  Validation is pure
+(no MPI, no PETSc) and deterministic, so every rank that validates the same mapping raises
+the same :class:`~solver.errors.InputError`.  Units: d0 = m = kn = 1.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+
+from .errors import InputError
+
+
+def _f(default, doc, check=None, kind=None):
+    """Field with documentation ``doc``; ``check(value) -> str | None`` says what is allowed."""
+    meta = {"doc": doc, "check": check, "kind": kind}
+    if isinstance(default, (list, dict)):
+        return field(default_factory=lambda: default, metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+def _range(lo=None, hi=None, lo_open=False, hi_open=False):
+    def check(v):
+        bad = (lo is not None and (v < lo or (lo_open and v == lo))) or \
+              (hi is not None and (v > hi or (hi_open and v == hi)))
+        if bad or (isinstance(v, float) and not math.isfinite(v)):
+            left = "(" if lo_open else "["
+            right = ")" if hi_open else "]"
+            return f"must be in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
+        return None
+    return check
+
+
+def _even_n(v):
+    if v < 16 or v % 2:
+        return "must be an even integer >= 16 (50:50 mixture; the box must exceed two diameters)"
+    return None
+
+
+@dataclass(frozen=True)
+class PackingSpec:
+    """Section ``packing``: how configurations are made or where they are read from."""
+
+    n: int | None = _f(None, "number of disks N (even, >= 16); required unless `file` is given", _even_n, int)
+    phi: float | None = _f(None, "area fraction phi, in (0, 1); required unless `file` is given",
+                           _range(0.0, 1.0, True, True), float)
+    count: int | None = _f(None, "number of independent configurations; default 1 when "
+                                 "generating, all of the file's with `file`", _range(1, 100000), int)
+    file: str | list[str] | None = _f(None, "HDF5 packing file, or a list of files (see README format)",
+                                      None, "paths")
+    force_tol: float = _f(1e-6, "FIRE stops when max_i |F_i|/m < force_tol (kn d0/m)",
+                          _range(0.0, 1e-2, True), float)
+    max_steps: int = _f(2_000_000, "FIRE step limit per configuration", _range(1), int)
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """Section ``model``: contact law parameters (kn = 1)."""
+
+    rho: list[float] = _f([1.0], "stiffness ratio kt/kn: a number or a list, each >= 0",
+                          _range(0.0, 1e6), "floats")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A whole run."""
+
+    output: str = _f("results/scene.h5", "results file (HDF5); its folder is created", None, str)
+    seed: int = _f(0, "seed of every random draw (configuration i uses SeedSequence([seed, i]))",
+                   _range(0, 2**63 - 1), int)
+    packing: PackingSpec = _f(None, "see packing.*", None, PackingSpec)
+    model: ModelSpec = _f(None, "see model.*", None, ModelSpec)
+    petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
+                         "(-eps_*, -st_*, -ts_*, -log_view, ...); the command line wins", None, dict)
+
+    def digest(self) -> str:
+        """Stable hash of everything that determines the results (not ``output``)."""
+        data = dataclasses.asdict(self)
+        data.pop("output")
+        return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
+
+    def to_yaml(self) -> str:
+        """The validated scene with all defaults filled in, as YAML."""
+        return yaml.safe_dump(dataclasses.asdict(self), sort_keys=False)
+
+
+def _type_name(kind) -> str:
+    return {int: "an integer", float: "a number", str: "a string", dict: "a mapping",
+            "floats": "a number or a list of numbers", "paths": "a path or a list of paths"}.get(
+        kind, "a mapping")
+
+
+def _coerce(value, kind, where):
+    """Convert a YAML value to ``kind`` or raise InputError naming ``where``."""
+    def fail():
+        raise InputError(f"{where} = {value!r}: must be {_type_name(kind)}")
+
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, float) and value.is_integer():
+                return int(value)
+            fail()
+        return value
+    if kind is float:
+        if isinstance(value, bool):
+            fail()
+        if isinstance(value, str):  # PyYAML reads 1e-6 (no dot) as a string
+            try:
+                return float(value)
+            except ValueError:
+                fail()
+        if not isinstance(value, (int, float)):
+            fail()
+        return float(value)
+    if kind is str:
+        if not isinstance(value, str) or not value:
+            fail()
+        return value
+    if kind is dict:
+        if not isinstance(value, dict):
+            fail()
+        return value
+    if kind == "floats":
+        items = value if isinstance(value, list) else [value]
+        if not items:
+            raise InputError(f"{where} = []: must not be empty")
+        return [_coerce(v, float, where) for v in items]
+    if kind == "paths":
+        items = value if isinstance(value, list) else [value]
+        if not items or not all(isinstance(v, str) and v for v in items):
+            fail()
+        return value
+    raise AssertionError(kind)
+
+
+def build(cls, raw, where: str = ""):
+    """Validate mapping ``raw`` into dataclass ``cls``; ``where`` is the key path prefix."""
+    raw = {} if raw is None else raw
+    if not isinstance(raw, dict):
+        raise InputError(f"{where or 'scene'} = {raw!r}: must be a mapping")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(map(str, raw)) - set(fields))
+    if unknown:
+        raise InputError(f"unknown key {where}{unknown[0]}: allowed keys in "
+                         f"{where.rstrip('.') or 'the scene'} are {', '.join(fields)}")
+    values = {}
+    for name, f in fields.items():
+        kind, check = f.metadata["kind"], f.metadata["check"]
+        key = f"{where}{name}"
+        if dataclasses.is_dataclass(kind):
+            values[name] = build(kind, raw.get(name), key + ".")
+            continue
+        if name not in raw or raw[name] is None:
+            continue
+        value = _coerce(raw[name], kind, key)
+        for item in (value if isinstance(value, list) and kind == "floats" else [value]):
+            problem = check(item) if check else None
+            if problem:
+                raise InputError(f"{key} = {raw[name]!r}: {problem}")
+        values[name] = value
+    obj = cls(**values)
+    _cross_check(obj, where)
+    return obj
+
+
+def _cross_check(obj, where):
+    if isinstance(obj, PackingSpec) and obj.file is None:
+        for name in ("n", "phi"):
+            if getattr(obj, name) is None:
+                raise InputError(f"{where}{name} is missing: give packing.n and packing.phi, "
+                                 f"or packing.file")
+    if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
+        raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
+
+
+def set_key(raw: dict, assignment: str) -> None:
+    """Apply one ``--set key.path=value`` (value parsed as YAML) to ``raw`` in place."""
+    if "=" not in assignment:
+        raise InputError(f"--set {assignment!r}: must look like key.path=value")
+    path, text = assignment.split("=", 1)
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise InputError(f"--set {assignment!r}: value is not valid YAML ({exc})") from None
+    node = raw
+    keys = path.split(".")
+    for key in keys[:-1]:
+        node = node.setdefault(key, {})
+        if not isinstance(node, dict):
+            raise InputError(f"--set {assignment!r}: {key} is not a mapping")
+    node[keys[-1]] = value
+
+
+def read_yaml(path: str) -> dict:
+    """Read a scene file into a mapping; errors name the file. Not collective."""
+    if not os.path.isfile(path):
+        raise InputError(f"scene file {path}: not found")
+    try:
+        with open(path, encoding="utf-8") as stream:
+            raw = yaml.safe_load(stream)
+    except yaml.YAMLError as exc:
+        raise InputError(f"scene file {path}: invalid YAML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"scene file {path}: cannot read: {exc}") from None
+    if raw is None:
+        raw = {}
+    if not isinstance(raw, dict):
+        raise InputError(f"scene file {path}: top level must be a mapping of keys")
+    return raw
+
+
+def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:
+    """(key, default, description) rows of every scene key, for the README."""
+    rows = []
+    for f in dataclasses.fields(cls):
+        kind = f.metadata["kind"]
+        if dataclasses.is_dataclass(kind):
+            rows.extend(reference(kind, f"{where}{f.name}."))
+            continue
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        rows.append((f"{where}{f.name}", json.dumps(default), f.metadata["doc"]))
+    return rows

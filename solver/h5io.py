@@ -1,0 +1,128 @@
+"""HDF5 files: packing files (input and output) and the results file. Rank 0 writes.
+
+Packing file format (input from any code, and what rotsound writes under ``/packings``):
+  one configuration at the top level, or several as groups ``/packings/<i>`` (sorted by
+  name), each holding
+    positions   (N, 2) float64   disk centres, any real values (folded into [0, L))
+    diameters   (N,)   float64   > 0, units of the mean diameter d0
+    rattler     (N,)   bool      optional; computed (iterative < 3 contacts rule) if absent
+    attribute box_length  float  side L of the periodic square box, L > 2 max(diameters)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import h5py
+import numpy as np
+
+from .errors import InputError
+from .packing import Packing, from_arrays
+
+FORMAT_VERSION = 1
+
+
+def _open(path: str):
+    if not os.path.isfile(path):
+        raise InputError(f"packing file {path}: not found")
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"packing file {path}: not a readable HDF5 file ({exc})") from None
+
+
+def _read_one(group, where: str) -> Packing:
+    def fail(msg):
+        raise InputError(f"packing file {where}: {msg}")
+
+    for name in ("positions", "diameters"):
+        if name not in group or not isinstance(group[name], h5py.Dataset):
+            fail(f"dataset '{name}' is missing")
+    if "box_length" not in group.attrs:
+        fail("attribute 'box_length' is missing")
+    try:
+        positions = np.asarray(group["positions"][()], dtype=float)
+        diameters = np.asarray(group["diameters"][()], dtype=float)
+        box_length = float(np.asarray(group.attrs["box_length"]).reshape(()))
+        rattler = np.asarray(group["rattler"][()], dtype=bool) if "rattler" in group else None
+    except (OSError, ValueError, TypeError) as exc:
+        fail(f"cannot read data ({exc})")
+    n = diameters.shape[0] if diameters.ndim == 1 else -1
+    if diameters.ndim != 1 or n < 2:
+        fail(f"'diameters' has shape {diameters.shape}; need (N,) with N >= 2")
+    if positions.shape != (n, 2):
+        fail(f"'positions' has shape {positions.shape}; need ({n}, 2) to match 'diameters'")
+    if rattler is not None and rattler.shape != (n,):
+        fail(f"'rattler' has shape {rattler.shape}; need ({n},)")
+    if not np.all(np.isfinite(positions)):
+        fail("'positions' contains NaN or inf")
+    if not np.all(np.isfinite(diameters)) or np.any(diameters <= 0):
+        fail("'diameters' must be finite and > 0")
+    if not np.isfinite(box_length) or box_length <= 2 * diameters.max():
+        fail(f"box_length = {box_length}: must be finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
+    packing = from_arrays(positions, diameters, box_length, rattler, {"source": where})
+    if packing.rattler.all():
+        fail("no disk has 3 or more contacts (not a jammed packing: all disks are rattlers)")
+    return packing
+
+
+def read_packings(paths: str | list[str], count: int | None = None) -> list[Packing]:
+    """Read configurations from one or more packing files (first ``count``). Not collective."""
+    packings: list[Packing] = []
+    for path in [paths] if isinstance(paths, str) else paths:
+        with _open(path) as f:
+            if "positions" in f:
+                packings.append(_read_one(f, path))
+            elif "packings" in f and len(f["packings"]):
+                for name in sorted(f["packings"]):
+                    packings.append(_read_one(f["packings"][name], f"{path}:/packings/{name}"))
+            else:
+                raise InputError(f"packing file {path}: no 'positions' dataset at the top level "
+                                 f"and no '/packings/<i>' groups")
+    if count is not None:
+        if count > len(packings):
+            raise InputError(f"packing.count = {count}: the file(s) hold only {len(packings)} configurations")
+        packings = packings[:count]
+    return packings
+
+
+def write_packing(group, packing: Packing) -> None:
+    """Write one configuration into an open h5py group (file format above)."""
+    group.create_dataset("positions", data=packing.positions)
+    group.create_dataset("diameters", data=packing.diameters)
+    group.create_dataset("rattler", data=packing.rattler)
+    group.attrs["box_length"] = packing.box_length
+    group.attrs["phi"] = packing.phi
+    for key, value in packing.info.items():
+        group.attrs[key] = value
+
+
+def save_packings(path: str, packings: list[Packing]) -> None:
+    """Write a stand-alone packing file with groups /packings/<i>. Not collective."""
+    with h5py.File(path, "w") as f:
+        for index, packing in enumerate(packings):
+            write_packing(f.create_group(f"packings/{index:04d}"), packing)
+
+
+def write_results(path: str, provenance: dict, packings: list[Packing], units: dict) -> None:
+    """Write the results file atomically (temporary file, then rename). Rank 0 only.
+
+    ``units`` maps a group path to (datasets dict, attrs dict).
+    """
+    folder = os.path.dirname(os.path.abspath(path))
+    os.makedirs(folder, exist_ok=True)
+    partial = path + ".partial"
+    with h5py.File(partial, "w") as f:
+        f.attrs["format_version"] = FORMAT_VERSION
+        for key, value in provenance.items():
+            f.attrs[key] = value if isinstance(value, (str, int, float)) else json.dumps(value)
+        for index, packing in enumerate(packings):
+            write_packing(f.create_group(f"packings/{index:04d}"), packing)
+        for name, (datasets, attrs) in units.items():
+            group = f.create_group(name)
+            for key, value in datasets.items():
+                group.create_dataset(key, data=value)
+            for key, value in attrs.items():
+                group.attrs[key] = value
+    os.replace(partial, path)

@@ -1,0 +1,81 @@
+"""Run a scene: packings -> dynamical matrices (-> later stages). Collective on ``comm``.
+
+The only module that knows stage order.  Stages run only for what the scene asks.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import __version__, dynmat, h5io, packing, parallel, petscopts
+from .config import Scene
+
+
+def say(comm, message: str) -> None:
+    """Print on rank 0 only."""
+    if comm.rank == 0:
+        print(message, flush=True)
+
+
+def make_packings(scene: Scene, comm) -> list[packing.Packing]:
+    """Read ``packing.file`` or generate ``packing.count`` configurations. Collective.
+
+    Generation is spread over ranks (configuration i on rank i % size, seeded by
+    SeedSequence([seed, i])), so the result does not depend on the number of ranks.
+    """
+    spec = scene.packing
+    if spec.file is not None:
+        return parallel.owner_compute(comm, [0], lambda _: h5io.read_packings(spec.file, spec.count))[0]
+    seeds = [parallel.seed_sequence(scene.seed, i) for i in range(spec.count or 1)]
+    return parallel.owner_compute(
+        comm, seeds, lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps))
+
+
+def run(scene: Scene, comm, petsc_argv: list[str]) -> dict:
+    """Execute ``scene`` on ``comm`` (mpi4py communicator); return a summary. Collective."""
+    from petsc4py import PETSc
+
+    t0 = time.perf_counter()
+    packings = make_packings(scene, comm)
+    for index, p in enumerate(packings):
+        i = p.info
+        say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
+                  f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
+                  f"rattlers = {100 * i['rattler_fraction']:.2f} %"
+                  + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
+    units = {}
+    for r_index, rho in enumerate(scene.model.rho):
+        for p_index, p in enumerate(packings):
+            t = time.perf_counter()
+            dm = dynmat.assemble(p, rho, PETSc.COMM_WORLD)
+            seconds = parallel.global_max(comm, time.perf_counter() - t)
+            info = dm.D.getInfo()
+            nnz = int(comm.allreduce(info["nz_used"]))
+            say(comm, f"matrix rho = {rho:g}, packing {p_index}: {dm.size} DOF "
+                      f"({dm.dof} per disk), {nnz} non-zeros, assembled in {seconds:.3f} s")
+            units[f"matrices/r{r_index:02d}_p{p_index:04d}"] = ({}, {
+                "rho": rho, "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
+                "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
+            dm.destroy()
+    names = petscopts.option_names(petsc_argv)
+    unused = parallel.owner_compute(comm, [0], lambda _: petscopts.unused(names))[0]
+    for name in unused:
+        say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
+                  f"stage this scene does not run)")
+    provenance = {
+        "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
+        "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
+        "ranks": comm.size, "petsc_options": petscopts.snapshot(), "petsc_options_unused": unused,
+    }
+    error = None
+    if comm.rank == 0:
+        try:
+            h5io.write_results(scene.output, provenance, packings, units)
+        except OSError as exc:
+            error = exc
+    parallel.agree(comm, error)
+    say(comm, f"wrote {scene.output} ({len(packings)} packings, {len(units)} matrices) "
+              f"in {time.perf_counter() - t0:.1f} s")
+    return {"packings": packings, "units": units}
