@@ -90,6 +90,8 @@ def main(argv: list[str] | None = None) -> int:
     comm = None
     try:
         args = parser.parse_args(ours)
+        if petsc_words and args.command != "run":
+            raise InputError(f"command line: PETSc options {petsc_words} only apply to 'run'")
         if args.command == "keys":
             print("| key | default | meaning |\n|---|---|---|")
             for key, default, doc in config.reference():
@@ -98,8 +100,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "plot":
             _plot(args)
             return 0
-        if petsc_words and args.command != "run":
-            raise InputError(f"command line: PETSc options {petsc_words} only apply to 'run'")
         from mpi4py import MPI
 
         comm = MPI.COMM_WORLD

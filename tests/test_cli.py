@@ -1,0 +1,95 @@
+"""The command line end to end: good runs, bad input on 1 and 2 ranks, PETSc options."""
+
+import json
+
+import h5py
+import pytest
+from conftest import run_cli
+
+pytestmark = pytest.mark.serial_only  # these tests launch their own (mpirun) processes
+
+SCENE = """\
+output: {out}
+seed: 2
+packing: {{n: 64, phi: 0.9, count: 2}}
+model: {{rho: [0, 1]}}
+petsc: {{ksp_type: gmres, log_view_not_an_option: null}}
+"""
+
+
+def write(tmp_path, text, name="scene.yaml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_run_writes_results_and_reports_unused_options(tmp_path, ranks):
+    out = tmp_path / "r.h5"
+    scene = write(tmp_path, SCENE.format(out=out))
+    proc = run_cli(["run", scene, "--set", "seed=3", "-ksp_type", "cg", "-eps_tpye", "x"], ranks)
+    assert proc.returncode == 0, proc.stderr
+    assert "wrote" in proc.stdout and str(out) in proc.stdout
+    assert proc.stdout.count("wrote") == 1, "rank 1 must not print"
+    assert "-eps_tpye was never used" in proc.stdout
+    with h5py.File(out) as f:
+        assert sorted(f["packings"]) == ["0000", "0001"]
+        assert len(f["matrices"]) == 4
+        options = json.loads(f.attrs["petsc_options"])
+        assert options["ksp_type"] == "cg"  # the command line wins over the scene
+        assert "eps_tpye" in json.loads(f.attrs["petsc_options_unused"])
+        assert "seed: 3" in f.attrs["scene"]
+        assert f.attrs["ranks"] == ranks
+
+
+def test_results_do_not_depend_on_rank_count(tmp_path):
+    files = []
+    for ranks in (1, 2):
+        out = tmp_path / f"r{ranks}.h5"
+        assert run_cli(["run", write(tmp_path, SCENE.format(out=out), f"s{ranks}.yaml")], ranks).returncode == 0
+        files.append(h5py.File(out))
+    for name in ("0000", "0001"):
+        assert (files[0][f"packings/{name}/positions"][()] == files[1][f"packings/{name}/positions"][()]).all()
+    for name in files[0]["matrices"]:
+        assert files[0][f"matrices/{name}"].attrs["nnz"] == files[1][f"matrices/{name}"].attrs["nnz"]
+
+
+BAD = [
+    ("packing: {n: 64, phi: 1.5}\n", "packing.phi = 1.5: must be in (0.0, 1.0)"),
+    ("packing: {n: 64, phi: 0.9}\nmodel: {rho: -0.5}\n", "model.rho = -0.5"),
+    ("packing: {n: 64, phi: 0.9, colour: red}\n", "unknown key packing.colour"),
+    ("packing: {n: 64, phi: 0.9\n", "invalid YAML"),
+    ("packing: {file: nowhere.h5}\n", "packing file nowhere.h5: not found"),
+    ("packing: {n: 64, phi: 0.9}\npetsc: {eps: {tol: {1: [x]}}}\n", None),
+]
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("text, message", [b for b in BAD if b[1]])
+def test_bad_scene_exits_2_with_one_message(tmp_path, ranks, text, message):
+    out = tmp_path / "never.h5"
+    proc = run_cli(["run", write(tmp_path, f"output: {out}\n" + text)], ranks, timeout=60)
+    assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
+    assert message in proc.stderr
+    assert proc.stderr.count("rotsound: error:") == 1
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["run"], "the following arguments are required: scene"),
+    (["run", "missing.yaml"], "scene file missing.yaml: not found"),
+    (["frobnicate"], "invalid choice"),
+    (["run", "configs/quick.yaml", "--set", "packing.n"], "key.path=value"),
+    (["plot", "missing.h5"], "results file missing.h5: not found"),
+    (["keys", "-eps_type", "x"], "only apply to 'run'"),
+])
+def test_bad_command_lines(args, message):
+    proc = run_cli(args)
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_keys_prints_reference():
+    proc = run_cli(["keys"])
+    assert proc.returncode == 0 and "`packing.phi`" in proc.stdout

@@ -1,0 +1,105 @@
+"""Scene validation: every bad input gives one clear InputError naming key, value and range."""
+
+import pytest
+
+from solver import config, petscopts
+from solver.errors import InputError
+
+GOOD = {"output": "out.h5", "seed": 3, "packing": {"n": 64, "phi": 0.9, "count": 2},
+        "model": {"rho": [0, 0.5]}, "petsc": {"eps": {"tol": 1e-9}}}
+
+
+def build(raw):
+    return config.build(config.Scene, raw)
+
+
+def test_good_scene_and_defaults():
+    scene = build(GOOD)
+    assert scene.packing.n == 64 and scene.packing.force_tol == 1e-6
+    assert scene.model.rho == [0.0, 0.5]
+    assert build({"packing": {"n": 16, "phi": 0.5}, "model": {"rho": 2}}).model.rho == [2.0]
+
+
+def test_yaml_string_floats_are_numbers():
+    scene = build({"packing": {"n": 64, "phi": "0.9", "force_tol": "1e-8"}})
+    assert scene.packing.force_tol == 1e-8
+
+
+@pytest.mark.parametrize("raw, words", [
+    ({"packing": {"n": 64, "phi": 1.2}}, ["packing.phi", "1.2", "(0.0, 1.0)"]),
+    ({"packing": {"n": 64, "phi": 0.0}}, ["packing.phi", "(0.0, 1.0)"]),
+    ({"packing": {"n": 63, "phi": 0.9}}, ["packing.n", "63", "even"]),
+    ({"packing": {"n": 8, "phi": 0.9}}, ["packing.n", ">= 16"]),
+    ({"packing": {"n": "many", "phi": 0.9}}, ["packing.n", "'many'", "an integer"]),
+    ({"packing": {"n": True, "phi": 0.9}}, ["packing.n", "an integer"]),
+    ({"packing": {"n": 64}}, ["packing.phi is missing"]),
+    ({"packing": {"n": 64, "phi": 0.9, "size": 3}}, ["unknown key packing.size", "n, phi, count"]),
+    ({"pakcing": {}}, ["unknown key pakcing", "allowed keys"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "model": {"rho": -1}}, ["model.rho", "-1", "[0.0"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "model": {"rho": []}}, ["model.rho", "must not be empty"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "model": {"rho": [1, "x"]}}, ["model.rho", "a number"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "model": {"rho": float("nan")}}, ["model.rho", "nan"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "seed": -1}, ["seed", "-1"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "output": "x.txt"}, ["output", ".h5"]),
+    ({"packing": {"n": 64, "phi": 0.9, "count": 0}}, ["packing.count", "0"]),
+    ({"packing": {"n": 64, "phi": 0.9, "force_tol": 0}}, ["packing.force_tol"]),
+    ({"packing": [1, 2]}, ["packing", "must be a mapping"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "petsc": [1]}, ["petsc", "a mapping"]),
+])
+def test_bad_scenes_name_the_key(raw, words):
+    with pytest.raises(InputError) as info:
+        build(raw)
+    for word in words:
+        assert word in str(info.value), (word, str(info.value))
+
+
+def test_file_only_needs_no_n_phi():
+    scene = build({"packing": {"file": "some.h5"}})
+    assert scene.packing.n is None and scene.packing.file == "some.h5"
+
+
+def test_set_overrides_and_errors():
+    raw = {"packing": {"n": 64}}
+    config.set_key(raw, "packing.phi=0.85")
+    config.set_key(raw, "model.rho=[0.1, 1]")
+    assert build(raw).model.rho == [0.1, 1.0]
+    with pytest.raises(InputError, match="key.path=value"):
+        config.set_key(raw, "packing.phi")
+
+
+def test_digest_ignores_output_only():
+    a = build(GOOD)
+    b = build({**GOOD, "output": "elsewhere.h5"})
+    c = build({**GOOD, "seed": 4})
+    assert a.digest() == b.digest() != c.digest()
+
+
+def test_read_yaml_errors(tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        config.read_yaml(str(tmp_path / "missing.yaml"))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("packing: {n: 64\n")
+    with pytest.raises(InputError, match="invalid YAML"):
+        config.read_yaml(str(bad))
+    listy = tmp_path / "list.yaml"
+    listy.write_text("- 1\n- 2\n")
+    with pytest.raises(InputError, match="top level must be a mapping"):
+        config.read_yaml(str(listy))
+
+
+def test_petsc_flattening_and_argv_split():
+    flat = petscopts.flatten({"eps": {"tol": 1e-9, "type": "krylovschur"}, "log_view": None,
+                              "st": {"mat_mumps_icntl_13": 1}, "flag": True})
+    assert flat == {"eps_tol": "1e-09", "eps_type": "krylovschur", "log_view": None,
+                    "st_mat_mumps_icntl_13": "1", "flag": "true"}
+    assert petscopts.to_argv({"eps_tol": "1e-09", "log_view": None}) == ["-eps_tol", "1e-09", "-log_view"]
+    ours, theirs = petscopts.split_argv(["run", "s.yaml", "--set", "a=1", "-st_shift", "-0.5", "-log_view"])
+    assert ours == ["run", "s.yaml", "--set", "a=1"]
+    assert theirs == ["-st_shift", "-0.5", "-log_view"]
+
+
+def test_reference_lists_every_key():
+    keys = [row[0] for row in config.reference()]
+    for key in ("output", "seed", "packing.n", "packing.phi", "packing.count", "packing.file",
+                "model.rho", "petsc"):
+        assert key in keys
