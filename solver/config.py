@@ -58,7 +58,7 @@ class PackingSpec:
                                  "generating, all of the file's with `file`", _range(1, 100000), int)
     file: str | list[str] | None = _f(None, "HDF5 packing file, or a list of files (see README format)",
                                       None, "paths")
-    force_tol: float = _f(1e-6, "FIRE stops when max_i |F_i|/m < force_tol (kn d0/m)",
+    force_tol: float = _f(1e-6, "FIRE stops when the largest net force per disk, divided by m, is below force_tol (kn d0/m)",
                           _range(0.0, 1e-2, True), float)
     max_steps: int = _f(2_000_000, "FIRE step limit per configuration", _range(1), int)
 
@@ -71,6 +71,28 @@ class ModelSpec:
                           _range(0.0, 1e6), "floats")
 
 
+def _window(v):
+    if len(v) != 2 or not 0.0 <= v[0] < v[1] or not all(math.isfinite(x) for x in v):
+        return "must be [omega_lo, omega_hi] with 0 <= omega_lo < omega_hi (units 1/t0), or null"
+    return None
+
+
+@dataclass(frozen=True)
+class SpectrumSpec:
+    """Section ``spectrum`` (absent: no eigensolve; ``{}``: full spectrum with defaults)."""
+
+    window: list[float] | None = _f(None, "[omega_lo, omega_hi] in 1/t0 for one band, or null for "
+                                          "the full spectrum", _window, "window")
+    energies: bool = _f(False, "also compute per-mode K, Q and participation ratio (needs eigenvectors)",
+                        None, bool)
+    bin_width: float = _f(0.05, "vDOS bin width in 1/t0", _range(0.0, 10.0, True), float)
+    tol: float = _f(1e-12, "SLEPc relative tolerance (-eps_tol wins)", _range(0.0, 1e-2, True), float)
+    zero_tol: float = _f(1e-4, "modes with omega below this (1/t0) are zero modes", _range(0.0, 1.0, True),
+                         float)
+    max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
+                               _range(10, 10**7), int)
+
+
 @dataclass(frozen=True)
 class Scene:
     """A whole run."""
@@ -80,6 +102,8 @@ class Scene:
                    _range(0, 2**63 - 1), int)
     packing: PackingSpec = _f(None, "see packing.*", None, PackingSpec)
     model: ModelSpec = _f(None, "see model.*", None, ModelSpec)
+    spectrum: SpectrumSpec | None = _f(None, "see spectrum.*; absent or null: no eigensolve", None,
+                                       ("optional", SpectrumSpec))
     petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
                          "(-eps_*, -st_*, -ts_*, -log_view, ...); the command line wins", None, dict)
 
@@ -96,7 +120,8 @@ class Scene:
 
 def _type_name(kind) -> str:
     return {int: "an integer", float: "a number", str: "a string", dict: "a mapping",
-            "floats": "a number or a list of numbers", "paths": "a path or a list of paths"}.get(
+            "floats": "a number or a list of numbers", "paths": "a path or a list of paths",
+            bool: "true or false", "window": "a list [omega_lo, omega_hi]"}.get(
         kind, "a mapping")
 
 
@@ -130,6 +155,15 @@ def _coerce(value, kind, where):
         if not isinstance(value, dict):
             fail()
         return value
+    if kind is bool:
+        if not isinstance(value, bool):
+            fail()
+        return value
+    if kind == "window":
+        if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                  for v in value):
+            fail()
+        return [float(v) for v in value]
     if kind == "floats":
         items = value if isinstance(value, list) else [value]
         if not items:
@@ -159,6 +193,10 @@ def build(cls, raw, where: str = ""):
         key = f"{where}{name}"
         if dataclasses.is_dataclass(kind):
             values[name] = build(kind, raw.get(name), key + ".")
+            continue
+        if isinstance(kind, tuple):  # optional section: present (even empty) means "compute it"
+            if name in raw and raw[name] is not None:
+                values[name] = build(kind[1], raw[name], key + ".")
             continue
         if name not in raw or raw[name] is None:
             continue
@@ -224,6 +262,8 @@ def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:
     rows = []
     for f in dataclasses.fields(cls):
         kind = f.metadata["kind"]
+        if isinstance(kind, tuple):
+            kind = kind[1]
         if dataclasses.is_dataclass(kind):
             rows.extend(reference(kind, f"{where}{f.name}."))
             continue

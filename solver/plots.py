@@ -38,6 +38,54 @@ def plot_packing(group, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
+def _groups(f, name):
+    return [f[name][k] for k in sorted(f[name])] if name in f else []
+
+
+def plot_vdos(f, stem: str) -> list[str]:
+    """Fig. 1: g(omega) for every rho, rho = 0 dotted, omega_c marked."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    groups = sorted(_groups(f, "vdos"), key=lambda g: g.attrs["rho"])
+    cmap = plt.get_cmap("viridis")
+    for index, g in enumerate(groups):
+        edges, density, rho = g["edges"][()], g["density"][()], float(g.attrs["rho"])
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        style = {"ls": ":", "color": "k"} if rho == 0 else {"color": cmap(0.8 * index / max(1, len(groups) - 1))}
+        ax.plot(centres, density, label=f"rho = {rho:g}", **style)
+        ax.annotate("", xy=(g.attrs["omega_c"], 0), xytext=(g.attrs["omega_c"], 0.08 * density.max()),
+                    arrowprops={"arrowstyle": "->", "color": style["color"], "lw": 0.8})
+    ax.set(xlabel="omega t0", ylabel="g(omega) t0", xlim=(0, None), ylim=(0, None),
+           title="vibrational density of states (arrows: omega_c)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
+def plot_energies(f, stem: str) -> list[str]:
+    """Fig. 6: bin-averaged K (blue dotted) and Q (red) with g(omega) x 5e-3 (dashed), per rho."""
+    spectra = [g for g in _groups(f, "spectra") if "K" in g]
+    rhos = sorted({float(g.attrs["rho"]) for g in spectra if g.attrs["rho"] > 0})
+    if not rhos:
+        return []
+    fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.8), squeeze=False)
+    vdos = {float(g.attrs["rho"]): g for g in _groups(f, "vdos")}
+    for ax, rho in zip(axes[0], rhos):
+        mine = [g for g in spectra if float(g.attrs["rho"]) == rho]
+        omega = np.concatenate([g["omega"][()] for g in mine])
+        edges = vdos[rho]["edges"][()]
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        from .modes import bin_average
+
+        for key, style in (("K", {"color": "tab:blue", "ls": ":"}), ("Q", {"color": "tab:red"})):
+            values = np.concatenate([g[key][()] for g in mine])
+            ax.semilogy(centres, bin_average(omega, values, edges), label=key, **style)
+        ax.semilogy(centres, 5e-3 * vdos[rho]["density"][()], "k--", lw=0.8, label="g(omega) x 5e-3")
+        ax.set(xlabel="omega t0", ylabel="K, Q (m d0^2 / t0^2)", title=f"rho = {rho:g}")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
 def plot_results(path: str) -> list[str]:
     """Write every figure the results file has data for, next to it; return the paths."""
     if not os.path.isfile(path):
@@ -52,4 +100,7 @@ def plot_results(path: str) -> list[str]:
         if "packings" in f and len(f["packings"]):
             first = sorted(f["packings"])[0]
             written += plot_packing(f["packings"][first], f"{stem}_packing")
+        if "vdos" in f:
+            written += plot_vdos(f, f"{stem}_vdos")
+            written += plot_energies(f, f"{stem}_energies")
     return written

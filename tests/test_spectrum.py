@@ -1,0 +1,99 @@
+"""SLEPc spectrum vs dense eigh, windows, zero modes, K/Q identity; runs on 1 and 2 ranks."""
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+from conftest import COMM, assert_all
+
+from solver import dynmat, h5io, modes, packing, spectrum
+
+
+@pytest.fixture(scope="module")
+def packing96():
+    return packing.generate(96, 0.9, np.random.SeedSequence([21, 0]))
+
+
+def dense_omegas(dm):
+    A = spectrum.scaled_operator(dm)
+    lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)
+    A.destroy()
+    return np.sign(lam) * np.sqrt(np.abs(lam))
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.2, 1.0, 2.0])
+def test_full_spectrum_equals_dense_eigh(comm, packing96, rho):
+    dm = dynmat.assemble(packing96, rho, comm)
+    result = spectrum.solve(dm, window=None, vectors=False, max_window_modes=120)
+    ref = dense_omegas(dm)
+    nonzero = ref[ref > 1e-4]
+    assert_all(result.omega.size == dm.size - 2 == nonzero.size, "count = DOF - 2 zero modes")
+    assert_all(result.n_zero_modes == 2 and result.n_negative == 0, "zero modes")
+    assert_all(np.max(np.abs(result.omega - nonzero) / nonzero) < 1e-8, "omega vs eigh")
+    assert_all(result.windows >= 2, "several windows were exercised")
+    dm.destroy()
+
+
+def test_window_is_subset_of_full(comm, packing96):
+    dm = dynmat.assemble(packing96, 1.0, comm)
+    full = spectrum.solve(dm, window=None, vectors=False)
+    lo, hi = 2.5, 4.0
+    part = spectrum.solve(dm, window=(lo, hi), vectors=False)
+    expect = full.omega[(full.omega > lo) & (full.omega <= hi)]
+    assert_all(part.omega.size == expect.size and np.allclose(part.omega, expect, rtol=1e-9), "window")
+    assert_all(part.n_zero_modes == 2, "zero modes counted in window mode too")
+    dm.destroy()
+
+
+@pytest.mark.parametrize("rho", [0.4, 1.0])
+def test_energies_identity_and_against_dense_vectors(comm, packing96, rho):
+    dm = dynmat.assemble(packing96, rho, comm)
+    result = spectrum.solve(dm, window=None, vectors=True, max_window_modes=100)
+    e = result.energies
+    n = int(dm.active.sum())
+    assert_all(np.abs(e["Kx"] + e["Ky"] + e["Q"] - 1 / (2 * n)).max() < 1e-12, "K/Q normalisation")
+    assert_all(np.all((e["participation"] > 1 / n - 1e-12) & (e["participation"] <= 1 + 1e-12)), "PR range")
+    # dense reference for the rotational fraction of each (non-degenerate) mode
+    A = spectrum.scaled_operator(dm)
+    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
+    A.destroy()
+    vec = vec[:, lam > 1e-8]
+    q_ref = (vec[2::3] ** 2).sum(axis=0) / (2 * n)
+    gaps = np.diff(np.sqrt(lam[lam > 1e-8]))
+    isolated = np.ones(q_ref.size, bool)
+    isolated[:-1] &= gaps > 1e-6
+    isolated[1:] &= gaps > 1e-6
+    assert_all(np.abs(e["Q"] - q_ref)[isolated].max() < 1e-8, "Q vs dense eigenvectors")
+    dm.destroy()
+
+
+def test_loaded_packing_gives_same_spectrum(comm, packing96, shared_tmp):
+    path = shared_tmp / "p.h5"
+    if COMM.rank == 0:
+        h5io.save_packings(str(path), [packing96])
+    COMM.Barrier()
+    (loaded,) = h5io.read_packings(str(path))
+    a = spectrum.solve(dynmat.assemble(packing96, 0.5, comm), window=None, vectors=False)
+    b = spectrum.solve(dynmat.assemble(loaded, 0.5, comm), window=None, vectors=False)
+    assert_all(np.allclose(a.omega, b.omega, rtol=1e-12, atol=0), "file vs generated")
+
+
+def test_count_below_is_sylvester_inertia(comm, packing96):
+    dm = dynmat.assemble(packing96, 1.0, comm)
+    A = spectrum.scaled_operator(dm)
+    ref = dense_omegas(dm) ** 2 * np.sign(dense_omegas(dm))
+    for sigma in (1e-8, 1.0, 7.3, 30.0):
+        assert_all(spectrum.count_below(A, sigma) == int(np.sum(ref < sigma)), f"inertia at {sigma}")
+    A.destroy()
+    dm.destroy()
+
+
+def test_vdos_unit_area_and_cutoff():
+    rng = np.random.default_rng(0)
+    omegas = [rng.uniform(0.1, 3.0, 500), rng.uniform(0.1, 3.2, 400)]
+    edges, density = modes.vdos(omegas, 0.05)
+    assert abs(np.sum(density * np.diff(edges)) - 1) < 1e-12
+    assert edges[0] == 0 and edges[-1] > 3.2 - 1e-12
+    mean, spread = modes.cutoff(omegas)
+    assert mean == pytest.approx(0.5 * (omegas[0].max() + omegas[1].max()))
+    avg = modes.bin_average(np.array([0.01, 0.02, 0.07]), np.array([1.0, 3.0, 5.0]), np.array([0, 0.05, 0.1, 0.15]))
+    np.testing.assert_allclose(avg, [2.0, 5.0, np.nan])
