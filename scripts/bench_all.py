@@ -1,0 +1,51 @@
+"""Run every scripts/bench_*.py in turn (alone: the machine has 2 cores) and write BENCHMARKS.md.
+
+    make bench          # or: python scripts/bench_all.py [--render-only]
+Each benchmark leaves a JSON record in results/bench/; this script renders them all.
+"""
+
+import json
+import subprocess
+import sys
+
+from benchlib import OUT, PY, REPO, machine
+
+ORDER = ["bench_packing.py", "bench_assembly.py", "bench_spectrum.py"]
+
+
+def render() -> None:
+    lines = ["# Benchmarks", "",
+             "Regenerate with `make bench` (runs `scripts/bench_*.py` one after another, then "
+             "renders this file from `results/bench/*.json`). Every comparison is measured in the "
+             "same run, on the same machine, with the machine otherwise idle.", "",
+             f"Machine: {machine()}", ""]
+    for script in ORDER:
+        path = OUT / f"{script[6:-3]}.json"
+        if not path.exists():
+            lines += [f"## {script[6:-3]}", "", f"not run yet (`python scripts/{script}`)", ""]
+            continue
+        record = json.loads(path.read_text())
+        lines += [f"## {record['name']}", "", f"Command: `{record['command']}`  ", f"Date: {record['date']}  ",
+                  f"Machine: {record['machine']}", ""]
+        columns = list(dict.fromkeys(k for row in record["table"] for k in row))
+        lines += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+        for row in record["table"]:
+            lines.append("| " + " | ".join(str(row.get(c, "")) for c in columns) + " |")
+        lines += ["", record["notes"], ""]
+        analysis = REPO / "scripts" / f"{script[:-3]}.md"
+        if analysis.exists():
+            lines += [analysis.read_text().strip(), ""]
+    (REPO / "BENCHMARKS.md").write_text("\n".join(lines))
+    print(f"wrote {REPO / 'BENCHMARKS.md'}")
+
+
+def main() -> None:
+    if "--render-only" not in sys.argv:
+        for script in ORDER:
+            print(f"== {script}", flush=True)
+            subprocess.run([PY, str(REPO / "scripts" / script)], check=True, cwd=REPO)
+    render()
+
+
+if __name__ == "__main__":
+    main()
