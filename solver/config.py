@@ -93,6 +93,52 @@ class SpectrumSpec:
                                _range(10, 10**7), int)
 
 
+INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
+
+
+def _modes(v):
+    bad = [m for m in v if m not in ("L", "TR", "RT")]
+    if not v or bad or len(set(v)) != len(v):
+        return "must be a non-empty list of distinct modes from L, TR, RT"
+    return None
+
+
+def _positive_ints(v):
+    if not v or any(x < 1 for x in v):
+        return "must be a non-empty list of integers >= 1 (k = 2 pi n / L)"
+    return None
+
+
+def _kd0(v):
+    if not v or any(not (0.0 < x <= 2 * math.pi) for x in v):
+        return "must be a non-empty list of k d0 values in (0, 2 pi]"
+    return None
+
+
+def _integrator(v):
+    return None if v in INTEGRATORS else f"must be one of {', '.join(INTEGRATORS)}"
+
+
+@dataclass(frozen=True)
+class WavesSpec:
+    """Section ``waves`` (absent: no standing waves)."""
+
+    modes: list[str] = _f(["L", "TR", "RT"], "modes to excite, from L, TR, RT (paper's Table 1)", _modes,
+                          "strs")
+    n: list[int] | None = _f(None, "wave numbers as integers n, k = 2 pi n / L (give n or kd0)",
+                             _positive_ints, "ints")
+    kd0: list[float] | None = _f(None, "wave numbers as k d0; each is moved to the nearest allowed "
+                                       "2 pi n / L (reported)", _kd0, "floats_list")
+    amplitude: float = _f(1e-3, "initial velocity amplitude A (d0/t0, or 1/t0 for RT)",
+                          _range(0.0, 1.0, True), float)
+    dt: float = _f(0.02, "time step (t0); refused above the scheme's stability limit", _range(0.0, 10.0, True),
+                   float)
+    t_end: float = _f(100.0, "run length (t0)", _range(0.0, 1e7, True), float)
+    sample_every: int = _f(5, "steps between samples of the Fourier components", _range(1, 10**6), int)
+    integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-ts_type wins for "
+                                   "first-order types)", _integrator, str)
+
+
 @dataclass(frozen=True)
 class Scene:
     """A whole run."""
@@ -104,6 +150,8 @@ class Scene:
     model: ModelSpec = _f(None, "see model.*", None, ModelSpec)
     spectrum: SpectrumSpec | None = _f(None, "see spectrum.*; absent or null: no eigensolve", None,
                                        ("optional", SpectrumSpec))
+    waves: WavesSpec | None = _f(None, "see waves.*; absent or null: no standing waves", None,
+                                 ("optional", WavesSpec))
     petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
                          "(-eps_*, -st_*, -ts_*, -log_view, ...); the command line wins", None, dict)
 
@@ -121,7 +169,8 @@ class Scene:
 def _type_name(kind) -> str:
     return {int: "an integer", float: "a number", str: "a string", dict: "a mapping",
             "floats": "a number or a list of numbers", "paths": "a path or a list of paths",
-            bool: "true or false", "window": "a list [omega_lo, omega_hi]"}.get(
+            bool: "true or false", "window": "a list [omega_lo, omega_hi]", "strs": "a list of names",
+            "ints": "a list of integers", "floats_list": "a list of numbers"}.get(
         kind, "a mapping")
 
 
@@ -159,6 +208,11 @@ def _coerce(value, kind, where):
         if not isinstance(value, bool):
             fail()
         return value
+    if kind in ("strs", "ints", "floats_list"):
+        if not isinstance(value, list):
+            fail()
+        item = {"strs": str, "ints": int, "floats_list": float}[kind]
+        return [_coerce(v, item, where) for v in value]
     if kind == "window":
         if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
                                                   for v in value):
@@ -217,6 +271,11 @@ def _cross_check(obj, where):
             if getattr(obj, name) is None:
                 raise InputError(f"{where}{name} is missing: give packing.n and packing.phi, "
                                  f"or packing.file")
+    if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
+        raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
+    if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:
+        raise InputError(f"{where}sample_every = {obj.sample_every}: with dt = {obj.dt} that leaves "
+                         f"fewer than 4 samples in t_end = {obj.t_end}")
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
 

@@ -9,7 +9,8 @@ import time
 
 import numpy as np
 
-from . import __version__, dynmat, h5io, modes, packing, parallel, petscopts, spectrum
+from . import __version__, correlations, dynmat, h5io, modes, packing, parallel, petscopts, spectrum, waves
+from .errors import InputError
 from .config import Scene
 
 
@@ -59,6 +60,68 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, units, comm) -> np.ndarray:
     return result.omega
 
 
+def wave_numbers(spec, box_length: float) -> tuple[np.ndarray, np.ndarray]:
+    """(n (K,), k (K,)) allowed by the box: k = 2 pi n / L, from waves.n or nearest to waves.kd0."""
+    if spec.n is not None:
+        ns = np.array(sorted(set(spec.n)))
+    else:
+        ns = np.array(sorted({max(1, int(round(kd * box_length / (2 * np.pi)))) for kd in spec.kd0}))
+    ks = 2 * np.pi * ns / box_length
+    if ks.max() > 2 * np.pi:
+        raise InputError(f"waves.n = {int(ns.max())}: k d0 = {ks.max():.3f} exceeds 2 pi for box length "
+                         f"L = {box_length:.3f} (allowed n <= {int(box_length)})")
+    return ns, ks
+
+
+def integrator_in_use(spec) -> str:
+    """waves.integrator, unless -ts_type on the command line / petsc block names another type."""
+    from petsc4py import PETSc
+
+    chosen = PETSc.Options().getString("ts_type", spec.integrator)
+    return "verlet" if chosen == "python" else chosen
+
+
+def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm) -> None:
+    """Integrate every (mode, direction, k) of one (rho, packing) into ``units``. Collective."""
+    spec = scene.waves
+    ns, ks = wave_numbers(spec, p.box_length)
+    integrator = integrator_in_use(spec)
+    omega_max = waves.largest_omega(dm)
+    limit = waves.stability_limit(integrator, omega_max)
+    if limit is not None and spec.dt >= limit:
+        raise InputError(f"waves.dt = {spec.dt}: above the stability limit {limit:.4f} t0 of "
+                         f"{integrator} for this packing (omega_max = {omega_max:.4f}/t0, rho = {rho:g})")
+    if spec.kd0 is not None:
+        say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks)} (n = {', '.join(map(str, ns))}, "
+                  f"L = {p.box_length:.3f})")
+    for mode in spec.modes:
+        if mode == "RT" and dm.dof == 2:
+            say(comm, f"waves rho = 0: RT skipped (frictionless disks have no rotational stiffness)")
+            continue
+        t0 = time.perf_counter()
+        runs = [[waves.integrate(dm, p.positions, mode, d, k, amplitude=spec.amplitude, dt=spec.dt,
+                                 t_end=spec.t_end, sample_every=spec.sample_every, integrator=integrator)
+                 for k in ks] for d in range(2)]
+        seconds = parallel.global_max(comm, time.perf_counter() - t0)
+        z = np.array([[r.z for r in row] for row in runs])            # (2, K, S)
+        z_fixed = np.array([[r.z_fixed for r in row] for row in runs])
+        energy = np.array([[r.energy for r in row] for row in runs])
+        t = runs[0][0].t
+        vaf = np.array([correlations.vaf(z[:, i]) for i in range(len(ks))])
+        omega, _ = correlations.power_spectrum(z[:, 0], t[1] - t[0])
+        power = np.array([correlations.power_spectrum(z[:, i], t[1] - t[0])[1] for i in range(len(ks))])
+        drift = np.abs(energy - energy[..., :1]).max(axis=2) / energy[..., 0]
+        units[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = (
+            {"k": ks, "n": ns, "t": t, "C": vaf, "omega": omega, "S": power, "z": z, "z_fixed": z_fixed,
+             "energy_drift": drift},
+            {"rho": rho, "mode": mode, "packing": p_index, "dt": spec.dt, "integrator": integrator,
+             "omega_max": omega_max, "dt_limit": limit if limit is not None else np.inf,
+             "amplitude": spec.amplitude, "sample_dt": t[1] - t[0], "seconds": seconds})
+        say(comm, f"waves rho = {rho:g}, {mode}, packing {p_index}: {len(ks)} k x 2 directions, "
+                  f"{runs[0][0].steps} steps each ({integrator}, dt = {spec.dt}), max energy drift "
+                  f"{drift.max():.1e}, {seconds:.1f} s")
+
+
 def json_window(window) -> str:
     return "full" if window is None else f"{window[0]:g},{window[1]:g}"
 
@@ -99,6 +162,8 @@ def run(scene: Scene, comm, petsc_argv: list[str]) -> dict:
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
             if scene.spectrum is not None:
                 omegas.append(_spectrum_unit(scene, dm, rho, r_index, p_index, units, comm))
+            if scene.waves is not None:
+                _wave_units(scene, dm, p, rho, r_index, p_index, units, comm)
             dm.destroy()
         if omegas:
             _vdos_unit(scene, rho, r_index, omegas, units, comm)

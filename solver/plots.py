@@ -86,6 +86,67 @@ def plot_energies(f, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
+def _wave_groups(f):
+    return _groups(f, "waves")
+
+
+def _pooled(groups, key):
+    """Runs (R, K, S) of all configurations of groups sharing rho and mode."""
+    return np.concatenate([g[key][()] for g in groups], axis=0)
+
+
+def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi) -> list[str]:
+    """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted)."""
+    from .correlations import vaf
+
+    groups = _wave_groups(f)
+    if not groups:
+        return []
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    for ax, mode, label in zip(axes, ("L", "TR", "RT"), ("C_l", "C_t", "C_r")):
+        mine = [g for g in groups if g.attrs["mode"] == mode]
+        for rho in sorted({float(g.attrs["rho"]) for g in mine}):
+            sel = [g for g in mine if float(g.attrs["rho"]) == rho]
+            ks = sel[0]["k"][()]
+            i = int(np.argmin(np.abs(ks - kd0)))
+            c = vaf(_pooled(sel, "z")[:, i])
+            ax.plot(sel[0]["t"][()], c, ":" if rho == 0 else "-", lw=1,
+                    label=f"rho = {rho:g}, k d0 = {ks[i]:.3f}")
+        ax.axhline(0, color="0.7", lw=0.5)
+        ax.set(xlabel="t / t0", ylabel=label, title=f"{mode} mode")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
+def plot_spectra(f, stem: str) -> list[str]:
+    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho."""
+    from .correlations import power_spectrum
+
+    groups = _wave_groups(f)
+    written: list[str] = []
+    for rho in sorted({float(g.attrs["rho"]) for g in groups}):
+        mine = [g for g in groups if float(g.attrs["rho"]) == rho]
+        modes_here = [m for m in ("L", "TR", "RT") if any(g.attrs["mode"] == m for g in mine)]
+        fig, axes = plt.subplots(1, len(modes_here), figsize=(4.2 * len(modes_here), 3.8), squeeze=False)
+        for ax, mode in zip(axes[0], modes_here):
+            sel = [g for g in mine if g.attrs["mode"] == mode]
+            ks, t = sel[0]["k"][()], sel[0]["t"][()]
+            z = _pooled(sel, "z")
+            rows = [power_spectrum(z[:, i], t[1] - t[0]) for i in range(len(ks))]
+            omega = rows[0][0]
+            power = np.array([r[1] for r in rows])
+            top = min(omega[-1], 1.15 * float(sel[0].attrs["omega_max"]))
+            keep = omega <= top
+            mesh = ax.pcolormesh(ks, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest",
+                                 cmap="Greys", vmin=np.log10(power.max()) - 6)
+            fig.colorbar(mesh, ax=ax, label="log10 S")
+            ax.set(xlabel="k d0", ylabel="omega t0", title=f"{mode}, rho = {rho:g}")
+        fig.tight_layout()
+        written += _save(fig, f"{stem}_rho{rho:g}")
+    return written
+
+
 def plot_results(path: str) -> list[str]:
     """Write every figure the results file has data for, next to it; return the paths."""
     if not os.path.isfile(path):
@@ -103,4 +164,7 @@ def plot_results(path: str) -> list[str]:
         if "vdos" in f:
             written += plot_vdos(f, f"{stem}_vdos")
             written += plot_energies(f, f"{stem}_energies")
+        if "waves" in f:
+            written += plot_vafs(f, f"{stem}_vaf")
+            written += plot_spectra(f, f"{stem}_spectrum")
     return written

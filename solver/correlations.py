@@ -1,0 +1,33 @@
+"""Normalised velocity autocorrelations and power spectra from sampled Fourier components.
+
+numpy only (no PETSc).  For runs r (directions x configurations) of one (rho, mode, k):
+    C(k, t) = Re sum_r z_r(t) conj(z_r(0)) / sum_r |z_r(0)|^2          (paper's C_l, C_t, C_r)
+    S(k, w) = sum_r |T_w[z_r](w)|^2 / sum_r |z_r(0)|^2,   T_w[z](w) = int_0^T z(t) e^{i w t} dt
+The transform is a rectangle-rule sum over the samples (no window, as the paper defines S),
+zero-padded to ``pad`` times the record so the omega grid is 2 pi / (pad T); the resolution is
+still 2 pi / T.  S is normalised by <|z(0)|^2>, so it has units of t0^2 and comparable scale
+across k.  Only omega >= 0 is kept.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def vaf(z: np.ndarray) -> np.ndarray:
+    """C(t) (S,) from runs z (R, S) complex, averaged over the runs (numerator and denominator)."""
+    z = np.atleast_2d(z)
+    return np.real(np.sum(z * np.conj(z[:, :1]), axis=0)) / np.sum(np.abs(z[:, 0]) ** 2)
+
+
+def power_spectrum(z: np.ndarray, dt_sample: float, pad: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """(omega (W,), S (W,)) from runs z (R, S) sampled every ``dt_sample``; omega >= 0."""
+    z = np.atleast_2d(z)
+    n = z.shape[1]
+    size = pad * n
+    # int z(t) e^{+i w t} dt  ->  size * ifft  (numpy's ifft has e^{+i...}/size)
+    transform = np.fft.ifft(z, n=size, axis=1) * size * dt_sample
+    omega = 2 * np.pi * np.fft.fftfreq(size, d=dt_sample)
+    keep = omega >= 0
+    power = np.sum(np.abs(transform[:, keep]) ** 2, axis=0) / np.sum(np.abs(z[:, 0]) ** 2)
+    return omega[keep], power

@@ -1,0 +1,290 @@
+"""Standing waves (the paper's Table 1) integrated with PETSc TS on the dynamical matrix.
+
+Excitation: initial velocity A sin(k . r_i(0)) in one component (x, y or theta) with zero
+displacement; k = 2 pi n / L along x or y.  Each mode in both directions:
+    L : v_x with k || x,  v_y with k || y      (longitudinal channel: the excited component)
+    TR: v_x with k || y,  v_y with k || x      (transverse channel: the excited component)
+    RT: theta-dot with k || x, with k || y     (rotational channel)
+The uniform translation is projected out of a translational start (PHYSICS.md section 4):
+in a disordered packing sum_i sin(k . r_i) != 0 and that momentum would drift forever.
+
+Equations: M u'' = -D u.  Integrators (``waves.integrator`` or ``-ts_type``):
+  verlet : velocity Verlet as a TS of type ``python`` on the first-order state X = (u, v)
+           (one MatMult per step, symplectic, 2nd order; Debian's petsc4py 3.18 cannot set up
+           TSBASICSYMPLECTIC, which needs setRHSSplitIS).  [default: see README]
+  rk, theta, cn, ... : any first-order PETSc TS type on X' = (v, -M^-1 D u).
+  alpha2 : generalized-alpha on the second-order form M a + D u = 0 (implicit, CG solves).
+A monitor samples, every ``sample_every`` steps, z(t) = sum_i v_i,c(t) exp(-i k . r_i(t)) with
+r_i(t) = r_i(0) + u_i(t) (the paper's definition) and the same with r_i(0) (exactly linear),
+and the total energy.  Collective on the matrix's communicator.  Units: d0 = m = kn = 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+EXCITATIONS = {"L": [(0, 0), (1, 1)], "TR": [(0, 1), (1, 0)], "RT": [(2, 0), (2, 1)]}
+"""mode -> [(excited DOF component, axis of k)] for its two directions."""
+
+
+@dataclass
+class WaveSeries:
+    """Samples of one run: t (S,), z and z_fixed (S,) complex, energy (S,)."""
+
+    t: np.ndarray
+    z: np.ndarray
+    z_fixed: np.ndarray
+    energy: np.ndarray
+    steps: int
+
+
+class StabilityError(RuntimeError):
+    """dt above the scheme's stability limit, or a run that blew up."""
+
+
+def largest_omega(dm) -> float:
+    """omega_max of M^-1 D by a cheap SLEPc solve (prefix ``wmax_``). Collective."""
+    from slepc4py import SLEPc
+
+    from .spectrum import scaled_operator
+
+    A = scaled_operator(dm)
+    eps = SLEPc.EPS().create(A.getComm())
+    eps.setOperators(A)
+    eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
+    eps.setDimensions(nev=1)
+    eps.setTolerances(tol=1e-8)
+    eps.setOptionsPrefix("wmax_")
+    eps.setFromOptions()
+    eps.solve()
+    if eps.getConverged() < 1:
+        raise RuntimeError("could not compute the largest eigenfrequency (wmax_ EPS did not converge)")
+    lam = eps.getEigenvalue(0).real
+    eps.destroy()
+    A.destroy()
+    return float(np.sqrt(lam))
+
+
+def stability_limit(integrator: str, omega_max: float) -> float | None:
+    """Largest stable dt (t0) of an explicit scheme, None when unconditionally stable."""
+    limits = {"verlet": 2.0, "rk": 2.0 * np.sqrt(2.0), "euler": 0.0}
+    return limits[integrator] / omega_max if integrator in limits else None
+
+
+class _Views:
+    """u and v as PETSc Vecs sharing memory with halves of a first-order state's local array."""
+
+    def __init__(self, template, comm):
+        from petsc4py import PETSc
+
+        self.nloc, self.n = template.getLocalSize(), template.getSize()
+        self.u = PETSc.Vec().createWithArray(np.zeros(self.nloc), size=(self.nloc, self.n), comm=comm)
+        self.v = PETSc.Vec().createWithArray(np.zeros(self.nloc), size=(self.nloc, self.n), comm=comm)
+
+    def place(self, X):
+        arr = X.getArray()
+        self.u.placeArray(arr[: self.nloc])
+        self.v.placeArray(arr[self.nloc:])
+        return arr
+
+    def reset(self):
+        self.u.resetArray()
+        self.v.resetArray()
+
+
+class _FirstOrder:
+    """RHS of X' = (v, -M^-1 D u) on the interleaved-per-rank state X = (u_loc, v_loc)."""
+
+    def __init__(self, D, minv, comm):
+        self.D, self.minv = D, minv
+        self.x = _Views(minv, comm)
+        self.f = _Views(minv, comm)
+        self.work = minv.duplicate()
+
+    def rhs(self, ts, t, X, F):
+        self.x.place(X)
+        self.f.place(F)
+        self.D.mult(self.x.u, self.work)
+        self.f.v.pointwiseMult(self.work, self.minv)
+        self.f.v.scale(-1.0)
+        self.x.v.copy(self.f.u)
+        self.x.reset()
+        self.f.reset()
+
+
+class _JacobianShell:
+    """Matrix-free d(RHS)/dX = [[0, I], [-M^-1 D, 0]] for implicit first-order types."""
+
+    def __init__(self, first_order):
+        self.fo = first_order
+
+    def mult(self, mat, X, Y):
+        self.fo.rhs(None, 0.0, X, Y)
+
+
+class VelocityVerlet:
+    """TS ``python`` context: kick-drift-kick with the acceleration cached between steps."""
+
+    def __init__(self, D, minv, comm):
+        self.D, self.minv = D, minv
+        self.views = _Views(minv, comm)
+        self.acc = minv.duplicate()
+
+    def _accelerate(self):
+        self.D.mult(self.views.u, self.acc)
+        self.acc.pointwiseMult(self.acc, self.minv)
+        self.acc.scale(-1.0)
+
+    def setUp(self, ts):
+        self.views.place(ts.getSolution())
+        self._accelerate()
+        self.views.reset()
+
+    def step(self, ts):
+        dt = ts.getTimeStep()
+        self.views.place(ts.getSolution())
+        self.views.v.axpy(0.5 * dt, self.acc)
+        self.views.u.axpy(dt, self.views.v)
+        self._accelerate()
+        self.views.v.axpy(0.5 * dt, self.acc)
+        self.views.reset()
+        ts.setTime(ts.getTime() + dt)
+
+
+def start_velocity(dm, positions, mode_component, axis, k, amplitude, comm) -> np.ndarray:
+    """Local part (nloc,) of v0 for one run; uniform translation projected out. Collective."""
+    start, stop = dm.disk_range
+    r0 = positions[dm.active][start:stop]
+    v0 = np.zeros((stop - start, dm.dof))
+    v0[:, mode_component] = amplitude * np.sin(k * r0[:, axis])
+    if mode_component < 2:
+        total = comm.allreduce(v0[:, mode_component].sum())
+        v0[:, mode_component] -= total / int(dm.active.sum())
+    return v0.ravel()
+
+
+def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: float, dt: float,
+              t_end: float, sample_every: int, integrator: str) -> WaveSeries:
+    """Integrate one standing wave; return its samples. Collective.
+
+    Raises StabilityError on every rank if the energy stops being finite or grows 10x.
+    """
+    from petsc4py import PETSc
+
+    comm = dm.D.getComm()
+    mpi = comm.tompi4py()
+    component, axis = EXCITATIONS[mode][direction]
+    start, stop = dm.disk_range
+    r0 = positions[dm.active][start:stop]
+    phase0 = k * r0[:, axis]
+    minv = dm.M.copy()
+    minv.reciprocal()
+    v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)
+    mass = dm.M.getArray().copy()
+    work = dm.M.duplicate()
+    samples: dict[str, list] = {"t": [], "z": [], "zf": [], "e": []}
+    blown = [False]
+
+    def sample(t, u_arr, v_arr, uvec):
+        per_disk_v = v_arr.reshape(-1, dm.dof)[:, component]
+        shift = k * u_arr.reshape(-1, dm.dof)[:, axis]
+        local = np.array([np.sum(per_disk_v * np.exp(-1j * (phase0 + shift))),
+                          np.sum(per_disk_v * np.exp(-1j * phase0))])
+        dm.D.mult(uvec, work)
+        kinetic_potential = 0.5 * np.dot(mass * v_arr, v_arr) + 0.5 * np.dot(u_arr, work.getArray())
+        z, zf = mpi.allreduce(local)
+        energy = mpi.allreduce(kinetic_potential)
+        samples["t"].append(t)
+        samples["z"].append(z)
+        samples["zf"].append(zf)
+        samples["e"].append(energy)
+        if not np.isfinite(energy) or energy > 10.0 * samples["e"][0]:
+            blown[0] = True
+
+    ts = PETSc.TS().create(comm)
+    use_alpha2 = integrator == "alpha2"
+    if use_alpha2:
+        U, V = dm.M.duplicate(), dm.M.duplicate()
+        U.set(0.0)
+        V.setArray(v0)
+        jac = dm.D.duplicate(copy=True)
+        diag = dm.D.getDiagonal()
+
+        def residual(ts_, t, u, v, a, F):
+            dm.D.mult(u, F)
+            work2 = a.copy()
+            work2.pointwiseMult(work2, dm.M)
+            F.axpy(1.0, work2)
+            work2.destroy()
+
+        def jacobian(ts_, t, u, v, a, shift_v, shift_a, J, P):
+            dm.D.copy(J, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            d = diag.copy()
+            d.axpy(shift_a, dm.M)
+            J.setDiagonal(d)
+            d.destroy()
+
+        ts.setType(PETSc.TS.Type.ALPHA2)
+        ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
+        ts.setI2Function(residual, dm.M.duplicate())
+        ts.setI2Jacobian(jacobian, jac, jac)
+        ts.setSolution2(U, V)
+        state = U
+        ts.getSNES().getKSP().setType(PETSc.KSP.Type.CG)
+
+        def monitor(ts_, step, t, X):
+            if step % sample_every == 0 and not blown[0]:
+                u, v = ts_.getSolution2()
+                sample(t, u.getArray(), v.getArray(), u)
+    else:
+        ts.setProblemType(PETSc.TS.ProblemType.LINEAR)
+        X = PETSc.Vec().createMPI((2 * len(v0), 2 * dm.size), comm=comm)
+        X.setArray(np.concatenate((np.zeros(len(v0)), v0)))
+        first = _FirstOrder(dm.D, minv, comm)
+        ts.setRHSFunction(first.rhs, X.duplicate())
+        shell = PETSc.Mat().createPython(((2 * len(v0), 2 * dm.size),) * 2, _JacobianShell(first), comm=comm)
+        shell.setUp()
+        ts.setRHSJacobian(None, shell, shell)
+        if integrator == "verlet":
+            ts.setType(PETSc.TS.Type.PYTHON)
+            ts.setPythonContext(VelocityVerlet(dm.D, minv, comm))
+        else:
+            ts.setType(integrator)
+            if integrator == "rk":
+                ts.setRKType("4")  # classical RK4; -ts_rk_type wins
+        ts.setSolution(X)
+        state = X
+        views = _Views(minv, comm)
+
+        def monitor(ts_, step, t, X_):
+            if step % sample_every == 0 and not blown[0]:
+                arr = views.place(X_)
+                sample(t, arr[: len(v0)], arr[len(v0):], views.u)
+                views.reset()
+    steps = int(round(t_end / dt))
+    ts.setTime(0.0)
+    ts.setTimeStep(dt)
+    ts.setMaxSteps(steps)
+    ts.setMaxTime(steps * dt * (1 + 1e-12))
+    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+    ts.setMonitor(monitor)
+    options = PETSc.Options()
+    if not options.hasName("ts_adapt_type"):  # fixed dt as the scene says; -ts_adapt_type wins
+        options.setValue("ts_adapt_type", "none")
+    ts.setFromOptions()
+    try:
+        ts.solve(state)
+        taken = ts.getStepNumber()
+    finally:
+        ts.destroy()
+        minv.destroy()
+        work.destroy()
+    if blown[0]:
+        raise StabilityError(f"wave {mode} k = {k:.4f}: energy grew from {samples['e'][0]:.3e} to "
+                             f"{samples['e'][-1]:.3e} by t = {samples['t'][-1]:.2f}: unstable "
+                             f"(integrator {integrator}, dt = {dt})")
+    return WaveSeries(np.array(samples["t"]), np.array(samples["z"]), np.array(samples["zf"]),
+                      np.array(samples["e"]), taken)

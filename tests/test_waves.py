@@ -1,0 +1,132 @@
+"""Standing waves: TS vs the exact spectral solution, order of accuracy, energy, phases, ranks."""
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+from conftest import COMM, assert_all
+
+from solver import correlations, dynmat, packing, spectrum, waves
+
+
+@pytest.fixture(scope="module")
+def packing64():
+    return packing.generate(64, 0.9, np.random.SeedSequence([31, 0]))
+
+
+def exact_z_fixed(p, dm, mode, direction, k, amplitude, t):
+    """z(t) with r_i(0) in the phase from the full eigendecomposition (PHYSICS.md section 4)."""
+    A = spectrum.scaled_operator(dm)
+    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
+    A.destroy()
+    omega = np.sqrt(np.clip(lam, 0, None))
+    mass = dynmat.gather_vec(dm.M)
+    component, axis = waves.EXCITATIONS[mode][direction]
+    r0 = p.positions[~p.rattler]
+    v0 = np.zeros((len(r0), dm.dof))
+    v0[:, component] = amplitude * np.sin(k * r0[:, axis])
+    if component < 2:
+        v0[:, component] -= v0[:, component].mean()
+    a = vec.T @ (np.sqrt(mass) * v0.ravel())
+    b = np.zeros((len(r0), dm.dof), complex)
+    b[:, component] = np.exp(-1j * k * r0[:, axis])
+    bt = (b.ravel() / np.sqrt(mass)) @ vec
+    return (bt * a) @ np.cos(np.outer(omega, t))
+
+
+def run(dm, p, mode, k, dt, integrator="verlet", t_end=20.0, every=None, amplitude=1e-3, direction=0):
+    return waves.integrate(dm, p.positions, mode, direction, k, amplitude=amplitude, dt=dt, t_end=t_end,
+                           sample_every=every or int(round(0.5 / dt)), integrator=integrator)
+
+
+@pytest.mark.parametrize("mode", ["L", "TR", "RT"])
+def test_verlet_matches_exact_reference_at_second_order(comm, packing64, mode):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    k = 2 * np.pi / packing64.box_length
+    errors = []
+    for dt in (0.02, 0.01, 0.005):  # asymptotic regime: omega_max dt <= 0.1
+        series = run(dm, packing64, mode, k, dt, t_end=10.0)
+        exact = exact_z_fixed(packing64, dm, mode, 0, k, 1e-3, series.t)
+        errors.append(np.abs(series.z_fixed - exact).max() / np.abs(exact).max())
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert_all(errors[-1] < 1e-3, f"error {errors}")
+    assert_all(np.all(np.abs(orders - 2) < 0.15), f"observed orders {orders}")
+    dm.destroy()
+
+
+@pytest.mark.parametrize("integrator, order", [("alpha2", 2), ("rk", 4)])
+def test_other_integrators_converge(comm, packing64, integrator, order):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    k = 2 * np.pi / packing64.box_length
+    errors = []
+    # RK4 reaches the reference's round-off floor early: compare it at larger (stable) steps
+    for dt in ((0.04, 0.02) if order == 2 else (0.16, 0.08)):
+        series = run(dm, packing64, "L", k, dt, integrator, t_end=10.0, every=int(round(0.32 / dt)))
+        exact = exact_z_fixed(packing64, dm, "L", 0, k, 1e-3, series.t)
+        errors.append(np.abs(series.z_fixed - exact).max() / np.abs(exact).max())
+    observed = np.log2(errors[0] / errors[1])
+    assert_all(abs(observed - order) < 0.3, f"{integrator}: errors {errors}, order {observed}")
+    dm.destroy()
+
+
+def test_energy_bounded_over_long_run(comm, packing64):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    series = run(dm, packing64, "RT", 2 * np.pi / packing64.box_length, 0.05, t_end=400.0, every=20)
+    drift = np.abs(series.energy - series.energy[0]) / series.energy[0]
+    omega_max = waves.largest_omega(dm)
+    bound = (omega_max * 0.05) ** 2 / 4  # Verlet's shadow-energy oscillation, no secular growth
+    assert_all(drift.max() < bound, f"drift {drift.max()} > {bound}")
+    half = len(drift) // 2
+    assert_all(drift[half:].max() < 1.5 * drift[:half].max() + 1e-12, "secular energy growth")
+    dm.destroy()
+
+
+def test_phase_with_current_positions_differs_by_order_amplitude(comm, packing64):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    k = 2 * np.pi * 3 / packing64.box_length
+    diffs = []
+    for amplitude in (1e-3, 1e-2):
+        s = run(dm, packing64, "L", k, 0.02, t_end=20.0, amplitude=amplitude)
+        diffs.append(np.abs(correlations.vaf(s.z) - correlations.vaf(s.z_fixed)).max())
+    assert_all(diffs[0] < 1e-3 and 5 < diffs[1] / diffs[0] < 20, f"phase difference {diffs}")
+    dm.destroy()
+
+
+def test_excitation_has_no_momentum_and_expected_channel(comm, packing64):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    k = 2 * np.pi * 2 / packing64.box_length
+    mpi = COMM
+    for mode in ("L", "TR", "RT"):
+        for direction in (0, 1):
+            component, axis = waves.EXCITATIONS[mode][direction]
+            v0 = waves.start_velocity(dm, packing64.positions, component, axis, k, 1e-3, mpi).reshape(-1, 3)
+            momentum = mpi.allreduce(v0[:, :2].sum(axis=0))
+            others = mpi.allreduce(np.abs(np.delete(v0, component, axis=1)).max())
+            assert_all(np.abs(momentum).max() < 1e-15 and others == 0, f"{mode} {direction}")
+            if mode == "L":
+                assert_all(component == axis, "L: velocity along k")
+            if mode == "TR":
+                assert_all(component != axis and component < 2, "TR: velocity across k")
+    dm.destroy()
+
+
+@pytest.mark.mpi
+def test_two_ranks_equal_one(comm, packing64):
+    from petsc4py import PETSc
+
+    k = 2 * np.pi * 2 / packing64.box_length
+    par = run(dynmat.assemble(packing64, 0.5, comm), packing64, "TR", k, 0.02)
+    ser = run(dynmat.assemble(packing64, 0.5, PETSc.COMM_SELF), packing64, "TR", k, 0.02)
+    assert_all(np.abs(par.z - ser.z).max() < 1e-10 * np.abs(ser.z).max(), "1 vs 2 ranks")
+
+
+def test_vaf_and_spectrum_of_damped_cosine():
+    t = np.arange(0, 400, 0.1)
+    omega0, gamma = 2.3, 0.05
+    z = np.exp(-gamma * t) * np.cos(omega0 * t) * (1 + 0.5j)
+    c = correlations.vaf(np.stack([z, 2 * z]))
+    np.testing.assert_allclose(c, np.exp(-gamma * t) * np.cos(omega0 * t), atol=1e-12)
+    omega, power = correlations.power_spectrum(z[None], 0.1)
+    assert abs(omega[np.argmax(power)] - omega0) < 2 * np.pi / (4 * 400)
+    half = power > power.max() / 2
+    width = omega[half].max() - omega[half].min()
+    assert abs(width - 2 * gamma) < 0.2 * 2 * gamma  # Lorentzian full width 2 gamma
