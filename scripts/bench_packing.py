@@ -34,7 +34,7 @@ def main() -> None:
         table.append({"N": n, "runs (seeds)": len(runs), "time min/median/max [s]":
                       f"{sec[0]:.1f} / {sec[len(sec) // 2]:.1f} / {sec[-1]:.1f}",
                       "FIRE steps": "/".join(str(r["steps"]) for r in runs),
-                      "max |F| reached": f"{max(r['max_force'] for r in runs):.2e}",
+                      "max force reached": f"{max(r['max_force'] for r in runs):.2e}",
                       "z": f"{np.mean([r['z'] for r in runs]):.3f}",
                       "peak RSS [GiB]": f"{max(r['peak_gib'] for r in runs):.2f}"})
     save("packing", "python scripts/bench_packing.py", table,

@@ -60,6 +60,9 @@ BAD = [
     ("packing: {n: 64, phi: 0.9, colour: red}\n", "unknown key packing.colour"),
     ("packing: {n: 64, phi: 0.9\n", "invalid YAML"),
     ("packing: {file: nowhere.h5}\n", "packing file nowhere.h5: not found"),
+    ("packing: {n: 64, phi: 0.9}\nmodel: {rho: 1}\nwaves: {n: [1], dt: 0.5}\n",
+     "waves.dt = 0.5: above the stability limit"),
+    ("packing: {n: 64, phi: 0.9}\nwaves: {n: [100]}\n", "waves.n = 100"),
     ("packing: {n: 64, phi: 0.9}\npetsc: {eps: {tol: {1: [x]}}}\n", None),
 ]
 

@@ -45,12 +45,31 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": 64, "phi": 0.9, "force_tol": 0}}, ["packing.force_tol"]),
     ({"packing": [1, 2]}, ["packing", "must be a mapping"]),
     ({"packing": {"n": 64, "phi": 0.9}, "petsc": [1]}, ["petsc", "a mapping"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"modes": [], "n": [1]}}, ["waves.modes", "non-empty"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"modes": ["X"], "n": [1]}}, ["waves.modes", "L, TR, RT"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {}}, ["waves.n / waves.kd0", "exactly one"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "kd0": [1.0]}}, ["exactly one"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [0]}}, ["waves.n", ">= 1"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"kd0": [7.0]}}, ["waves.kd0", "2 pi"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "dt": -0.1}}, ["waves.dt"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "integrator": "leapfrog"}}, ["waves.integrator", "verlet"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "t_end": 1.0, "sample_every": 50}},
+     ["waves.sample_every", "fewer than 4 samples"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"window": [3, 2]}}, ["spectrum.window", "omega_lo < omega_hi"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energies": "yes"}}, ["spectrum.energies", "true or false"]),
 ])
 def test_bad_scenes_name_the_key(raw, words):
     with pytest.raises(InputError) as info:
         build(raw)
     for word in words:
         assert word in str(info.value), (word, str(info.value))
+
+
+def test_optional_sections():
+    assert build({"packing": {"n": 16, "phi": 0.9}}).spectrum is None
+    assert build({"packing": {"n": 16, "phi": 0.9}, "spectrum": {}}).spectrum.bin_width == 0.05
+    waves = build({"packing": {"n": 16, "phi": 0.9}, "waves": {"kd0": [1.19]}}).waves
+    assert waves.modes == ["L", "TR", "RT"] and waves.integrator == "verlet"
 
 
 def test_file_only_needs_no_n_phi():
