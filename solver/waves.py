@@ -12,7 +12,8 @@ Equations: M u'' = -D u.  Integrators (``waves.integrator`` or ``-ts_type``):
   verlet : velocity Verlet as a TS of type ``python`` on the first-order state X = (u, v)
            (one MatMult per step, symplectic, 2nd order; Debian's petsc4py 3.18 cannot set up
            TSBASICSYMPLECTIC, which needs setRHSSplitIS).  [default: see README]
-  rk, theta, cn, ... : any first-order PETSc TS type on X' = (v, -M^-1 D u).
+  rk, theta, cn, ... : any first-order PETSc TS type on X' = J X, J = [[0, I], [-M^-1 D, 0]]
+           assembled (so implicit types get a real matrix to factor or precondition).
   alpha2 : generalized-alpha on the second-order form M a + D u = 0 (implicit, CG solves).
 A monitor samples, every ``sample_every`` steps, z(t) = sum_i v_i,c(t) exp(-i k . r_i(t)) with
 r_i(t) = r_i(0) + u_i(t) (the paper's definition) and the same with r_i(0) (exactly linear),
@@ -95,34 +96,39 @@ class _Views:
         self.v.resetArray()
 
 
-class _FirstOrder:
-    """RHS of X' = (v, -M^-1 D u) on the interleaved-per-rank state X = (u_loc, v_loc)."""
+def first_order_matrix(dm, minv):
+    """J = [[0, I], [-M^-1 D, 0]] (AIJ) on the state X = (u_loc, v_loc) laid out per rank.
 
-    def __init__(self, D, minv, comm):
-        self.D, self.minv = D, minv
-        self.x = _Views(minv, comm)
-        self.f = _Views(minv, comm)
-        self.work = minv.duplicate()
+    Rank r owns rows [2 s_r, 2 e_r) of X, where [s_r, e_r) are its rows of D: first its u, then
+    its v.  X' = J X is the first-order form of M u'' = -D u.  Collective.
+    """
+    import scipy.sparse as sp
+    from petsc4py import PETSc
 
-    def rhs(self, ts, t, X, F):
-        self.x.place(X)
-        self.f.place(F)
-        self.D.mult(self.x.u, self.work)
-        self.f.v.pointwiseMult(self.work, self.minv)
-        self.f.v.scale(-1.0)
-        self.x.v.copy(self.f.u)
-        self.x.reset()
-        self.f.reset()
-
-
-class _JacobianShell:
-    """Matrix-free d(RHS)/dX = [[0, I], [-M^-1 D, 0]] for implicit first-order types."""
-
-    def __init__(self, first_order):
-        self.fo = first_order
-
-    def mult(self, mat, X, Y):
-        self.fo.rhs(None, 0.0, X, Y)
+    comm = dm.D.getComm()
+    ranges = np.array(dm.D.getOwnershipRanges())
+    start, stop = dm.D.getOwnershipRange()
+    nloc = stop - start
+    indptr, indices, values = dm.D.getValuesCSR()
+    owner = np.searchsorted(ranges, indices, side="right") - 1
+    u_col = indices + ranges[owner]             # global column of u_g in X
+    rows_v = sp.csr_matrix((-np.repeat(minv.getArray(), np.diff(indptr)) * values, u_col, indptr),
+                           shape=(nloc, 2 * dm.size))
+    v_cols = 2 * start + nloc + np.arange(nloc)  # u' = v
+    rows_u = sp.csr_matrix((np.ones(nloc), v_cols, np.arange(nloc + 1)), shape=(nloc, 2 * dm.size))
+    # explicit zero diagonal: TS forms shift I - J in place (MatShift needs the entries)
+    diagonal = sp.coo_matrix((np.zeros(2 * nloc), (np.arange(2 * nloc), 2 * start + np.arange(2 * nloc))),
+                             shape=(2 * nloc, 2 * dm.size))
+    stacked = sp.vstack([rows_u, rows_v]).tocoo()
+    local = sp.coo_matrix((np.concatenate((stacked.data, diagonal.data)),
+                           (np.concatenate((stacked.row, diagonal.row)),
+                            np.concatenate((stacked.col, diagonal.col)))), shape=stacked.shape).tocsr()
+    local.sort_indices()
+    J = PETSc.Mat().createAIJ(size=((2 * nloc, 2 * dm.size),) * 2,
+                              csr=(local.indptr.astype(PETSc.IntType), local.indices.astype(PETSc.IntType),
+                                   local.data), comm=comm)
+    J.assemble()
+    return J
 
 
 class VelocityVerlet:
@@ -241,13 +247,11 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
                 sample(t, u.getArray(), v.getArray(), u)
     else:
         ts.setProblemType(PETSc.TS.ProblemType.LINEAR)
-        X = PETSc.Vec().createMPI((2 * len(v0), 2 * dm.size), comm=comm)
+        jacobian = first_order_matrix(dm, minv)
+        X = jacobian.createVecRight()
         X.setArray(np.concatenate((np.zeros(len(v0)), v0)))
-        first = _FirstOrder(dm.D, minv, comm)
-        ts.setRHSFunction(first.rhs, X.duplicate())
-        shell = PETSc.Mat().createPython(((2 * len(v0), 2 * dm.size),) * 2, _JacobianShell(first), comm=comm)
-        shell.setUp()
-        ts.setRHSJacobian(None, shell, shell)
+        ts.setRHSFunction(PETSc.TS.computeRHSFunctionLinear, X.duplicate())
+        ts.setRHSJacobian(PETSc.TS.computeRHSJacobianConstant, jacobian, jacobian)
         if integrator == "verlet":
             ts.setType(PETSc.TS.Type.PYTHON)
             ts.setPythonContext(VelocityVerlet(dm.D, minv, comm))

@@ -53,7 +53,7 @@ def test_verlet_matches_exact_reference_at_second_order(comm, packing64, mode):
     dm.destroy()
 
 
-@pytest.mark.parametrize("integrator, order", [("alpha2", 2), ("rk", 4)])
+@pytest.mark.parametrize("integrator, order", [("alpha2", 2), ("rk", 4), ("cn", 2)])
 def test_other_integrators_converge(comm, packing64, integrator, order):
     dm = dynmat.assemble(packing64, 1.0, comm)
     k = 2 * np.pi / packing64.box_length

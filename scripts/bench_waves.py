@@ -1,0 +1,200 @@
+"""Standing-wave benchmarks (issue 4): run time against error, step cost, one N = 32768 run.
+
+    python scripts/bench_waves.py
+1. N = 2048, rho = 1, L mode, k = 2 pi 4 / L, t_end = 50: error of z(t) (r_i(0) phase) against
+   the exact eigendecomposition solution vs wall time, for each integrator and several dt, TS on
+   2 ranks, and a plain scipy.sparse velocity-Verlet loop (1 process) in the same run.
+2. N = 32768, 2 ranks: one Verlet TS step against one bare MatMult (no sampling).
+3. N = 32768, 2 ranks: one (mode, k) run to t = 200 t0, and the paper programme's estimated cost.
+Writes results/bench/waves.json and docs/bench_waves.png.
+"""
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+from benchlib import PY, REPO, mpirun, run_json, save
+
+T_END = 50.0
+SAMPLE = 0.5
+CASES = [("verlet", [0.1, 0.05, 0.025, 0.0125]), ("rk", [0.25, 0.125, 0.0625]), ("alpha2", [0.1, 0.05, 0.025]),
+         ("cn", [0.1, 0.05])]
+EXACT = REPO / "cache" / "bench_waves_exact.npz"
+
+
+def load(n):
+    from solver import h5io, packing
+
+    path = REPO / "cache" / f"bench_{n}.h5"
+    if not path.exists():
+        path.parent.mkdir(exist_ok=True)
+        h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
+    return h5io.read_packings(str(path))[0]
+
+
+def exact_reference() -> None:
+    """z(t) of the L wave from a dense eigendecomposition (serial, once)."""
+    import scipy.linalg as sl
+
+    from solver import dynmat, petscenv, spectrum
+
+    PETSc = petscenv.init([])
+    p = load(2048)
+    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
+    A = spectrum.scaled_operator(dm)
+    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
+    omega = np.sqrt(np.clip(lam, 0, None))
+    mass = dm.M.getArray()
+    k = 2 * np.pi * 4 / p.box_length
+    r0 = p.positions[~p.rattler]
+    v0 = np.zeros((len(r0), 3))
+    v0[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
+    v0[:, 0] -= v0[:, 0].mean()
+    b = np.zeros((len(r0), 3), complex)
+    b[:, 0] = np.exp(-1j * k * r0[:, 0])
+    t = np.arange(0, T_END + 1e-9, SAMPLE)
+    z = ((b.ravel() / np.sqrt(mass)) @ vec * (vec.T @ (np.sqrt(mass) * v0.ravel()))) @ np.cos(np.outer(omega, t))
+    np.savez(EXACT, t=t, z=z, k=k)
+
+
+def ts_case(integrator: str, dt: float) -> None:
+    assert abs(SAMPLE / dt - round(SAMPLE / dt)) < 1e-9, "dt must divide the sampling interval"
+    from solver import dynmat, petscenv, waves
+
+    PETSc = petscenv.init([])
+    p = load(2048)
+    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    ref = np.load(EXACT)
+    mpi = PETSc.COMM_WORLD.tompi4py()
+    mpi.Barrier()
+    t0 = time.perf_counter()
+    s = waves.integrate(dm, p.positions, "L", 0, float(ref["k"]), amplitude=1e-3, dt=dt, t_end=T_END,
+                        sample_every=int(round(SAMPLE / dt)), integrator=integrator)
+    seconds = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
+    error = float(np.abs(s.z_fixed - ref["z"]).max() / np.abs(ref["z"]).max())
+    if PETSc.COMM_WORLD.rank == 0:
+        print(json.dumps({"seconds": seconds, "error": error}))
+
+
+def scipy_case(dt: float) -> None:
+    """The obvious alternative: velocity Verlet with scipy.sparse, one process."""
+    from solver import dynmat, packing
+
+    p = load(2048)
+    start, stop = 0, int((~p.rattler).sum())
+    D, _, _ = dynmat.local_csr(p, 1.0, (start, stop))
+    minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], 3)
+    ref = np.load(EXACT)
+    k = float(ref["k"])
+    r0 = p.positions[~p.rattler]
+    v = np.zeros((len(r0), 3))
+    v[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
+    v[:, 0] -= v[:, 0].mean()
+    v = v.ravel()
+    u = np.zeros_like(v)
+    phase = np.exp(-1j * k * r0[:, 0])
+    every = int(round(SAMPLE / dt))
+    steps = int(round(T_END / dt))
+    t0 = time.perf_counter()
+    acc = -minv * (D @ u)
+    z = [np.dot(v[0::3], phase)]
+    for step in range(1, steps + 1):
+        v += 0.5 * dt * acc
+        u += dt * v
+        acc = -minv * (D @ u)
+        v += 0.5 * dt * acc
+        if step % every == 0:
+            z.append(np.dot(v[0::3], phase))
+    seconds = time.perf_counter() - t0
+    error = float(np.abs(np.array(z) - ref["z"]).max() / np.abs(ref["z"]).max())
+    print(json.dumps({"seconds": seconds, "error": error}))
+
+
+def step_cost_case() -> None:
+    """N = 32768: time per Verlet TS step vs per bare MatMult; and one run to t = 200."""
+    from solver import dynmat, petscenv, waves
+
+    PETSc = petscenv.init([])
+    p = load(32768)
+    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    mpi = PETSc.COMM_WORLD.tompi4py()
+    x, y = dm.D.createVecs()
+    x.setRandom()
+    reps = 2000
+    mpi.Barrier()
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        dm.D.mult(x, y)
+    matmult = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX) / reps
+    k = 2 * np.pi * 32 / p.box_length
+    mpi.Barrier()
+    t0 = time.perf_counter()
+    s = waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3, dt=0.02, t_end=reps * 0.02,
+                        sample_every=reps, integrator="verlet")
+    step = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX) / s.steps
+    mpi.Barrier()
+    t0 = time.perf_counter()
+    full = waves.integrate(dm, p.positions, "RT", 0, k, amplitude=1e-3, dt=0.02, t_end=200.0,
+                           sample_every=5, integrator="verlet")
+    run200 = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
+    if PETSc.COMM_WORLD.rank == 0:
+        print(json.dumps({"matmult": matmult, "step": step, "run200": run200, "steps200": full.steps,
+                          "kd0": k, "L": p.box_length}))
+
+
+def main() -> None:
+    if not EXACT.exists():
+        subprocess.run([PY, __file__, "--exact"], check=True, cwd=REPO)
+    points, table = [], []
+    for integrator, dts in CASES:
+        for dt in dts:
+            r = run_json(mpirun(2) + [PY, __file__, "--ts", integrator, str(dt)])
+            points.append((f"TS {integrator} (2 ranks)", dt, r["seconds"], r["error"]))
+    for dt in CASES[0][1]:
+        r = run_json([PY, __file__, "--scipy", str(dt)])
+        points.append(("scipy.sparse Verlet (1 process)", dt, r["seconds"], r["error"]))
+    for name, dt, sec, err in points:
+        table.append({"method": name, "dt [t0]": dt, "wall time [s]": f"{sec:.2f}", "max rel. error of z(t)": f"{err:.2e}"})
+    cost = run_json(mpirun(2) + [PY, __file__, "--stepcost"])
+    table.append({"method": "N = 32768, 2 ranks: Verlet TS step / bare MatMult",
+                  "dt [t0]": 0.02, "wall time [s]": f"{cost['step'] * 1e3:.3f} ms / {cost['matmult'] * 1e3:.3f} ms",
+                  "max rel. error of z(t)": f"ratio {cost['step'] / cost['matmult']:.2f}"})
+    kgrid = int(np.floor(cost["L"] * 0.5))  # n = 1 .. L/2: k d0 up to ~pi
+    programme = cost["run200"] * 3 * 2 * kgrid * 11
+    table.append({"method": f"N = 32768, 2 ranks: one RT run to t = 200 ({cost['steps200']} steps, sampled every 5)",
+                  "dt [t0]": 0.02, "wall time [s]": f"{cost['run200']:.1f}",
+                  "max rel. error of z(t)": f"paper programme 3 modes x 2 dirs x {kgrid} k x 11 rho: "
+                                            f"~{programme / 3600:.0f} h"})
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for name in dict.fromkeys(p[0] for p in points):
+        pts = [(s, e) for n, _, s, e in points if n == name]
+        ax.loglog([s for s, _ in pts], [e for _, e in pts], "o-", label=name)
+    ax.set(xlabel="wall time [s]", ylabel="max relative error of z(t), t <= 50 t0",
+           title="N = 2048, rho = 1, L wave: error against run time")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    (REPO / "docs").mkdir(exist_ok=True)
+    fig.savefig(REPO / "docs" / "bench_waves.png", dpi=120)
+    save("waves", "python scripts/bench_waves.py", table,
+         "Error: max over samples of |z(t) - z_exact(t)| / max |z_exact| with r_i(0) in the phase, z_exact "
+         "from the full eigendecomposition (PHYSICS.md section 4). Plot: ![time against error](docs/bench_waves.png)")
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] == ["--exact"]:
+        exact_reference()
+    elif sys.argv[1:2] == ["--ts"]:
+        ts_case(sys.argv[2], float(sys.argv[3]))
+    elif sys.argv[1:2] == ["--scipy"]:
+        scipy_case(float(sys.argv[2]))
+    elif sys.argv[1:2] == ["--stepcost"]:
+        step_cost_case()
+    else:
+        main()
