@@ -99,9 +99,15 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm) -> None:
             say(comm, f"waves rho = 0: RT skipped (frictionless disks have no rotational stiffness)")
             continue
         t0 = time.perf_counter()
-        runs = [[waves.integrate(dm, p.positions, mode, d, k, amplitude=spec.amplitude, dt=spec.dt,
-                                 t_end=spec.t_end, sample_every=spec.sample_every, integrator=integrator)
-                 for k in ks] for d in range(2)]
+        if integrator == "verlet":  # all directions and k at once: one MatMatMult per step
+            flat = waves.integrate_block(dm, p.positions, [(mode, d, k) for d in range(2) for k in ks],
+                                         amplitude=spec.amplitude, dt=spec.dt, t_end=spec.t_end,
+                                         sample_every=spec.sample_every)
+            runs = [flat[d * len(ks):(d + 1) * len(ks)] for d in range(2)]
+        else:
+            runs = [[waves.integrate(dm, p.positions, mode, d, k, amplitude=spec.amplitude, dt=spec.dt,
+                                     t_end=spec.t_end, sample_every=spec.sample_every, integrator=integrator)
+                     for k in ks] for d in range(2)]
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
         z = np.array([[r.z for r in row] for row in runs])            # (2, K, S)
         z_fixed = np.array([[r.z_fixed for r in row] for row in runs])

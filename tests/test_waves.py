@@ -130,3 +130,18 @@ def test_vaf_and_spectrum_of_damped_cosine():
     half = power > power.max() / 2
     width = omega[half].max() - omega[half].min()
     assert abs(width - 2 * gamma) < 0.2 * 2 * gamma  # Lorentzian full width 2 gamma
+
+
+def test_block_verlet_equals_single_runs(comm, packing64):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    L = packing64.box_length
+    batch = [(mode, d, 2 * np.pi * n / L) for mode in ("L", "RT") for d in (0, 1) for n in (1, 3)]
+    block = waves.integrate_block(dm, packing64.positions, batch, amplitude=1e-3, dt=0.02, t_end=10.0,
+                                  sample_every=25)
+    for (mode, d, k), got in zip(batch, block):
+        ref = run(dm, packing64, mode, k, 0.02, t_end=10.0, every=25, direction=d)
+        scale = np.abs(ref.z).max()
+        assert_all(np.abs(got.z - ref.z).max() < 1e-12 * scale and
+                   np.abs(got.z_fixed - ref.z_fixed).max() < 1e-12 * scale, f"{mode} {d} {k}")
+        assert_all(np.allclose(got.energy, ref.energy, rtol=1e-10), "energy from cached acceleration")
+    dm.destroy()
