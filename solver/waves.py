@@ -252,7 +252,7 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
         samples["e"].append(energy)
         if not np.all(np.isfinite(energy)) or np.any(energy > 10.0 * samples["e"][0]):
             blown[0] = True
-            ts.setConvergedReason(PETSc.TS.ConvergedReason.DIVERGED_STEP_REJECTED)
+            ts.setMaxSteps(step)  # TSSolve ends after this step (a reason set here is overwritten)
 
     ts = PETSc.TS().create(comm)
     ts.setType(PETSc.TS.Type.PYTHON)
@@ -313,7 +313,7 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
     samples: dict[str, list] = {"t": [], "z": [], "zf": [], "e": []}
     blown = [False]
 
-    def sample(t, u_arr, v_arr, uvec):
+    def sample(step, t, u_arr, v_arr, uvec):
         per_disk_v = v_arr.reshape(-1, dm.dof)[:, component]
         shift = k * u_arr.reshape(-1, dm.dof)[:, axis]
         local = np.array([np.sum(per_disk_v * np.exp(-1j * (phase0 + shift))),
@@ -328,7 +328,7 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
         samples["e"].append(energy)
         if not np.isfinite(energy) or energy > 10.0 * samples["e"][0]:
             blown[0] = True
-            ts.setConvergedReason(PETSc.TS.ConvergedReason.DIVERGED_STEP_REJECTED)
+            ts.setMaxSteps(step)  # TSSolve ends after this step (a reason set here is overwritten)
 
     ts = PETSc.TS().create(comm)
     use_alpha2 = integrator == "alpha2"
@@ -364,7 +364,7 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
         def monitor(ts_, step, t, X):
             if step % sample_every == 0 and not blown[0]:
                 u, v = ts_.getSolution2()
-                sample(t, u.getArray(), v.getArray(), u)
+                sample(step, t, u.getArray(), v.getArray(), u)
     else:
         ts.setProblemType(PETSc.TS.ProblemType.LINEAR)
         jacobian = first_order_matrix(dm, minv)
@@ -386,7 +386,7 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
         def monitor(ts_, step, t, X_):
             if step % sample_every == 0 and not blown[0]:
                 arr = views.place(X_)
-                sample(t, arr[: len(v0)], arr[len(v0):], views.u)
+                sample(step, t, arr[: len(v0)], arr[len(v0):], views.u)
                 views.reset()
     steps = int(round(t_end / dt))
     ts.setTime(0.0)

@@ -145,3 +145,17 @@ def test_block_verlet_equals_single_runs(comm, packing64):
                    np.abs(got.z_fixed - ref.z_fixed).max() < 1e-12 * scale, f"{mode} {d} {k}")
         assert_all(np.allclose(got.energy, ref.energy, rtol=1e-10), "energy from cached acceleration")
     dm.destroy()
+
+
+@pytest.mark.parametrize("block", [False, True])
+def test_blow_up_stops_with_error_not_nan(comm, packing64, block):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    dt = 1.05 * waves.stability_limit("verlet", waves.largest_omega(dm))
+    k = 2 * np.pi / packing64.box_length
+    with pytest.raises(waves.StabilityError, match="unstable|grew tenfold"):
+        if block:
+            waves.integrate_block(dm, packing64.positions, [("RT", 0, k)], amplitude=1e-3, dt=dt,
+                                  t_end=2000 * dt, sample_every=1)
+        else:
+            run(dm, packing64, "RT", k, dt, t_end=2000 * dt, every=1)
+    dm.destroy()
