@@ -1,7 +1,7 @@
 """Command line: ``python -m solver {run,plot,keys} ...`` (also installed as ``rotsound``).
 
     rotsound run SCENE.yaml [--set key.path=value ...] [-petsc_option value ...]
-    rotsound plot RESULTS.h5|SCENE.yaml
+    rotsound plot RESULTS.h5|SCENE.yaml [MORE.h5 ...]
     rotsound keys                      # the scene reference as a Markdown table
 
 Words starting with a single '-' are PETSc/SLEPc options (they win over the scene's
@@ -29,7 +29,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                      help="override a scene key (value parsed as YAML); repeatable")
     plot = sub.add_parser("plot", help="figures from a results file (PNG and PDF beside it)")
-    plot.add_argument("results", help="results .h5 file, or the scene whose output to plot")
+    plot.add_argument("results", nargs="+", help="results .h5 file(s), or scene(s) whose output to plot; "
+                                                 "with several, also an overlay of their vDOS (Fig. S1)")
     sub.add_parser("keys", help="print the scene key reference (Markdown)")
     return parser
 
@@ -72,10 +73,14 @@ def _run(args, petsc_words, comm) -> None:
 def _plot(args) -> None:
     from . import plots
 
-    target = args.results
-    if target.endswith((".yaml", ".yml")):
-        target = config.build(config.Scene, config.read_yaml(target)).output
-    for path in plots.plot_results(target):
+    targets = [config.build(config.Scene, config.read_yaml(t)).output if t.endswith((".yaml", ".yml")) else t
+               for t in args.results]
+    written = [path for target in targets for path in plots.plot_results(target)]
+    if len(targets) > 1:
+        import os
+
+        written += plots.plot_vdos_compare(targets, os.path.splitext(targets[0])[0] + "_vdos_compare")
+    for path in written:
         print(f"wrote {path}")
 
 

@@ -147,6 +147,29 @@ def plot_spectra(f, stem: str) -> list[str]:
     return written
 
 
+def plot_vdos_compare(paths: list[str], stem: str) -> list[str]:
+    """Fig. S1: g(omega) of several results files (e.g. different phi) overlaid, one panel per rho."""
+    curves: dict[float, list] = {}
+    for path in paths:
+        with h5py.File(path, "r") as f:
+            phi = float(f["packings"][sorted(f["packings"])[0]].attrs["phi"]) if "packings" in f else float("nan")
+            n = int(f["packings"][sorted(f["packings"])[0]]["diameters"].shape[0]) if "packings" in f else 0
+            for g in _groups(f, "vdos"):
+                curves.setdefault(float(g.attrs["rho"]), []).append(
+                    (phi, n, g["edges"][()], g["density"][()], float(g.attrs["omega_c"])))
+    if not curves:
+        return []
+    rhos = sorted(curves)
+    fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.6), squeeze=False)
+    for ax, rho in zip(axes[0], rhos):
+        for phi, n, edges, density, omega_c in sorted(curves[rho], key=lambda c: c[0]):
+            ax.plot(0.5 * (edges[1:] + edges[:-1]), density, lw=1, label=f"phi = {phi:.3f} (N = {n})")
+        ax.set(xlabel="omega t0", ylabel="g(omega) t0", title=f"rho = {rho:g}", ylim=(0, None))
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
 def plot_results(path: str) -> list[str]:
     """Write every figure the results file has data for, next to it; return the paths."""
     if not os.path.isfile(path):

@@ -93,6 +93,18 @@ def test_bad_command_lines(args, message):
     assert "Traceback" not in proc.stderr
 
 
+def test_plot_overlays_several_results(tmp_path):
+    outs = []
+    for phi in (0.86, 0.92):
+        out = tmp_path / f"phi{phi}.h5"
+        text = f"output: {out}\npacking: {{n: 64, phi: {phi}}}\nmodel: {{rho: 1}}\nspectrum: {{}}\n"
+        assert run_cli(["run", write(tmp_path, text, f"s{phi}.yaml")]).returncode == 0
+        outs.append(str(out))
+    proc = run_cli(["plot", *outs])
+    assert proc.returncode == 0, proc.stderr
+    assert "phi0.86_vdos_compare.png" in proc.stdout and (tmp_path / "phi0.86_vdos_compare.pdf").exists()
+
+
 def test_keys_prints_reference():
     proc = run_cli(["keys"])
     assert proc.returncode == 0 and "`packing.phi`" in proc.stdout

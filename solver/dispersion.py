@@ -1,0 +1,146 @@
+"""Dispersion analysis: damped-cosine and Lorentzian fits, power laws, the lattice model, k_c.
+
+numpy/scipy only (no PETSc).  Units: omega, gamma in 1/t0; k in 1/d0.
+
+Lattice model (PHYSICS.md section 6): omega_t = a_t sqrt(f - sqrt(g)), omega_r = a_r sqrt(f + sqrt(g)),
+    f = 2 sin^2(kl) + 9 rho cos^2(kl) + 11 rho,
+    g = 4 sin^4(kl) + rho (399 rho - 4) cos^2(kl) - rho (121 rho / 4 + 21) sin^2(2 kl) + rho (rho + 4).
+The paper prints 300 for the coefficient 399: only 399 gives the limits the paper itself states,
+omega_t(0) = 0 and omega_r(0) = a_r sqrt(40 rho) (at k = 0, f^2 - g = (399 - X) rho^2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+G_COEFFICIENT = 399.0  # the paper's eq. g(k) prints 300: a misprint (see module docstring)
+
+
+def lattice_fg(k, rho, l):
+    """f(k, rho) and g(k, rho) of the lattice model (arrays broadcast)."""
+    s, c = np.sin(k * l), np.cos(k * l)
+    f = 2 * s**2 + 9 * rho * c**2 + 11 * rho
+    g = (4 * s**4 + rho * (G_COEFFICIENT * rho - 4) * c**2
+         - rho * (121 * rho / 4 + 21) * np.sin(2 * k * l) ** 2 + rho * (rho + 4))
+    return f, g
+
+
+def lattice_omega(k, rho, l, a_t, a_r):
+    """(omega_t, omega_r) of the lattice model at wave numbers k (1/d0)."""
+    f, g = lattice_fg(k, rho, l)
+    root = np.sqrt(np.clip(g, 0.0, None))
+    return a_t * np.sqrt(np.clip(f - root, 0.0, None)), a_r * np.sqrt(f + root)
+
+
+@dataclass(frozen=True)
+class DampedFit:
+    """C(t) = exp(-gamma t) cos(omega t): values, 1-sigma errors, rms residual, fit window."""
+
+    omega: float
+    gamma: float
+    omega_err: float
+    gamma_err: float
+    rms: float
+    t_max: float
+
+
+def _peak_guess(t, c):
+    dt = t[1] - t[0]
+    spectrum = np.abs(np.fft.rfft(c * np.hanning(c.size), n=8 * c.size))
+    omega = 2 * np.pi * np.fft.rfftfreq(8 * c.size, d=dt)
+    return float(omega[np.argmax(spectrum[1:]) + 1])
+
+
+def fit_damped_cosine(t: np.ndarray, c: np.ndarray, decay_window: float = 3.0) -> DampedFit:
+    """Least-squares fit of exp(-gamma t) cos(omega t) to C(t) (scipy.optimize.curve_fit).
+
+    The fit uses t <= decay_window / gamma (C decayed to about e^-3, PHYSICS.md section 5), found
+    by fitting twice; parameter errors are the square roots of the covariance diagonal.
+    """
+    def model(x, omega, gamma):
+        return np.exp(-gamma * x) * np.cos(omega * x)
+
+    omega0 = _peak_guess(t, c)
+    envelope = np.abs(c)
+    tail = np.nonzero(envelope > np.exp(-1))[0]
+    gamma0 = 1.0 / max(t[tail[-1]] if tail.size else t[-1], t[1])
+    params, cov, mask = (omega0, gamma0), None, t <= t[-1]
+    for _ in range(2):
+        t_max = min(t[-1], decay_window / max(params[1], 1e-12))
+        mask = t <= t_max
+        if mask.sum() < 8:
+            mask = np.arange(t.size) < 8
+        params, cov = optimize.curve_fit(model, t[mask], c[mask], p0=params, maxfev=20000)
+        params = (abs(params[0]), params[1])
+    residual = c[mask] - model(t[mask], *params)
+    err = np.sqrt(np.clip(np.diag(cov), 0, None))
+    return DampedFit(float(params[0]), float(params[1]), float(err[0]), float(err[1]),
+                     float(np.sqrt(np.mean(residual**2))), float(t[mask][-1]))
+
+
+def fit_lorentzian(omega: np.ndarray, power: np.ndarray, width: float = 5.0) -> tuple[float, float]:
+    """(omega_0, gamma) of A gamma / ((w - w0)^2 + gamma^2) fitted around the peak of S(w)."""
+    i = int(np.argmax(power))
+    half = power > power[i] / 2
+    left, right = i, i
+    while left > 0 and half[left - 1]:
+        left -= 1
+    while right < power.size - 1 and half[right + 1]:
+        right += 1
+    gamma0 = max(0.5 * (omega[right] - omega[left]), omega[1] - omega[0])
+    window = np.abs(omega - omega[i]) <= width * gamma0
+
+    def model(w, w0, gamma, amp):
+        return amp * gamma / ((w - w0) ** 2 + gamma**2)
+
+    params, _ = optimize.curve_fit(model, omega[window], power[window],
+                                   p0=(omega[i], gamma0, power[i] * gamma0), maxfev=20000)
+    return float(params[0]), float(abs(params[1]))
+
+
+def power_law(k: np.ndarray, gamma: np.ndarray) -> tuple[float, float]:
+    """Exponent p and its 1-sigma error of gamma = b k^p (straight-line fit in log-log)."""
+    (p, _), cov = np.polyfit(np.log(k), np.log(gamma), 1, cov=True) if k.size > 2 else \
+        (np.polyfit(np.log(k), np.log(gamma), 1), np.full((2, 2), np.nan))
+    return float(p), float(np.sqrt(cov[0, 0]))
+
+
+def transition_k(k: np.ndarray, omega_r: np.ndarray, min_jump: float = 0.3, factor: float = 5.0
+                 ) -> float | None:
+    """k_c: the first k after which the RT frequency drops by a jump (None if it never does).
+
+    A jump is a decrease omega_r(k_i+1) - omega_r(k_i) < -max(min_jump, factor x median |step|):
+    the fitted RT frequency leaves the optical-like branch for the acoustic one.  k_c is reported
+    as the midpoint of the two wave numbers around the jump.
+    """
+    steps = np.diff(omega_r)
+    if steps.size == 0:
+        return None
+    threshold = max(min_jump, factor * float(np.median(np.abs(steps))))
+    drops = np.nonzero(steps < -threshold)[0]
+    if drops.size == 0:
+        return None
+    i = int(drops[0])
+    return float(0.5 * (k[i] + k[i + 1]))
+
+
+def fit_lattice(data: list[tuple[float, np.ndarray, np.ndarray]], k_max: float = np.pi / 2,
+                guess: tuple[float, float] = (0.7, 0.45)) -> tuple[float, float, float, float]:
+    """Joint fit of (a_r, l) of omega_r over all rho on the long-wave part k d0 <= k_max.
+
+    data: (rho, k (K,), omega_r (K,)) per rho.  Returns (a_r, a_r_err, l, l_err).
+    """
+    rows = [(rho, k[k <= k_max], w[k <= k_max]) for rho, k, w in data]
+
+    def residual(params):
+        a_r, l = params
+        return np.concatenate([lattice_omega(k, rho, l, 1.0, a_r)[1] - w for rho, k, w in rows])
+
+    result = optimize.least_squares(residual, guess, bounds=([0.01, 0.05], [10.0, 2.0]))
+    dof = max(1, result.fun.size - 2)
+    cov = np.linalg.pinv(result.jac.T @ result.jac) * np.sum(result.fun**2) / dof
+    err = np.sqrt(np.diag(cov))
+    return float(result.x[0]), float(err[0]), float(result.x[1]), float(err[1])
