@@ -10,7 +10,7 @@ import sys
 
 from benchlib import OUT, PY, REPO, machine
 
-ORDER = ["bench_packing.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py"]
+ORDER = ["bench_packing.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py", "bench_kpm.py"]
 
 
 def render() -> None:

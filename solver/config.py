@@ -91,6 +91,12 @@ class SpectrumSpec:
                          float)
     max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
                                _range(10, 10**7), int)
+    method: str = _f("slicing", "slicing: exact eigenvalues (SLEPc spectrum slicing); kpm: stochastic "
+                                "vDOS (Chebyshev moments, no factorisation; vDOS and omega_c only)",
+                     lambda v: None if v in ("slicing", "kpm") else "must be slicing or kpm", str)
+    probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
+    moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
+                         "half a bin", _range(0, 10**6), int)
 
 
 INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
@@ -271,6 +277,9 @@ def _cross_check(obj, where):
             if getattr(obj, name) is None:
                 raise InputError(f"{where}{name} is missing: give packing.n and packing.phi, "
                                  f"or packing.file")
+    if isinstance(obj, SpectrumSpec) and obj.method == "kpm" and (obj.energies or obj.window):
+        raise InputError(f"{where}method = 'kpm' gives the vDOS only: {where}energies and {where}window "
+                         f"need method 'slicing'")
     if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
         raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
     if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:

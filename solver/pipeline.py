@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from . import __version__, correlations, dynmat, h5io, modes, packing, parallel, petscopts, spectrum, waves
+from . import __version__, correlations, dynmat, h5io, kpm, modes, packing, parallel, petscopts, spectrum, waves
 from .errors import InputError
 from .config import Scene
 
@@ -32,6 +32,24 @@ def make_packings(scene: Scene, comm) -> list[packing.Packing]:
     seeds = [parallel.seed_sequence(scene.seed, i) for i in range(spec.count or 1)]
     return parallel.owner_compute(
         comm, seeds, lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps))
+
+
+def _kpm_unit(scene, dm, rho, r_index, p_index, units, comm):
+    """Stochastic vDOS of one (rho, packing) into ``units``; return (edges, density, omega_max)."""
+    spec = scene.spectrum
+    t = time.perf_counter()
+    omega_max = waves.largest_omega(dm)
+    edges = np.arange(0.0, spec.bin_width * (np.ceil(1.1 * omega_max / spec.bin_width) + 1), spec.bin_width)
+    n_moments = spec.moments or kpm.auto_moments(omega_max**2, spec.bin_width)
+    density = kpm.vdos(dm, edges, omega_max**2, n_moments, spec.probes, scene.seed + p_index)
+    seconds = parallel.global_max(comm, time.perf_counter() - t)
+    units[f"spectra/r{r_index:02d}_p{p_index:04d}"] = ({"edges": edges, "density": density}, {
+        "rho": rho, "packing": p_index, "method": "kpm", "moments": n_moments, "probes": spec.probes,
+        "omega_max": omega_max, "n_zero_modes": 2, "dof": dm.size, "n_disks": int(dm.active.sum()),
+        "seconds": seconds})
+    say(comm, f"kpm vDOS rho = {rho:g}, packing {p_index}: {n_moments} moments x {spec.probes} probes, "
+              f"omega_max = {omega_max:.4f}, {seconds:.1f} s")
+    return edges, density, omega_max
 
 
 def _spectrum_unit(scene, dm, rho, r_index, p_index, units, comm) -> np.ndarray:
@@ -133,8 +151,17 @@ def json_window(window) -> str:
 
 
 def _vdos_unit(scene, rho, r_index, omegas, units, comm) -> None:
-    edges, density = modes.vdos(omegas, scene.spectrum.bin_width)
-    omega_c, spread = modes.cutoff(omegas)
+    if scene.spectrum.method == "kpm":  # omegas holds (edges, density, omega_max) per configuration
+        longest = max((o[0] for o in omegas), key=len)
+        density = np.zeros(longest.size - 1)
+        for e, d, _ in omegas:
+            density[: d.size] += d / len(omegas)
+        edges = longest
+        tops = np.array([o[2] for o in omegas])
+        omega_c, spread = float(tops.mean()), float(tops.std(ddof=1)) if tops.size > 1 else 0.0
+    else:
+        edges, density = modes.vdos(omegas, scene.spectrum.bin_width)
+        omega_c, spread = modes.cutoff(omegas)
     units[f"vdos/r{r_index:02d}"] = ({"edges": edges, "density": density}, {
         "rho": rho, "omega_c": omega_c, "omega_c_std": spread, "configurations": len(omegas),
         "window": json_window(scene.spectrum.window)})
@@ -166,7 +193,9 @@ def run(scene: Scene, comm, petsc_argv: list[str]) -> dict:
             units[f"matrices/r{r_index:02d}_p{p_index:04d}"] = ({}, {
                 "rho": rho, "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
-            if scene.spectrum is not None:
+            if scene.spectrum is not None and scene.spectrum.method == "kpm":
+                omegas.append(_kpm_unit(scene, dm, rho, r_index, p_index, units, comm))
+            elif scene.spectrum is not None:
                 omegas.append(_spectrum_unit(scene, dm, rho, r_index, p_index, units, comm))
             if scene.waves is not None:
                 _wave_units(scene, dm, p, rho, r_index, p_index, units, comm)

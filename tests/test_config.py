@@ -57,6 +57,8 @@ def test_yaml_string_floats_are_numbers():
      ["waves.sample_every", "fewer than 4 samples"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"window": [3, 2]}}, ["spectrum.window", "omega_lo < omega_hi"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energies": "yes"}}, ["spectrum.energies", "true or false"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "kpm", "energies": True}}, ["need method 'slicing'"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "lanczos"}}, ["spectrum.method", "slicing or kpm"]),
 ])
 def test_bad_scenes_name_the_key(raw, words):
     with pytest.raises(InputError) as info:

@@ -1,0 +1,102 @@
+"""Stochastic vDOS by the kernel polynomial method (KPM): no factorisation, no eigenvectors.
+
+Moments mu_n = tr T_n(B) / n_modes of B = (A - c I) / h, A = M^-1/2 D M^-1/2, estimated with R
+Rademacher probe vectors from which the two uniform translations (exact zero modes) are
+projected out, so the density counts exactly the non-zero modes.  One MatMatMult per two
+moments (mu_2n = 2 <T_n, T_n> - mu_0, mu_2n+1 = 2 <T_n+1, T_n> - mu_1), Jackson kernel.
+The mass of every omega bin [w_a, w_b) is the exact integral of the expansion over
+lambda in [w_a^2, w_b^2) (with x = cos theta, int T_n(x) / (pi sqrt(1 - x^2)) dx is
+sin(n theta) / (n pi)), so the result is a histogram comparable bin by bin with the exact one.
+Resolution: Jackson's kernel smears x by ~pi/M, i.e. lambda by ~pi h/M and omega by
+~pi h / (2 M omega): poor at low omega (PHYSICS.md section 4), reported in BENCHMARKS.md.
+Collective on the matrix's communicator.  Units: omega in 1/t0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def jackson(m: int) -> np.ndarray:
+    """Jackson damping factors g_n, n = 0..m-1."""
+    n = np.arange(m)
+    q = np.pi / (m + 1)
+    return ((m - n + 1) * np.cos(q * n) + np.sin(q * n) / np.tan(q)) / (m + 1)
+
+
+def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int) -> tuple[np.ndarray, float, float]:
+    """Stochastic Chebyshev moments (n_moments,) of the non-zero modes; also (c, h). Collective."""
+    from petsc4py import PETSc
+
+    comm = dm.D.getComm()
+    mpi = comm.tompi4py()
+    lo, hi = -0.01 * lam_max, 1.01 * lam_max
+    c, h = 0.5 * (hi + lo), 0.5 * (hi - lo)
+    nloc, n = dm.D.getLocalSize()[0], dm.size
+    s = 1.0 / np.sqrt(dm.M.getArray())
+    # probes: Rademacher over all DOF, drawn from one global stream so results are rank-free
+    start = dm.D.getOwnershipRange()[0]
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
+    full = rng.choice([-1.0, 1.0], size=(n, probes))
+    z = np.asfortranarray(full[start:start + nloc])
+    # project out the two translations (in A's space: e_x ~ M^1/2 (1, 0, 0, ...)), exact zero modes
+    sq = 1.0 / s
+    for axis in range(2):
+        e = np.zeros(nloc)
+        e[axis::dm.dof] = sq[axis::dm.dof]
+        norm2 = mpi.allreduce(float(e @ e))
+        z -= np.outer(e, mpi.allreduce(e @ z) / norm2)
+    n_modes = n - 2
+    size = ((nloc, n), (PETSc.DECIDE, probes))
+    X = PETSc.Mat().createDense(size, array=np.zeros((nloc, probes), order="F"), comm=comm)
+    Y = PETSc.Mat().createDense(size, array=np.zeros((nloc, probes), order="F"), comm=comm)
+    X.assemble()
+    Y.assemble()
+
+    def apply_b(v):
+        X.getDenseArray()[:] = s[:, None] * v
+        dm.D.matMult(X, Y)
+        return (s[:, None] * Y.getDenseArray() - c * v) / h
+
+    half = (n_moments + 1) // 2
+    t_prev, t_curr = z, apply_b(z)
+    local = [np.sum(z * z), np.sum(t_curr * z)]
+    pairs = []  # (<T_n, T_n>, <T_n+1, T_n>) for n = 1..half-1
+    for _ in range(1, half):
+        t_next = 2 * apply_b(t_curr) - t_prev
+        pairs.append((np.sum(t_curr * t_curr), np.sum(t_next * t_curr)))
+        t_prev, t_curr = t_curr, t_next
+    sums = mpi.allreduce(np.array(local + [x for p in pairs for x in p]))
+    X.destroy()
+    Y.destroy()
+    mu0, mu1 = sums[0], sums[1]
+    mu = np.zeros(2 * half)
+    mu[0], mu[1] = mu0, mu1
+    for i, n_ in enumerate(range(1, half)):
+        tt, tn = sums[2 + 2 * i], sums[3 + 2 * i]
+        mu[2 * n_] = 2 * tt - mu0
+        mu[2 * n_ + 1] = 2 * tn - mu1
+    return mu[:n_moments] / (probes * n_modes), c, h
+
+
+def bin_masses(mu: np.ndarray, c: float, h: float, edges: np.ndarray) -> np.ndarray:
+    """Fraction of modes in each omega bin [edges_i, edges_i+1) from the moments (Jackson kernel)."""
+    g = jackson(mu.size) * mu
+    x = np.clip((edges**2 - c) / h, -1.0, 1.0)
+    theta = np.arccos(x)  # decreasing in omega
+    n = np.arange(1, mu.size)
+    primitive = (g[0] * theta + 2 * np.sum(g[1:] * np.sin(np.outer(theta, n)) / n, axis=1)) / np.pi
+    return primitive[:-1] - primitive[1:]
+
+
+def vdos(dm, edges: np.ndarray, lam_max: float, n_moments: int, probes: int, seed: int) -> np.ndarray:
+    """g(omega) (B,) on ``edges``, unit area over the non-zero modes. Collective."""
+    mu, c, h = moments(dm, lam_max, n_moments, probes, seed)
+    masses = np.clip(bin_masses(mu, c, h, edges), 0.0, None)
+    return masses / np.diff(edges) / masses.sum()
+
+
+def auto_moments(lam_max: float, bin_width: float, omega_ref: float = 1.0) -> int:
+    """Moments so that Jackson's omega smearing at omega_ref is about half a bin."""
+    h = 0.51 * lam_max
+    return int(np.ceil(2 * np.pi * h / (2 * omega_ref * bin_width)))
