@@ -21,9 +21,20 @@ from .errors import InputError
 EXIT_INPUT = 2
 
 
+class _ArgumentError(InputError):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that raises InputError (exit code 2, one message) instead of exiting."""
+
+    def error(self, message):
+        raise _ArgumentError(f"command line: {message} (see 'rotsound --help')")
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="rotsound", description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="rotsound", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     run = sub.add_parser("run", help="run a scene under mpirun or serially")
     run.add_argument("scene", help="scene YAML file")
     run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
@@ -33,15 +44,6 @@ def _parser() -> argparse.ArgumentParser:
                                                  "with several, also an overlay of their vDOS (Fig. S1)")
     sub.add_parser("keys", help="print the scene key reference (Markdown)")
     return parser
-
-
-class _ArgumentError(InputError):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        raise _ArgumentError(f"command line: {message} (see 'rotsound --help')")
 
 
 def load_scene(path: str, assignments: list[str], comm) -> config.Scene:
@@ -88,10 +90,6 @@ def main(argv: list[str] | None = None) -> int:
     words = sys.argv[1:] if argv is None else argv
     ours, petsc_words = petscopts.split_argv(words)
     parser = _parser()
-    parser.__class__ = _Parser
-    for action in parser._subparsers._group_actions:  # sub-parsers report errors the same way
-        for sub in action.choices.values():
-            sub.__class__ = _Parser
     comm = None
     try:
         args = parser.parse_args(ours)

@@ -67,7 +67,7 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, units, comm) -> np.ndarray:
         "rho": rho, "packing": p_index, "n_zero_modes": result.n_zero_modes,
         "n_negative_modes": result.n_negative, "max_relative_residual": result.max_residual,
         "inertia_count": result.inertia_count, "windows": result.windows, "seconds": seconds,
-        "window": json_window(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum())})
+        "window": window_label(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum())})
     say(comm, f"spectrum rho = {rho:g}, packing {p_index}: {result.omega.size} modes "
               f"(+{result.n_zero_modes} zero modes, {result.n_negative} negative), omega in "
               f"[{result.omega.min():.4f}, {result.omega.max():.4f}], max relative residual "
@@ -99,16 +99,25 @@ def integrator_in_use(spec) -> str:
     return "verlet" if chosen == "python" else chosen
 
 
-def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm) -> None:
-    """Integrate every (mode, direction, k) of one (rho, packing) into ``units``. Collective."""
-    spec = scene.waves
-    ns, ks = wave_numbers(spec, p.box_length)
+def _check_time_step(spec, dm, rho) -> tuple[str, float, float | None]:
+    """Refuse waves.dt at or above the scheme's stability limit, before any solve on ``dm``.
+
+    Returns (integrator, omega_max, limit or None). Collective.
+    """
     integrator = integrator_in_use(spec)
     omega_max = waves.largest_omega(dm)
     limit = waves.stability_limit(integrator, omega_max)
     if limit is not None and spec.dt >= limit:
         raise InputError(f"waves.dt = {spec.dt}: above the stability limit {limit:.4f} t0 of "
                          f"{integrator} for this packing (omega_max = {omega_max:.4f}/t0, rho = {rho:g})")
+    return integrator, omega_max, limit
+
+
+def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm, stability) -> None:
+    """Integrate every (mode, direction, k) of one (rho, packing) into ``units``. Collective."""
+    spec = scene.waves
+    ns, ks = wave_numbers(spec, p.box_length)
+    integrator, omega_max, limit = stability
     if spec.kd0 is not None:
         say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks)} (n = {', '.join(map(str, ns))}, "
                   f"L = {p.box_length:.3f})")
@@ -146,17 +155,18 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm) -> None:
                   f"{drift.max():.1e}, {seconds:.1f} s")
 
 
-def json_window(window) -> str:
+def window_label(window) -> str:
+    """'full' or 'lo,hi' for the results file."""
     return "full" if window is None else f"{window[0]:g},{window[1]:g}"
 
 
 def _vdos_unit(scene, rho, r_index, omegas, units, comm) -> None:
+    """vDOS and omega_c of one rho from all configurations into ``units``."""
     if scene.spectrum.method == "kpm":  # omegas holds (edges, density, omega_max) per configuration
-        longest = max((o[0] for o in omegas), key=len)
-        density = np.zeros(longest.size - 1)
-        for e, d, _ in omegas:
+        edges = max((o[0] for o in omegas), key=len)
+        density = np.zeros(edges.size - 1)
+        for _, d, _ in omegas:
             density[: d.size] += d / len(omegas)
-        edges = longest
         tops = np.array([o[2] for o in omegas])
         omega_c, spread = float(tops.mean()), float(tops.std(ddof=1)) if tops.size > 1 else 0.0
     else:
@@ -164,7 +174,7 @@ def _vdos_unit(scene, rho, r_index, omegas, units, comm) -> None:
         omega_c, spread = modes.cutoff(omegas)
     units[f"vdos/r{r_index:02d}"] = ({"edges": edges, "density": density}, {
         "rho": rho, "omega_c": omega_c, "omega_c_std": spread, "configurations": len(omegas),
-        "window": json_window(scene.spectrum.window)})
+        "window": window_label(scene.spectrum.window)})
     say(comm, f"vDOS rho = {rho:g}: omega_c = {omega_c:.4f} +- {spread:.4f} over {len(omegas)} configurations")
 
 
@@ -182,7 +192,7 @@ def run(scene: Scene, comm, petsc_argv: list[str]) -> dict:
                   + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
     units = {}
     for r_index, rho in enumerate(scene.model.rho):
-        omegas = []
+        per_config = []  # omega arrays (slicing) or (edges, density, omega_max) (kpm)
         for p_index, p in enumerate(packings):
             t = time.perf_counter()
             dm = dynmat.assemble(p, rho, PETSc.COMM_WORLD)
@@ -193,15 +203,16 @@ def run(scene: Scene, comm, petsc_argv: list[str]) -> dict:
             units[f"matrices/r{r_index:02d}_p{p_index:04d}"] = ({}, {
                 "rho": rho, "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
+            stability = _check_time_step(scene.waves, dm, rho) if scene.waves is not None else None
             if scene.spectrum is not None and scene.spectrum.method == "kpm":
-                omegas.append(_kpm_unit(scene, dm, rho, r_index, p_index, units, comm))
+                per_config.append(_kpm_unit(scene, dm, rho, r_index, p_index, units, comm))
             elif scene.spectrum is not None:
-                omegas.append(_spectrum_unit(scene, dm, rho, r_index, p_index, units, comm))
+                per_config.append(_spectrum_unit(scene, dm, rho, r_index, p_index, units, comm))
             if scene.waves is not None:
-                _wave_units(scene, dm, p, rho, r_index, p_index, units, comm)
+                _wave_units(scene, dm, p, rho, r_index, p_index, units, comm, stability)
             dm.destroy()
-        if omegas:
-            _vdos_unit(scene, rho, r_index, omegas, units, comm)
+        if per_config:
+            _vdos_unit(scene, rho, r_index, per_config, units, comm)
     names = petscopts.option_names(petsc_argv)
     unused = parallel.owner_compute(comm, [0], lambda _: petscopts.unused(names))[0]
     for name in unused:
