@@ -9,9 +9,10 @@ The uniform translation is projected out of a translational start (PHYSICS.md se
 in a disordered packing sum_i sin(k . r_i) != 0 and that momentum would drift forever.
 
 Equations: M u'' = -D u.  Integrators (``waves.integrator`` or ``-ts_type``):
-  verlet : velocity Verlet as a TS of type ``python`` on the first-order state X = (u, v)
-           (one MatMult per step, symplectic, 2nd order; Debian's petsc4py 3.18 cannot set up
-           TSBASICSYMPLECTIC, which needs setRHSSplitIS).  [default: see README]
+  verlet : velocity Verlet as a TS of type ``python`` on the state X = (U, V) of a block of R
+           waves (one MatMatMult per step for all of them; symplectic, 2nd order; Debian's
+           petsc4py 3.18 cannot set up TSBASICSYMPLECTIC, which needs setRHSSplitIS).
+           [default: see README]
   rk, theta, cn, ... : any first-order PETSc TS type on X' = J X, J = [[0, I], [-M^-1 D, 0]]
            assembled (so implicit types get a real matrix to factor or precondition).
   alpha2 : generalized-alpha on the second-order form M a + D u = 0 (implicit, CG solves).
@@ -131,35 +132,6 @@ def first_order_matrix(dm, minv):
     return J
 
 
-class VelocityVerlet:
-    """TS ``python`` context: kick-drift-kick with the acceleration cached between steps."""
-
-    def __init__(self, D, minv, comm):
-        self.D, self.minv = D, minv
-        self.views = _Views(minv, comm)
-        self.acc = minv.duplicate()
-
-    def _accelerate(self):
-        self.D.mult(self.views.u, self.acc)
-        self.acc.pointwiseMult(self.acc, self.minv)
-        self.acc.scale(-1.0)
-
-    def setUp(self, ts):
-        self.views.place(ts.getSolution())
-        self._accelerate()
-        self.views.reset()
-
-    def step(self, ts):
-        dt = ts.getTimeStep()
-        self.views.place(ts.getSolution())
-        self.views.v.axpy(0.5 * dt, self.acc)
-        self.views.u.axpy(dt, self.views.v)
-        self._accelerate()
-        self.views.v.axpy(0.5 * dt, self.acc)
-        self.views.reset()
-        ts.setTime(ts.getTime() + dt)
-
-
 class BlockVerlet:
     """TS ``python`` context: velocity Verlet for R waves at once, state X = (U, V) with U, V dense
     (local rows x R, column-major) viewing X's local array; one MatMatMult D U per step."""
@@ -175,6 +147,9 @@ class BlockVerlet:
         for m in (self.U, self.V, self.DU):
             m.assemble()
         self.acc = np.zeros((nloc, runs), order="F")
+        # a block of one uses MatMult on Vecs (measured: MatMatMult with one column costs ~1.5x more)
+        self.u1 = PETSc.Vec().createWithArray(np.zeros(nloc), size=(nloc, n), comm=comm)
+        self.du1 = PETSc.Vec().createWithArray(np.zeros(nloc), size=(nloc, n), comm=comm)
 
     def views(self, X):
         arr = X.getArray()
@@ -184,6 +159,11 @@ class BlockVerlet:
         return u, v
 
     def _accelerate(self, u):
+        if self.runs == 1:
+            self.u1.getArray()[:] = u[:, 0]
+            self.D.mult(self.u1, self.du1)
+            np.multiply(self.du1.getArray()[:, None], -self.minv, out=self.acc)
+            return
         self.U.getDenseArray()[:] = u
         self.D.matMult(self.U, self.DU)
         np.multiply(self.DU.getDenseArray(), -self.minv, out=self.acc)
@@ -202,7 +182,7 @@ class BlockVerlet:
 
     def destroy(self, ts=None):
         """Called by TS when it is destroyed."""
-        for m in (self.U, self.V, self.DU):
+        for m in (self.U, self.V, self.DU, self.u1, self.du1):
             m.destroy()
 
 
@@ -296,9 +276,13 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
     """Integrate one standing wave; return its samples. Collective.
 
     Raises StabilityError on every rank if the energy stops being finite or grows 10x.
+    Verlet runs go through :func:`integrate_block` with a block of one.
     """
     from petsc4py import PETSc
 
+    if integrator == "verlet":
+        return integrate_block(dm, positions, [(mode, direction, k)], amplitude=amplitude, dt=dt,
+                               t_end=t_end, sample_every=sample_every)[0]
     comm = dm.D.getComm()
     mpi = comm.tompi4py()
     component, axis = EXCITATIONS[mode][direction]
@@ -372,13 +356,9 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
         X.setArray(np.concatenate((np.zeros(len(v0)), v0)))
         ts.setRHSFunction(PETSc.TS.computeRHSFunctionLinear, X.duplicate())
         ts.setRHSJacobian(PETSc.TS.computeRHSJacobianConstant, jacobian, jacobian)
-        if integrator == "verlet":
-            ts.setType(PETSc.TS.Type.PYTHON)
-            ts.setPythonContext(VelocityVerlet(dm.D, minv, comm))
-        else:
-            ts.setType(integrator)
-            if integrator == "rk":
-                ts.setRKType("4")  # classical RK4; -ts_rk_type wins
+        ts.setType(integrator)
+        if integrator == "rk":
+            ts.setRKType("4")  # classical RK4; -ts_rk_type wins
         ts.setSolution(X)
         state = X
         views = _Views(minv, comm)

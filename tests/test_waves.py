@@ -132,7 +132,7 @@ def test_vaf_and_spectrum_of_damped_cosine():
     assert abs(width - 2 * gamma) < 0.2 * 2 * gamma  # Lorentzian full width 2 gamma
 
 
-def test_block_verlet_equals_single_runs(comm, packing64):
+def test_block_verlet_equals_blocks_of_one(comm, packing64):
     dm = dynmat.assemble(packing64, 1.0, comm)
     L = packing64.box_length
     batch = [(mode, d, 2 * np.pi * n / L) for mode in ("L", "RT") for d in (0, 1) for n in (1, 3)]
