@@ -1,6 +1,6 @@
 """Command line: ``python -m solver {run,plot,keys} ...`` (also installed as ``rotsound``).
 
-    rotsound run SCENE.yaml [--set key.path=value ...] [-petsc_option value ...]
+    rotsound run SCENE.yaml [--set key.path=value ...] [--fresh] [-petsc_option value ...]
     rotsound plot RESULTS.h5|SCENE.yaml [MORE.h5 ...]
     rotsound keys                      # the scene reference as a Markdown table
 
@@ -16,9 +16,10 @@ import sys
 import traceback
 
 from . import config, petscopts
-from .errors import InputError
+from .errors import InputError, Interrupted
 
 EXIT_INPUT = 2
+EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports a job ended by SIGTERM
 
 
 class _ArgumentError(InputError):
@@ -39,6 +40,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("scene", help="scene YAML file")
     run.add_argument("--set", action="append", default=[], metavar="KEY.PATH=VALUE",
                      help="override a scene key (value parsed as YAML); repeatable")
+    run.add_argument("--fresh", action="store_true",
+                     help="discard the output file and its finished units first (no resume)")
     plot = sub.add_parser("plot", help="figures from a results file (PNG and PDF beside it)")
     plot.add_argument("results", nargs="+", help="results .h5 file(s), or scene(s) whose output to plot; "
                                                  "with several, also an overlay of their vDOS (Fig. S1)")
@@ -63,13 +66,15 @@ def load_scene(path: str, assignments: list[str], comm) -> config.Scene:
 
 
 def _run(args, petsc_words, comm) -> None:
-    from . import petscenv, pipeline
+    from . import petscenv
 
     scene = load_scene(args.scene, args.set, comm)
     yaml_words = petscopts.to_argv(petscopts.flatten(scene.petsc))
     argv = yaml_words + petsc_words  # later words win: the command line beats the scene
     petscenv.init(argv)
-    pipeline.run(scene, comm, argv)
+    from . import pipeline
+
+    pipeline.run(scene, comm, argv, fresh=args.fresh)
 
 
 def _plot(args) -> None:
@@ -112,6 +117,11 @@ def main(argv: list[str] | None = None) -> int:
         if comm is None or comm.rank == 0:
             print(f"rotsound: error: {exc}", file=sys.stderr, flush=True)
         return EXIT_INPUT
+    except Interrupted:
+        if comm.rank == 0:
+            print("rotsound: stopped by SIGTERM after the unit in flight; finished units are kept: "
+                  "run the same command again to resume", file=sys.stderr, flush=True)
+        return EXIT_TERMINATED
     except Exception:  # noqa: BLE001 - anything else: report and take every rank down
         traceback.print_exc()
         sys.stderr.flush()

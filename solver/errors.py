@@ -1,5 +1,9 @@
-"""The one exception type for bad user input (scene, files, command line): exit code 2."""
+"""Exceptions the command line turns into exit codes: bad input (2), SIGTERM (143)."""
 
 
 class InputError(Exception):
     """A user error: message names the key or file, the value and what is allowed."""
+
+
+class Interrupted(RuntimeError):
+    """SIGTERM arrived; the unit in flight was finished and finished units are kept."""

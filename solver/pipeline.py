@@ -1,17 +1,37 @@
-"""Run a scene: packings -> dynamical matrices (-> later stages). Collective on ``comm``.
+"""Run a scene: packings -> dynamical matrices -> spectra / waves -> results file. Collective.
 
-The only module that knows stage order.  Stages run only for what the scene asks.
+The only module that knows stage order.  Stages run only for what the scene asks.  Every unit
+(packing i; matrix, spectrum and each mode's waves of (rho, i)) is committed to the unit store
+as soon as it is finished; a rerun loads finished units instead of recomputing them, and a
+matrix is assembled only if one of its units is missing.  SIGTERM (a batch system's warning)
+is honoured at the next unit boundary, on every rank together.
 """
 
 from __future__ import annotations
 
+import signal
 import time
 
 import numpy as np
 
 from . import __version__, correlations, dynmat, h5io, kpm, modes, packing, parallel, petscopts, spectrum, waves
-from .errors import InputError
 from .config import Scene
+from .errors import InputError, Interrupted
+from .units import UnitStore, packing_from_unit, packing_unit
+
+_TERMINATE = [False]
+
+
+def _on_sigterm(signum, frame):  # noqa: ARG001 - signal handler signature
+    _TERMINATE[0] = True
+
+
+def check_interrupt(comm) -> None:
+    """Raise Interrupted on every rank if any rank received SIGTERM. Collective."""
+    from mpi4py import MPI
+
+    if comm.allreduce(_TERMINATE[0], op=MPI.LOR):
+        raise Interrupted("SIGTERM received")
 
 
 def say(comm, message: str) -> None:
@@ -20,21 +40,58 @@ def say(comm, message: str) -> None:
         print(message, flush=True)
 
 
-def make_packings(scene: Scene, comm) -> list[packing.Packing]:
+def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[packing.Packing]:
     """Read ``packing.file`` or generate ``packing.count`` configurations. Collective.
 
     Generation is spread over ranks (configuration i on rank i % size, seeded by
-    SeedSequence([seed, i])), so the result does not depend on the number of ranks.
+    SeedSequence([seed, i])), so the result does not depend on the number of ranks.  Generated
+    packings already in ``store`` are loaded; new ones are committed to it.
     """
     spec = scene.packing
     if spec.file is not None:
         return parallel.owner_compute(comm, [0], lambda _: h5io.read_packings(spec.file, spec.count))[0]
-    seeds = [parallel.seed_sequence(scene.seed, i) for i in range(spec.count or 1)]
-    return parallel.owner_compute(
-        comm, seeds, lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps))
+    count = spec.count or 1
+    found = [store.load(f"packings/{i:04d}") if store else None for i in range(count)]
+    missing = [i for i in range(count) if found[i] is None]
+    made = parallel.owner_compute(
+        comm, [parallel.seed_sequence(scene.seed, i) for i in missing],
+        lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps))
+    for i, p in zip(missing, made):
+        if store:
+            store.save(f"packings/{i:04d}", *packing_unit(p))
+    by_index = dict(zip(missing, made))
+    return [by_index[i] if found[i] is None else packing_from_unit(found[i]) for i in range(count)]
 
 
-def _kpm_unit(scene, dm, rho, r_index, p_index, units, comm):
+def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm) -> None:
+    """Assemble the matrix of (rho, p) and compute the units of ``found`` that are None."""
+    from petsc4py import PETSc
+
+    t = time.perf_counter()
+    dm = dynmat.assemble(p, rho, PETSc.COMM_WORLD)
+    seconds = parallel.global_max(comm, time.perf_counter() - t)
+    nnz = int(dm.D.getInfo()["nz_used"])  # PETSc's default is the global sum
+    say(comm, f"matrix rho = {rho:g}, packing {p_index}: {dm.size} DOF "
+              f"({dm.dof} per disk), {nnz} non-zeros, assembled in {seconds:.3f} s")
+    try:
+        wave_todo = [m for m in (scene.waves.modes if scene.waves else [])
+                     if found.get(f"waves/r{r_index:02d}_{m}_p{p_index:04d}", 0) is None]
+        stability = _check_time_step(scene.waves, dm, rho) if wave_todo else None
+        if found[f"matrices/{tag}"] is None:
+            commit(f"matrices/{tag}", {}, {
+                "rho": rho, "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
+                "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
+        if scene.spectrum is not None and found[f"spectra/{tag}"] is None:
+            check_interrupt(comm)
+            unit = _kpm_unit if scene.spectrum.method == "kpm" else _spectrum_unit
+            unit(scene, dm, rho, r_index, p_index, commit, comm)
+        if wave_todo:
+            _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, wave_todo)
+    finally:
+        dm.destroy()
+
+
+def _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm):
     """Stochastic vDOS of one (rho, packing) into ``units``; return (edges, density, omega_max)."""
     spec = scene.spectrum
     t = time.perf_counter()
@@ -43,7 +100,7 @@ def _kpm_unit(scene, dm, rho, r_index, p_index, units, comm):
     n_moments = spec.moments or kpm.auto_moments(omega_max**2, spec.bin_width)
     density = kpm.vdos(dm, edges, omega_max**2, n_moments, spec.probes, scene.seed + p_index)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
-    units[f"spectra/r{r_index:02d}_p{p_index:04d}"] = ({"edges": edges, "density": density}, {
+    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", {"edges": edges, "density": density}, {
         "rho": rho, "packing": p_index, "method": "kpm", "moments": n_moments, "probes": spec.probes,
         "omega_max": omega_max, "n_zero_modes": 2, "dof": dm.size, "n_disks": int(dm.active.sum()),
         "seconds": seconds})
@@ -52,7 +109,7 @@ def _kpm_unit(scene, dm, rho, r_index, p_index, units, comm):
     return edges, density, omega_max
 
 
-def _spectrum_unit(scene, dm, rho, r_index, p_index, units, comm) -> np.ndarray:
+def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm) -> np.ndarray:
     """Solve one (rho, packing) spectrum into ``units``; return its omega. Collective."""
     spec = scene.spectrum
     t = time.perf_counter()
@@ -63,7 +120,7 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, units, comm) -> np.ndarray:
     datasets = {"omega": result.omega}
     if result.energies is not None:
         datasets.update(result.energies)
-    units[f"spectra/r{r_index:02d}_p{p_index:04d}"] = (datasets, {
+    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", datasets, {
         "rho": rho, "packing": p_index, "n_zero_modes": result.n_zero_modes,
         "n_negative_modes": result.n_negative, "max_relative_residual": result.max_residual,
         "inertia_count": result.inertia_count, "windows": result.windows, "seconds": seconds,
@@ -113,7 +170,12 @@ def _check_time_step(spec, dm, rho) -> tuple[str, float, float | None]:
     return integrator, omega_max, limit
 
 
-def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm, stability) -> None:
+def wave_modes(spec, dof: int) -> list[str]:
+    """Modes that exist for this matrix (no RT without rotations, i.e. at rho = 0)."""
+    return [m for m in spec.modes if not (m == "RT" and dof == 2)]
+
+
+def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, todo) -> None:
     """Integrate every (mode, direction, k) of one (rho, packing) into ``units``. Collective."""
     spec = scene.waves
     ns, ks = wave_numbers(spec, p.box_length)
@@ -121,10 +183,8 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm, stability) -> 
     if spec.kd0 is not None:
         say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks)} (n = {', '.join(map(str, ns))}, "
                   f"L = {p.box_length:.3f})")
-    for mode in spec.modes:
-        if mode == "RT" and dm.dof == 2:
-            say(comm, f"waves rho = 0: RT skipped (frictionless disks have no rotational stiffness)")
-            continue
+    for mode in todo:
+        check_interrupt(comm)
         t0 = time.perf_counter()
         if integrator == "verlet":  # all directions and k at once: one MatMatMult per step
             flat = waves.integrate_block(dm, p.positions, [(mode, d, k) for d in range(2) for k in ks],
@@ -144,7 +204,7 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, units, comm, stability) -> 
         omega, _ = correlations.power_spectrum(z[:, 0], t[1] - t[0])
         power = np.array([correlations.power_spectrum(z[:, i], t[1] - t[0])[1] for i in range(len(ks))])
         drift = np.abs(energy - energy[..., :1]).max(axis=2) / energy[..., 0]
-        units[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = (
+        commit(f"waves/r{r_index:02d}_{mode}_p{p_index:04d}",
             {"k": ks, "n": ns, "t": t, "C": vaf, "omega": omega, "S": power, "z": z, "z_fixed": z_fixed,
              "energy_drift": drift},
             {"rho": rho, "mode": mode, "packing": p_index, "dt": spec.dt, "integrator": integrator,
@@ -178,58 +238,76 @@ def _vdos_unit(scene, rho, r_index, omegas, units, comm) -> None:
     say(comm, f"vDOS rho = {rho:g}: omega_c = {omega_c:.4f} +- {spread:.4f} over {len(omegas)} configurations")
 
 
-def run(scene: Scene, comm, petsc_argv: list[str]) -> dict:
-    """Execute ``scene`` on ``comm`` (mpi4py communicator); return a summary. Collective."""
+def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
+    """Execute ``scene`` on ``comm`` (mpi4py communicator); return a summary. Collective.
+
+    ``fresh`` discards the output file and its finished units first.
+    """
     from petsc4py import PETSc
 
     t0 = time.perf_counter()
-    packings = make_packings(scene, comm)
-    for index, p in enumerate(packings):
-        i = p.info
-        say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
-                  f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
-                  f"rattlers = {100 * i['rattler_fraction']:.2f} %"
-                  + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
-    units = {}
-    for r_index, rho in enumerate(scene.model.rho):
-        per_config = []  # omega arrays (slicing) or (edges, density, omega_max) (kpm)
-        for p_index, p in enumerate(packings):
-            t = time.perf_counter()
-            dm = dynmat.assemble(p, rho, PETSc.COMM_WORLD)
-            seconds = parallel.global_max(comm, time.perf_counter() - t)
-            nnz = int(dm.D.getInfo()["nz_used"])  # PETSc's default is the global sum
-            say(comm, f"matrix rho = {rho:g}, packing {p_index}: {dm.size} DOF "
-                      f"({dm.dof} per disk), {nnz} non-zeros, assembled in {seconds:.3f} s")
-            units[f"matrices/r{r_index:02d}_p{p_index:04d}"] = ({}, {
-                "rho": rho, "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
-                "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
-            stability = _check_time_step(scene.waves, dm, rho) if scene.waves is not None else None
-            if scene.spectrum is not None and scene.spectrum.method == "kpm":
-                per_config.append(_kpm_unit(scene, dm, rho, r_index, p_index, units, comm))
-            elif scene.spectrum is not None:
-                per_config.append(_spectrum_unit(scene, dm, rho, r_index, p_index, units, comm))
-            if scene.waves is not None:
-                _wave_units(scene, dm, p, rho, r_index, p_index, units, comm, stability)
-            dm.destroy()
-        if per_config:
-            _vdos_unit(scene, rho, r_index, per_config, units, comm)
-    names = petscopts.option_names(petsc_argv)
-    unused = parallel.owner_compute(comm, [0], lambda _: petscopts.unused(names))[0]
-    for name in unused:
-        say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
-                  f"stage this scene does not run)")
-    provenance = {
-        "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
-        "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
-        "ranks": comm.size, "petsc_options": petscopts.snapshot(), "petsc_options_unused": unused,
-    }
-    error = None
-    if comm.rank == 0:
-        try:
-            h5io.write_results(scene.output, provenance, packings, units)
-        except OSError as exc:
-            error = exc
-    parallel.agree(comm, error)
-    say(comm, f"wrote {scene.output} ({len(packings)} packings, {len(units)} result groups) "
-              f"in {time.perf_counter() - t0:.1f} s")
-    return {"packings": packings, "units": units}
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh)
+        packings = make_packings(scene, comm, store)
+        units: dict[str, tuple[dict, dict]] = {}
+
+        def commit(name, datasets, attrs):
+            units[name] = (datasets, attrs)
+            store.save(name, datasets, attrs)
+
+        for index, p in enumerate(packings):
+            i = p.info
+            say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
+                      f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
+                      f"rattlers = {100 * i['rattler_fraction']:.2f} %"
+                      + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
+        reused = 0
+        for r_index, rho in enumerate(scene.model.rho):
+            per_config = []  # omega arrays (slicing) or (edges, density, omega_max) (kpm)
+            for p_index, p in enumerate(packings):
+                check_interrupt(comm)
+                tag = f"r{r_index:02d}_p{p_index:04d}"
+                dof = 3 if rho > 0 else 2
+                names = [f"matrices/{tag}"] + ([f"spectra/{tag}"] if scene.spectrum else [])
+                modes_here = wave_modes(scene.waves, dof) if scene.waves else []
+                if scene.waves and len(modes_here) < len(scene.waves.modes):
+                    say(comm, f"waves rho = {rho:g}: RT skipped (no rotational stiffness at rho = 0)")
+                names += [f"waves/r{r_index:02d}_{m}_p{p_index:04d}" for m in modes_here]
+                found = {name: store.load(name) for name in names}
+                for name, unit in found.items():
+                    if unit is not None:
+                        units[name] = unit
+                        reused += 1
+                if any(unit is None for unit in found.values()):
+                    _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm)
+                if scene.spectrum is not None:
+                    datasets, attrs = units[f"spectra/{tag}"]
+                    per_config.append((datasets["edges"], datasets["density"], float(attrs["omega_max"]))
+                                      if "density" in datasets else datasets["omega"])
+            if per_config:
+                _vdos_unit(scene, rho, r_index, per_config, units, comm)
+        if reused:
+            say(comm, f"resumed: {reused} finished units loaded from {store.folder}")
+        names = petscopts.option_names(petsc_argv)
+        unused = parallel.owner_compute(comm, [0], lambda _: petscopts.unused(names))[0]
+        for name in unused:
+            say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
+                      f"stage this scene does not run)")
+        provenance = {
+            "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
+            "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
+            "ranks": comm.size, "petsc_options": petscopts.snapshot(), "petsc_options_unused": unused,
+        }
+        error = None
+        if comm.rank == 0:
+            try:
+                h5io.write_results(scene.output, provenance, packings, units)
+            except OSError as exc:
+                error = exc
+        parallel.agree(comm, error)
+        say(comm, f"wrote {scene.output} ({len(packings)} packings, {len(units)} result groups) "
+                  f"in {time.perf_counter() - t0:.1f} s")
+        return {"packings": packings, "units": units}
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -1,0 +1,133 @@
+"""Resume after a kill: finished units are kept, the rerun's file equals an uninterrupted run's."""
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+from conftest import REPO, mpirun, run_cli
+
+pytestmark = pytest.mark.serial_only  # these tests launch and kill their own mpirun jobs
+
+SCENE = """\
+output: {out}
+seed: 5
+packing: {{n: 64, phi: 0.9, count: 2}}
+model: {{rho: [0.5, 1.0]}}
+spectrum: {{energies: true}}
+waves: {{n: [1, 2], t_end: 150, dt: 0.02}}
+"""
+TIMING = {"seconds", "assembly_seconds"}
+
+
+def scene(tmp_path, name):
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(SCENE.format(out=tmp_path / f"{name}.h5"))
+    return str(path), tmp_path / f"{name}.h5"
+
+
+def contents(path):
+    """{object path: (datasets or attrs without timings)} of a results file."""
+    out = {}
+
+    def visit(name, obj):
+        attrs = {k: v for k, v in obj.attrs.items() if k not in TIMING}
+        out[name + "@attrs"] = attrs
+        if isinstance(obj, h5py.Dataset):
+            out[name] = obj[()]
+    with h5py.File(path) as f:
+        f.visititems(visit)
+    return out
+
+
+def assert_same(a, b):
+    ca, cb = contents(a), contents(b)
+    assert sorted(ca) == sorted(cb)
+    for key, value in ca.items():
+        if key.endswith("@attrs"):
+            assert value.keys() == cb[key].keys(), key
+            for k in value:
+                assert np.array_equal(np.asarray(value[k]), np.asarray(cb[key][k])), (key, k)
+        else:
+            assert np.array_equal(value, cb[key]), key
+
+
+def start(scene_path):
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX_"))}
+    return subprocess.Popen(mpirun(2) + [sys.executable, "-m", "solver", "run", scene_path], cwd=REPO,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            start_new_session=True)
+
+
+def wait_for_units(out, count, proc, timeout=120):
+    folder = str(out) + ".units"
+    deadline = time.time() + timeout
+    while time.time() < deadline and proc.poll() is None:
+        if os.path.isdir(folder) and sum(f.endswith(".h5") for f in os.listdir(folder)) >= count:
+            return
+        time.sleep(0.05)
+    raise AssertionError("the run finished or stalled before the kill")
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    path, out = scene(tmp_path_factory.mktemp("ref"), "ref")
+    proc = run_cli(["run", path], ranks=2, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+def test_kill_9_then_resume_equals_uninterrupted(tmp_path, reference):
+    path, out = scene(tmp_path, "killed")
+    proc = start(path)
+    wait_for_units(out, 3, proc)
+    time.sleep(random.uniform(0.0, 1.0))  # a random moment
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert not out.exists()
+    rerun = run_cli(["run", path], ranks=2, timeout=300)
+    assert rerun.returncode == 0, rerun.stderr
+    assert "resumed:" in rerun.stdout
+    assert_same(out, reference)
+
+
+def test_sigterm_stops_cleanly_and_resumes(tmp_path, reference):
+    path, out = scene(tmp_path, "termed")
+    proc = start(path)
+    wait_for_units(out, 3, proc)
+    os.killpg(proc.pid, signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode != 0
+    assert "stopped by SIGTERM" in err and "Traceback" not in err
+    rerun = run_cli(["run", path], ranks=2, timeout=300)
+    assert rerun.returncode == 0, rerun.stderr
+    assert_same(out, reference)
+
+
+def test_damaged_unit_is_recomputed(tmp_path, reference):
+    path, out = scene(tmp_path, "damaged")
+    assert run_cli(["run", path], ranks=2, timeout=300).returncode == 0
+    unit = sorted(p for p in os.listdir(str(out) + ".units") if p.startswith("spectra"))[0]
+    with open(os.path.join(str(out) + ".units", unit), "r+b") as f:
+        f.truncate(100)
+    out.unlink()
+    rerun = run_cli(["run", path], ranks=2, timeout=300)
+    assert rerun.returncode == 0, rerun.stderr
+    assert_same(out, reference)
+
+
+def test_different_scene_same_output_is_refused(tmp_path, reference):
+    path, out = scene(tmp_path, "first")
+    assert run_cli(["run", path]).returncode == 0
+    other = tmp_path / "other.yaml"
+    other.write_text(SCENE.format(out=out).replace("seed: 5", "seed: 6"))
+    proc = run_cli(["run", str(other)], ranks=2)
+    assert proc.returncode == 2 and "different scene" in proc.stderr and "--fresh" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
+    fresh = run_cli(["run", str(other), "--fresh"], ranks=2)
+    assert fresh.returncode == 0 and "resumed" not in fresh.stdout, fresh.stderr
