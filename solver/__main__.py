@@ -91,6 +91,16 @@ def _plot(args) -> None:
         print(f"wrote {path}")
 
 
+def _launcher_rank() -> int:
+    """This process's rank as mpirun/mpiexec announce it, for errors raised before MPI starts."""
+    import os
+
+    for var in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
+        if var in os.environ:
+            return int(os.environ[var])
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     words = sys.argv[1:] if argv is None else argv
     ours, petsc_words = petscopts.split_argv(words)
@@ -114,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
         _run(args, petsc_words, comm)
         return 0
     except InputError as exc:
-        if comm is None or comm.rank == 0:
+        if (comm.rank if comm is not None else _launcher_rank()) == 0:
             print(f"rotsound: error: {exc}", file=sys.stderr, flush=True)
         return EXIT_INPUT
     except Interrupted:

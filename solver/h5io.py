@@ -21,6 +21,7 @@ from .errors import InputError
 from .packing import Packing, from_arrays
 
 FORMAT_VERSION = 1
+EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force accepted on a loaded packing (FIRE reaches 1e-6)
 
 
 def _open(path: str):
@@ -64,7 +65,26 @@ def _read_one(group, where: str) -> Packing:
     packing = from_arrays(positions, diameters, box_length, rattler, {"source": where})
     if packing.rattler.all():
         fail("no disk has 3 or more contacts (not a jammed packing: all disks are rattlers)")
+    residual = net_force(packing)
+    if residual > EQUILIBRIUM_TOL:
+        fail(f"not in mechanical equilibrium: the largest net contact force on a non-rattler is "
+             f"{residual:.3e} kn d0 > {EQUILIBRIUM_TOL:g} (the dynamical matrix needs an energy "
+             f"minimum; minimise the packing first)")
     return packing
+
+
+def net_force(packing: Packing) -> float:
+    """Largest net normal contact force on a non-rattler disk (units kn d0)."""
+    from . import contacts
+
+    active = ~packing.rattler
+    found = contacts.find_contacts(packing.positions, packing.diameters, packing.box_length, active)
+    f = found.overlap[:, None] * found.normal
+    net = np.zeros((packing.n, 2))
+    for axis in range(2):
+        net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
+                        - np.bincount(found.j, f[:, axis], minlength=packing.n))
+    return float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
 
 
 def read_packings(paths: str | list[str], count: int | None = None) -> list[Packing]:

@@ -54,45 +54,6 @@ def test_results_do_not_depend_on_rank_count(tmp_path):
         assert files[0][f"matrices/{name}"].attrs["nnz"] == files[1][f"matrices/{name}"].attrs["nnz"]
 
 
-BAD = [
-    ("packing: {n: 64, phi: 1.5}\n", "packing.phi = 1.5: must be in (0.0, 1.0)"),
-    ("packing: {n: 64, phi: 0.9}\nmodel: {rho: -0.5}\n", "model.rho = -0.5"),
-    ("packing: {n: 64, phi: 0.9, colour: red}\n", "unknown key packing.colour"),
-    ("packing: {n: 64, phi: 0.9\n", "invalid YAML"),
-    ("packing: {file: nowhere.h5}\n", "packing file nowhere.h5: not found"),
-    ("packing: {n: 64, phi: 0.9}\nmodel: {rho: 1}\nwaves: {n: [1], dt: 0.5}\n",
-     "waves.dt = 0.5: above the stability limit"),
-    ("packing: {n: 64, phi: 0.9}\nwaves: {n: [100]}\n", "waves.n = 100"),
-    ("packing: {n: 64, phi: 0.9}\npetsc: {eps: {tol: {1: [x]}}}\n", None),
-]
-
-
-@pytest.mark.parametrize("ranks", [1, 2])
-@pytest.mark.parametrize("text, message", [b for b in BAD if b[1]])
-def test_bad_scene_exits_2_with_one_message(tmp_path, ranks, text, message):
-    out = tmp_path / "never.h5"
-    proc = run_cli(["run", write(tmp_path, f"output: {out}\n" + text)], ranks, timeout=60)
-    assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
-    assert message in proc.stderr
-    assert proc.stderr.count("rotsound: error:") == 1
-    assert "Traceback" not in proc.stderr + proc.stdout
-    assert not out.exists()
-
-
-@pytest.mark.parametrize("args, message", [
-    (["run"], "the following arguments are required: scene"),
-    (["run", "missing.yaml"], "scene file missing.yaml: not found"),
-    (["frobnicate"], "invalid choice"),
-    (["run", "configs/quick.yaml", "--set", "packing.n"], "key.path=value"),
-    (["plot", "missing.h5"], "results file missing.h5: not found"),
-    (["keys", "-eps_type", "x"], "only apply to 'run'"),
-])
-def test_bad_command_lines(args, message):
-    proc = run_cli(args)
-    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
-    assert "Traceback" not in proc.stderr
-
-
 def test_plot_overlays_several_results(tmp_path):
     outs = []
     for phi in (0.86, 0.92):

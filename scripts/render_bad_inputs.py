@@ -1,0 +1,39 @@
+"""Render the bad-input catalogue (tests/bad_inputs.py) into README.md with the real messages.
+
+    .venv/bin/python scripts/render_bad_inputs.py
+Runs every case once (1 process) and replaces the text between the README markers
+<!-- bad-inputs --> and <!-- /bad-inputs -->.
+"""
+
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+
+from bad_inputs import CASES  # noqa: E402
+from conftest import run_cli  # noqa: E402
+from test_bad_inputs import materialise  # noqa: E402
+
+
+def main() -> None:
+    rows = ["| # | bad input | what the user sees (stderr, exit code 2) |", "|---|---|---|"]
+    for number, case in enumerate(CASES, 1):
+        with tempfile.TemporaryDirectory() as tmp:
+            args, _ = materialise(Path(tmp), case)
+            proc = run_cli(args, cwd=tmp)
+            message = proc.stderr.strip().splitlines()[0] if proc.stderr.strip() else "(none)"
+            message = message.replace(tmp, "DIR")
+        assert proc.returncode == 2, (case[0], proc.returncode)
+        rows.append(f"| {number} | {case[0]} | `{message.replace('|', '/')}` |")
+    readme = (REPO / "README.md").read_text()
+    block = "<!-- bad-inputs -->\n" + "\n".join(rows) + "\n<!-- /bad-inputs -->"
+    readme = re.sub(r"<!-- bad-inputs -->.*<!-- /bad-inputs -->", lambda _: block, readme, flags=re.S)
+    (REPO / "README.md").write_text(readme)
+    print(f"{len(CASES)} rows written to README.md")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,116 @@
+"""The catalogue of bad inputs: one row per case, used by tests/test_bad_inputs.py and rendered
+into the README by scripts/render_bad_inputs.py (with the message the program really prints).
+
+A case is (what, scene text or None, extra command-line words, expected message fragment,
+file maker or None).  ``{out}`` in a scene is the output path, ``{file}`` the made packing file.
+"""
+
+import h5py
+import numpy as np
+
+GOOD = "packing: {n: 64, phi: 0.9}\n"
+
+
+def _valid(path, **changes):
+    from solver import packing
+
+    p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
+    data = {"positions": p.positions, "diameters": p.diameters, "box_length": p.box_length}
+    data.update(changes)
+    with h5py.File(path, "w") as f:
+        for key in ("positions", "diameters"):
+            if data[key] is not None:
+                f[key] = data[key]
+        if data["box_length"] is not None:
+            f.attrs["box_length"] = data["box_length"]
+
+
+def _truncated(path):
+    _valid(path)
+    with open(path, "r+b") as f:
+        f.truncate(800)
+
+
+def _garbage(path):
+    with open(path, "wb") as f:
+        f.write(b"not an HDF5 file at all")
+
+
+def _spread(path):
+    from solver import packing
+
+    p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
+    _valid(path, positions=3 * p.positions, box_length=3 * p.box_length)
+
+
+def _nan(path):
+    _valid(path)
+    with h5py.File(path, "r+") as f:
+        f["positions"][3, 0] = np.nan
+
+
+CASES = [
+    # --- YAML and scene keys
+    ("YAML syntax error", "packing: {n: 64, phi: 0.9\n", [], "invalid YAML", None),
+    ("top level is not a mapping", "- 1\n- 2\n", [], "top level must be a mapping", None),
+    ("empty scene", "", [], "packing.n is missing", None),
+    ("unknown top-level key", GOOD + "outptu: x.h5\n", [], "unknown key outptu", None),
+    ("unknown nested key", "packing: {n: 64, phi: 0.9, size: 3}\n", [], "unknown key packing.size", None),
+    ("N not an integer", "packing: {n: many, phi: 0.9}\n", [], "packing.n = 'many': must be an integer", None),
+    ("N a boolean", "packing: {n: true, phi: 0.9}\n", [], "packing.n = True: must be an integer", None),
+    ("N odd", "packing: {n: 63, phi: 0.9}\n", [], "packing.n = 63: must be an even integer >= 16", None),
+    ("N too small for the box", "packing: {n: 8, phi: 0.9}\n", [], "packing.n = 8: must be an even integer >= 16", None),
+    ("phi <= 0", "packing: {n: 64, phi: 0}\n", [], "packing.phi = 0: must be in (0.0, 1.0)", None),
+    ("phi >= 1", "packing: {n: 64, phi: 1.2}\n", [], "packing.phi = 1.2: must be in (0.0, 1.0)", None),
+    ("phi not a number", "packing: {n: 64, phi: dense}\n", [], "packing.phi = 'dense': must be a number", None),
+    ("n given without phi", "packing: {n: 64}\n", [], "packing.phi is missing", None),
+    ("count 0", "packing: {n: 64, phi: 0.9, count: 0}\n", [], "packing.count = 0", None),
+    ("force tolerance 0", "packing: {n: 64, phi: 0.9, force_tol: 0}\n", [], "packing.force_tol = 0", None),
+    ("negative rho", GOOD + "model: {rho: -0.5}\n", [], "model.rho = -0.5: must be in [0.0", None),
+    ("rho list with a word", GOOD + "model: {rho: [1, high]}\n", [], "model.rho = 'high': must be a number", None),
+    ("empty rho list", GOOD + "model: {rho: []}\n", [], "model.rho = []: must not be empty", None),
+    ("negative seed", GOOD + "seed: -1\n", [], "seed = -1", None),
+    ("output not HDF5", GOOD + "output: results.txt\n", [], "output = 'results.txt': must end in .h5", None),
+    ("spectrum window reversed", GOOD + "spectrum: {window: [4, 2]}\n", [], "spectrum.window", None),
+    ("unknown spectrum method", GOOD + "spectrum: {method: lanczos}\n", [], "spectrum.method = 'lanczos'", None),
+    ("KPM with energies", GOOD + "spectrum: {method: kpm, energies: true}\n", [], "need method 'slicing'", None),
+    ("energies not a boolean", GOOD + "spectrum: {energies: maybe}\n", [], "spectrum.energies = 'maybe'", None),
+    ("empty mode list", GOOD + "waves: {modes: [], n: [1]}\n", [], "waves.modes = []", None),
+    ("unknown mode", GOOD + "waves: {modes: [L, SH], n: [1]}\n", [], "from L, TR, RT", None),
+    ("both n and kd0", GOOD + "waves: {n: [1], kd0: [1.0]}\n", [], "give exactly one of them", None),
+    ("neither n nor kd0", GOOD + "waves: {modes: [L]}\n", [], "give exactly one of them", None),
+    ("wave number n = 0", GOOD + "waves: {n: [0]}\n", [], "waves.n = [0]", None),
+    ("k outside the Brillouin zone", GOOD + "waves: {kd0: [7.0]}\n", [], "waves.kd0 = [7.0]", None),
+    ("k not fitting the box", GOOD + "waves: {n: [40]}\n", [], "waves.n = 40: k d0", None),
+    ("dt above the stability limit", GOOD + "model: {rho: 1}\nwaves: {n: [1], dt: 0.5}\n", [],
+     "waves.dt = 0.5: above the stability limit", None),
+    ("unknown integrator", GOOD + "waves: {n: [1], integrator: leapfrog}\n", [], "waves.integrator = 'leapfrog'", None),
+    ("too few samples", GOOD + "waves: {n: [1], t_end: 1, sample_every: 50}\n", [], "fewer than 4 samples", None),
+    ("PETSc value of an odd type", GOOD + "petsc: {eps_tol: 2024-01-01}\n", [], "petsc.eps_tol", None),
+    # --- HDF5 packing files
+    ("packing file missing", "packing: {file: nowhere.h5}\n", [], "packing file nowhere.h5: not found", None),
+    ("packing file not HDF5", "packing: {file: '{file}'}\n", [], "not a readable HDF5 file", _garbage),
+    ("packing file truncated", "packing: {file: '{file}'}\n", [], "not a readable HDF5 file", _truncated),
+    ("positions missing", "packing: {file: '{file}'}\n", [], "no 'positions' dataset",
+     lambda p: _valid(p, positions=None)),
+    ("box_length missing", "packing: {file: '{file}'}\n", [], "attribute 'box_length' is missing",
+     lambda p: _valid(p, box_length=None)),
+    ("positions of the wrong shape", "packing: {file: '{file}'}\n", [], "'positions' has shape (64, 3)",
+     lambda p: _valid(p, positions=np.zeros((64, 3)))),
+    ("NaN positions", "packing: {file: '{file}'}\n", [], "'positions' contains NaN", _nan),
+    ("negative diameters", "packing: {file: '{file}'}\n", [], "'diameters' must be finite and > 0",
+     lambda p: _valid(p, diameters=-np.ones(64))),
+    ("box smaller than two diameters", "packing: {file: '{file}'}\n", [], "must be finite and > 2 max(diameters)",
+     lambda p: _valid(p, box_length=2.0)),
+    ("no contacts (not jammed)", "packing: {file: '{file}'}\n", [], "all disks are rattlers", _spread),
+    ("not in mechanical equilibrium", "packing: {file: '{file}'}\n", [], "not in mechanical equilibrium",
+     lambda p: _valid(p, box_length=100.0)),
+    ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],
+     "the file(s) hold only 1 configurations", _valid),
+    # --- command line
+    ("no scene given", None, ["run"], "the following arguments are required: scene", None),
+    ("scene file missing", None, ["run", "missing.yaml"], "scene file missing.yaml: not found", None),
+    ("unknown command", None, ["frobnicate"], "invalid choice: 'frobnicate'", None),
+    ("--set without =", GOOD, ["--set", "packing.n"], "must look like key.path=value", None),
+    ("--set to a bad value", GOOD, ["--set", "packing.phi=2"], "packing.phi = 2: must be in (0.0, 1.0)", None),
+]
