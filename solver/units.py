@@ -74,6 +74,9 @@ class UnitStore:
                         found = ({k: f[k][()] for k in f}, {k: v for k, v in f.attrs.items() if k != "complete"})
             except OSError:
                 found = None
+            if found is None:
+                print(f"rotsound: warning: unit file {self._path(name)} is damaged or incomplete: "
+                      f"recomputing it", flush=True)
         return self.comm.bcast(found, root=0)
 
     def save(self, name: str, datasets: dict, attrs: dict) -> None:

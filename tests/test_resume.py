@@ -118,6 +118,7 @@ def test_damaged_unit_is_recomputed(tmp_path, reference):
     out.unlink()
     rerun = run_cli(["run", path], ranks=2, timeout=300)
     assert rerun.returncode == 0, rerun.stderr
+    assert f"{unit} is damaged or incomplete: recomputing it" in rerun.stdout
     assert_same(out, reference)
 
 
