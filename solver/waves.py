@@ -238,13 +238,7 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     ts.setType(PETSc.TS.Type.PYTHON)
     ts.setPythonContext(context)
     ts.setSolution(X)
-    steps = int(round(t_end / dt))
-    ts.setTime(0.0)
-    ts.setTimeStep(dt)
-    ts.setMaxSteps(steps)
-    ts.setMaxTime(steps * dt * (1 + 1e-12))
-    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-    ts.setMonitor(monitor)
+    _schedule(ts, dt, t_end, monitor)
     try:
         ts.solve(X)
         taken = ts.getStepNumber()
@@ -257,6 +251,24 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     t = np.array(samples["t"])
     z, zf, e = np.array(samples["z"]), np.array(samples["zf"]), np.array(samples["e"])
     return [WaveSeries(t, z[:, r], zf[:, r], e[:, r], taken) for r in range(runs)]
+
+
+def _schedule(ts, dt: float, t_end: float, monitor) -> None:
+    """Fixed steps of ``dt`` up to ``t_end``, the sampling monitor, then the options database
+    (set in code first, so ``-ts_*`` options win; the step stays fixed unless -ts_adapt_type)."""
+    from petsc4py import PETSc
+
+    steps = int(round(t_end / dt))
+    ts.setTime(0.0)
+    ts.setTimeStep(dt)
+    ts.setMaxSteps(steps)
+    ts.setMaxTime(steps * dt * (1 + 1e-12))
+    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+    ts.setMonitor(monitor)
+    options = PETSc.Options()
+    if not options.hasName("ts_adapt_type"):
+        options.setValue("ts_adapt_type", "none")
+    ts.setFromOptions()
 
 
 def start_velocity(dm, positions, mode_component, axis, k, amplitude, comm) -> np.ndarray:
@@ -368,17 +380,7 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
                 arr = views.place(X_)
                 sample(step, t, arr[: len(v0)], arr[len(v0):], views.u)
                 views.reset()
-    steps = int(round(t_end / dt))
-    ts.setTime(0.0)
-    ts.setTimeStep(dt)
-    ts.setMaxSteps(steps)
-    ts.setMaxTime(steps * dt * (1 + 1e-12))
-    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-    ts.setMonitor(monitor)
-    options = PETSc.Options()
-    if not options.hasName("ts_adapt_type"):  # fixed dt as the scene says; -ts_adapt_type wins
-        options.setValue("ts_adapt_type", "none")
-    ts.setFromOptions()
+    _schedule(ts, dt, t_end, monitor)
     try:
         ts.solve(state)
         taken = ts.getStepNumber()
