@@ -143,6 +143,11 @@ class WavesSpec:
     sample_every: int = _f(5, "steps between samples of the Fourier components", _range(1, 10**6), int)
     integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-ts_type wins for "
                                    "first-order types)", _integrator, str)
+    method: str = _f("ts", "ts: integrate with PETSc TS; spectral: Lanczos on the matrix, no time "
+                           "stepping (samples every dt x sample_every, r_i(0) phase only)",
+                     lambda v: None if v in ("ts", "spectral") else "must be ts or spectral", str)
+    tol: float = _f(1e-8, "spectral: relative accuracy of z(t) (Lanczos error estimate)",
+                    _range(0.0, 1e-2, True), float)
 
 
 @dataclass(frozen=True)

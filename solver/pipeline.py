@@ -76,7 +76,11 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm) -> None:
     try:
         wave_todo = [m for m in (scene.waves.modes if scene.waves else [])
                      if found.get(f"waves/r{r_index:02d}_{m}_p{p_index:04d}", 0) is None]
-        stability = _check_time_step(scene.waves, dm, rho) if wave_todo else None
+        stability = None
+        if wave_todo and scene.waves.method == "spectral":
+            stability = ("spectral", waves.largest_omega(dm), None)
+        elif wave_todo:
+            stability = _check_time_step(scene.waves, dm, rho)
         if found[f"matrices/{tag}"] is None:
             commit(f"matrices/{tag}", {}, {
                 "rho": rho, "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
@@ -186,7 +190,11 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
     for mode in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
-        if integrator == "verlet":  # all directions and k at once: one MatMatMult per step
+        if spec.method == "spectral":
+            times = np.arange(0.0, spec.t_end * (1 + 1e-12), spec.dt * spec.sample_every)
+            runs = [[waves.spectral(dm, p.positions, mode, d, k, amplitude=spec.amplitude, times=times,
+                                    tol=spec.tol, omega_max=omega_max) for k in ks] for d in range(2)]
+        elif integrator == "verlet":  # all directions and k at once: one MatMatMult per step
             flat = waves.integrate_block(dm, p.positions, [(mode, d, k) for d in range(2) for k in ks],
                                          amplitude=spec.amplitude, dt=spec.dt, t_end=spec.t_end,
                                          sample_every=spec.sample_every)
@@ -204,15 +212,19 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
         omega, _ = correlations.power_spectrum(z[:, 0], t[1] - t[0])
         power = np.array([correlations.power_spectrum(z[:, i], t[1] - t[0])[1] for i in range(len(ks))])
         drift = np.abs(energy - energy[..., :1]).max(axis=2) / energy[..., 0]
+        estimate = np.array([[r.error_estimate for r in row] for row in runs])
         commit(f"waves/r{r_index:02d}_{mode}_p{p_index:04d}",
             {"k": ks, "n": ns, "t": t, "C": vaf, "omega": omega, "S": power, "z": z, "z_fixed": z_fixed,
-             "energy_drift": drift},
-            {"rho": rho, "mode": mode, "packing": p_index, "dt": spec.dt, "integrator": integrator,
+             "energy_drift": drift, **({"error_estimate": estimate} if spec.method == "spectral" else {})},
+            {"rho": rho, "mode": mode, "packing": p_index, "dt": spec.dt,
+             "integrator": "spectral (Lanczos)" if spec.method == "spectral" else integrator,
              "omega_max": omega_max, "dt_limit": limit if limit is not None else np.inf,
              "amplitude": spec.amplitude, "sample_dt": t[1] - t[0], "seconds": seconds})
-        say(comm, f"waves rho = {rho:g}, {mode}, packing {p_index}: {len(ks)} k x 2 directions, "
-                  f"{runs[0][0].steps} steps each ({integrator}, dt = {spec.dt}), max energy drift "
-                  f"{drift.max():.1e}, {seconds:.1f} s")
+        how = (f"spectral, up to {max(r.steps for row in runs for r in row)} Lanczos steps, error estimate "
+               f"{np.nanmax(estimate):.1e}" if spec.method == "spectral" else
+               f"{runs[0][0].steps} steps each ({integrator}, dt = {spec.dt}), max energy drift {drift.max():.1e}")
+        say(comm, f"waves rho = {rho:g}, {mode}, packing {p_index}: {len(ks)} k x 2 directions, {how}, "
+                  f"{seconds:.1f} s")
 
 
 def window_label(window) -> str:

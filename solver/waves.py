@@ -33,13 +33,15 @@ EXCITATIONS = {"L": [(0, 0), (1, 1)], "TR": [(0, 1), (1, 0)], "RT": [(2, 0), (2,
 
 @dataclass
 class WaveSeries:
-    """Samples of one run: t (S,), z and z_fixed (S,) complex, energy (S,)."""
+    """Samples of one run: t (S,), z and z_fixed (S,) complex, energy (S,); steps taken (time
+    steps, or Lanczos steps for the spectral path) and, for the spectral path, its error estimate."""
 
     t: np.ndarray
     z: np.ndarray
     z_fixed: np.ndarray
     energy: np.ndarray
     steps: int
+    error_estimate: float = float("nan")
 
 
 class StabilityError(RuntimeError):
@@ -394,3 +396,81 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
                              f"(integrator {integrator}, dt = {dt})")
     return WaveSeries(np.array(samples["t"]), np.array(samples["z"]), np.array(samples["zf"]),
                       np.array(samples["e"]), taken)
+
+
+def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: float, times: np.ndarray,
+             tol: float = 1e-8, omega_max: float | None = None) -> WaveSeries:
+    """A standing wave without time stepping: z(t) = b^H cos(sqrt(A) t) a by Lanczos. Collective.
+
+    With r_i(0) in the phase the dynamics is exactly linear (PHYSICS.md section 4):
+    a = M^1/2 v0, b = M^-1/2 (exp(i k r_i(0)) in the channel), A = M^-1/2 D M^-1/2.  m Lanczos
+    steps from a give A ~ Q T Q^T; w = Q^T b is accumulated on the way, so
+    z(t) = |a| sum_j (w . s_j) s_j[0] cos(sqrt(theta_j) t) over the eigenpairs of T.
+    Loss of orthogonality: the basis is reorthogonalised fully (two Gram-Schmidt passes), because
+    the known stability of Lanczos quadrature covers b = a, not this bilinear form; memory m n.
+    Steps: start near omega_max t_end / 4 (PHYSICS.md) and grow by half until z from T_m and from
+    its leading (m - 10) block agree to ``tol`` relative -- the error estimate that is reported.
+    Returns samples at ``times`` with z = z_fixed (the r_i(t) phase needs the trajectory) and a
+    constant energy (exactly conserved).
+    """
+    from mpi4py import MPI
+
+    mpi = dm.D.getComm().tompi4py()
+    component, axis = EXCITATIONS[mode][direction]
+    start, stop = dm.disk_range
+    r0 = positions[dm.active][start:stop]
+    mass = dm.M.getArray().copy()
+    s = 1.0 / np.sqrt(mass)
+    v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)
+    a = v0 / s
+    b = np.zeros((stop - start, dm.dof), complex)
+    b[:, component] = np.exp(1j * k * r0[:, axis])  # conj of e^{-ik.r}: z = sum v e^{-ik.r} = b^H v
+    b = b.ravel() * s
+    x, y = dm.D.createVecs()
+
+    def apply(v):
+        x.setArray(s * v)
+        dm.D.mult(x, y)
+        return s * y.getArray()
+
+    def dot(u, v):
+        return mpi.allreduce(np.dot(u, v), op=MPI.SUM)
+
+    norm_a = np.sqrt(dot(a, a))
+    energy = 0.5 * dot(a, a)
+    if omega_max is None:
+        omega_max = largest_omega(dm)
+    m_target = int(np.ceil(1.2 * omega_max * times[-1] / 4)) + 40
+    basis = [a / norm_a]
+    alpha, beta, w = [], [], [mpi.allreduce(np.conj(b) @ basis[0])]
+    while True:
+        while len(alpha) < m_target:
+            q = basis[-1]
+            v = apply(q)
+            alpha.append(dot(q, v))
+            Q = np.array(basis)
+            for _ in range(2):  # full reorthogonalisation, twice is enough
+                v -= mpi.allreduce(Q @ v) @ Q
+            nrm = np.sqrt(dot(v, v))
+            if nrm < 1e-14 * abs(alpha[-1]):  # invariant subspace found: exact
+                break
+            beta.append(nrm)
+            basis.append(v / nrm)
+            w.append(mpi.allreduce(np.conj(b) @ basis[-1]))
+        m = len(alpha)
+
+        def z_of(size):
+            T = np.diag(alpha[:size]) + np.diag(beta[:size - 1], 1) + np.diag(beta[:size - 1], -1)
+            theta, S = np.linalg.eigh(T)
+            weights = (np.array(w[:size]) @ S) * S[0]
+            return norm_a * (weights @ np.cos(np.outer(np.sqrt(np.clip(theta, 0, None)), times)))
+
+        z = z_of(m)
+        estimate = np.abs(z - z_of(m - 10)).max() / np.abs(z).max() if m > 20 else np.inf
+        if estimate < tol or len(alpha) < m_target:  # converged, or the Krylov space is exhausted
+            break
+        m_target = int(1.5 * m_target)
+    x.destroy()
+    y.destroy()
+    return WaveSeries(np.asarray(times), z, z, np.full(len(times), energy), m,
+                      float(estimate if len(alpha) >= m_target else 0.0))

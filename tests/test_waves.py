@@ -159,3 +159,19 @@ def test_blow_up_stops_with_error_not_nan(comm, packing64, block):
         else:
             run(dm, packing64, "RT", k, dt, t_end=2000 * dt, every=1)
     dm.destroy()
+
+
+@pytest.mark.parametrize("mode", ["L", "TR", "RT"])
+def test_spectral_path_matches_exact_reference(comm, packing64, mode):
+    dm = dynmat.assemble(packing64, 1.0, comm)
+    k = 2 * np.pi * 2 / packing64.box_length
+    times = np.arange(0, 80.0 + 1e-9, 0.25)  # same sample times as the TS run below
+    s = waves.spectral(dm, packing64.positions, mode, 1, k, amplitude=1e-3, times=times, tol=1e-10)
+    exact = exact_z_fixed(packing64, dm, mode, 1, k, 1e-3, times)
+    error = np.abs(s.z_fixed - exact).max() / np.abs(exact).max()
+    assert_all(error < 1e-8 and s.error_estimate < 1e-10, f"spectral error {error}, estimate {s.error_estimate}")
+    # and it agrees with the TS path within the TS error (Verlet, dt = 0.005: ~1e-4 here)
+    ts = run(dm, packing64, mode, k, 0.005, t_end=80.0, every=50, direction=1)
+    ts_error = np.abs(ts.z_fixed - exact).max() / np.abs(exact).max()
+    assert_all(np.abs(ts.z_fixed - s.z_fixed).max() / np.abs(exact).max() <= 1.01 * ts_error + 1e-8, "vs TS")
+    dm.destroy()
