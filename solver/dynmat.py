@@ -37,6 +37,7 @@ class DynamicalMatrix:
     rho: float
     disk_range: tuple[int, int]
     n_contacts: int
+    omega_max: float | None = None  # cached by waves.largest_omega
 
     @property
     def size(self) -> int:

@@ -10,10 +10,6 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 
-class RankError(RuntimeError):
-    """An error raised on one rank, re-raised on every rank by :func:`agree`."""
-
-
 def agree(comm, error: BaseException | None) -> None:
     """Raise on every rank if any rank had an error. Collective.
 

@@ -86,10 +86,6 @@ def plot_energies(f, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
-def _wave_groups(f):
-    return _groups(f, "waves")
-
-
 def _pooled(groups, key):
     """Runs (R, K, S) of all configurations of groups sharing rho and mode."""
     return np.concatenate([g[key][()] for g in groups], axis=0)
@@ -99,7 +95,7 @@ def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi) -> list[str]:
     """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted)."""
     from .correlations import vaf
 
-    groups = _wave_groups(f)
+    groups = _groups(f, "waves")
     if not groups:
         return []
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
@@ -123,7 +119,7 @@ def plot_spectra(f, stem: str) -> list[str]:
     """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho."""
     from .correlations import power_spectrum
 
-    groups = _wave_groups(f)
+    groups = _groups(f, "waves")
     written: list[str] = []
     for rho in sorted({float(g.attrs["rho"]) for g in groups}):
         mine = [g for g in groups if float(g.attrs["rho"]) == rho]

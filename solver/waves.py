@@ -49,8 +49,11 @@ class StabilityError(RuntimeError):
 
 
 def largest_omega(dm) -> float:
-    """omega_max of M^-1 D by a cheap SLEPc solve (prefix ``wmax_``). Collective."""
+    """omega_max of M^-1 D by a cheap SLEPc solve (prefix ``wmax_``), cached on ``dm``. Collective."""
     from slepc4py import SLEPc
+
+    if dm.omega_max is not None:
+        return dm.omega_max
 
     from .spectrum import scaled_operator
 
@@ -69,7 +72,8 @@ def largest_omega(dm) -> float:
     lam = eps.getEigenvalue(0).real
     eps.destroy()
     A.destroy()
-    return float(np.sqrt(lam))
+    dm.omega_max = float(np.sqrt(lam))
+    return dm.omega_max
 
 
 def stability_limit(integrator: str, omega_max: float) -> float | None:
@@ -132,6 +136,26 @@ def first_order_matrix(dm, minv):
                                    local.data), comm=comm)
     J.assemble()
     return J
+
+
+class _Recorder:
+    """Samples of z, z_fixed and energy (each (R,) or scalar per sample); stops the TS on blow-up."""
+
+    def __init__(self):
+        self.t, self.z, self.zf, self.e = [], [], [], []
+        self.blown = False
+
+    def record(self, ts, step, t, z, zf, energy) -> None:
+        self.t.append(t)
+        self.z.append(z)
+        self.zf.append(zf)
+        self.e.append(energy)
+        if not np.all(np.isfinite(energy)) or np.any(np.asarray(energy) > 10.0 * np.asarray(self.e[0])):
+            self.blown = True
+            ts.setMaxSteps(step)  # TSSolve ends after this step (a reason set here is overwritten)
+
+    def arrays(self):
+        return np.array(self.t), np.array(self.z), np.array(self.zf), np.array(self.e)
 
 
 class BlockVerlet:
@@ -214,11 +238,10 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     X = PETSc.Vec().createMPI((2 * nloc * runs, 2 * dm.size * runs), comm=comm)
     X.setArray(np.concatenate((np.zeros(nloc * runs), v0.ravel(order="F"))))
     disks = np.arange(stop - start)
-    samples: dict[str, list] = {"t": [], "z": [], "zf": [], "e": []}
-    blown = [False]
+    recorder = _Recorder()
 
     def monitor(ts, step, t, X_):
-        if step % sample_every or blown[0]:
+        if step % sample_every or recorder.blown:
             return
         u, v = context.views(X_)
         vel = v.reshape(-1, dm.dof, runs)[disks[:, None], comp[None, :], np.arange(runs)[None, :]]
@@ -227,14 +250,7 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
                             np.sum(vel * np.exp(-1j * phase0), axis=0)))
         local_e = 0.5 * np.sum(mass[:, None] * v * v, axis=0) - 0.5 * np.sum(u * mass[:, None] * context.acc, axis=0)
         z, zf = mpi.allreduce(local_z)
-        energy = mpi.allreduce(local_e)
-        samples["t"].append(t)
-        samples["z"].append(z)
-        samples["zf"].append(zf)
-        samples["e"].append(energy)
-        if not np.all(np.isfinite(energy)) or np.any(energy > 10.0 * samples["e"][0]):
-            blown[0] = True
-            ts.setMaxSteps(step)  # TSSolve ends after this step (a reason set here is overwritten)
+        recorder.record(ts, step, t, z, zf, mpi.allreduce(local_e))
 
     ts = PETSc.TS().create(comm)
     ts.setType(PETSc.TS.Type.PYTHON)
@@ -247,11 +263,10 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     finally:
         ts.destroy()  # also destroys the context's dense blocks
         X.destroy()
-    if blown[0]:
+    t, z, zf, e = recorder.arrays()
+    if recorder.blown:
         raise StabilityError(f"block of {runs} waves: energy stopped being finite or grew tenfold by "
-                             f"t = {samples['t'][-1]:.2f} (dt = {dt})")
-    t = np.array(samples["t"])
-    z, zf, e = np.array(samples["z"]), np.array(samples["zf"]), np.array(samples["e"])
+                             f"t = {t[-1]:.2f} (dt = {dt})")
     return [WaveSeries(t, z[:, r], zf[:, r], e[:, r], taken) for r in range(runs)]
 
 
@@ -308,25 +323,17 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
     v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)
     mass = dm.M.getArray().copy()
     work = dm.M.duplicate()
-    samples: dict[str, list] = {"t": [], "z": [], "zf": [], "e": []}
-    blown = [False]
+    recorder = _Recorder()
 
-    def sample(step, t, u_arr, v_arr, uvec):
+    def sample(ts_, step, t, u_arr, v_arr, uvec):
         per_disk_v = v_arr.reshape(-1, dm.dof)[:, component]
         shift = k * u_arr.reshape(-1, dm.dof)[:, axis]
         local = np.array([np.sum(per_disk_v * np.exp(-1j * (phase0 + shift))),
                           np.sum(per_disk_v * np.exp(-1j * phase0))])
         dm.D.mult(uvec, work)
-        kinetic_potential = 0.5 * np.dot(mass * v_arr, v_arr) + 0.5 * np.dot(u_arr, work.getArray())
+        local_e = 0.5 * np.dot(mass * v_arr, v_arr) + 0.5 * np.dot(u_arr, work.getArray())
         z, zf = mpi.allreduce(local)
-        energy = mpi.allreduce(kinetic_potential)
-        samples["t"].append(t)
-        samples["z"].append(z)
-        samples["zf"].append(zf)
-        samples["e"].append(energy)
-        if not np.isfinite(energy) or energy > 10.0 * samples["e"][0]:
-            blown[0] = True
-            ts.setMaxSteps(step)  # TSSolve ends after this step (a reason set here is overwritten)
+        recorder.record(ts_, step, t, z, zf, mpi.allreduce(local_e))
 
     ts = PETSc.TS().create(comm)
     use_alpha2 = integrator == "alpha2"
@@ -360,9 +367,9 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
         ts.getSNES().getKSP().setType(PETSc.KSP.Type.CG)
 
         def monitor(ts_, step, t, X):
-            if step % sample_every == 0 and not blown[0]:
+            if step % sample_every == 0 and not recorder.blown:
                 u, v = ts_.getSolution2()
-                sample(step, t, u.getArray(), v.getArray(), u)
+                sample(ts_, step, t, u.getArray(), v.getArray(), u)
     else:
         ts.setProblemType(PETSc.TS.ProblemType.LINEAR)
         jacobian = first_order_matrix(dm, minv)
@@ -378,9 +385,9 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
         views = _Views(minv, comm)
 
         def monitor(ts_, step, t, X_):
-            if step % sample_every == 0 and not blown[0]:
+            if step % sample_every == 0 and not recorder.blown:
                 arr = views.place(X_)
-                sample(step, t, arr[: len(v0)], arr[len(v0):], views.u)
+                sample(ts_, step, t, arr[: len(v0)], arr[len(v0):], views.u)
                 views.reset()
     _schedule(ts, dt, t_end, monitor)
     try:
@@ -390,12 +397,11 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
         ts.destroy()
         minv.destroy()
         work.destroy()
-    if blown[0]:
-        raise StabilityError(f"wave {mode} k = {k:.4f}: energy grew from {samples['e'][0]:.3e} to "
-                             f"{samples['e'][-1]:.3e} by t = {samples['t'][-1]:.2f}: unstable "
-                             f"(integrator {integrator}, dt = {dt})")
-    return WaveSeries(np.array(samples["t"]), np.array(samples["z"]), np.array(samples["zf"]),
-                      np.array(samples["e"]), taken)
+    t, z, zf, e = recorder.arrays()
+    if recorder.blown:
+        raise StabilityError(f"wave {mode} k = {k:.4f}: energy grew from {e[0]:.3e} to {e[-1]:.3e} "
+                             f"by t = {t[-1]:.2f}: unstable (integrator {integrator}, dt = {dt})")
+    return WaveSeries(t, z, zf, e, taken)
 
 
 def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: float, times: np.ndarray,
