@@ -2,6 +2,7 @@
 
     rotsound run SCENE.yaml [--set key.path=value ...] [--fresh] [-petsc_option value ...]
     rotsound plot RESULTS.h5|SCENE.yaml [MORE.h5 ...]
+    rotsound report RESULTS.h5|SCENE.yaml [MORE ...] [--output REPRODUCTION.md]
     rotsound keys                      # the scene reference as a Markdown table
 
 Words starting with a single '-' are PETSc/SLEPc options (they win over the scene's
@@ -45,6 +46,11 @@ def _parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="figures from a results file (PNG and PDF beside it)")
     plot.add_argument("results", nargs="+", help="results .h5 file(s), or scene(s) whose output to plot; "
                                                  "with several, also an overlay of their vDOS (Fig. S1)")
+    report = sub.add_parser("report", help="the reproduction report: each claim of the paper against the "
+                                           "results files (figures in <output folder>/reproduction/)")
+    report.add_argument("results", nargs="+", help="results .h5 file(s) or scene(s): vDOS, waves, and any "
+                                                   "phi != 0.9 vDOS for Fig. S1")
+    report.add_argument("--output", default="REPRODUCTION.md", help="Markdown file to write")
     sub.add_parser("keys", help="print the scene key reference (Markdown)")
     return parser
 
@@ -77,11 +83,24 @@ def _run(args, petsc_words, comm) -> None:
     pipeline.run(scene, comm, argv, fresh=args.fresh)
 
 
+def _targets(names: list[str]) -> list[str]:
+    """Results paths: each scene file is replaced by its output."""
+    return [config.build(config.Scene, config.read_yaml(t)).output if t.endswith((".yaml", ".yml")) else t
+            for t in names]
+
+
+def _report(args) -> None:
+    from . import report
+
+    path, rows = report.write(_targets(args.results), args.output)
+    counts = {s: sum(r.status == s for r in rows) for s in ("PASS", "FAIL", "NOT MEASURED")}
+    print(f"wrote {path}: {counts['PASS']} pass, {counts['FAIL']} fail, {counts['NOT MEASURED']} not measured")
+
+
 def _plot(args) -> None:
     from . import plots
 
-    targets = [config.build(config.Scene, config.read_yaml(t)).output if t.endswith((".yaml", ".yml")) else t
-               for t in args.results]
+    targets = _targets(args.results)
     written = [path for target in targets for path in plots.plot_results(target)]
     if len(targets) > 1:
         import os
@@ -117,6 +136,9 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if args.command == "plot":
             _plot(args)
+            return 0
+        if args.command == "report":
+            _report(args)
             return 0
         from mpi4py import MPI
 

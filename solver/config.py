@@ -151,6 +151,24 @@ class WavesSpec:
 
 
 @dataclass(frozen=True)
+class AnalysisSpec:
+    """Section ``analysis``: how waves results are fitted (post-processing; not part of the digest,
+    so changing it reuses every finished unit)."""
+
+    decay_window: float = _f(3.0, "fit exp(-gamma t) cos(omega t) to C(k, t) for t <= decay_window / gamma "
+                                  "(C decayed to about e^-3)", _range(0.5, 50.0), float)
+    lattice_kd0_max: float = _f(math.pi / 2, "joint fit of the lattice model's a_r, l (RT) and a_t (TR) "
+                                             "uses k d0 <= this (the long-wave part)",
+                                _range(0.0, 2 * math.pi, True), float)
+    power_law_kd0_max: float = _f(1.0, "gamma ~ k^p is fitted for k d0 <= this, over the k whose decay "
+                                       "the run resolves (gamma t_end >= 1)", _range(0.0, 2 * math.pi, True),
+                                  float)
+    kc_min_jump: float = _f(0.15, "k_c detector: smallest drop of the fitted RT frequency (1/t0) between "
+                                  "neighbouring k that counts as a jump (it must also exceed 2.5x the median "
+                                  "step)", _range(0.0, 10.0, True), float)
+
+
+@dataclass(frozen=True)
 class Scene:
     """A whole run."""
 
@@ -165,11 +183,14 @@ class Scene:
                                  ("optional", WavesSpec))
     petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
                          "(-eps_*, -st_*, -ts_*, -log_view, ...); the command line wins", None, dict)
+    analysis: AnalysisSpec = _f(None, "see analysis.*; applies when the scene has waves", None, AnalysisSpec)
 
     def digest(self) -> str:
-        """Stable hash of everything that determines the results (not ``output``)."""
+        """Stable hash of everything that determines the computed units (not ``output``, not
+        ``analysis``, which only post-processes them)."""
         data = dataclasses.asdict(self)
         data.pop("output")
+        data.pop("analysis")
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
     def to_yaml(self) -> str:

@@ -108,15 +108,17 @@ def power_law(k: np.ndarray, gamma: np.ndarray) -> tuple[float, float]:
     return float(p), float(np.sqrt(cov[0, 0]))
 
 
-def transition_k(k: np.ndarray, omega_r: np.ndarray, min_jump: float = 0.3, factor: float = 5.0
+def transition_k(k: np.ndarray, omega: np.ndarray, min_jump: float = 0.15, factor: float = 2.5
                  ) -> float | None:
-    """k_c: the first k after which the RT frequency drops by a jump (None if it never does).
+    """k_c: the first k after which the frequency drops by a jump (None if it never does).
 
-    A jump is a decrease omega_r(k_i+1) - omega_r(k_i) < -max(min_jump, factor x median |step|):
-    the fitted RT frequency leaves the optical-like branch for the acoustic one.  k_c is reported
-    as the midpoint of the two wave numbers around the jump.
+    A jump is a decrease omega(k_i+1) - omega(k_i) < -max(min_jump, factor x median |step|): a
+    step that the smooth parts of the curve cannot produce at this k spacing.  For RT it is
+    where the fitted frequency leaves the optical-like branch for the acoustic one; pass -omega
+    to find the TR branch's complementary rise.  k_c is the midpoint of the two wave numbers
+    around the jump, so it is known to half the k spacing.
     """
-    steps = np.diff(omega_r)
+    steps = np.diff(omega)
     if steps.size == 0:
         return None
     threshold = max(min_jump, factor * float(np.median(np.abs(steps))))

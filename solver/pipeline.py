@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from . import __version__, correlations, dynmat, h5io, kpm, modes, packing, parallel, petscopts, spectrum, waves
+from . import __version__, analysis, correlations, dynmat, h5io, kpm, modes, packing, parallel, petscopts, spectrum, waves
 from .config import Scene
 from .errors import InputError, Interrupted
 from .units import UnitStore, packing_from_unit, packing_unit
@@ -301,6 +301,15 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
                 _vdos_unit(scene, rho, r_index, per_config, units, comm)
         if reused:
             say(comm, f"resumed: {reused} finished units loaded from {store.folder}")
+        if scene.waves is not None:
+            t = time.perf_counter()
+            derived = parallel.owner_compute(comm, [0], lambda _: analysis.analyse(units, scene.analysis))[0]
+            units.update(derived)
+            lattice = derived.get("analysis/lattice", ({}, {}))[1]
+            say(comm, f"analysis: {len(derived)} groups in {time.perf_counter() - t:.1f} s"
+                      + (f"; lattice model a_r = {lattice['a_r']:.3f} +- {lattice['a_r_err']:.3f}/t0, "
+                         f"l = {lattice['l']:.3f} +- {lattice['l_err']:.3f} d0, a_t = {lattice['a_t']:.3f}/t0"
+                         if lattice else ""))
         names = petscopts.option_names(petsc_argv)
         unused = parallel.owner_compute(comm, [0], lambda _: petscopts.unused(names))[0]
         for name in unused:

@@ -61,10 +61,12 @@ def plot_vdos(f, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
-def plot_energies(f, stem: str) -> list[str]:
-    """Fig. 6: bin-averaged K (blue dotted) and Q (red) with g(omega) x 5e-3 (dashed), per rho."""
+def plot_energies(f, stem: str, rhos=None) -> list[str]:
+    """Fig. 6: bin-averaged K (blue dotted) and Q (red) with g(omega) x 5e-3 (dashed), per rho
+    (every rho > 0 of the file, or those of ``rhos`` it has, in that order)."""
     spectra = [g for g in _groups(f, "spectra") if "K" in g]
-    rhos = sorted({float(g.attrs["rho"]) for g in spectra if g.attrs["rho"] > 0})
+    have = sorted({float(g.attrs["rho"]) for g in spectra if g.attrs["rho"] > 0})
+    rhos = have if rhos is None else [r for r in rhos if r in have]
     if not rhos:
         return []
     fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.8), squeeze=False)
@@ -91,8 +93,9 @@ def _pooled(groups, key):
     return np.concatenate([g[key][()] for g in groups], axis=0)
 
 
-def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi) -> list[str]:
-    """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted)."""
+def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
+    """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted); every
+    rho of the file or only those in ``rhos``."""
     from .correlations import vaf
 
     groups = _groups(f, "waves")
@@ -102,6 +105,8 @@ def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi) -> list[str]:
     for ax, mode, label in zip(axes, ("L", "TR", "RT"), ("C_l", "C_t", "C_r")):
         mine = [g for g in groups if g.attrs["mode"] == mode]
         for rho in sorted({float(g.attrs["rho"]) for g in mine}):
+            if rhos is not None and rho not in rhos:
+                continue
             sel = [g for g in mine if float(g.attrs["rho"]) == rho]
             ks = sel[0]["k"][()]
             i = int(np.argmin(np.abs(ks - kd0)))
@@ -115,13 +120,15 @@ def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi) -> list[str]:
     return _save(fig, stem)
 
 
-def plot_spectra(f, stem: str) -> list[str]:
-    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho."""
+def plot_spectra(f, stem: str, rhos=None) -> list[str]:
+    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho (or each in ``rhos``)."""
     from .correlations import power_spectrum
 
     groups = _groups(f, "waves")
     written: list[str] = []
     for rho in sorted({float(g.attrs["rho"]) for g in groups}):
+        if rhos is not None and rho not in rhos:
+            continue
         mine = [g for g in groups if float(g.attrs["rho"]) == rho]
         modes_here = [m for m in ("L", "TR", "RT") if any(g.attrs["mode"] == m for g in mine)]
         fig, axes = plt.subplots(1, len(modes_here), figsize=(4.2 * len(modes_here), 3.8), squeeze=False)
@@ -166,6 +173,156 @@ def plot_vdos_compare(paths: list[str], stem: str) -> list[str]:
     return _save(fig, stem)
 
 
+def _analysis(f, mode=None):
+    """Analysis groups of ``f`` (fits per rho and mode), sorted by rho."""
+    if "analysis" not in f:
+        return []
+    groups = [f["analysis"][k] for k in f["analysis"] if "mode" in f["analysis"][k].attrs]
+    return sorted((g for g in groups if mode is None or g.attrs["mode"] == mode),
+                  key=lambda g: float(g.attrs["rho"]))
+
+
+def _lattice(f):
+    return dict(f["analysis/lattice"].attrs) if "analysis/lattice" in f else None
+
+
+def plot_dispersion_rt(f, stem: str) -> list[str]:
+    """Fig. 4: fitted omega_r(k) (symbols) for every rho > 0 with the lattice model (lines)."""
+    groups = [g for g in _analysis(f, "RT") if g.attrs["rho"] > 0]
+    lattice = _lattice(f)
+    if not groups or lattice is None:
+        return []
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    cmap = plt.get_cmap("viridis")
+    k_line = np.linspace(0, lattice["k_max"], 200)
+    for index, g in enumerate(groups):
+        rho, color = float(g.attrs["rho"]), cmap(0.9 * index / max(1, len(groups) - 1))
+        ax.plot(g["k"][()], g["omega"][()], "o", ms=3.5, mfc="none", color=color, label=f"rho = {rho:g}")
+        ax.plot(k_line, lattice_curve(k_line, rho, lattice)[1], "-", lw=0.9, color=color)
+    ax.axvline(lattice["kd0_max_used"], color="0.6", ls=":", lw=0.8)
+    ax.set(xlabel="k d0", ylabel="omega_r t0", title=f"RT dispersion; lines: lattice model, a_r = "
+           f"{lattice['a_r']:.3f}/t0, l = {lattice['l']:.3f} d0 (fit left of the dotted line)")
+    ax.title.set_fontsize(8)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
+def lattice_curve(k, rho, lattice, edge: bool = False):
+    """(omega_t, omega_r) of the lattice model with the fitted parameters of ``lattice``; with
+    ``edge``, omega_t uses a_t_edge (fitted beyond k_c) when the run found one."""
+    from .dispersion import lattice_omega
+
+    a_t = lattice["a_t_edge"] if edge and np.isfinite(lattice.get("a_t_edge", np.nan)) else lattice["a_t"]
+    return lattice_omega(k, rho, lattice["l"], a_t, lattice["a_r"])
+
+
+def plot_transition(f, stem: str, rho: float = 0.2) -> list[str]:
+    """Fig. 5: (a) log10 S_r(k, omega) with k_c, (b) fitted omega_t and omega_r with both model
+    branches, at the analysed rho nearest ``rho``."""
+    rt = _analysis(f, "RT")
+    lattice = _lattice(f)
+    if not rt or lattice is None:
+        return []
+    g_rt = min(rt, key=lambda g: abs(float(g.attrs["rho"]) - rho))
+    rho = float(g_rt.attrs["rho"])
+    g_tr = next((g for g in _analysis(f, "TR") if float(g.attrs["rho"]) == rho), None)
+    from .analysis import averaged_waves
+
+    units = {f"waves/{name}": ({"k": g["k"][()], "t": g["t"][()], "z": g["z"][()]}, dict(g.attrs))
+             for name, g in f["waves"].items() if float(g.attrs["rho"]) == rho and g.attrs["mode"] == "RT"}
+    k, _, _, omega, power, _ = averaged_waves(units)[(rho, "RT")]
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4))
+    top = 1.1 * np.nanmax(g_rt["omega"][()]) + 1
+    keep = omega <= top
+    mesh = ax.pcolormesh(k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest", cmap="Greys",
+                         vmin=np.log10(power.max()) - 5)
+    fig.colorbar(mesh, ax=ax, label="log10 S_r")
+    k_c = float(g_rt.attrs["k_c"])
+    if np.isfinite(k_c):
+        ax.annotate("k_c", xy=(k_c, 0.02 * top), xytext=(k_c, 0.25 * top), color="tab:red",
+                    arrowprops={"arrowstyle": "->", "color": "tab:red"}, ha="center")
+    ax.set(xlabel="k d0", ylabel="omega t0", title=f"(a) log10 S_r(k, omega), rho = {rho:g}")
+    k_line = np.linspace(0, lattice["k_max"], 200)
+    w_t, w_r = lattice_curve(k_line, rho, lattice)
+    if np.isfinite(lattice.get("a_t_edge", np.nan)):
+        bx.plot(k_line, lattice_curve(k_line, rho, lattice, edge=True)[0], ":", color="tab:purple",
+                label=f"model omega_t, a_t = {lattice['a_t_edge']:.2f} (fit beyond k_c)")
+    if g_tr is not None:
+        bx.plot(g_tr["k"][()], g_tr["omega"][()], "+", color="tab:blue", label="omega_t (TR fit)")
+    bx.plot(g_rt["k"][()], g_rt["omega"][()], "s", mfc="none", color="tab:red", label="omega_r (RT fit)")
+    bx.plot(k_line, w_t, ":", color="tab:blue", label=f"model omega_t, a_t = {lattice['a_t']:.2f} (TR fit)")
+    bx.plot(k_line, w_r, "-", color="tab:red", label="model omega_r")
+    if np.isfinite(k_c):
+        bx.axvline(k_c, color="0.5", lw=0.8, ls="--")
+    bx.set(xlabel="k d0", ylabel="omega t0", title=f"(b) fitted dispersion, rho = {rho:g}"
+           + (f", k_c d0 = {k_c:.2f}" if np.isfinite(k_c) else ", no k_c detected"))
+    bx.legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
+def plot_bands(f, stem: str, omega_c: dict | None = None) -> list[str]:
+    """Fig. 7: RT band limits against rho (data symbols, model lines and shaded band), omega_c
+    (crosses; ``omega_c`` maps rho -> value, else the file's own), log-log inset."""
+    lattice = _lattice(f)
+    if lattice is None or "analysis/bands" not in f:
+        return []
+    b = {key: f["analysis/bands"][key][()] for key in f["analysis/bands"]}
+    rho_line = np.linspace(1e-3, max(2.0, b["rho"].max()), 300)
+    a_r = lattice["a_r"]
+    a_t = lattice["a_t_edge"] if np.isfinite(lattice.get("a_t_edge", np.nan)) else lattice["a_t"]
+    r0, rk, tk = a_r * np.sqrt(40 * rho_line), 2 * a_r * np.sqrt(3 * rho_line + 1), a_t * np.sqrt(10 * rho_line)
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    inset = ax.inset_axes([0.62, 0.1, 0.35, 0.35])
+    cross = omega_c if omega_c is not None else dict(zip(b["rho"], b["omega_c"]))
+    for axis in (ax, inset):
+        axis.fill_between(rho_line, np.minimum(r0, rk), np.maximum(r0, rk), color="0.9")
+        axis.plot(rho_line, r0, "-", color="tab:red", label="model omega_r(0) = a_r sqrt(40 rho)")
+        axis.plot(rho_line, rk, ":", color="tab:blue", label="model omega_r(k_max) = 2 a_r sqrt(3 rho + 1)")
+        axis.plot(rho_line, tk, "--", color="tab:green", label=f"model omega_t(k_max) = a_t sqrt(10 rho), a_t = {a_t:.2f}")
+        axis.plot(b["rho"], b["omega_r0"], "o", mfc="none", color="tab:red", label="omega_r(0), data")
+        axis.plot(b["rho"], b["omega_r_kmax"], "s", mfc="none", color="tab:blue", label="omega_r(k_max), data")
+        axis.plot(b["rho"], b["omega_t_kmax"], "^", mfc="none", color="tab:green", label="omega_t(k_max), data")
+        rc = sorted((r, w) for r, w in cross.items() if r > 0 and np.isfinite(w))
+        if rc:
+            axis.plot(*zip(*rc), "x", color="k", label="omega_c (vDOS)")
+    inset.set(xscale="log", yscale="log")
+    inset.tick_params(labelsize=6)
+    ax.set(xlabel="rho = kt / kn", ylabel="omega t0", title="RT frequency band (shaded: model)")
+    ax.legend(fontsize=6, loc="upper left")
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
+def plot_speeds_attenuation(f, stem: str) -> list[str]:
+    """Figs. S2 and S3: phase speeds c = omega/k and attenuation gamma(k) (log-log, k^3 guide) of
+    L and TR, per rho."""
+    groups = [g for g in _analysis(f) if g.attrs["mode"] in ("L", "TR")]
+    if not groups:
+        return []
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    cmap = plt.get_cmap("viridis")
+    rhos = sorted({float(g.attrs["rho"]) for g in groups})
+    for col, mode in enumerate(("L", "TR")):
+        for g in (g for g in groups if g.attrs["mode"] == mode):
+            rho = float(g.attrs["rho"])
+            color = "k" if rho == 0 else cmap(0.9 * rhos.index(rho) / max(1, len(rhos) - 1))
+            k, gamma = g["k"][()], g["gamma"][()]
+            axes[0, col].plot(k, g["c"][()], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color, label=f"rho = {rho:g}")
+            good = gamma > 0
+            axes[1, col].loglog(k[good], gamma[good], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color,
+                                label=f"rho = {rho:g}, p = {g.attrs['power_law_p']:.2f}")
+        k_guide = np.array([0.2, 1.0])
+        axes[1, col].loglog(k_guide, 0.05 * k_guide**3, "k-", lw=2, alpha=0.4, label="~ k^3")
+        axes[0, col].set(xlabel="k d0", ylabel=f"c_{mode.lower()[0]} (d0 / t0)", title=f"phase speed, {mode}")
+        axes[1, col].set(xlabel="k d0", ylabel=f"gamma_{mode.lower()[0]} t0", title=f"attenuation, {mode}")
+        for ax in axes[:, col]:
+            ax.legend(fontsize=5, ncol=2)
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
 def plot_results(path: str) -> list[str]:
     """Write every figure the results file has data for, next to it; return the paths."""
     if not os.path.isfile(path):
@@ -186,4 +343,9 @@ def plot_results(path: str) -> list[str]:
         if "waves" in f:
             written += plot_vafs(f, f"{stem}_vaf")
             written += plot_spectra(f, f"{stem}_spectrum")
+        if "analysis" in f:
+            written += plot_dispersion_rt(f, f"{stem}_dispersion_rt")
+            written += plot_transition(f, f"{stem}_transition")
+            written += plot_bands(f, f"{stem}_bands")
+            written += plot_speeds_attenuation(f, f"{stem}_speeds_attenuation")
     return written

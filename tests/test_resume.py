@@ -45,6 +45,12 @@ def contents(path):
     return out
 
 
+def equal(a, b) -> bool:
+    """Bitwise-equal arrays, NaN equal to NaN (an undetected k_c is NaN)."""
+    a, b = np.asarray(a), np.asarray(b)
+    return np.array_equal(a, b, equal_nan=a.dtype.kind in "fc" and b.dtype.kind in "fc")
+
+
 def assert_same(a, b):
     ca, cb = contents(a), contents(b)
     assert sorted(ca) == sorted(cb)
@@ -52,9 +58,9 @@ def assert_same(a, b):
         if key.endswith("@attrs"):
             assert value.keys() == cb[key].keys(), key
             for k in value:
-                assert np.array_equal(np.asarray(value[k]), np.asarray(cb[key][k])), (key, k)
+                assert equal(value[k], cb[key][k]), (key, k)
         else:
-            assert np.array_equal(value, cb[key]), key
+            assert equal(value, cb[key]), key
 
 
 def start(scene_path):
@@ -142,6 +148,9 @@ def test_every_stage_is_rank_invariant(tmp_path, reference):
     to round-off.  K_x, K_y, K, Q come from eigenvectors, which are determined only to
     r lambda / gap (Davis-Kahan, r the relative residual): each mode is held to that bound.
     The participation ratio follows from the same eigenvectors and is not compared separately.
+    The analysis groups are nonlinear least-squares fits of VAFs that agree to 1e-10; a fit's
+    covariance amplifies that (3e-10 measured on gamma_err), so they are held to 1e-6 relative,
+    still far below every fit's own uncertainty.
     """
     ref = contents(reference)
     for ranks in (1, 3):
@@ -162,7 +171,10 @@ def test_every_stage_is_rank_invariant(tmp_path, reference):
                 bound = 2 * (2 * r * lam / gap) / (2 * n)
                 assert np.all(np.abs(got[key] - value) <= bound + 1e-14), (ranks, key)
                 continue
-            scale = max(np.abs(value).max(), 1e-300)
-            error = np.abs(got[key] - value).max()
+            scale = max(np.nanmax(np.abs(value)) if np.isfinite(value).any() else 0.0, 1e-300)
             tol = 1e-8 if key.startswith(("spectra/", "vdos/")) else 1e-10
+            if key.startswith("analysis/"):  # see the docstring
+                tol = 1e-6
+            assert np.array_equal(np.isnan(got[key]), np.isnan(value)), (ranks, key)
+            error = np.nanmax(np.abs(got[key] - value)) if np.isfinite(value).any() else 0.0
             assert error <= tol * scale, (ranks, key, error / scale)

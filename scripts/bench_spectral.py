@@ -1,0 +1,242 @@
+"""Spectral standing waves against time stepping at equal error, and 1 vs 2 ranks (issue 6).
+
+    python scripts/bench_spectral.py
+1. N = 2048, rho = 1, L wave (k = 2 pi 4 / L), samples every 0.5 t0 to t = 100: max relative
+   error of z(t) against the exact eigendecomposition solution vs wall time for the spectral
+   path (Lanczos, several tolerances), TS RK4 and TS Verlet (2 ranks, several dt) and a
+   scipy.sparse velocity-Verlet loop (1 process).  The time each method needs for an error of
+   1e-6 is interpolated (log-log) on its curve; the ratio to the spectral path is the target.
+2. N = 32768, same wave: the reference is the spectral path at tol 1e-12 (validated by part 1);
+   spectral, RK4 and Verlet at a few settings, 2 ranks.
+3. 1 vs 2 ranks at N = 32768: 200 MatMults, 500 Verlet TS steps, one spectral wave (t = 100);
+   assembly is in the assembly benchmark.
+Writes results/bench/spectral.json and docs/bench_spectral.png.  omega_max (needed by both the
+spectral step count and the TS stability check) is computed once per case and not timed.
+"""
+
+import json
+import sys
+import time
+
+import numpy as np
+from benchlib import PY, REPO, mpirun, run_json, save
+
+T_END, SAMPLE, TARGET = 100.0, 0.5, 1e-6
+SPECTRAL_TOLS = [1e-3, 1e-5, 1e-7, 1e-9, 1e-11]
+RK_DTS = [0.2, 0.1, 0.05, 0.025]
+VERLET_DTS = [0.02, 0.01, 0.005, 0.0025]
+EXACT = REPO / "cache" / "bench_spectral_exact.npz"
+
+
+def load(n):
+    from solver import h5io, packing
+
+    path = REPO / "cache" / f"bench_{n}.h5"
+    if not path.exists():
+        path.parent.mkdir(exist_ok=True)
+        h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
+    return h5io.read_packings(str(path))[0]
+
+
+def times():
+    return np.arange(0, T_END + 1e-9, SAMPLE)
+
+
+def exact_reference() -> None:
+    """z(t) of the L wave at N = 2048 from a dense eigendecomposition (serial, once)."""
+    import scipy.linalg as sl
+
+    from solver import dynmat, petscenv, spectrum
+
+    PETSc = petscenv.init([])
+    p = load(2048)
+    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
+    lam, vec = sl.eigh(dynmat.gather_csr(spectrum.scaled_operator(dm)).toarray())
+    omega = np.sqrt(np.clip(lam, 0, None))
+    mass = dm.M.getArray()
+    k = 2 * np.pi * 4 / p.box_length
+    r0 = p.positions[~p.rattler]
+    v0 = np.zeros((len(r0), 3))
+    v0[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
+    v0[:, 0] -= v0[:, 0].mean()
+    b = np.zeros((len(r0), 3), complex)
+    b[:, 0] = np.exp(-1j * k * r0[:, 0])
+    z = ((b.ravel() / np.sqrt(mass)) @ vec * (vec.T @ (np.sqrt(mass) * v0.ravel()))) @ np.cos(np.outer(omega, times()))
+    np.savez(EXACT, t=times(), z=z, k=k)
+
+
+def _setup(n):
+    from solver import dynmat, petscenv, waves
+
+    PETSc = petscenv.init([])
+    p = load(n)
+    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    omega_max = waves.largest_omega(dm)
+    return PETSc, p, dm, omega_max, 2 * np.pi * 4 / p.box_length
+
+
+def _report(PETSc, seconds, z, extra=None):
+    from mpi4py import MPI
+
+    mpi = PETSc.COMM_WORLD.tompi4py()
+    seconds = mpi.allreduce(seconds, op=MPI.MAX)
+    if mpi.rank == 0:
+        print(json.dumps({"seconds": seconds, "z_re": list(np.real(z)), "z_im": list(np.imag(z)), **(extra or {})}))
+
+
+def case(n: int, method: str, setting: float) -> None:
+    """One timed run on the communicator mpirun gives: spectral (setting = tol) or TS (setting = dt)."""
+    from solver import waves
+
+    PETSc, p, dm, omega_max, k = _setup(n)
+    PETSc.COMM_WORLD.tompi4py().Barrier()
+    t0 = time.perf_counter()
+    if method == "spectral":
+        s = waves.spectral(dm, p.positions, "L", 0, k, amplitude=1e-3, times=times(), tol=setting,
+                           omega_max=omega_max)
+    else:
+        s = waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3, dt=setting, t_end=T_END,
+                            sample_every=int(round(SAMPLE / setting)), integrator=method)
+    _report(PETSc, time.perf_counter() - t0, s.z_fixed, {"steps": s.steps, "estimate": s.error_estimate})
+
+
+def scipy_case(n: int, dt: float) -> None:
+    """The obvious alternative: velocity Verlet with scipy.sparse, one process."""
+    from solver import dynmat
+
+    p = load(n)
+    D, _, _ = dynmat.local_csr(p, 1.0, (0, int((~p.rattler).sum())))
+    minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], 3)
+    k = 2 * np.pi * 4 / p.box_length
+    r0 = p.positions[~p.rattler]
+    v = np.zeros((len(r0), 3))
+    v[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
+    v[:, 0] -= v[:, 0].mean()
+    v = v.ravel()
+    u = np.zeros_like(v)
+    phase = np.exp(-1j * k * r0[:, 0])
+    every, steps = int(round(SAMPLE / dt)), int(round(T_END / dt))
+    t0 = time.perf_counter()
+    acc = -minv * (D @ u)
+    z = [np.dot(v[0::3], phase)]
+    for step in range(1, steps + 1):
+        v += 0.5 * dt * acc
+        u += dt * v
+        acc = -minv * (D @ u)
+        v += 0.5 * dt * acc
+        if step % every == 0:
+            z.append(np.dot(v[0::3], phase))
+    z = np.array(z)
+    print(json.dumps({"seconds": time.perf_counter() - t0, "z_re": list(z.real), "z_im": list(z.imag)}))
+
+
+def scaling_case() -> None:
+    """N = 32768 on this communicator: 200 MatMults, 500 Verlet steps, one spectral wave."""
+    from solver import waves
+
+    PETSc, p, dm, omega_max, k = _setup(32768)
+    mpi = PETSc.COMM_WORLD.tompi4py()
+    x, y = dm.D.createVecs()
+    x.setRandom()
+    out = {}
+    for name, run in (
+            ("matmult", lambda: [dm.D.mult(x, y) for _ in range(200)]),
+            ("verlet", lambda: waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3, dt=0.02, t_end=10.0,
+                                               sample_every=5, integrator="verlet")),
+            ("spectral", lambda: waves.spectral(dm, p.positions, "L", 0, k, amplitude=1e-3, times=times(),
+                                                tol=1e-8, omega_max=omega_max))):
+        mpi.Barrier()
+        t0 = time.perf_counter()
+        run()
+        out[name] = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
+    if mpi.rank == 0:
+        print(json.dumps(out))
+
+
+def _error(r, ref):
+    z = np.array(r["z_re"]) + 1j * np.array(r["z_im"])
+    return float(np.abs(z - ref).max() / np.abs(ref).max())
+
+
+def _time_at(points, target):
+    """Wall time at error = target, interpolated log-log between the bracketing points (or None)."""
+    pts = sorted(points, key=lambda p: p[0])
+    for (s1, e1), (s2, e2) in zip(pts, pts[1:]):
+        if (e1 - target) * (e2 - target) <= 0 and e1 != e2:
+            f = (np.log(target) - np.log(e1)) / (np.log(e2) - np.log(e1))
+            return float(np.exp(np.log(s1) + f * (np.log(s2) - np.log(s1))))
+    return None
+
+
+def main() -> None:
+    if not EXACT.exists():
+        run = __import__("subprocess").run
+        run([PY, __file__, "--exact"], check=True, cwd=REPO)
+    table, curves = [], {}
+    for n in (2048, 32768):
+        runs = [("spectral (2 ranks)", "spectral", tol, mpirun(2)) for tol in SPECTRAL_TOLS]
+        runs += [("TS rk4 (2 ranks)", "rk", dt, mpirun(2)) for dt in RK_DTS]
+        runs += [("TS verlet (2 ranks)", "verlet", dt, mpirun(2)) for dt in VERLET_DTS[: (4 if n == 2048 else 2)]]
+        if n == 2048:
+            ref = np.load(EXACT)["z"]
+            runs += [("scipy.sparse verlet (1 process)", "scipy", dt, []) for dt in VERLET_DTS]
+        else:
+            r = run_json(mpirun(2) + [PY, __file__, "--case", str(n), "spectral", "1e-12"])
+            ref = np.array(r["z_re"]) + 1j * np.array(r["z_im"])
+        for label, method, setting, launcher in runs:
+            args = ["--scipy", str(n), str(setting)] if method == "scipy" else ["--case", str(n), method, str(setting)]
+            r = run_json(launcher + [PY, __file__, *args])
+            err = _error(r, ref)
+            curves.setdefault((n, label), []).append((r["seconds"], err))
+            table.append({"N": n, "method": label, "tol or dt": f"{setting:g}", "wall time [s]": f"{r['seconds']:.3f}",
+                          "max rel. error of z(t)": f"{err:.1e}",
+                          "steps": r.get("steps", int(round(T_END / setting)) if method != "spectral" else "")})
+        spectral_time = _time_at(curves[(n, "spectral (2 ranks)")], TARGET)
+        for (size, label), pts in curves.items():
+            if size != n or label.startswith("spectral"):
+                continue
+            t = _time_at(pts, TARGET)
+            table.append({"N": n, "method": f"at error {TARGET:g}: {label} / spectral",
+                          "wall time [s]": f"{t:.3f} / {spectral_time:.3f}" if t and spectral_time else "not bracketed",
+                          "max rel. error of z(t)": f"ratio {t / spectral_time:.1f}x" if t and spectral_time else ""})
+    one = run_json(mpirun(1) + [PY, __file__, "--scaling"])
+    two = run_json(mpirun(2) + [PY, __file__, "--scaling"])
+    for key, what in (("matmult", "200 MatMults"), ("verlet", "TS verlet, 500 steps"),
+                      ("spectral", "spectral, one wave to t = 100")):
+        table.append({"N": 32768, "method": f"1 vs 2 ranks: {what}",
+                      "wall time [s]": f"{one[key]:.3f} / {two[key]:.3f}",
+                      "max rel. error of z(t)": f"speedup {one[key] / two[key]:.2f}x"})
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for ax, n in zip(axes, (2048, 32768)):
+        for (size, label), pts in curves.items():
+            if size == n:
+                pts = sorted(pts)
+                ax.loglog([s for s, _ in pts], [max(e, 1e-16) for _, e in pts], "o-", label=label)
+        ax.axhline(TARGET, color="0.6", ls=":")
+        ax.set(xlabel="wall time [s]", ylabel="max relative error of z(t), t <= 100 t0",
+               title=f"N = {n}, rho = 1, L wave" + (" (reference: exact)" if n == 2048 else " (reference: spectral, tol 1e-12)"))
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    (REPO / "docs").mkdir(exist_ok=True)
+    fig.savefig(REPO / "docs" / "bench_spectral.png", dpi=120)
+    save("spectral", "python scripts/bench_spectral.py", table,
+         "Error: max over samples (every 0.5 t0 to t = 100) of |z(t) - z_ref(t)| / max |z_ref|, r_i(0) phase. "
+         "Plot: ![time against error](docs/bench_spectral.png)")
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] == ["--exact"]:
+        exact_reference()
+    elif sys.argv[1:2] == ["--case"]:
+        case(int(sys.argv[2]), sys.argv[3], float(sys.argv[4]))
+    elif sys.argv[1:2] == ["--scipy"]:
+        scipy_case(int(sys.argv[2]), float(sys.argv[3]))
+    elif sys.argv[1:2] == ["--scaling"]:
+        scaling_case()
+    else:
+        main()

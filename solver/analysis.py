@@ -1,0 +1,173 @@
+"""Dispersion analysis of a scene's standing waves: fits per k, lattice model, k_c, band limits.
+
+Pure post-processing on rank 0 (numpy/scipy, no MPI): it reads the ``waves/...`` (and, if
+present, ``vdos/...``) results and returns new result groups ``analysis/...``.  Definitions:
+
+* C_alpha(k, t) is averaged over configurations (each already averaged over both directions),
+  then fitted with exp(-gamma t) cos(omega t) (``dispersion.fit_damped_cosine``) and cross-checked
+  by a Lorentzian fit of the configuration-averaged S_alpha(k, omega).  c = omega / k.
+* gamma ~ k^p (L and TR only; RT is optical-like with gamma(0) > 0) is fitted over k d0 <= ``power_law_kd0_max`` where the run resolves the decay
+  (gamma t_end >= 1).
+* k_c (RT): the first drop of the fitted RT frequency larger than ``kc_min_jump`` and 2.5x the
+  median step (``dispersion.transition_k``): the optical-like branch ends there.  The TR branch's complementary jump is the
+  first rise by the same rule.
+* Lattice model: a_r and l fitted jointly over every rho > 0 to the RT frequencies on
+  k d0 <= ``lattice_kd0_max`` and below k_c; then a_t (one value, l fixed) to the TR frequencies
+  on the same range (``a_t``, the long-wave TR value), and separately to the RT frequencies beyond
+  k_c, which follow the acoustic branch (``a_t_edge``; PHYSICS.md section 6: one a_t cannot fit
+  both).  Figures 5b and 7 draw omega_t with a_t_edge where it exists, as the paper's do.
+* Band limits from data: omega_r(0) is the RT frequency at the smallest k, omega_r(k_max) and
+  omega_t(k_max) the RT and TR frequencies at the largest k of the run (the report states both
+  k); omega_c from the vDOS of the same file when it has one.
+Units: omega, gamma in 1/t0, k in 1/d0.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+
+import numpy as np
+
+from . import correlations, dispersion
+
+_WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT)_p(\d+)$")
+
+
+def _fit_one(t, c, omega_grid, power, decay_window):
+    """Damped-cosine and Lorentzian fits of one k; NaN where a fit fails."""
+    row = dict.fromkeys(("omega", "gamma", "omega_err", "gamma_err", "rms", "t_fit",
+                         "omega_lorentz", "gamma_lorentz"), np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # OptimizeWarning (no covariance) is recorded as NaN errors
+        try:
+            fit = dispersion.fit_damped_cosine(t, c, decay_window)
+            row.update(omega=fit.omega, gamma=fit.gamma, omega_err=fit.omega_err,
+                       gamma_err=fit.gamma_err, rms=fit.rms, t_fit=fit.t_max)
+        except (RuntimeError, ValueError):
+            pass
+        try:
+            row["omega_lorentz"], row["gamma_lorentz"] = dispersion.fit_lorentzian(omega_grid, power)
+        except (RuntimeError, ValueError):
+            pass
+    return row
+
+
+def averaged_waves(units: dict) -> dict:
+    """{(rho, mode): (k (K,), t (S,), C (K, S), omega (W,), S (K, W), packings)} from
+    ``waves/rXX_MODE_pYYYY`` units (name -> (datasets, attrs)): C and S pool the runs of every
+    direction and configuration (correlations module), not averages of per-file ratios."""
+    groups: dict = {}
+    for name, (data, attrs) in sorted(units.items()):
+        if _WAVES.match(name):
+            groups.setdefault((float(attrs["rho"]), str(attrs["mode"])), []).append(data)
+    out = {}
+    for key, items in groups.items():
+        k, t = np.asarray(items[0]["k"]), np.asarray(items[0]["t"])
+        z = np.concatenate([np.asarray(d["z"]) for d in items], axis=0)  # (2 P, K, S)
+        c = np.array([correlations.vaf(z[:, i]) for i in range(k.size)])
+        spectra = [correlations.power_spectrum(z[:, i], t[1] - t[0]) for i in range(k.size)]
+        out[key] = (k, t, c, spectra[0][0], np.array([s for _, s in spectra]), len(items))
+    return out
+
+
+def _power_law(k, fits, t_end, kd0_max):
+    gamma = fits["gamma"]
+    use = (k <= kd0_max) & np.isfinite(gamma) & (gamma * t_end >= 1.0) & (gamma > 0)
+    if use.sum() < 3:
+        return np.nan, np.nan, int(use.sum())
+    p, err = dispersion.power_law(k[use], gamma[use])
+    return p, err, int(use.sum())
+
+
+def _fit_a_t(rows, l):
+    """Least-squares a_t (and 1-sigma) of omega_t = a_t sqrt(f - sqrt g) with l fixed; NaN
+    with fewer than 2 points."""
+    if sum(k.size for _, k, _ in rows) < 2:
+        return np.nan, np.nan
+    model = np.concatenate([dispersion.lattice_omega(k, rho, l, 1.0, 1.0)[0] for rho, k, _ in rows])
+    data = np.concatenate([w for _, _, w in rows])
+    a_t = float(model @ data / (model @ model))
+    resid = data - a_t * model
+    err = float(np.sqrt(resid @ resid / max(1, model.size - 1) / (model @ model)))
+    return a_t, err
+
+
+def analyse(units: dict, spec) -> dict:
+    """Analysis groups {name: (datasets, attrs)} from result units; {} without waves."""
+    waves = averaged_waves(units)
+    if not waves:
+        return {}
+    out: dict = {}
+    fits: dict = {}
+    for (rho, mode), (k, t, c, omega_grid, power, count) in sorted(waves.items()):
+        rows = [_fit_one(t, c[i], omega_grid, power[i], spec.decay_window) for i in range(k.size)]
+        table = {key: np.array([r[key] for r in rows]) for key in rows[0]}
+        for key in ("omega_lorentz", "gamma_lorentz"):  # a peak outside the grid is a failed fit
+            table[key][(table["omega_lorentz"] <= 0) | (table["omega_lorentz"] > omega_grid[-1])] = np.nan
+        p, p_err, p_points = (_power_law(k, table, t[-1], spec.power_law_kd0_max) if mode != "RT"
+                              else (np.nan, np.nan, 0))  # RT is optical-like: gamma(0) > 0
+        jump_of = {"RT": table["omega"], "TR": -table["omega"]}.get(mode)
+        finite = np.isfinite(table["omega"])
+        k_c = (dispersion.transition_k(k[finite], jump_of[finite], spec.kc_min_jump)
+               if jump_of is not None else None)
+        fits[(rho, mode)] = (k, table, k_c)
+        out[f"analysis/{_tag(rho)}_{mode}"] = (
+            {"k": k, **table, "c": table["omega"] / k},
+            {"rho": rho, "mode": mode, "configurations": count, "t_end": float(t[-1]),
+             "power_law_p": p, "power_law_p_err": p_err, "power_law_points": p_points,
+             "k_c": np.nan if k_c is None else k_c})
+    lattice = _lattice(fits, spec)
+    if lattice:
+        out["analysis/lattice"] = ({}, lattice)
+        out["analysis/bands"] = (_bands(fits, units), {
+            "definition": "omega_r0: RT at the smallest k; omega_r_kmax, omega_t_kmax: RT and TR at the "
+                          "largest k; omega_c: vDOS of this file (NaN without one)"})
+    return out
+
+
+def _tag(rho: float) -> str:
+    return f"rho{rho:g}"
+
+
+def _lattice(fits, spec) -> dict:
+    """Joint (a_r, l) fit over rho > 0 on the long-wave RT data below k_c, then a_t from TR."""
+    rt, tr = [], []
+    for (rho, mode), (k, table, k_c) in sorted(fits.items()):
+        if rho <= 0:
+            continue
+        keep = (k <= spec.lattice_kd0_max) & np.isfinite(table["omega"])
+        if k_c is not None:
+            keep &= k < k_c
+        if keep.any():
+            (rt if mode == "RT" else tr if mode == "TR" else []).append((rho, k[keep], table["omega"][keep]))
+    if sum(r[1].size for r in rt) < 3:
+        return {}
+    a_r, a_r_err, l, l_err = dispersion.fit_lattice(rt, k_max=spec.lattice_kd0_max)
+    a_t, a_t_err = _fit_a_t(tr, l)
+    edge = [(rho, k[k > k_c], table["omega"][k > k_c]) for (rho, mode), (k, table, k_c) in sorted(fits.items())
+            if mode == "RT" and rho > 0 and k_c is not None]
+    a_t_edge, a_t_edge_err = _fit_a_t([e for e in edge if np.isfinite(e[2]).all()], l)
+    return {"a_r": a_r, "a_r_err": a_r_err, "l": l, "l_err": l_err, "a_t": a_t, "a_t_err": a_t_err,
+            "a_t_edge": a_t_edge, "a_t_edge_err": a_t_edge_err,
+            "k_max": np.pi / (2 * l), "kd0_max_used": spec.lattice_kd0_max,
+            "rho_values": np.array(sorted({r[0] for r in rt}))}
+
+
+def _bands(fits, units) -> dict:
+    """Band limits per rho > 0 from the fitted frequencies (and omega_c of the vDOS, if any)."""
+    vdos = {float(a["rho"]): float(a["omega_c"]) for n, (_, a) in units.items() if n.startswith("vdos/")}
+    rhos = sorted({rho for rho, mode in fits if rho > 0 and mode == "RT"})
+    cols = {key: [] for key in ("rho", "omega_r0", "omega_r_kmax", "omega_t_kmax", "omega_c",
+                                "k_small", "k_large")}
+    for rho in rhos:
+        k, rt, _ = fits[(rho, "RT")]
+        tr = fits.get((rho, "TR"), (k, {"omega": np.full(k.size, np.nan)}, None))[1]
+        cols["rho"].append(rho)
+        cols["omega_r0"].append(rt["omega"][0])
+        cols["omega_r_kmax"].append(rt["omega"][-1])
+        cols["omega_t_kmax"].append(tr["omega"][-1])
+        cols["omega_c"].append(vdos.get(rho, np.nan))
+        cols["k_small"].append(k[0])
+        cols["k_large"].append(k[-1])
+    return {key: np.array(v, float) for key, v in cols.items()}

@@ -1,0 +1,133 @@
+"""Analysis of waves results (fits, lattice model, k_c, bands) on synthetic data with a known
+answer, and the reproduction report on a tiny real run."""
+
+import h5py
+import numpy as np
+import pytest
+
+from solver import analysis, dispersion, report
+from solver.config import AnalysisSpec
+from conftest import run_cli
+
+pytestmark = pytest.mark.serial_only
+
+A_R, L_MODEL, A_T = 0.73, 0.446, 0.55
+RHOS = (0.2, 1.0, 2.0)
+K = np.linspace(0.1, 3.4, 24)
+K_C = 2.2  # the synthetic rho = 0.2 RT branch leaves the optical branch here
+
+
+def _truth(rho, mode):
+    """(omega (K,), gamma (K,)) of the synthetic data."""
+    w_t, w_r = dispersion.lattice_omega(K, rho, L_MODEL, A_T, A_R)
+    gamma = 0.02 * K**3 + (0.05 if mode == "RT" else 0.0)
+    if mode == "L":
+        return 1.6 * w_t, gamma
+    if mode == "TR":
+        return w_t, gamma
+    if rho < 1:  # RT on the acoustic branch beyond k_c, 20 % above the TR model branch
+        return np.where(K < K_C, w_r, 1.2 * w_t), gamma
+    return w_r, gamma
+
+
+def _units(rng):
+    """Waves units of two configurations whose z(t) are damped cosines with a little noise."""
+    t = np.arange(0, 200.0, 0.1)
+    units = {}
+    for r_index, rho in enumerate(RHOS):
+        for mode in ("L", "TR", "RT"):
+            omega, gamma = _truth(rho, mode)
+            for p in range(2):
+                z = np.exp(-gamma[None, :, None] * t) * np.cos(omega[None, :, None] * t) * np.ones((2, 1, 1))
+                z = z + 1e-3 * rng.normal(size=z.shape)
+                units[f"waves/r{r_index:02d}_{mode}_p{p:04d}"] = (
+                    {"k": K, "t": t, "z": z.astype(complex)}, {"rho": rho, "mode": mode, "packing": p})
+    units["vdos/r02"] = ({}, {"rho": 2.0, "omega_c": 6.7})
+    return units
+
+
+@pytest.fixture(scope="module")
+def analysed():
+    units = _units(np.random.default_rng(5))
+    return analysis.analyse(units, AnalysisSpec())
+
+
+def test_fits_recover_frequencies_and_attenuation(analysed):
+    for rho in RHOS:
+        for mode in ("L", "TR", "RT"):
+            g = analysed[f"analysis/rho{rho:g}_{mode}"][0]
+            omega, gamma = _truth(rho, mode)
+            resolved = gamma * 200 > 1  # the decay must be visible in the run to be measured
+            assert np.allclose(g["omega"], omega, rtol=2e-3, atol=2e-3), (rho, mode)
+            assert np.allclose(g["gamma"][resolved], gamma[resolved], rtol=0.05, atol=2e-3), (rho, mode)
+            assert np.allclose(g["c"], g["omega"] / K)
+
+
+def test_power_law_and_transition(analysed):
+    for rho in RHOS:
+        attrs = analysed[f"analysis/rho{rho:g}_TR"][1]
+        assert abs(attrs["power_law_p"] - 3.0) < 0.1, attrs
+        assert np.isnan(analysed[f"analysis/rho{rho:g}_RT"][1]["power_law_p"])  # optical branch: not fitted
+    spacing = K[1] - K[0]
+    assert abs(analysed["analysis/rho0.2_RT"][1]["k_c"] - K_C) <= spacing
+    assert np.isnan(analysed["analysis/rho1_RT"][1]["k_c"]) and np.isnan(analysed["analysis/rho2_RT"][1]["k_c"])
+
+
+def test_lattice_fit_and_bands(analysed):
+    lat = analysed["analysis/lattice"][1]
+    assert abs(lat["a_r"] - A_R) < 5e-3 and abs(lat["l"] - L_MODEL) < 5e-3, lat
+    assert abs(lat["a_t"] - A_T) < 5e-3, lat             # long-wave TR
+    assert abs(lat["a_t_edge"] - 1.2 * A_T) < 1e-2, lat  # RT beyond k_c
+    bands = analysed["analysis/bands"][0]
+    assert list(bands["rho"]) == list(RHOS)
+    rt0 = [_truth(rho, "RT")[0] for rho in RHOS]
+    assert np.allclose(bands["omega_r0"], [w[0] for w in rt0], rtol=2e-3)
+    assert np.allclose(bands["omega_r_kmax"], [w[-1] for w in rt0], rtol=2e-3)
+    assert np.isnan(bands["omega_c"][0]) and bands["omega_c"][2] == 6.7
+
+
+def test_no_waves_no_analysis():
+    assert analysis.analyse({"vdos/r00": ({}, {"rho": 1.0, "omega_c": 4.0})}, AnalysisSpec()) == {}
+
+
+def _data(**vdos_omega_c):
+    d = report.Data()
+    edges = np.linspace(0, 8, 161)
+    for rho, omega_c in vdos_omega_c.items():
+        density = np.exp(-((edges[:-1] - 2.3) ** 2))
+        d.vdos[float(rho.replace("r", "").replace("_", "."))] = (edges, density, omega_c, 0.01, 2)
+    return d
+
+
+def test_claims_pass_and_fail_on_their_tolerance():
+    rows = {r.claim: r for r in report.claims(_data(r0=2.35, r2=6.7))}
+    assert rows["Cutoff omega_c at rho = 2 (Fig. 1)"].status == "PASS"
+    rows = {r.claim: r for r in report.claims(_data(r0=2.35, r2=7.1))}
+    assert rows["Cutoff omega_c at rho = 2 (Fig. 1)"].status == "FAIL"
+    assert rows["Frictionless main vDOS peak (Fig. 1)"].status == "PASS"
+    assert any(r.status == "NOT MEASURED" for r in rows.values())  # no waves given
+
+
+def test_report_from_a_tiny_run(tmp_path):
+    out = tmp_path / "tiny.h5"
+    scene = tmp_path / "tiny.yaml"
+    scene.write_text(f"output: {out}\nseed: 4\npacking: {{n: 128, phi: 0.9, count: 1}}\n"
+                     "model: {rho: [0.0, 0.2, 0.4, 1.0, 2.0]}\nspectrum: {energies: true}\n"
+                     "waves: {n: [1, 2, 3, 4, 5], method: spectral, t_end: 40.0, dt: 0.05, sample_every: 2}\n")
+    proc = run_cli(["run", str(scene)], timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(out) as f:
+        assert {"lattice", "bands", "rho1_RT", "rho0_L"} <= set(f["analysis"])
+        assert "rho0_RT" not in f["analysis"]
+    md = tmp_path / "REPRODUCTION.md"
+    proc = run_cli(["report", str(scene), "--output", str(md)])
+    assert proc.returncode == 0, proc.stderr
+    text = md.read_text()
+    rows = [line for line in text.splitlines() if line.startswith("| ") and line.split("|")[1].strip().isdigit()]
+    assert len(rows) >= 20
+    assert all(line.rstrip(" |").endswith(("PASS", "**FAIL**", "not measured")) for line in rows)
+    for png in ("fig1_vdos", "fig4_dispersion_rt", "fig5_transition", "fig6_energies", "fig7_bands"):
+        assert (tmp_path / "reproduction" / f"{png}.png").exists(), png
+        assert f"reproduction/{png}.png" in text
+    bad = run_cli(["report", str(tmp_path / "missing.h5")])
+    assert bad.returncode == 2 and "missing.h5: not found" in bad.stderr
