@@ -1,6 +1,7 @@
 """Command line: ``python -m solver {run,plot,keys} ...`` (also installed as ``rotsound``).
 
     rotsound run SCENE.yaml [--set key.path=value ...] [--fresh] [-petsc_option value ...]
+        (a file of several YAML documents runs them in order, one PETSc for all)
     rotsound plot RESULTS.h5|SCENE.yaml [MORE.h5 ...]
     rotsound report RESULTS.h5|SCENE.yaml [MORE ...] [--output REPRODUCTION.md]
     rotsound keys                      # the scene reference as a Markdown table
@@ -55,38 +56,49 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def load_scene(path: str, assignments: list[str], comm) -> config.Scene:
-    """Read on rank 0, broadcast, validate everywhere (same error on every rank). Collective."""
-    raw, error = None, None
+def load_scenes(path: str, assignments: list[str], comm) -> list[config.Scene]:
+    """Read on rank 0, broadcast, validate everywhere (same error on every rank). Collective.
+
+    A file of several YAML documents is several scenes run in order; ``--set`` applies to each."""
+    docs, error = None, None
     if comm.rank == 0:
         try:
-            raw = config.read_yaml(path)
-            for assignment in assignments:
-                config.set_key(raw, assignment)
+            docs = config.read_documents(path)
+            for raw in docs:
+                for assignment in assignments:
+                    config.set_key(raw, assignment)
         except InputError as exc:
             error = exc
-    raw, error = comm.bcast((raw, error), root=0)
+    docs, error = comm.bcast((docs, error), root=0)
     if error is not None:
         raise error
-    return config.build(config.Scene, raw)
+    return config.build_all(path, docs)
 
 
 def _run(args, petsc_words, comm) -> None:
     from . import petscenv
 
-    scene = load_scene(args.scene, args.set, comm)
-    yaml_words = petscopts.to_argv(petscopts.flatten(scene.petsc))
+    scenes = load_scenes(args.scene, args.set, comm)
+    yaml_words = petscopts.to_argv(petscopts.flatten(scenes[0].petsc))
     argv = yaml_words + petsc_words  # later words win: the command line beats the scene
     petscenv.init(argv)
     from . import pipeline
 
-    pipeline.run(scene, comm, argv, fresh=args.fresh)
+    for index, scene in enumerate(scenes):
+        if len(scenes) > 1:
+            pipeline.say(comm, f"== scene {index + 1} of {len(scenes)}: {scene.output}")
+        pipeline.run(scene, comm, argv, fresh=args.fresh)
 
 
 def _targets(names: list[str]) -> list[str]:
-    """Results paths: each scene file is replaced by its output."""
-    return [config.build(config.Scene, config.read_yaml(t)).output if t.endswith((".yaml", ".yml")) else t
-            for t in names]
+    """Results paths: each scene file is replaced by the outputs of its documents."""
+    out = []
+    for name in names:
+        if name.endswith((".yaml", ".yml")):
+            out += [scene.output for scene in config.build_all(name, config.read_documents(name))]
+        else:
+            out.append(name)
+    return out
 
 
 def _report(args) -> None:

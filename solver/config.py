@@ -83,8 +83,8 @@ class SpectrumSpec:
 
     window: list[float] | None = _f(None, "[omega_lo, omega_hi] in 1/t0 for one band, or null for "
                                           "the full spectrum", _window, "window")
-    energies: bool = _f(False, "also compute per-mode K, Q and participation ratio (needs eigenvectors)",
-                        None, bool)
+    energies: bool = _f(False, "also compute per-mode K, Q and participation ratio (needs eigenvectors); "
+                               "with kpm: bin averages of K and Q (twice the probes' cost)", None, bool)
     bin_width: float = _f(0.05, "vDOS bin width in 1/t0", _range(0.0, 10.0, True), float)
     tol: float = _f(1e-12, "SLEPc relative tolerance (-eps_tol wins)", _range(0.0, 1e-2, True), float)
     zero_tol: float = _f(1e-4, "modes with omega below this (1/t0) are zero modes", _range(0.0, 1.0, True),
@@ -92,7 +92,7 @@ class SpectrumSpec:
     max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
                                _range(10, 10**7), int)
     method: str = _f("slicing", "slicing: exact eigenvalues (SLEPc spectrum slicing); kpm: stochastic "
-                                "vDOS (Chebyshev moments, no factorisation; vDOS and omega_c only)",
+                                "vDOS (Chebyshev moments, no factorisation; vDOS, omega_c and, with energies, binned K and Q)",
                      lambda v: None if v in ("slicing", "kpm") else "must be slicing or kpm", str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
@@ -303,9 +303,8 @@ def _cross_check(obj, where):
             if getattr(obj, name) is None:
                 raise InputError(f"{where}{name} is missing: give packing.n and packing.phi, "
                                  f"or packing.file")
-    if isinstance(obj, SpectrumSpec) and obj.method == "kpm" and (obj.energies or obj.window):
-        raise InputError(f"{where}method = 'kpm' gives the vDOS only: {where}energies and {where}window "
-                         f"need method 'slicing'")
+    if isinstance(obj, SpectrumSpec) and obj.method == "kpm" and obj.window:
+        raise InputError(f"{where}method = 'kpm' gives the whole vDOS: {where}window needs method 'slicing'")
     if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
         raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
     if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:
@@ -333,22 +332,45 @@ def set_key(raw: dict, assignment: str) -> None:
     node[keys[-1]] = value
 
 
-def read_yaml(path: str) -> dict:
-    """Read a scene file into a mapping; errors name the file. Not collective."""
+def read_documents(path: str) -> list[dict]:
+    """Read a scene file into one mapping per YAML document (``---`` separates scenes that run
+    one after another); errors name the file and document. Not collective."""
     if not os.path.isfile(path):
         raise InputError(f"scene file {path}: not found")
     try:
         with open(path, encoding="utf-8") as stream:
-            raw = yaml.safe_load(stream)
+            docs = list(yaml.safe_load_all(stream))
     except yaml.YAMLError as exc:
         raise InputError(f"scene file {path}: invalid YAML: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"scene file {path}: cannot read: {exc}") from None
-    if raw is None:
-        raw = {}
-    if not isinstance(raw, dict):
-        raise InputError(f"scene file {path}: top level must be a mapping of keys")
-    return raw
+    docs = [{} if d is None else d for d in docs] or [{}]
+    for index, raw in enumerate(docs):
+        if not isinstance(raw, dict):
+            where = f", document {index + 1}" if len(docs) > 1 else ""
+            raise InputError(f"scene file {path}{where}: top level must be a mapping of keys")
+    return docs
+
+
+def build_all(path: str, docs: list[dict]) -> list[Scene]:
+    """Validate every document of ``path``; the rules that span documents: distinct outputs, and
+    PETSc options only in the first (they configure the one PETSc of the whole run)."""
+    scenes = []
+    for index, raw in enumerate(docs):
+        try:
+            scenes.append(build(Scene, raw))
+        except InputError as exc:
+            if len(docs) == 1:
+                raise
+            raise InputError(f"scene file {path}, document {index + 1}: {exc}") from None
+        if index and scenes[-1].petsc:
+            raise InputError(f"scene file {path}, document {index + 1}: petsc options configure the whole "
+                             f"run; give them in the first document only")
+    outputs = [s.output for s in scenes]
+    for out in outputs:
+        if outputs.count(out) > 1:
+            raise InputError(f"scene file {path}: two documents write output {out!r}; each needs its own")
+    return scenes
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:

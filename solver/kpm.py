@@ -24,8 +24,14 @@ def jackson(m: int) -> np.ndarray:
     return ((m - n + 1) * np.cos(q * n) + np.sin(q * n) / np.tan(q)) / (m + 1)
 
 
-def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int) -> tuple[np.ndarray, float, float]:
-    """Stochastic Chebyshev moments (n_moments,) of the non-zero modes; also (c, h). Collective."""
+def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel: str | None = None
+            ) -> tuple[np.ndarray, float, float]:
+    """Stochastic Chebyshev moments (n_moments,) of the non-zero modes; also (c, h). Collective.
+
+    ``channel`` "translation" or "rotation" restricts the probes to those DOF, so the moments
+    weigh mode q by |P e_q|^2 (its translational or rotational share, PHYSICS.md section 3);
+    the two channels add up to the unrestricted moments in expectation.
+    """
     from petsc4py import PETSc
 
     comm = dm.D.getComm()
@@ -38,6 +44,9 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int) -> tuple
     start = dm.D.getOwnershipRange()[0]
     rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
     full = rng.choice([-1.0, 1.0], size=(n, probes))
+    if channel is not None:
+        rotation = (np.arange(n) % dm.dof) == 2
+        full[rotation if channel == "translation" else ~rotation] = 0.0
     z = np.asfortranarray(full[start:start + nloc])
     # project out the two translations (in A's space: e_x ~ M^1/2 (1, 0, 0, ...)), exact zero modes
     sq = 1.0 / s
@@ -94,6 +103,28 @@ def vdos(dm, edges: np.ndarray, lam_max: float, n_moments: int, probes: int, see
     mu, c, h = moments(dm, lam_max, n_moments, probes, seed)
     masses = np.clip(bin_masses(mu, c, h, edges), 0.0, None)
     return masses / np.diff(edges) / masses.sum()
+
+
+def energies(dm, edges: np.ndarray, lam_max: float, n_moments: int, probes: int, seed: int
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(g (B,), K (B,), Q (B,)): the vDOS and the bin averages of K and Q over its modes (Fig. 6)
+    from translation- and rotation-restricted probes. Collective; needs rotations (rho > 0).
+
+    Mode q carries w_T = sum over translational DOF of e_q^2 = 4 N K_q and w_R = 2 N Q_q, and
+    w_T + w_R = 1; so the two restricted densities add up to the vDOS (used as such: g costs
+    nothing extra), and K = mass_T / (4 N mass), Q = mass_R / (2 N mass) per bin.  Bins holding
+    less than 1e-4 of the modes are NaN (a ratio of two noisy small numbers).
+    """
+    masses = []
+    for index, channel in enumerate(("translation", "rotation")):
+        mu, c, h = moments(dm, lam_max, n_moments, probes, seed + 1000 * index, channel)
+        masses.append(bin_masses(mu, c, h, edges))
+    total = np.clip(masses[0] + masses[1], 0.0, None)
+    n_disks = int(dm.active.sum())
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = np.where(total > 1e-4 * total.sum(), masses[0] / (4 * n_disks * total), np.nan)
+        q = np.where(total > 1e-4 * total.sum(), masses[1] / (2 * n_disks * total), np.nan)
+    return total / np.diff(edges) / total.sum(), k, q
 
 
 def auto_moments(lam_max: float, bin_width: float, omega_ref: float = 1.0) -> int:

@@ -102,9 +102,19 @@ def _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm):
     omega_max = waves.largest_omega(dm)
     edges = np.arange(0.0, spec.bin_width * (np.ceil(1.1 * omega_max / spec.bin_width) + 1), spec.bin_width)
     n_moments = spec.moments or kpm.auto_moments(omega_max**2, spec.bin_width)
-    density = kpm.vdos(dm, edges, omega_max**2, n_moments, spec.probes, scene.seed + p_index)
+    datasets = {"edges": edges}
+    if spec.energies and dm.dof == 3:  # K and Q from channel-restricted probes (same cost x 2)
+        datasets["density"], datasets["K"], datasets["Q"] = kpm.energies(
+            dm, edges, omega_max**2, n_moments, spec.probes, scene.seed + p_index)
+    else:
+        datasets["density"] = kpm.vdos(dm, edges, omega_max**2, n_moments, spec.probes, scene.seed + p_index)
+        if spec.energies:  # rho = 0: no rotations; every mode has K = 1/4N, Q = 0
+            populated = datasets["density"] > 0
+            datasets["K"] = np.where(populated, 1.0 / (4 * int(dm.active.sum())), np.nan)
+            datasets["Q"] = np.where(populated, 0.0, np.nan)
+    density = datasets["density"]
     seconds = parallel.global_max(comm, time.perf_counter() - t)
-    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", {"edges": edges, "density": density}, {
+    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", datasets, {
         "rho": rho, "packing": p_index, "method": "kpm", "moments": n_moments, "probes": spec.probes,
         "omega_max": omega_max, "n_zero_modes": 2, "dof": dm.size, "n_disks": int(dm.active.sum()),
         "seconds": seconds})

@@ -71,16 +71,24 @@ def plot_energies(f, stem: str, rhos=None) -> list[str]:
         return []
     fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.8), squeeze=False)
     vdos = {float(g.attrs["rho"]): g for g in _groups(f, "vdos")}
+    from .modes import bin_average
+
     for ax, rho in zip(axes[0], rhos):
         mine = [g for g in spectra if float(g.attrs["rho"]) == rho]
-        omega = np.concatenate([g["omega"][()] for g in mine])
         edges = vdos[rho]["edges"][()]
         centres = 0.5 * (edges[1:] + edges[:-1])
-        from .modes import bin_average
-
         for key, style in (("K", {"color": "tab:blue", "ls": ":"}), ("Q", {"color": "tab:red"})):
-            values = np.concatenate([g[key][()] for g in mine])
-            ax.semilogy(centres, bin_average(omega, values, edges), label=key, **style)
+            x = centres
+            if "omega" in mine[0]:  # per mode (slicing): average over the modes of each bin
+                omega = np.concatenate([g["omega"][()] for g in mine])
+                curve = bin_average(omega, np.concatenate([g[key][()] for g in mine]), edges)
+            else:  # kpm: already bin averages; weight each configuration by its modes in the bin
+                size = min(g[key].shape[0] for g in mine)
+                w = np.array([g["density"][:size] for g in mine])
+                with np.errstate(invalid="ignore"):
+                    curve = np.nansum(w * np.array([g[key][:size] for g in mine]), axis=0) / w.sum(axis=0)
+                x = 0.5 * (mine[0]["edges"][1:size + 1] + mine[0]["edges"][:size])
+            ax.semilogy(x, curve, label=key, **style)
         ax.semilogy(centres, 5e-3 * vdos[rho]["density"][()], "k--", lw=0.8, label="g(omega) x 5e-3")
         ax.set(xlabel="omega t0", ylabel="K, Q (m d0^2 / t0^2)", title=f"rho = {rho:g}")
         ax.legend(fontsize=8)

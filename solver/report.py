@@ -35,6 +35,7 @@ class Data:
     s1: dict = field(default_factory=dict)          # phi -> {rho: (edges, density, omega_c)}
     sources: list = field(default_factory=list)     # (path, phi, N, what)
     vdos_file: str | None = None
+    energies_file: dict = field(default_factory=dict)  # rho -> path
     waves_file: str | None = None
 
 
@@ -46,7 +47,8 @@ def _phi_n(f):
 
 
 def gather(paths: list[str]) -> Data:
-    """Read every file; the first file with a quantity at phi = 0.9 provides it."""
+    """Read every file; the first file with a quantity at phi = 0.9 provides it (the vDOS as a
+    whole; K and Q per rho)."""
     data = Data()
     for path in paths:
         if not os.path.isfile(path):
@@ -69,12 +71,13 @@ def gather(paths: list[str]) -> Data:
                 continue
             if vdos and not data.vdos:
                 data.vdos, data.vdos_file = vdos, path
-                for rho in vdos:
-                    mine = [g for g in (f["spectra"][k] for k in f.get("spectra", {}))
-                            if "K" in g and float(g.attrs["rho"]) == rho]
-                    if mine:
-                        data.energies[rho] = tuple(np.concatenate([g[key][()] for g in mine])
-                                                   for key in ("omega", "K", "Q"))
+            for rho in vdos:
+                mine = [g for g in (f["spectra"][k] for k in f.get("spectra", {}))
+                        if "K" in g and float(g.attrs["rho"]) == rho]
+                if mine and rho not in data.energies:
+                    data.energies[rho] = tuple(np.concatenate([g[key][()] for g in mine])
+                                               for key in ("omega", "K", "Q"))
+                    data.energies_file.setdefault(rho, path)
             if "analysis/lattice" in f and data.lattice is None:
                 data.waves_file = path
                 data.lattice = dict(f["analysis/lattice"].attrs)
@@ -344,6 +347,9 @@ def figures(d: Data, folder: str) -> list[tuple[str, str]]:
     if d.vdos_file:
         with h5py.File(d.vdos_file, "r") as f:
             keep("Fig. 1: vDOS for every rho (rho = 0 dotted), arrows at omega_c", plots.plot_vdos(f, f"{folder}/fig1_vdos"))
+    energies = d.energies_file.get(1.0) or d.energies_file.get(0.4)
+    if energies:
+        with h5py.File(energies, "r") as f:
             keep("Fig. 6: K (blue dotted), Q (red) and g x 5e-3 (dashed), rho = 1 and 0.4",
                  plots.plot_energies(f, f"{folder}/fig6_energies", rhos=(1.0, 0.4)))
     if d.waves_file:

@@ -17,7 +17,7 @@ def materialise(tmp_path, case):
     args = list(words)
     if scene is not None:
         path = tmp_path / "scene.yaml"
-        text = scene.replace("{file}", str(file))
+        text = scene.replace("{file}", str(file)).replace("{out}", str(out))
         path.write_text(text if text.startswith(("- ", "packing: {n: 64, phi: 0.9\n")) or not text.strip()
                         else f"output: {out}\n" + text)
         if "--set" in words or not words:

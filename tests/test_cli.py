@@ -69,3 +69,17 @@ def test_plot_overlays_several_results(tmp_path):
 def test_keys_prints_reference():
     proc = run_cli(["keys"])
     assert proc.returncode == 0 and "`packing.phi`" in proc.stdout
+
+
+def test_multi_document_scene_runs_each_in_order(tmp_path):
+    doc = "output: {out}\npacking: {{n: 32, phi: 0.9}}\nmodel: {{rho: 1}}\nspectrum: {{}}\n"
+    outs = [tmp_path / "first.h5", tmp_path / "second.h5"]
+    path = write(tmp_path, doc.format(out=outs[0]) + "---\n" + doc.format(out=outs[1]), "multi.yaml")
+    proc = run_cli(["run", path, "--set", "seed=5"], ranks=2)
+    assert proc.returncode == 0, proc.stderr
+    assert "== scene 2 of 2" in proc.stdout and all(out.exists() for out in outs)
+    for out in outs:
+        with h5py.File(out) as f:
+            assert "seed: 5" in f.attrs["scene"]
+    proc = run_cli(["plot", path])
+    assert proc.returncode == 0 and "first_vdos.png" in proc.stdout and "second_vdos.png" in proc.stdout

@@ -58,7 +58,7 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "method": "lanczos"}}, ["waves.method", "ts or spectral"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"window": [3, 2]}}, ["spectrum.window", "omega_lo < omega_hi"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energies": "yes"}}, ["spectrum.energies", "true or false"]),
-    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "kpm", "energies": True}}, ["need method 'slicing'"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "kpm", "window": [1.0, 2.0]}}, ["window needs method 'slicing'"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "lanczos"}}, ["spectrum.method", "slicing or kpm"]),
 ])
 def test_bad_scenes_name_the_key(raw, words):
@@ -98,15 +98,35 @@ def test_digest_ignores_output_only():
 
 def test_read_yaml_errors(tmp_path):
     with pytest.raises(InputError, match="not found"):
-        config.read_yaml(str(tmp_path / "missing.yaml"))
+        config.read_documents(str(tmp_path / "missing.yaml"))
     bad = tmp_path / "bad.yaml"
     bad.write_text("packing: {n: 64\n")
     with pytest.raises(InputError, match="invalid YAML"):
-        config.read_yaml(str(bad))
+        config.read_documents(str(bad))
     listy = tmp_path / "list.yaml"
     listy.write_text("- 1\n- 2\n")
     with pytest.raises(InputError, match="top level must be a mapping"):
-        config.read_yaml(str(listy))
+        config.read_documents(str(listy))
+
+
+def test_multi_document_scenes(tmp_path):
+    one = "output: results/{}.h5\npacking: {{n: 64, phi: 0.9}}\n"
+    path = tmp_path / "multi.yaml"
+    path.write_text(one.format("a") + "---\n" + one.format("b"))
+    scenes = config.build_all(str(path), config.read_documents(str(path)))
+    assert [s.output for s in scenes] == ["results/a.h5", "results/b.h5"]
+    path.write_text(one.format("a") + "---\n" + one.format("a"))
+    with pytest.raises(InputError, match="two documents write output 'results/a.h5'"):
+        config.build_all(str(path), config.read_documents(str(path)))
+    path.write_text(one.format("a") + "---\n" + one.format("b") + "petsc: {eps_tol: 1e-9}\n")
+    with pytest.raises(InputError, match="document 2: petsc options configure the whole run"):
+        config.build_all(str(path), config.read_documents(str(path)))
+    path.write_text(one.format("a") + "---\n" + one.format("b") + "sead: 1\n")
+    with pytest.raises(InputError, match="document 2: unknown key sead"):
+        config.build_all(str(path), config.read_documents(str(path)))
+    path.write_text(one.format("a") + "---\n- 1\n")
+    with pytest.raises(InputError, match="document 2: top level must be a mapping"):
+        config.read_documents(str(path))
 
 
 def test_petsc_flattening_and_argv_split():

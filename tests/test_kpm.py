@@ -53,3 +53,46 @@ def test_vdos_against_exact_histogram(comm, packing256):
         errors.append(np.sum(np.abs(g - ref) * np.diff(edges)))
     assert_all(errors[1] < errors[0] and errors[1] < 0.05, f"L1 errors {errors}")
     dm.destroy()
+
+
+def test_channel_moments_weigh_modes_by_their_share(comm, packing256):
+    """Translation- plus rotation-restricted moments, dense reference: sum_q |P e_q|^2 T_n(x_q)."""
+    dm = dynmat.assemble(packing256, 1.0, comm)
+    lam_max = waves.largest_omega(dm) ** 2
+    A = spectrum.scaled_operator(dm)
+    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
+    A.destroy()
+    n = lam.size
+    rotation = np.arange(n) % 3 == 2
+    for channel, mask in (("translation", ~rotation), ("rotation", rotation)):
+        mu, c, h = kpm.moments(dm, lam_max, 31, probes=400, seed=5, channel=channel)
+        x = np.clip((lam[2:] - c) / h, -1, 1)
+        share = np.sum(vec[mask, 2:] ** 2, axis=0)  # |P e_q|^2 of the non-zero modes
+        ref = np.array([np.sum(share * np.cos(k * np.arccos(x))) for k in range(31)]) / (n - 2)
+        # the stochastic trace's standard error with 400 probes is ~ sqrt(2 / 400) of a row norm:
+        assert_all(np.abs(mu - ref).max() < 0.02, f"{channel}: {np.abs(mu - ref).max()}")
+    dm.destroy()
+
+
+def test_kpm_energies_against_exact_bin_averages(comm, packing256):
+    dm = dynmat.assemble(packing256, 1.0, comm)
+    w = waves.largest_omega(dm)
+    A = spectrum.scaled_operator(dm)
+    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
+    A.destroy()
+    omega, vec = np.sqrt(lam[2:]), vec[:, 2:]
+    n_disks = int(dm.active.sum())
+    k_exact = (vec[0::3] ** 2 + vec[1::3] ** 2).sum(axis=0) / (4 * n_disks)
+    edges = np.arange(0, 1.1 * w, 0.25)
+    from solver.modes import bin_average
+
+    ref_k = bin_average(omega, k_exact, edges)
+    counts = np.histogram(omega, edges)[0]
+    g, k, q = kpm.energies(dm, edges, w**2, 400, probes=64, seed=2)
+    full = np.isfinite(k)
+    assert_all(np.allclose(2 * k[full] + q[full], 1 / (2 * n_disks), rtol=1e-12), "2K + Q = 1/2N per bin")
+    assert_all(abs(np.sum(g * np.diff(edges)) - 1) < 1e-12, "unit area")
+    busy = (counts >= 30) & full
+    rel = np.abs(k[busy] / ref_k[busy] - 1)
+    assert_all(busy.sum() >= 8 and rel.max() < 0.1, f"K relative errors {rel}")
+    dm.destroy()

@@ -1,0 +1,27 @@
+#!/bin/bash
+# Example batch job for the paper's programme (configs/paper.yaml) on a Slurm cluster.
+# Adapt the partition, the node count and how your site provides Debian's PETSc/SLEPc stack
+# (here: the same Debian 12 image with `make setup` done once in this checkout).
+#SBATCH --job-name=rotsound-paper
+#SBATCH --nodes=1
+#SBATCH --ntasks=32
+#SBATCH --mem=64G
+#SBATCH --time=08:00:00
+#SBATCH --requeue                 # a preempted job starts again...
+#SBATCH --signal=B:TERM@120       # ...and SIGTERM two minutes before the end lets the unit in flight finish
+#SBATCH --output=results/paper_%j.log
+set -euo pipefail
+cd "${SLURM_SUBMIT_DIR:-$(dirname "$0")/..}"
+mkdir -p results
+# Finished units are kept in results/*.units/: a requeued or resubmitted job resumes from them.
+# rotsound exits 143 after a SIGTERM; resubmit the same script to continue.
+mpirun -n "${SLURM_NTASKS:-2}" .venv/bin/rotsound run configs/paper.yaml &
+pid=$!
+trap 'kill -TERM "$pid"' TERM   # bash does not pass signals on to a child by itself
+status=0
+wait "$pid" || status=$?         # returns early when the trap fires...
+if kill -0 "$pid" 2>/dev/null; then
+    status=0; wait "$pid" || status=$?   # ...so wait for the unit in flight to finish
+fi
+[ "$status" -eq 0 ] || exit "$status"
+.venv/bin/rotsound report configs/paper.yaml --output REPRODUCTION_paper.md
