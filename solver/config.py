@@ -184,13 +184,24 @@ class Scene:
     petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
                          "(-eps_*, -st_*, -ts_*, -log_view, ...); the command line wins", None, dict)
     analysis: AnalysisSpec = _f(None, "see analysis.*; applies when the scene has waves", None, AnalysisSpec)
+    cache: str = _f("auto", "shared unit cache: `auto` = a `cache` folder beside `output`, a folder path, or "
+                            "`off` (or false); packings, matrix summaries, spectra and waves are reused from it "
+                            "by content", None, "cache")
+
+    def cache_folder(self) -> str | None:
+        """The cache folder this scene uses, or None."""
+        if self.cache == "off":
+            return None
+        if self.cache == "auto":
+            return os.path.join(os.path.dirname(self.output) or ".", "cache")
+        return self.cache
 
     def digest(self) -> str:
         """Stable hash of everything that determines the computed units (not ``output``, not
-        ``analysis``, which only post-processes them)."""
+        ``analysis``, which only post-processes them, not ``cache``)."""
         data = dataclasses.asdict(self)
-        data.pop("output")
-        data.pop("analysis")
+        for name in ("output", "analysis", "cache"):
+            data.pop(name)
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
     def to_yaml(self) -> str:
@@ -202,7 +213,8 @@ def _type_name(kind) -> str:
     return {int: "an integer", float: "a number", str: "a string", dict: "a mapping",
             "floats": "a number or a list of numbers", "paths": "a path or a list of paths",
             bool: "true or false", "window": "a list [omega_lo, omega_hi]", "strs": "a list of names",
-            "ints": "a list of integers", "floats_list": "a list of numbers"}.get(
+            "ints": "a list of integers", "floats_list": "a list of numbers",
+            "cache": "auto, a folder path, or off"}.get(
         kind, "a mapping")
 
 
@@ -234,6 +246,12 @@ def _coerce(value, kind, where):
         return value
     if kind is dict:
         if not isinstance(value, dict):
+            fail()
+        return value
+    if kind == "cache":  # YAML reads a bare off/no/false as False
+        if value is False:
+            return "off"
+        if not isinstance(value, str) or not value:
             fail()
         return value
     if kind is bool:

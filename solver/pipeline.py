@@ -9,6 +9,7 @@ is honoured at the next unit boundary, on every rank together.
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import time
 
@@ -17,7 +18,7 @@ import numpy as np
 from . import __version__, analysis, correlations, dynmat, h5io, kpm, modes, packing, parallel, petscopts, spectrum, waves
 from .config import Scene
 from .errors import InputError, Interrupted
-from .units import UnitStore, packing_from_unit, packing_unit
+from .units import UnitStore, content_key, packing_from_unit, packing_unit
 
 _TERMINATE = [False]
 
@@ -51,14 +52,16 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     if spec.file is not None:
         return parallel.owner_compute(comm, [0], lambda _: h5io.read_packings(spec.file, spec.count))[0]
     count = spec.count or 1
-    found = [store.load(f"packings/{i:04d}") if store else None for i in range(count)]
+    recipe = [content_key("packing", __version__, spec.n, spec.phi, scene.seed, i, spec.force_tol, spec.max_steps)
+              for i in range(count)]
+    found = [store.load(f"packings/{i:04d}", recipe[i]) if store else None for i in range(count)]
     missing = [i for i in range(count) if found[i] is None]
     made = parallel.owner_compute(
         comm, [parallel.seed_sequence(scene.seed, i) for i in missing],
         lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps))
     for i, p in zip(missing, made):
         if store:
-            store.save(f"packings/{i:04d}", *packing_unit(p))
+            store.save(f"packings/{i:04d}", *packing_unit(p), key=recipe[i])
     by_index = dict(zip(missing, made))
     return [by_index[i] if found[i] is None else packing_from_unit(found[i]) for i in range(count)]
 
@@ -237,6 +240,32 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
                   f"{seconds:.1f} s")
 
 
+def unit_keys(scene: Scene, packings, petsc_argv: list[str]) -> dict[str, str]:
+    """Content key of every unit this scene can compute: what determines it, nothing else.
+
+    A packing is keyed by its arrays (so a file and a generated packing with equal contents
+    share units); spectra and waves also by their section's settings and the PETSc options
+    (which can change a solver's result); KPM's probes by their seed.  The rotsound version is
+    part of every key, so a new version never reuses an older one's numbers.
+    """
+    argv = sorted(petsc_argv)
+    keys = {}
+    for p_index, p in enumerate(packings):
+        pk = content_key(__version__, p.positions, p.diameters, np.float64(p.box_length), p.rattler)
+        for r_index, rho in enumerate(scene.model.rho):
+            tag = f"r{r_index:02d}_p{p_index:04d}"
+            keys[f"matrices/{tag}"] = content_key("matrix", pk, rho)
+            if scene.spectrum is not None:
+                spec = dataclasses.asdict(scene.spectrum)
+                seed = scene.seed + p_index if scene.spectrum.method == "kpm" else None
+                keys[f"spectra/{tag}"] = content_key("spectrum", pk, rho, spec, seed, argv)
+            if scene.waves is not None:
+                for mode in scene.waves.modes:
+                    keys[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = content_key(
+                        "waves", pk, rho, mode, dataclasses.asdict(scene.waves), argv)
+    return keys
+
+
 def window_label(window) -> str:
     """'full' or 'lo,hi' for the results file."""
     return "full" if window is None else f"{window[0]:g},{window[1]:g}"
@@ -270,13 +299,15 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
     t0 = time.perf_counter()
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh)
+        store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,
+                          cache=scene.cache_folder())
         packings = make_packings(scene, comm, store)
         units: dict[str, tuple[dict, dict]] = {}
+        keys = unit_keys(scene, packings, petsc_argv)
 
         def commit(name, datasets, attrs):
             units[name] = (datasets, attrs)
-            store.save(name, datasets, attrs)
+            store.save(name, datasets, attrs, keys.get(name))
 
         for index, p in enumerate(packings):
             i = p.info
@@ -284,7 +315,6 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
                       f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                       f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                       + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
-        reused = 0
         for r_index, rho in enumerate(scene.model.rho):
             per_config = []  # omega arrays (slicing) or (edges, density, omega_max) (kpm)
             for p_index, p in enumerate(packings):
@@ -296,11 +326,11 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
                 if scene.waves and len(modes_here) < len(scene.waves.modes):
                     say(comm, f"waves rho = {rho:g}: RT skipped (no rotational stiffness at rho = 0)")
                 names += [f"waves/r{r_index:02d}_{m}_p{p_index:04d}" for m in modes_here]
-                found = {name: store.load(name) for name in names}
+                found = {name: store.load(name, keys.get(name)) for name in names}
                 for name, unit in found.items():
-                    if unit is not None:
+                    if unit is not None:  # a cached unit may come from another scene's numbering
+                        unit[1]["packing"] = p_index
                         units[name] = unit
-                        reused += 1
                 if any(unit is None for unit in found.values()):
                     _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm)
                 if scene.spectrum is not None:
@@ -309,8 +339,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
                                       if "density" in datasets else datasets["omega"])
             if per_config:
                 _vdos_unit(scene, rho, r_index, per_config, units, comm)
-        if reused:
-            say(comm, f"resumed: {reused} finished units loaded from {store.folder}")
+        say(comm, f"units: {store.summary()} (resumed from {store.folder}; cache {store.cache or 'off'})")
         if scene.waves is not None:
             t = time.perf_counter()
             derived = parallel.owner_compute(comm, [0], lambda _: analysis.analyse(units, scene.analysis))[0]

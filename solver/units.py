@@ -6,11 +6,20 @@ rank 0 as its own small HDF5 file in ``<output>.units/`` -- to a temporary name,
 unreadable as a whole.  A rerun of the same scene loads the finished units and computes the
 rest; the final results file is assembled from them atomically.  ``scene.yaml`` in the folder
 records which scene the units belong to: another scene pointed at the same output is refused.
-Delete the folder to recompute everything.  All methods are collective on ``comm``.
+Delete the folder to recompute everything.
+
+A shared cache (scene key ``cache``, a folder) holds the same unit files under a content key:
+a hash of everything that determines the unit (packing recipe or packing arrays, rho, the
+stage's settings, the PETSc options), so another scene or output that needs the same unit
+loads it instead of computing it.  Cache entries are hard links to the unit files where the
+file system allows (copies otherwise) and are written atomically like the units themselves.
+All methods are collective on ``comm``.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import shutil
 
@@ -21,12 +30,31 @@ from . import parallel
 from .errors import InputError
 
 
-class UnitStore:
-    """The ``<output>.units/`` folder of one scene."""
+def content_key(*parts) -> str:
+    """Stable hash of JSON-able parts and numpy arrays (a cache key)."""
+    h = hashlib.sha256()
+    for part in parts:
+        if isinstance(part, np.ndarray):
+            h.update(str((part.dtype.str, part.shape)).encode())
+            h.update(np.ascontiguousarray(part).tobytes())
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=str).encode())
+    return h.hexdigest()[:24]
 
-    def __init__(self, output: str, scene_yaml: str, digest: str, comm, fresh: bool = False):
+
+class UnitStore:
+    """The ``<output>.units/`` folder of one scene, and the shared cache if it has one.
+
+    ``counts`` says, per stage (packings, matrices, spectra, waves), how many units were
+    resumed from the folder, reused from the cache, and computed."""
+
+    def __init__(self, output: str, scene_yaml: str, digest: str, comm, fresh: bool = False,
+                 cache: str | None = None):
         self.comm = comm
         self.folder = output + ".units"
+        self.cache = cache
+        self.fresh = fresh
+        self.counts: dict[str, dict[str, int]] = {}
         error = None
         if comm.rank == 0:
             try:
@@ -35,6 +63,8 @@ class UnitStore:
                     if os.path.exists(output):
                         os.remove(output)
                 self._claim(output, scene_yaml, digest)
+                if cache:
+                    os.makedirs(cache, exist_ok=True)
             except (InputError, OSError) as exc:
                 error = exc if isinstance(exc, InputError) else InputError(f"{self.folder}: {exc}")
         parallel.agree(comm, error)
@@ -64,37 +94,83 @@ class UnitStore:
     def _path(self, name: str) -> str:
         return os.path.join(self.folder, name.replace("/", "__") + ".h5")
 
-    def load(self, name: str) -> tuple[dict, dict] | None:
-        """(datasets, attrs) of a finished unit, or None. A damaged unit file counts as missing."""
-        found = None
-        if self.comm.rank == 0 and os.path.isfile(self._path(name)):
-            try:
-                with h5py.File(self._path(name), "r") as f:
-                    if f.attrs.get("complete", False):
-                        found = ({k: f[k][()] for k in f}, {k: v for k, v in f.attrs.items() if k != "complete"})
-            except OSError:
-                found = None
-            if found is None:
-                print(f"rotsound: warning: unit file {self._path(name)} is damaged or incomplete: "
-                      f"recomputing it", flush=True)
-        return self.comm.bcast(found, root=0)
+    def _cached(self, name: str, key: str) -> str:
+        return os.path.join(self.cache, name.split("/")[0], key + ".h5")
 
-    def save(self, name: str, datasets: dict, attrs: dict) -> None:
-        """Write one finished unit atomically (rank 0)."""
+    def _count(self, name: str, how: str) -> None:
+        stage = self.counts.setdefault(name.split("/")[0], {"resumed": 0, "cache": 0, "computed": 0})
+        stage[how] += 1
+
+    @staticmethod
+    def _read(path: str):
+        try:
+            with h5py.File(path, "r") as f:
+                if f.attrs.get("complete", False):
+                    return {k: f[k][()] for k in f}, {k: v for k, v in f.attrs.items() if k != "complete"}
+        except OSError:
+            pass
+        return None
+
+    def load(self, name: str, key: str | None = None) -> tuple[dict, dict] | None:
+        """(datasets, attrs) of a finished unit, or None: from the folder, else from the cache
+        under ``key`` (then also linked into the folder). A damaged file counts as missing."""
+        found, how = None, None
+        if self.comm.rank == 0:
+            path = self._path(name)
+            if os.path.isfile(path):
+                found, how = self._read(path), "resumed"
+                if found is None:
+                    print(f"rotsound: warning: unit file {path} is damaged or incomplete: recomputing it",
+                          flush=True)
+            if found is None and key and self.cache and not self.fresh:
+                cached = self._cached(name, key)
+                if os.path.isfile(cached):
+                    found, how = self._read(cached), "cache"
+                    if found is not None:
+                        self._link(cached, path)
+        found, how = self.comm.bcast((found, how), root=0)
+        if found is not None:
+            self._count(name, how)
+        return found
+
+    @staticmethod
+    def _link(source: str, target: str) -> None:
+        """Hard link (or copy) ``source`` to ``target`` atomically."""
+        os.makedirs(os.path.dirname(target), exist_ok=True)
+        partial = target + ".partial"
+        if os.path.exists(partial):
+            os.remove(partial)
+        try:
+            os.link(source, partial)
+        except OSError:
+            shutil.copyfile(source, partial)
+        os.replace(partial, target)
+
+    def save(self, name: str, datasets: dict, attrs: dict, key: str | None = None) -> None:
+        """Write one finished unit atomically (rank 0), and enter it in the cache under ``key``."""
         error = None
         if self.comm.rank == 0:
             partial = self._path(name) + ".partial"
             try:
                 with h5py.File(partial, "w") as f:
-                    for key, value in datasets.items():
-                        f.create_dataset(key, data=value)
-                    for key, value in attrs.items():
-                        f.attrs[key] = value
+                    for k, value in datasets.items():
+                        f.create_dataset(k, data=value)
+                    for k, value in attrs.items():
+                        f.attrs[k] = value
                     f.attrs["complete"] = True
                 os.replace(partial, self._path(name))
+                if key and self.cache:
+                    self._link(self._path(name), self._cached(name, key))
             except OSError as exc:
                 error = exc
         parallel.agree(self.comm, error)
+        self._count(name, "computed")
+
+    def summary(self) -> str:
+        """Per stage, how many units were computed, resumed and reused from the cache."""
+        words = {"computed": "computed", "resumed": "resumed", "cache": "from the cache"}
+        return "; ".join(f"{stage} " + ", ".join(f"{c[how]} {word}" for how, word in words.items() if c[how])
+                         for stage, c in sorted(self.counts.items())) or "none"
 
 
 def packing_unit(p) -> tuple[dict, dict]:

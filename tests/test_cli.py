@@ -3,6 +3,7 @@
 import json
 
 import h5py
+import numpy as np
 import pytest
 from conftest import run_cli
 
@@ -10,6 +11,7 @@ pytestmark = pytest.mark.serial_only  # these tests launch their own (mpirun) pr
 
 SCENE = """\
 output: {out}
+cache: off
 seed: 2
 packing: {{n: 64, phi: 0.9, count: 2}}
 model: {{rho: [0, 1]}}
@@ -83,3 +85,29 @@ def test_multi_document_scene_runs_each_in_order(tmp_path):
             assert "seed: 5" in f.attrs["scene"]
     proc = run_cli(["plot", path])
     assert proc.returncode == 0 and "first_vdos.png" in proc.stdout and "second_vdos.png" in proc.stdout
+
+
+def test_cache_reuses_units_across_scenes_by_content(tmp_path):
+    """Scene b shares packings and rho = 1 with scene a: those units come from the cache and equal
+    what b computes alone; a PETSc option that can change a solve, or --fresh, recomputes."""
+    text = ("output: {out}\ncache: {cache}\nseed: 3\npacking: {{n: 64, phi: 0.9, count: 2}}\n"
+            "model: {{rho: {rho}}}\nspectrum: {{energies: true}}\nwaves: {{n: [1], method: spectral, t_end: 10}}\n")
+    cache = tmp_path / "cache"
+    a = write(tmp_path, text.format(out=tmp_path / "a.h5", cache=cache, rho="[0.5, 1.0]"), "a.yaml")
+    assert run_cli(["run", a]).returncode == 0
+    b = write(tmp_path, text.format(out=tmp_path / "b.h5", cache=cache, rho="[1.0, 2.0]"), "b.yaml")
+    proc = run_cli(["run", b])
+    assert proc.returncode == 0, proc.stderr
+    assert ("packings 2 from the cache" in proc.stdout and "spectra 2 computed, 2 from the cache" in proc.stdout
+            and "waves 6 computed, 6 from the cache" in proc.stdout), proc.stdout
+    alone = write(tmp_path, text.format(out=tmp_path / "alone.h5", cache="off", rho="[1.0, 2.0]"), "alone.yaml")
+    assert run_cli(["run", alone]).returncode == 0
+    with h5py.File(tmp_path / "b.h5") as f, h5py.File(tmp_path / "alone.h5") as g:
+        for group in ("spectra", "waves", "packings"):
+            for name in g[group]:
+                for key in g[group][name]:
+                    assert np.array_equal(f[group][name][key][()], g[group][name][key][()]), (group, name, key)
+    proc = run_cli(["run", b, "--set", "output=" + str(tmp_path / "c.h5"), "-eps_tol", "1e-10"])
+    assert "packings 2 from the cache" in proc.stdout and "spectra 4 computed" in proc.stdout, proc.stdout
+    proc = run_cli(["run", b, "--fresh"])
+    assert "from the cache" not in proc.stdout and "spectra 4 computed" in proc.stdout, proc.stdout
