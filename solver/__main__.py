@@ -52,6 +52,7 @@ def _parser() -> argparse.ArgumentParser:
     report.add_argument("results", nargs="+", help="results .h5 file(s) or scene(s): vDOS, waves, and any "
                                                    "phi != 0.9 vDOS for Fig. S1")
     report.add_argument("--output", default="REPRODUCTION.md", help="Markdown file to write")
+    report.add_argument("--notes", help="Markdown file appended as the report's Notes section")
     sub.add_parser("keys", help="print the scene key reference (Markdown)")
     return parser
 
@@ -104,7 +105,7 @@ def _targets(names: list[str]) -> list[str]:
 def _report(args) -> None:
     from . import report
 
-    path, rows = report.write(_targets(args.results), args.output)
+    path, rows = report.write(_targets(args.results), args.output, args.notes)
     counts = {s: sum(r.status == s for r in rows) for s in ("PASS", "FAIL", "NOT MEASURED")}
     print(f"wrote {path}: {counts['PASS']} pass, {counts['FAIL']} fail, {counts['NOT MEASURED']} not measured")
 

@@ -368,8 +368,9 @@ def figures(d: Data, folder: str) -> list[tuple[str, str]]:
     return out
 
 
-def write(paths: list[str], output: str) -> tuple[str, list[Row]]:
-    """Gather, evaluate, draw and write the report; return (output path, rows)."""
+def write(paths: list[str], output: str, notes: str | None = None) -> tuple[str, list[Row]]:
+    """Gather, evaluate, draw and write the report; return (output path, rows).  ``notes`` is a
+    Markdown file appended as is (what was tried where a claim fails, how the run was made)."""
     d = gather(paths)
     rows = claims(d)
     folder = os.path.join(os.path.dirname(os.path.abspath(output)), "reproduction")
@@ -398,6 +399,12 @@ def write(paths: list[str], output: str) -> tuple[str, list[Row]]:
     lines += ["", "## Figures", ""]
     for caption, path in figs:
         lines += [f"**{caption}**", "", f"![{caption}]({os.path.relpath(path, base)})", ""]
+    if notes:
+        try:
+            with open(notes, encoding="utf-8") as stream:
+                lines += ["## Notes", "", stream.read().strip(), ""]
+        except OSError as exc:
+            raise InputError(f"notes file {notes}: cannot read ({exc})") from None
     with open(output, "w", encoding="utf-8") as stream:
         stream.write("\n".join(lines) + "\n")
     return output, rows
