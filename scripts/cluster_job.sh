@@ -8,7 +8,7 @@
 #SBATCH --mem=64G
 #SBATCH --time=08:00:00
 #SBATCH --requeue                 # a preempted job starts again...
-#SBATCH --signal=B:TERM@120       # ...and SIGTERM two minutes before the end lets the unit in flight finish
+#SBATCH --signal=B:TERM@300       # ...and SIGTERM five minutes before the end lets the unit in flight finish
 #SBATCH --output=results/paper_%j.log
 set -euo pipefail
 cd "${SLURM_SUBMIT_DIR:-$(dirname "$0")/..}"
@@ -17,7 +17,10 @@ mkdir -p results
 # rotsound exits 143 after a SIGTERM; resubmit the same script to continue.
 mpirun -n "${SLURM_NTASKS:-2}" .venv/bin/rotsound run configs/paper.yaml &
 pid=$!
-trap 'kill -TERM "$pid"' TERM   # bash does not pass signals on to a child by itself
+# SIGTERM goes to the ranks (mpirun's children on this node), not to mpirun: Open MPI's mpirun
+# answers a SIGTERM by tearing the job down. One node here; across nodes launch with srun
+# instead of mpirun, so that Slurm's --signal reaches every rank itself.
+trap 'pkill -TERM -P "$pid"' TERM
 status=0
 wait "$pid" || status=$?         # returns early when the trap fires...
 if kill -0 "$pid" 2>/dev/null; then
