@@ -431,6 +431,8 @@ def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: f
     from mpi4py import MPI
     from scipy.linalg import eigh_tridiagonal
 
+    from . import parallel
+
     mpi = dm.D.getComm().tompi4py()
     component, axis = EXCITATIONS[mode][direction]
     start, stop = dm.disk_range
@@ -476,12 +478,20 @@ def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: f
         m = len(alpha)
 
         def z_of(size):
-            theta, S = eigh_tridiagonal(np.array(alpha[:size]), np.array(beta[:size - 1]))
+            a, b_ = np.array(alpha[:size]), np.array(beta[:size - 1])
+            try:  # MRRR: O(size^2); it can fail on the clustered Ritz values lost orthogonality makes
+                theta, S = eigh_tridiagonal(a, b_)
+            except np.linalg.LinAlgError:
+                theta, S = np.linalg.eigh(np.diag(a) + np.diag(b_, 1) + np.diag(b_, -1))
             weights = (np.array(w[:size]) @ S) * S[0]
             return norm_a * (weights @ np.cos(np.outer(np.sqrt(np.clip(theta, 0, None)), times)))
 
-        z = z_of(m)
-        estimate = 0.0 if exhausted else (np.abs(z - z_of(m - 10)).max() / np.abs(z).max() if m > 20 else np.inf)
+        def evaluate():
+            z = z_of(m)
+            return z, 0.0 if exhausted else (np.abs(z - z_of(m - 10)).max() / np.abs(z).max() if m > 20 else np.inf)
+
+        # rank 0 evaluates and broadcasts, so every rank takes the same branch below
+        z, estimate = parallel.owner_compute(mpi, [0], lambda _: evaluate())[0]
         if estimate < tol or exhausted:
             break
         m_target = int(1.2 * m_target)
