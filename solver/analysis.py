@@ -9,7 +9,11 @@ present, ``vdos/...``) results and returns new result groups ``analysis/...``.  
 * gamma ~ k^p (L and TR only; RT is optical-like with gamma(0) > 0) is fitted over k d0 <= ``power_law_kd0_max`` where the run resolves the decay
   (gamma t_end >= 1).
 * k_c (RT): the first drop of the fitted RT frequency larger than ``kc_min_jump`` and 2.5x the
-  median step (``dispersion.transition_k``): the optical-like branch ends there.  The TR branch's complementary jump is the
+  median step (``dispersion.transition_k``): the optical-like branch ends there.  Where the VAF
+  holds both branches, one damped cosine interpolates between them and the drop can spread over
+  several k below the threshold (met at rho = 0.1, N = 8192).  Detecting on the Lorentzian peak
+  instead was tried: it finds that drop but also false ones at large k for rho >= 0.8, where the
+  broad RT peak makes the Lorentzian fit jump; so the paper's omega (damped cosine) is kept.  The TR branch's complementary jump is the
   first rise by the same rule.
 * Lattice model: a_r and l fitted jointly over every rho > 0 to the RT frequencies on
   k d0 <= ``lattice_kd0_max`` and below k_c; then a_t (one value, l fixed) to the TR frequencies

@@ -274,12 +274,17 @@ def _wave_claims(d: Data, add, nm) -> None:
             ">= 2 found, non-decreasing in rho, from the smallest rho up",
             "PASS" if len(found) >= 2 and contiguous and monotone else "FAIL")
     if 0.2 in rt:
-        w = np.sort(rt[0.2]["omega"][np.isfinite(rt[0.2]["omega"])])
-        j = int(np.argmax(np.diff(w)))
-        lo, hi = w[j], w[j + 1]
-        add("Gap in the RT frequencies at rho = 0.2 (Fig. 5a)", "1.2 < omega t0 < 1.5",
-            f"{lo:.2f} - {hi:.2f} (largest gap between fitted omega_r)", "+-0.15 each end",
-            "PASS" if abs(lo - 1.2) <= 0.15 and abs(hi - 1.5) <= 0.15 else "FAIL")
+        f = rt[0.2]
+        dominant = np.where(np.isfinite(f["omega_lorentz"]), f["omega_lorentz"], f["omega"])
+        if np.isfinite(f["k_c"]):
+            i = int(np.searchsorted(f["k"], f["k_c"]))  # first k beyond k_c
+            hi, lo = dominant[i - 1], dominant[i]
+            add("Gap at k_c in the RT branch at rho = 0.2 (Fig. 5a)", "1.2 < omega t0 < 1.5",
+                f"{lo:.2f} - {hi:.2f} (dominant S_r peak just above / below k_c = {f['k_c']:.2f})",
+                "+-0.15 each end", "PASS" if abs(lo - 1.2) <= 0.15 and abs(hi - 1.5) <= 0.15 else "FAIL")
+        else:
+            add("Gap at k_c in the RT branch at rho = 0.2 (Fig. 5a)", "1.2 < omega t0 < 1.5",
+                "no k_c detected", "+-0.15 each end", "FAIL")
     if b is not None:
         r, r0, rk, tk, oc = b["rho"], b["omega_r0"], b["omega_r_kmax"], b["omega_t_kmax"], b["omega_c"]
         model0 = lat["a_r"] * np.sqrt(40 * r)
