@@ -38,6 +38,7 @@ class DynamicalMatrix:
     disk_range: tuple[int, int]
     n_contacts: int
     omega_max: float | None = None  # cached by waves.largest_omega
+    scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
 
     @property
     def size(self) -> int:
@@ -47,6 +48,8 @@ class DynamicalMatrix:
         """Free the PETSc objects. Collective."""
         self.D.destroy()
         self.M.destroy()
+        if self.scaled is not None:
+            self.scaled.destroy()
 
 
 def mass_diagonal(diameters: np.ndarray, dof: int) -> np.ndarray:
