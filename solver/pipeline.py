@@ -339,7 +339,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
                                       if "density" in datasets else datasets["omega"])
             if per_config:
                 _vdos_unit(scene, rho, r_index, per_config, units, comm)
-        say(comm, f"units: {store.summary()} (resumed from {store.folder}; cache {store.cache or 'off'})")
+        say(comm, f"units: {store.summary()} (folder {store.folder}; cache {store.cache or 'off'})")
         if scene.waves is not None:
             t = time.perf_counter()
             derived = parallel.owner_compute(comm, [0], lambda _: analysis.analyse(units, scene.analysis))[0]
