@@ -19,7 +19,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import PY, REPO, mpirun, run_json, save
+from benchlib import PY, REPO, exact_l_wave, load_packing, mpirun, run_json, save, scipy_verlet_l_wave
 
 T_END, SAMPLE, TARGET = 100.0, 0.5, 1e-6
 SPECTRAL_TOLS = [1e-3, 1e-5, 1e-7, 1e-9, 1e-11]
@@ -28,48 +28,22 @@ VERLET_DTS = [0.02, 0.01, 0.005, 0.0025]
 EXACT = REPO / "cache" / "bench_spectral_exact.npz"
 
 
-def load(n):
-    from solver import h5io, packing
-
-    path = REPO / "cache" / f"bench_{n}.h5"
-    if not path.exists():
-        path.parent.mkdir(exist_ok=True)
-        h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
-    return h5io.read_packings(str(path))[0]
-
-
 def times():
     return np.arange(0, T_END + 1e-9, SAMPLE)
 
 
 def exact_reference() -> None:
     """z(t) of the L wave at N = 2048 from a dense eigendecomposition (serial, once)."""
-    import scipy.linalg as sl
-
-    from solver import dynmat, petscenv, spectrum
-
-    PETSc = petscenv.init([])
-    p = load(2048)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
-    lam, vec = sl.eigh(dynmat.gather_csr(spectrum.scaled_operator(dm)).toarray())
-    omega = np.sqrt(np.clip(lam, 0, None))
-    mass = dm.M.getArray()
+    p = load_packing(2048)
     k = 2 * np.pi * 4 / p.box_length
-    r0 = p.positions[~p.rattler]
-    v0 = np.zeros((len(r0), 3))
-    v0[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
-    v0[:, 0] -= v0[:, 0].mean()
-    b = np.zeros((len(r0), 3), complex)
-    b[:, 0] = np.exp(-1j * k * r0[:, 0])
-    z = ((b.ravel() / np.sqrt(mass)) @ vec * (vec.T @ (np.sqrt(mass) * v0.ravel()))) @ np.cos(np.outer(omega, times()))
-    np.savez(EXACT, t=times(), z=z, k=k)
+    np.savez(EXACT, t=times(), z=exact_l_wave(p, k, times()), k=k)
 
 
 def _setup(n):
     from solver import dynmat, petscenv, waves
 
     PETSc = petscenv.init([])
-    p = load(n)
+    p = load_packing(n)
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
     omega_max = waves.largest_omega(dm)
     return PETSc, p, dm, omega_max, 2 * np.pi * 4 / p.box_length
@@ -102,32 +76,9 @@ def case(n: int, method: str, setting: float) -> None:
 
 def scipy_case(n: int, dt: float) -> None:
     """The obvious alternative: velocity Verlet with scipy.sparse, one process."""
-    from solver import dynmat
-
-    p = load(n)
-    D, _, _ = dynmat.local_csr(p, 1.0, (0, int((~p.rattler).sum())))
-    minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], 3)
-    k = 2 * np.pi * 4 / p.box_length
-    r0 = p.positions[~p.rattler]
-    v = np.zeros((len(r0), 3))
-    v[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
-    v[:, 0] -= v[:, 0].mean()
-    v = v.ravel()
-    u = np.zeros_like(v)
-    phase = np.exp(-1j * k * r0[:, 0])
-    every, steps = int(round(SAMPLE / dt)), int(round(T_END / dt))
-    t0 = time.perf_counter()
-    acc = -minv * (D @ u)
-    z = [np.dot(v[0::3], phase)]
-    for step in range(1, steps + 1):
-        v += 0.5 * dt * acc
-        u += dt * v
-        acc = -minv * (D @ u)
-        v += 0.5 * dt * acc
-        if step % every == 0:
-            z.append(np.dot(v[0::3], phase))
-    z = np.array(z)
-    print(json.dumps({"seconds": time.perf_counter() - t0, "z_re": list(z.real), "z_im": list(z.imag)}))
+    p = load_packing(n)
+    seconds, z = scipy_verlet_l_wave(p, 2 * np.pi * 4 / p.box_length, dt, T_END, SAMPLE)
+    print(json.dumps({"seconds": seconds, "z_re": list(z.real), "z_im": list(z.imag)}))
 
 
 def scaling_case() -> None:

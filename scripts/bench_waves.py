@@ -15,7 +15,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import PY, REPO, mpirun, run_json, save
+from benchlib import PY, REPO, exact_l_wave, load_packing, mpirun, run_json, save, scipy_verlet_l_wave
 
 T_END = 50.0
 SAMPLE = 0.5
@@ -24,39 +24,12 @@ CASES = [("verlet", [0.1, 0.05, 0.025, 0.0125]), ("rk", [0.25, 0.125, 0.0625]), 
 EXACT = REPO / "cache" / "bench_waves_exact.npz"
 
 
-def load(n):
-    from solver import h5io, packing
-
-    path = REPO / "cache" / f"bench_{n}.h5"
-    if not path.exists():
-        path.parent.mkdir(exist_ok=True)
-        h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
-    return h5io.read_packings(str(path))[0]
-
-
 def exact_reference() -> None:
     """z(t) of the L wave from a dense eigendecomposition (serial, once)."""
-    import scipy.linalg as sl
-
-    from solver import dynmat, petscenv, spectrum
-
-    PETSc = petscenv.init([])
-    p = load(2048)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
-    A = spectrum.scaled_operator(dm)
-    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
-    omega = np.sqrt(np.clip(lam, 0, None))
-    mass = dm.M.getArray()
+    p = load_packing(2048)
     k = 2 * np.pi * 4 / p.box_length
-    r0 = p.positions[~p.rattler]
-    v0 = np.zeros((len(r0), 3))
-    v0[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
-    v0[:, 0] -= v0[:, 0].mean()
-    b = np.zeros((len(r0), 3), complex)
-    b[:, 0] = np.exp(-1j * k * r0[:, 0])
     t = np.arange(0, T_END + 1e-9, SAMPLE)
-    z = ((b.ravel() / np.sqrt(mass)) @ vec * (vec.T @ (np.sqrt(mass) * v0.ravel()))) @ np.cos(np.outer(omega, t))
-    np.savez(EXACT, t=t, z=z, k=k)
+    np.savez(EXACT, t=t, z=exact_l_wave(p, k, t), k=k)
 
 
 def ts_case(integrator: str, dt: float) -> None:
@@ -64,7 +37,7 @@ def ts_case(integrator: str, dt: float) -> None:
     from solver import dynmat, petscenv, waves
 
     PETSc = petscenv.init([])
-    p = load(2048)
+    p = load_packing(2048)
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
     ref = np.load(EXACT)
     mpi = PETSc.COMM_WORLD.tompi4py()
@@ -80,35 +53,9 @@ def ts_case(integrator: str, dt: float) -> None:
 
 def scipy_case(dt: float) -> None:
     """The obvious alternative: velocity Verlet with scipy.sparse, one process."""
-    from solver import dynmat, packing
-
-    p = load(2048)
-    start, stop = 0, int((~p.rattler).sum())
-    D, _, _ = dynmat.local_csr(p, 1.0, (start, stop))
-    minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], 3)
     ref = np.load(EXACT)
-    k = float(ref["k"])
-    r0 = p.positions[~p.rattler]
-    v = np.zeros((len(r0), 3))
-    v[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
-    v[:, 0] -= v[:, 0].mean()
-    v = v.ravel()
-    u = np.zeros_like(v)
-    phase = np.exp(-1j * k * r0[:, 0])
-    every = int(round(SAMPLE / dt))
-    steps = int(round(T_END / dt))
-    t0 = time.perf_counter()
-    acc = -minv * (D @ u)
-    z = [np.dot(v[0::3], phase)]
-    for step in range(1, steps + 1):
-        v += 0.5 * dt * acc
-        u += dt * v
-        acc = -minv * (D @ u)
-        v += 0.5 * dt * acc
-        if step % every == 0:
-            z.append(np.dot(v[0::3], phase))
-    seconds = time.perf_counter() - t0
-    error = float(np.abs(np.array(z) - ref["z"]).max() / np.abs(ref["z"]).max())
+    seconds, z = scipy_verlet_l_wave(load_packing(2048), float(ref["k"]), dt, T_END, SAMPLE)
+    error = float(np.abs(z - ref["z"]).max() / np.abs(ref["z"]).max())
     print(json.dumps({"seconds": seconds, "error": error}))
 
 
@@ -117,7 +64,7 @@ def step_cost_case() -> None:
     from solver import dynmat, petscenv, waves
 
     PETSc = petscenv.init([])
-    p = load(32768)
+    p = load_packing(32768)
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
     mpi = PETSc.COMM_WORLD.tompi4py()
     x, y = dm.D.createVecs()

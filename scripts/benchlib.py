@@ -66,3 +66,75 @@ class Timer:
 
     def __exit__(self, *exc):
         self.seconds = time.perf_counter() - self.start
+
+
+# ---- the standing-wave comparison shared by bench_waves.py and bench_spectral.py: an L wave
+#      (v_x = A sin(k x), uniform translation removed) on a cached packing, rho = 1
+
+
+def load_packing(n: int):
+    """A jammed packing of n disks at phi = 0.9 (seed [1, 0]), generated once into cache/."""
+    import numpy as np
+
+    from solver import h5io, packing
+
+    path = REPO / "cache" / f"bench_{n}.h5"
+    if not path.exists():
+        path.parent.mkdir(exist_ok=True)
+        h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
+    return h5io.read_packings(str(path))[0]
+
+
+def _l_wave(p, k):
+    import numpy as np
+
+    r0 = p.positions[~p.rattler]
+    v0 = np.zeros((len(r0), 3))
+    v0[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
+    v0[:, 0] -= v0[:, 0].mean()
+    return r0, v0
+
+
+def exact_l_wave(p, k, times):
+    """z(t) of the L wave from a dense eigendecomposition (serial; PHYSICS.md section 4)."""
+    import numpy as np
+    import scipy.linalg as sl
+
+    from solver import dynmat, petscenv, spectrum
+
+    PETSc = petscenv.init([])
+    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
+    lam, vec = sl.eigh(dynmat.gather_csr(spectrum.scaled_operator(dm)).toarray())
+    omega = np.sqrt(np.clip(lam, 0, None))
+    mass = dm.M.getArray()
+    r0, v0 = _l_wave(p, k)
+    b = np.zeros((len(r0), 3), complex)
+    b[:, 0] = np.exp(-1j * k * r0[:, 0])
+    return ((b.ravel() / np.sqrt(mass)) @ vec * (vec.T @ (np.sqrt(mass) * v0.ravel()))) @ np.cos(np.outer(omega, times))
+
+
+def scipy_verlet_l_wave(p, k, dt, t_end, sample):
+    """The obvious alternative: velocity Verlet with scipy.sparse in one process.
+    Returns (seconds, z sampled every ``sample``)."""
+    import numpy as np
+
+    from solver import dynmat
+
+    D, _, _ = dynmat.local_csr(p, 1.0, (0, int((~p.rattler).sum())))
+    minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], 3)
+    r0, v = _l_wave(p, k)
+    v = v.ravel()
+    u = np.zeros_like(v)
+    phase = np.exp(-1j * k * r0[:, 0])
+    every, steps = int(round(sample / dt)), int(round(t_end / dt))
+    t0 = time.perf_counter()
+    acc = -minv * (D @ u)
+    z = [np.dot(v[0::3], phase)]
+    for step in range(1, steps + 1):
+        v += 0.5 * dt * acc
+        u += dt * v
+        acc = -minv * (D @ u)
+        v += 0.5 * dt * acc
+        if step % every == 0:
+            z.append(np.dot(v[0::3], phase))
+    return time.perf_counter() - t0, np.array(z)
