@@ -1,20 +1,21 @@
 """Dispersion analysis of a scene's standing waves: fits per k, lattice model, k_c, band limits.
 
-Pure post-processing on rank 0 (numpy/scipy, no MPI): it reads the ``waves/...`` (and, if
-present, ``vdos/...``) results and returns new result groups ``analysis/...``.  Definitions:
+Pure post-processing (numpy/scipy, no MPI; the pipeline runs it on rank 0): it reads the
+``waves/...`` (and, if present, ``vdos/...``) result units and returns new groups
+``analysis/...``.  Definitions:
 
-* C_alpha(k, t) is averaged over configurations (each already averaged over both directions),
-  then fitted with exp(-gamma t) cos(omega t) (``dispersion.fit_damped_cosine``) and cross-checked
-  by a Lorentzian fit of the configuration-averaged S_alpha(k, omega).  c = omega / k.
-* gamma ~ k^p (L and TR only; RT is optical-like with gamma(0) > 0) is fitted over k d0 <= ``power_law_kd0_max`` where the run resolves the decay
-  (gamma t_end >= 1).
+* C_alpha(k, t) and S_alpha(k, omega) pool the runs of both directions and every configuration
+  (``correlations``); C is fitted with exp(-gamma t) cos(omega t) (``dispersion.fit_damped_cosine``)
+  and cross-checked by a Lorentzian fit of S.  c = omega / k.
+* gamma ~ k^p (L and TR only; RT is optical-like with gamma(0) > 0) is fitted over
+  k d0 <= ``power_law_kd0_max`` where the run resolves the decay (gamma t_end >= 1).
 * k_c (RT): the first drop of the fitted RT frequency larger than ``kc_min_jump`` and 2.5x the
-  median step (``dispersion.transition_k``): the optical-like branch ends there.  Where the VAF
-  holds both branches, one damped cosine interpolates between them and the drop can spread over
-  several k below the threshold (met at rho = 0.1, N = 8192).  Detecting on the Lorentzian peak
-  instead was tried: it finds that drop but also false ones at large k for rho >= 0.8, where the
-  broad RT peak makes the Lorentzian fit jump; so the paper's omega (damped cosine) is kept.  The TR branch's complementary jump is the
-  first rise by the same rule.
+  median step (``dispersion.transition_k``): the optical-like branch ends there; the TR branch's
+  complementary jump is the first rise by the same rule.  Where the VAF holds both branches, one
+  damped cosine interpolates between them and the drop can spread over several k below the
+  threshold (met at rho = 0.1, N = 8192).  Detecting on the Lorentzian peak instead was tried: it
+  finds that drop but also false ones at large k for rho >= 0.8, where the broad RT peak makes the
+  Lorentzian fit jump; so the paper's omega (damped cosine) is kept.
 * Lattice model: a_r and l fitted jointly over every rho > 0 to the RT frequencies on
   k d0 <= ``lattice_kd0_max`` and below k_c; then a_t (one value, l fixed) to the TR frequencies
   on the same range (``a_t``, the long-wave TR value), and separately to the RT frequencies beyond
@@ -116,7 +117,7 @@ def analyse(units: dict, spec) -> dict:
         k_c = (dispersion.transition_k(k[finite], jump_of[finite], spec.kc_min_jump)
                if jump_of is not None else None)
         fits[(rho, mode)] = (k, table, k_c)
-        out[f"analysis/{_tag(rho)}_{mode}"] = (
+        out[f"analysis/rho{rho:g}_{mode}"] = (
             {"k": k, **table, "c": table["omega"] / k},
             {"rho": rho, "mode": mode, "configurations": count, "t_end": float(t[-1]),
              "power_law_p": p, "power_law_p_err": p_err, "power_law_points": p_points,
@@ -130,10 +131,6 @@ def analyse(units: dict, spec) -> dict:
     return out
 
 
-def _tag(rho: float) -> str:
-    return f"rho{rho:g}"
-
-
 def _lattice(fits, spec) -> dict:
     """Joint (a_r, l) fit over rho > 0 on the long-wave RT data below k_c, then a_t from TR."""
     rt, tr = [], []
@@ -143,8 +140,8 @@ def _lattice(fits, spec) -> dict:
         keep = (k <= spec.lattice_kd0_max) & np.isfinite(table["omega"])
         if k_c is not None:
             keep &= k < k_c
-        if keep.any():
-            (rt if mode == "RT" else tr if mode == "TR" else []).append((rho, k[keep], table["omega"][keep]))
+        if keep.any() and mode in ("RT", "TR"):
+            (rt if mode == "RT" else tr).append((rho, k[keep], table["omega"][keep]))
     if sum(r[1].size for r in rt) < 3:
         return {}
     a_r, a_r_err, l, l_err = dispersion.fit_lattice(rt, k_max=spec.lattice_kd0_max)

@@ -259,10 +259,11 @@ def unit_keys(scene: Scene, packings, petsc_argv: list[str]) -> dict[str, str]:
                 spec = dataclasses.asdict(scene.spectrum)
                 seed = scene.seed + p_index if scene.spectrum.method == "kpm" else None
                 keys[f"spectra/{tag}"] = content_key("spectrum", pk, rho, spec, seed, argv)
-            if scene.waves is not None:
+            if scene.waves is not None:  # one mode's unit does not depend on the others asked
+                waves = {k: v for k, v in dataclasses.asdict(scene.waves).items() if k != "modes"}
                 for mode in scene.waves.modes:
                     keys[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = content_key(
-                        "waves", pk, rho, mode, dataclasses.asdict(scene.waves), argv)
+                        "waves", pk, rho, mode, waves, argv)
     return keys
 
 

@@ -101,6 +101,16 @@ def _pooled(groups, key):
     return np.concatenate([g[key][()] for g in groups], axis=0)
 
 
+def _pooled_spectrum(groups):
+    """(k (K,), omega (W,), S (K, W)) of waves groups sharing rho and mode, runs pooled."""
+    from .correlations import power_spectrum
+
+    ks, t = groups[0]["k"][()], groups[0]["t"][()]
+    z = _pooled(groups, "z")
+    rows = [power_spectrum(z[:, i], t[1] - t[0]) for i in range(len(ks))]
+    return ks, rows[0][0], np.array([r[1] for r in rows])
+
+
 def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
     """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted); every
     rho of the file or only those in ``rhos``."""
@@ -130,8 +140,6 @@ def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
 
 def plot_spectra(f, stem: str, rhos=None) -> list[str]:
     """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho (or each in ``rhos``)."""
-    from .correlations import power_spectrum
-
     groups = _groups(f, "waves")
     written: list[str] = []
     for rho in sorted({float(g.attrs["rho"]) for g in groups}):
@@ -142,11 +150,7 @@ def plot_spectra(f, stem: str, rhos=None) -> list[str]:
         fig, axes = plt.subplots(1, len(modes_here), figsize=(4.2 * len(modes_here), 3.8), squeeze=False)
         for ax, mode in zip(axes[0], modes_here):
             sel = [g for g in mine if g.attrs["mode"] == mode]
-            ks, t = sel[0]["k"][()], sel[0]["t"][()]
-            z = _pooled(sel, "z")
-            rows = [power_spectrum(z[:, i], t[1] - t[0]) for i in range(len(ks))]
-            omega = rows[0][0]
-            power = np.array([r[1] for r in rows])
+            ks, omega, power = _pooled_spectrum(sel)
             top = min(omega[-1], 1.15 * float(sel[0].attrs["omega_max"]))
             keep = omega <= top
             mesh = ax.pcolormesh(ks, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest",
@@ -181,7 +185,7 @@ def plot_vdos_compare(paths: list[str], stem: str) -> list[str]:
     return _save(fig, stem)
 
 
-def _analysis(f, mode=None):
+def analysis_groups(f, mode=None):
     """Analysis groups of ``f`` (fits per rho and mode), sorted by rho."""
     if "analysis" not in f:
         return []
@@ -196,7 +200,7 @@ def _lattice(f):
 
 def plot_dispersion_rt(f, stem: str) -> list[str]:
     """Fig. 4: fitted omega_r(k) (symbols) for every rho > 0 with the lattice model (lines)."""
-    groups = [g for g in _analysis(f, "RT") if g.attrs["rho"] > 0]
+    groups = [g for g in analysis_groups(f, "RT") if g.attrs["rho"] > 0]
     lattice = _lattice(f)
     if not groups or lattice is None:
         return []
@@ -228,18 +232,15 @@ def lattice_curve(k, rho, lattice, edge: bool = False):
 def plot_transition(f, stem: str, rho: float = 0.2) -> list[str]:
     """Fig. 5: (a) log10 S_r(k, omega) with k_c, (b) fitted omega_t and omega_r with both model
     branches, at the analysed rho nearest ``rho``."""
-    rt = _analysis(f, "RT")
+    rt = analysis_groups(f, "RT")
     lattice = _lattice(f)
     if not rt or lattice is None:
         return []
     g_rt = min(rt, key=lambda g: abs(float(g.attrs["rho"]) - rho))
     rho = float(g_rt.attrs["rho"])
-    g_tr = next((g for g in _analysis(f, "TR") if float(g.attrs["rho"]) == rho), None)
-    from .analysis import averaged_waves
-
-    units = {f"waves/{name}": ({"k": g["k"][()], "t": g["t"][()], "z": g["z"][()]}, dict(g.attrs))
-             for name, g in f["waves"].items() if float(g.attrs["rho"]) == rho and g.attrs["mode"] == "RT"}
-    k, _, _, omega, power, _ = averaged_waves(units)[(rho, "RT")]
+    g_tr = next((g for g in analysis_groups(f, "TR") if float(g.attrs["rho"]) == rho), None)
+    k, omega, power = _pooled_spectrum([g for g in _groups(f, "waves")
+                                        if float(g.attrs["rho"]) == rho and g.attrs["mode"] == "RT"])
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4))
     top = 1.1 * np.nanmax(g_rt["omega"][()]) + 1
     keep = omega <= top
@@ -306,7 +307,7 @@ def plot_bands(f, stem: str, omega_c: dict | None = None) -> list[str]:
 def plot_speeds_attenuation(f, stem: str) -> list[str]:
     """Figs. S2 and S3: phase speeds c = omega/k and attenuation gamma(k) (log-log, k^3 guide) of
     L and TR, per rho."""
-    groups = [g for g in _analysis(f) if g.attrs["mode"] in ("L", "TR")]
+    groups = [g for g in analysis_groups(f) if g.attrs["mode"] in ("L", "TR")]
     if not groups:
         return []
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))

@@ -82,7 +82,7 @@ def gather(paths: list[str]) -> Data:
                 data.waves_file = path
                 data.lattice = dict(f["analysis/lattice"].attrs)
                 data.bands = {key: f["analysis/bands"][key][()] for key in f["analysis/bands"]}
-                for g in plots._analysis(f):
+                for g in plots.analysis_groups(f):
                     data.fits[(float(g.attrs["rho"]), str(g.attrs["mode"]))] = {
                         **{key: g[key][()] for key in g}, **dict(g.attrs)}
     return data

@@ -449,7 +449,8 @@ def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: f
         dm.scaled = scaled_operator(dm)
     A = dm.scaled
     # PETSc vectors: one MatMult and two reductions per step (alpha with b.q, then |v|)
-    q, v, q_prev = A.createVecs()[0], A.createVecs()[1], A.createVecs()[0]
+    q, v = A.createVecs()
+    q_prev = q.duplicate()
     b_local = np.ascontiguousarray(np.stack([b.real, b.imag]))
     sq = mpi.allreduce(float(a @ a), op=MPI.SUM)
     norm_a, energy = np.sqrt(sq), 0.5 * sq
