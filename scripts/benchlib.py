@@ -11,6 +11,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "results" / "bench"
 PY = sys.executable
@@ -59,6 +61,33 @@ def save(name: str, command: str, table: list[dict], notes: str = "") -> None:
     print(json.dumps(record, indent=1))
 
 
+def exact_spectrum_file(packing_path) -> Path:
+    """Where bench_spectrum.py keeps the full spectrum with K/Q of a benchmark packing (rank 0)."""
+    return Path(str(packing_path).replace(".h5", "_exact_spectrum.npz"))
+
+
+def file_sha(path) -> str:
+    import hashlib
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def save_exact_spectrum(packing_path, result, seconds: float) -> None:
+    np.savez(exact_spectrum_file(packing_path), omega=result.omega, seconds=seconds,
+             packing_sha=file_sha(packing_path), **result.energies)
+
+
+def load_exact_spectrum(packing_path) -> dict | None:
+    """The cached exact spectrum of ``packing_path``, or None if absent or made from another file."""
+    path = exact_spectrum_file(packing_path)
+    if not path.exists():
+        return None
+    with np.load(path) as data:
+        if str(data["packing_sha"]) != file_sha(packing_path):
+            return None
+        return {k: data[k] for k in data.files}
+
+
 class Timer:
     def __enter__(self):
         self.start = time.perf_counter()
@@ -74,8 +103,6 @@ class Timer:
 
 def load_packing(n: int):
     """A jammed packing of n disks at phi = 0.9 (seed [1, 0]), generated once into cache/."""
-    import numpy as np
-
     from solver import h5io, packing
 
     path = REPO / "cache" / f"bench_{n}.h5"
@@ -86,7 +113,6 @@ def load_packing(n: int):
 
 
 def _l_wave(p, k):
-    import numpy as np
 
     r0 = p.positions[~p.rattler]
     v0 = np.zeros((len(r0), 3))
@@ -97,7 +123,6 @@ def _l_wave(p, k):
 
 def exact_l_wave(p, k, times):
     """z(t) of the L wave from a dense eigendecomposition (serial; PHYSICS.md section 4)."""
-    import numpy as np
     import scipy.linalg as sl
 
     from solver import dynmat, petscenv, spectrum
@@ -116,7 +141,6 @@ def exact_l_wave(p, k, times):
 def scipy_verlet_l_wave(p, k, dt, t_end, sample):
     """The obvious alternative: velocity Verlet with scipy.sparse in one process.
     Returns (seconds, z sampled every ``sample``)."""
-    import numpy as np
 
     from solver import dynmat
 

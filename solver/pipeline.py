@@ -132,7 +132,9 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm) -> np.ndarray
     t = time.perf_counter()
     result = spectrum.solve(dm, window=tuple(spec.window) if spec.window else None,
                             vectors=spec.energies, tol=spec.tol, zero_tol=spec.zero_tol,
-                            max_window_modes=spec.max_window_modes)
+                            max_window_modes=spec.max_window_modes,
+                            progress=lambda done, total, modes: total > 1 and say(
+                                comm, f"  spectrum window {done}/{total}: {modes} modes so far"))
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     datasets = {"omega": result.omega}
     if result.energies is not None:

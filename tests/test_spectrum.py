@@ -77,6 +77,36 @@ def test_loaded_packing_gives_same_spectrum(comm, packing96, shared_tmp):
     assert_all(np.allclose(a.omega, b.omega, rtol=1e-12, atol=0), "file vs generated")
 
 
+@pytest.mark.parametrize("chosen", [None, pytest.param("petsc", marks=pytest.mark.serial_only)])  # no parallel petsc Cholesky
+def test_shift_and_invert_factorises_with_mumps_unless_told(comm, packing96, shared_tmp, chosen):
+    """MUMPS by default (slicing once silently fell back to PETSc's own Cholesky, 12x slower per
+    factorisation at N = 32768, while the PC still reported "mumps"); a PETSc option wins.
+    The package actually used is read from the EPS's own view after set-up."""
+    from petsc4py import PETSc
+    from slepc4py import SLEPc
+
+    options = PETSc.Options()
+    if chosen:
+        options.setValue("st_pc_factor_mat_solver_type", chosen)
+    dm = dynmat.assemble(packing96, 1.0, comm)
+    A = spectrum.scaled_operator(dm)
+    eps = SLEPc.EPS().create(comm)
+    path = str(shared_tmp / f"eps_{chosen}.txt")
+    try:
+        spectrum._configure(eps, A, [1.0, 4.0], 1e-10)
+        eps.setUp()
+        viewer = PETSc.Viewer().createASCII(path, comm=comm)
+        eps.view(viewer)
+        viewer.destroy()
+    finally:
+        options.delValue("st_pc_factor_mat_solver_type")
+        eps.destroy()
+        A.destroy()
+        dm.destroy()
+    used = [line.split(":")[1].strip() for line in open(path) if "package used to perform factorization" in line]
+    assert_all(used == [chosen or "mumps"], f"factorisation package {used}")
+
+
 def test_count_below_is_sylvester_inertia(comm, packing96):
     dm = dynmat.assemble(packing96, 1.0, comm)
     A = spectrum.scaled_operator(dm)
