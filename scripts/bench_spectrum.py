@@ -15,6 +15,7 @@ import numpy as np
 from benchlib import OUT, PY, REPO, mpirun, peak_rss_gib, run_json, save, save_exact_spectrum
 
 REPEATS_SMALL = 3
+COMMAND = ["python scripts/bench_spectrum.py " + " ".join(sys.argv[1:])]
 
 
 def packing_file(n: int) -> str:
@@ -44,7 +45,7 @@ def slepc_case(path: str, vectors: bool, window: str) -> None:
         if comm.rank == 0:
             with open(log, "a", encoding="utf-8") as f:
                 f.write(f"DOF={dm.size} {window}: window {done}/{total}, {modes} modes, "
-                        f"{time.perf_counter() - t:.0f} s\n")
+                        f"{time.perf_counter() - t:.0f} s, rank-0 peak RSS {peak_rss_gib():.2f} GiB\n")
 
     result = spectrum.solve(dm, window=win, vectors=vectors, progress=progress)
     seconds = mpi.allreduce(time.perf_counter() - t, op=__import__("mpi4py").MPI.MAX)
@@ -83,8 +84,14 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--sizes", default="2048,8192,32768")
     parser.add_argument("--window-n", type=int, default=32768)
+    parser.add_argument("--merge", action="store_true",
+                        help="keep the rows of the last record that this run does not re-measure")
     args = parser.parse_args()
     table = []
+    if args.merge and (OUT / "spectrum.json").exists():
+        last = json.loads((OUT / "spectrum.json").read_text())
+        COMMAND[0] = f"{last['command']} (rows of {last['date']}) + {COMMAND[0]}"
+        table = last["table"]
     env_eigh = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "2"}
     if args.window_n:
         path = packing_file(args.window_n)
@@ -92,6 +99,7 @@ def main() -> None:
         top = probe["omega_max"]
         lo = 0.9 * top  # the top 10 % of the band [0, omega_max]
         r = run_json(mpirun(2) + [PY, __file__, "--slepc", path, "1", f"{lo},{top * 1.001}"])
+        table = [t for t in table if not (t["N"] == args.window_n and t["what"].startswith("window"))]
         table.append({"N": args.window_n, "DOF": r["dof"], "what": f"window [{lo:.3f}, {top:.3f}] + K/Q",
                       "SLEPc 2 ranks min/med/max [s]": fmt([r["seconds"]]), "modes": r["modes"],
                       "SLEPc peak RSS [GiB]": f"{r['rss']:.2f}", "max rel. residual": f"{r['residual']:.1e}",
@@ -117,12 +125,12 @@ def main() -> None:
                 row.update({"eigh (2 threads) min/med/max [s]": fmt([r["seconds"] for r in eigh]),
                             "eigh peak RSS [GiB]": f"{max(r['rss'] for r in eigh):.2f}",
                             "eigh / SLEPc time (median)": f"{ratio:.2f}"})
-            table.append(row)
+            table = [t for t in table if (t["N"], t["what"]) != (row["N"], row["what"])] + [row]
             save_table(table)  # each row kept as soon as it is measured: the N = 32768 run takes hours
 
 
 def save_table(table: list[dict]) -> None:
-    save("spectrum", "python scripts/bench_spectrum.py " + " ".join(sys.argv[1:]), table,
+    save("spectrum", COMMAND[0], table,
          "phi = 0.9, rho = 1. SLEPc: Krylov-Schur spectrum slicing, MUMPS Cholesky, eps_tol 1e-12, "
          "<= 2000 eigenpairs per window, 2 ranks (one sub-interval each). eigh: LAPACK evd "
          "(values) / evr (vectors) on the dense M^-1/2 D M^-1/2 with 2 OpenBLAS threads. "

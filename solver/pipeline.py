@@ -130,11 +130,15 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm) -> np.ndarray
     """Solve one (rho, packing) spectrum into ``units``; return its omega. Collective."""
     spec = scene.spectrum
     t = time.perf_counter()
+
+    def progress(done, total, modes):  # large spectra take hours: say how far, window by window
+        if total > 1:
+            say(comm, f"  spectrum window {done}/{total}: {modes} modes, "
+                      f"{time.perf_counter() - t:.0f} s")
+
     result = spectrum.solve(dm, window=tuple(spec.window) if spec.window else None,
                             vectors=spec.energies, tol=spec.tol, zero_tol=spec.zero_tol,
-                            max_window_modes=spec.max_window_modes,
-                            progress=lambda done, total, modes: total > 1 and say(
-                                comm, f"  spectrum window {done}/{total}: {modes} modes so far"))
+                            max_window_modes=spec.max_window_modes, progress=progress)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     datasets = {"omega": result.omega}
     if result.energies is not None:

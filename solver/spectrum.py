@@ -14,8 +14,8 @@ factorisation singular; their number is the inertia at lambda_lo, and modes belo
 ||A||_inf >= lambda_max (Gershgorin).
 
 Bounded memory: slicing keeps every eigenvector of its interval, so the interval is cut into
-windows of at most ``max_window_modes`` modes, placed from inertias at a few trial shifts
-(linear interpolation of the eigenvalue count), and solved one after another; each window's
+windows of at most ``max_window_modes`` modes, placed from Sylvester inertias (refined until
+every cut is known to a quarter of a window piece), and solved one after another; each window's
 vectors are reduced to K, Q and the participation ratio and freed.  This also keeps
 n x nconv below 2^31 for the 32-bit-index PETSc build.  On p ranks each window is split
 into p sub-intervals with equal mode counts (``-eps_krylovschur_partitions``), each solved
@@ -82,6 +82,7 @@ def count_below(A, sigma: float) -> int:
     factor.setMumpsIcntl(24, 1)  # detect null pivots instead of failing
     pc.setUp()
     negative, _, _ = factor.getInertia()
+    factor.destroy()  # the wrapper holds a reference: without this each call leaked the factor
     pc.destroy()
     shifted.destroy()
     return int(negative)
@@ -89,23 +90,44 @@ def count_below(A, sigma: float) -> int:
 
 def plan_windows(A, lo: float, hi: float, max_modes: int, parts: int
                  ) -> tuple[list[list[float]], int, int]:
-    """Cut (lo, hi] into windows of about equal mode count (<= max_modes each), and each
-    window into ``parts`` sub-intervals of about equal count (one per rank).
+    """Cut (lo, hi] into windows of at most ~``max_modes`` modes, each window into ``parts``
+    sub-intervals (one per rank) of about equal count.
 
-    Counts between trial shifts are interpolated linearly from Sylvester inertias.
-    Returns (list of sub-interval edges per window, count below lo, count below hi). Collective.
+    Cut points come from Sylvester inertias, refined where needed: the count between two known
+    shifts is interpolated linearly only once it is below a quarter of a piece (new shifts are
+    placed by safeguarded interpolation, about three factorisations per cut), so a steep vDOS
+    cannot put several times the intended modes into one window (it once did at the low end of
+    an N = 32768 spectrum, and the run ran out of memory).  Collective; every rank makes the same
+    choices, since inertias are global.  Returns (sub-interval edges per window, count below lo,
+    count below hi).
     """
-    below_lo, below_hi = count_below(A, lo), count_below(A, hi)
+    known = {lo: count_below(A, lo), hi: count_below(A, hi)}
+    below_lo, below_hi = known[lo], known[hi]
     total = below_hi - below_lo
     windows = max(1, -(-total // max_modes))
     pieces = windows * parts
     if pieces == 1:
         return [[lo, hi]], below_lo, below_hi
-    trial = np.linspace(lo, hi, 2 * pieces + 1)
-    counts = np.array([below_lo] + [count_below(A, s) for s in trial[1:-1]] + [below_hi], dtype=float)
-    targets = below_lo + total * np.arange(1, pieces) / pieces
-    cuts = np.concatenate(([lo], np.interp(targets, counts, trial), [hi]))  # counts non-decreasing
-    plan = [list(cuts[w * parts:(w + 1) * parts + 1]) for w in range(windows)]
+    step = total / pieces
+    targets = below_lo + step * np.arange(1, pieces)
+    slack, min_width = max(1.0, step / 4), 1e-12 * max(abs(hi), 1.0)
+    while True:
+        xs = np.array(sorted(known))
+        cs = np.array([known[x] for x in xs], dtype=float)
+        right = np.searchsorted(cs, targets, side="right")  # cs[right - 1] <= target < cs[right]
+        new = set()
+        for r, t in zip(right, targets):
+            x0, x1, c0, c1 = xs[r - 1], xs[r], cs[r - 1], cs[r]
+            if c1 - c0 > slack and x1 - x0 > min_width:
+                frac = min(max((t - c0) / (c1 - c0), 0.1), 0.9)  # safeguard: always shrink
+                new.add(float(x0 + frac * (x1 - x0)))
+        if not new:
+            break
+        for x in sorted(new):
+            known[x] = count_below(A, x)
+    cuts = [lo] + [float(xs[r - 1] + (t - cs[r - 1]) / (cs[r] - cs[r - 1]) * (xs[r] - xs[r - 1]))
+                   for r, t in zip(right, targets)] + [hi]
+    plan = [cuts[w * parts:(w + 1) * parts + 1] for w in range(windows)]
     return [list(np.unique(edges)) if len(np.unique(edges)) > 1 else [edges[0], edges[-1]]
             for edges in plan], below_lo, below_hi
 
@@ -171,14 +193,14 @@ def solve(dm, *, window: tuple[float, float] | None, vectors: bool, tol: float =
         nconv = eps.getConverged()
         lam = np.empty(nconv)
         vec = A.createVecRight()
-        local = np.empty((nconv, vec.getLocalSize())) if vectors else None
-        for i in range(nconv):
+        local = np.empty((nconv, 4))
+        for i in range(nconv):  # one vector at a time: no extra copy of the window's vectors
             lam[i] = eps.getEigenpair(i, vec).real
             residual = max(residual, eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE))
             if vectors:
-                local[i] = vec.getArray()
+                local[i] = modes.local_sums(vec.getArray()[None, :], dm.dof)[0]
         if vectors:
-            sums.append(comm.tompi4py().allreduce(modes.local_sums(local, dm.dof)))
+            sums.append(comm.tompi4py().allreduce(local))
         omegas.append(np.sqrt(lam))
         vec.destroy()
         eps.destroy()
