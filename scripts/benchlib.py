@@ -32,7 +32,8 @@ def machine() -> str:
 
 
 def mpirun(n: int) -> list[str]:
-    cmd = ["mpirun", "-n", str(n)]
+    """mpirun with one BLAS thread per rank (the scripts import numpy before solver can set it)."""
+    cmd = ["mpirun", "-n", str(n), "-x", "OPENBLAS_NUM_THREADS=1", "-x", "OMP_NUM_THREADS=1"]
     if os.geteuid() == 0:
         cmd.append("--allow-run-as-root")
     return cmd

@@ -18,7 +18,7 @@ import numpy as np
 from . import __version__, analysis, correlations, dynmat, h5io, kpm, modes, packing, parallel, petscopts, spectrum, waves
 from .config import Scene
 from .errors import InputError, Interrupted
-from .units import UnitStore, content_key, packing_from_unit, packing_unit
+from .units import UnitStore, WindowCheckpoint, content_key, packing_from_unit, packing_unit
 
 _TERMINATE = [False]
 
@@ -66,7 +66,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     return [by_index[i] if found[i] is None else packing_from_unit(found[i]) for i in range(count)]
 
 
-def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm) -> None:
+def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, store=None) -> None:
     """Assemble the matrix of (rho, p) and compute the units of ``found`` that are None."""
     from petsc4py import PETSc
 
@@ -90,8 +90,11 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm) -> None:
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
         if scene.spectrum is not None and found[f"spectra/{tag}"] is None:
             check_interrupt(comm)
-            unit = _kpm_unit if scene.spectrum.method == "kpm" else _spectrum_unit
-            unit(scene, dm, rho, r_index, p_index, commit, comm)
+            if scene.spectrum.method == "kpm":
+                _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm)
+            else:
+                _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm,
+                               WindowCheckpoint(store, tag) if store else None)
         if wave_todo:
             _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, wave_todo)
     finally:
@@ -126,8 +129,10 @@ def _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm):
     return edges, density, omega_max
 
 
-def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm) -> np.ndarray:
-    """Solve one (rho, packing) spectrum into ``units``; return its omega. Collective."""
+def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=None) -> np.ndarray:
+    """Solve one (rho, packing) spectrum into ``units``; return its omega. Collective.
+
+    Windows are checkpointed, and SIGTERM is honoured after the window in flight."""
     spec = scene.spectrum
     t = time.perf_counter()
 
@@ -135,10 +140,12 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm) -> np.ndarray
         if total > 1:
             say(comm, f"  spectrum window {done}/{total}: {modes} modes, "
                       f"{time.perf_counter() - t:.0f} s")
+        check_interrupt(comm)
 
     result = spectrum.solve(dm, window=tuple(spec.window) if spec.window else None,
                             vectors=spec.energies, tol=spec.tol, zero_tol=spec.zero_tol,
-                            max_window_modes=spec.max_window_modes, progress=progress)
+                            max_window_modes=spec.max_window_modes, progress=progress,
+                            checkpoint=checkpoint)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     datasets = {"omega": result.omega}
     if result.energies is not None:
@@ -148,6 +155,8 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm) -> np.ndarray
         "n_negative_modes": result.n_negative, "max_relative_residual": result.max_residual,
         "inertia_count": result.inertia_count, "windows": result.windows, "seconds": seconds,
         "window": window_label(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum())})
+    if checkpoint is not None:
+        checkpoint.clear()
     say(comm, f"spectrum rho = {rho:g}, packing {p_index}: {result.omega.size} modes "
               f"(+{result.n_zero_modes} zero modes, {result.n_negative} negative), omega in "
               f"[{result.omega.min():.4f}, {result.omega.max():.4f}], max relative residual "
@@ -339,7 +348,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
                         unit[1]["packing"] = p_index
                         units[name] = unit
                 if any(unit is None for unit in found.values()):
-                    _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm)
+                    _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, store)
                 if scene.spectrum is not None:
                     datasets, attrs = units[f"spectra/{tag}"]
                     per_config.append((datasets["edges"], datasets["density"], float(attrs["omega_max"]))

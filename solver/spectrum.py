@@ -162,18 +162,46 @@ def _configure(eps, A, edges, tol):
     eps.setFromOptions()
 
 
+def _solve_window(A, edges, tol: float, vectors: bool, dof: int) -> dict:
+    """Eigenvalues (and reduced K/Q sums) of one window. Collective; same result on every rank.
+
+    Returns {"lam": (M,), "sums": (M, 4) or (0, 4), "residual": max relative residual}.
+    """
+    from slepc4py import SLEPc
+
+    comm = A.getComm()
+    eps = SLEPc.EPS().create(comm)
+    _configure(eps, A, edges, tol)
+    eps.solve()
+    nconv = eps.getConverged()
+    lam, local, residual = np.empty(nconv), np.empty((nconv if vectors else 0, 4)), 0.0
+    vec = A.createVecRight()
+    for i in range(nconv):  # one vector at a time: no extra copy of the window's vectors
+        lam[i] = eps.getEigenpair(i, vec).real
+        residual = max(residual, eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE))
+        if vectors:
+            local[i] = modes.local_sums(vec.getArray()[None, :], dof)[0]
+    vec.destroy()
+    eps.destroy()
+    return {"lam": lam, "sums": comm.tompi4py().allreduce(local), "residual": np.float64(residual)}
+
+
 def solve(dm, *, window: tuple[float, float] | None, vectors: bool, tol: float = 1e-12,
-          zero_tol: float = 1e-4, max_window_modes: int = 2000, progress=None) -> Spectrum:
+          zero_tol: float = 1e-4, max_window_modes: int = 2000, progress=None,
+          checkpoint=None) -> Spectrum:
     """Eigenfrequencies of ``dm`` (a :class:`~solver.dynmat.DynamicalMatrix`). Collective.
 
     window : (omega_lo, omega_hi) in 1/t0, or None for the full spectrum above ``zero_tol``.
     vectors : also compute K_x, K_y, Q, K and the participation ratio per mode.
     progress : optional callable(windows_done, windows, modes_so_far), called on every rank
-        after each window (long full spectra take hours: it lets the caller report how far).
+        after each window (long full spectra take hours: it lets the caller report how far;
+        it may raise to stop, e.g. on SIGTERM: finished windows are already checkpointed).
+    checkpoint : optional object with collective ``load(name) -> dict | None`` and
+        ``save(name, dict)``: the window plan and every finished window are saved there and
+        taken from there on a rerun, so a killed full spectrum resumes window by window.
     Raises RuntimeError on every rank if the count disagrees with the inertia.
     """
     from petsc4py import PETSc
-    from slepc4py import SLEPc
 
     comm = dm.D.getComm()
     A = scaled_operator(dm)
@@ -182,37 +210,40 @@ def solve(dm, *, window: tuple[float, float] | None, vectors: bool, tol: float =
     lo = lam_zero if window is None else max(window[0] ** 2, lam_zero)
     hi = A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9) if window is None else window[1] ** 2
     max_modes = max(1, min(max_window_modes, INT32_LIMIT // (2 * n)))
-    plan, below_lo, below_hi = plan_windows(A, lo, hi, max_modes, comm.size)
+    saved_plan = checkpoint.load("plan") if checkpoint else None
+    if saved_plan is None:
+        plan, below_lo, below_hi = plan_windows(A, lo, hi, max_modes, comm.size)
+        if checkpoint:
+            checkpoint.save("plan", {"edges": np.concatenate(plan), "sizes": [len(e) for e in plan],
+                                     "below": [below_lo, below_hi]})
+    else:
+        bounds = np.cumsum(np.concatenate(([0], saved_plan["sizes"])))
+        plan = [list(saved_plan["edges"][a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+        below_lo, below_hi = (int(c) for c in saved_plan["below"])
     n_zero = count_below(A, lam_zero) if window is not None else below_lo
     n_negative = count_below(A, -lam_zero)
-    omegas, sums, residual = [], [], 0.0
-    for edges in plan:
-        eps = SLEPc.EPS().create(comm)
-        _configure(eps, A, edges, tol)
-        eps.solve()
-        nconv = eps.getConverged()
-        lam = np.empty(nconv)
-        vec = A.createVecRight()
-        local = np.empty((nconv, 4))
-        for i in range(nconv):  # one vector at a time: no extra copy of the window's vectors
-            lam[i] = eps.getEigenpair(i, vec).real
-            residual = max(residual, eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE))
-            if vectors:
-                local[i] = modes.local_sums(vec.getArray()[None, :], dm.dof)[0]
-        if vectors:
-            sums.append(comm.tompi4py().allreduce(local))
-        omegas.append(np.sqrt(lam))
-        vec.destroy()
-        eps.destroy()
-        if progress is not None:
-            progress(len(omegas), len(plan), sum(o.size for o in omegas))
-    A.destroy()
-    order = np.argsort(np.concatenate(omegas), kind="stable")
-    omega = np.concatenate(omegas)[order]
+    parts = []
+    try:
+        for w, edges in enumerate(plan):
+            part = checkpoint.load(f"window{w:04d}") if checkpoint else None
+            if part is None:
+                part = _solve_window(A, edges, tol, vectors, dm.dof)
+                if checkpoint:
+                    checkpoint.save(f"window{w:04d}", part)
+            parts.append(part)
+            if progress is not None:
+                progress(len(parts), len(plan), sum(p["lam"].size for p in parts))
+    finally:
+        A.destroy()
+    lam = np.concatenate([p["lam"] for p in parts])
+    order = np.argsort(lam, kind="stable")
+    omega = np.sqrt(lam[order])
+    residual = max(float(p["residual"]) for p in parts)
     if omega.size != below_hi - below_lo:
         raise RuntimeError(f"spectrum: {omega.size} eigenvalues converged in the interval but the "
                            f"inertia counts {below_hi - below_lo}")
     energies = None
     if vectors:
-        energies = {k: v[order] for k, v in modes.energies(np.concatenate(sums), int(dm.active.sum())).items()}
+        sums = np.concatenate([p["sums"] for p in parts])[order]
+        energies = modes.energies(sums, int(dm.active.sum()))
     return Spectrum(omega, n_zero, n_negative, residual, below_hi - below_lo, len(plan), energies)

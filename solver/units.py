@@ -166,11 +166,39 @@ class UnitStore:
         parallel.agree(self.comm, error)
         self._count(name, "computed")
 
+    def discard(self, name: str) -> None:
+        """Remove a unit file from the folder (rank 0), e.g. checkpoints made redundant."""
+        if self.comm.rank == 0 and os.path.exists(self._path(name)):
+            os.remove(self._path(name))
+
     def summary(self) -> str:
         """Per stage, how many units were computed, resumed and reused from the cache."""
         words = {"computed": "computed", "resumed": "resumed", "cache": "from the cache"}
         return "; ".join(f"{stage} " + ", ".join(f"{c[how]} {word}" for how, word in words.items() if c[how])
                          for stage, c in sorted(self.counts.items())) or "none"
+
+
+class WindowCheckpoint:
+    """Finished windows of one spectrum unit (``spectrum.solve(checkpoint=...)``), kept in the
+    store as ``spectrum_windows/<tag>_<name>`` so that a killed hours-long spectrum resumes
+    window by window.  Not cached across scenes: only the whole spectrum unit is."""
+
+    def __init__(self, store: UnitStore, tag: str):
+        self.store, self.tag, self.names = store, tag, set()
+
+    def load(self, name: str) -> dict | None:
+        self.names.add(name)
+        unit = self.store.load(f"spectrum_windows/{self.tag}_{name}")
+        return None if unit is None else unit[0]
+
+    def save(self, name: str, datasets: dict) -> None:
+        self.names.add(name)
+        self.store.save(f"spectrum_windows/{self.tag}_{name}", datasets, {})
+
+    def clear(self) -> None:
+        """Drop the window files once the whole spectrum unit is saved."""
+        for name in self.names:
+            self.store.discard(f"spectrum_windows/{self.tag}_{name}")
 
 
 def packing_unit(p) -> tuple[dict, dict]:

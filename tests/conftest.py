@@ -11,10 +11,16 @@ import pathlib
 import subprocess
 import sys
 
-import numpy as np
-import pytest
+# One BLAS thread per process, set before numpy loads OpenBLAS (solver/__init__ comes too late
+# once numpy is imported): two ranks x two threads on two cores made a 288-DOF spectrum take
+# 18 s instead of 0.1 s (threads spinning in every small orthogonalisation).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from solver import petscenv
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from solver import petscenv  # noqa: E402
 
 PETSc = petscenv.init([])
 from mpi4py import MPI  # noqa: E402  (after PETSc initialised MPI)

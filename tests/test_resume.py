@@ -10,7 +10,7 @@ import time
 import h5py
 import numpy as np
 import pytest
-from conftest import REPO, mpirun, run_cli
+from conftest import COMM, REPO, mpirun, run_cli
 
 pytestmark = pytest.mark.serial_only  # these tests launch and kill their own mpirun jobs
 
@@ -183,3 +183,41 @@ def test_every_stage_is_rank_invariant(tmp_path, reference):
             assert np.array_equal(np.isnan(got[key]), np.isnan(value)), (ranks, key)
             error = np.nanmax(np.abs(got[key] - value)) if np.isfinite(value).any() else 0.0
             assert error <= tol * scale, (ranks, key, error / scale)
+
+
+def test_sigterm_mid_spectrum_keeps_finished_windows(tmp_path, monkeypatch, capsys):
+    """SIGTERM during a many-window spectrum stops after the window in flight; the rerun takes
+    the plan and the finished windows from the units folder and equals an uninterrupted run."""
+    import yaml
+
+    from solver import config, pipeline, spectrum
+    from solver.errors import Interrupted
+
+    text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9, count: 1}}\n"
+            "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 40}}\n")
+    make = lambda name: config.build(config.Scene, yaml.safe_load(text.format(out=tmp_path / name)))  # noqa: E731
+    reference = pipeline.run(make("ref.h5"), COMM, [])["units"]["spectra/r00_p0000"][0]
+    solve_window, calls = spectrum._solve_window, []
+
+    def terminated_after_two(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            pipeline._TERMINATE[0] = True  # as the SIGTERM handler would
+        return solve_window(*args, **kwargs)
+
+    monkeypatch.setattr(spectrum, "_solve_window", terminated_after_two)
+    try:
+        with pytest.raises(Interrupted):
+            pipeline.run(make("cut.h5"), COMM, [])
+    finally:
+        pipeline._TERMINATE[0] = False
+    assert len(calls) == 2
+    capsys.readouterr()
+    resumed = pipeline.run(make("cut.h5"), COMM, [])["units"]["spectra/r00_p0000"][0]
+    log = capsys.readouterr().out
+    # 5 windows: the plan and windows 0, 1 resumed; windows 2, 3, 4 computed
+    assert "spectrum_windows 3 computed, 3 resumed" in log, log
+    assert len(calls) == 5
+    assert not list((tmp_path / "cut.h5.units").glob("spectrum_windows*")), "window files removed"
+    for key, value in reference.items():
+        np.testing.assert_allclose(resumed[key], value, rtol=1e-9, atol=1e-14, err_msg=key)

@@ -107,6 +107,46 @@ def test_shift_and_invert_factorises_with_mumps_unless_told(comm, packing96, sha
     assert_all(used == [chosen or "mumps"], f"factorisation package {used}")
 
 
+class DictCheckpoint:
+    """In-memory stand-in for the unit store's window checkpoint (arrays, as read back)."""
+
+    def __init__(self):
+        self.saved, self.loaded = {}, []
+
+    def load(self, name):
+        if name in self.saved:
+            self.loaded.append(name)
+            return self.saved[name]
+        return None
+
+    def save(self, name, datasets):
+        self.saved[name] = {k: np.array(v) for k, v in datasets.items()}
+
+
+def test_checkpointed_windows_resume_to_the_same_spectrum(comm, packing96):
+    class Stop(Exception):
+        pass
+
+    def stop_after_two(done, total, modes):
+        if done == 2:
+            raise Stop
+
+    dm = dynmat.assemble(packing96, 1.0, comm)
+    whole = spectrum.solve(dm, window=None, vectors=True, max_window_modes=60)
+    checkpoint = DictCheckpoint()
+    with pytest.raises(Stop):
+        spectrum.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint,
+                       progress=stop_after_two)
+    assert_all(sorted(checkpoint.saved) == ["plan", "window0000", "window0001"], "saved so far")
+    resumed = spectrum.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint)
+    assert_all(checkpoint.loaded == ["plan", "window0000", "window0001"], "taken from the checkpoint")
+    assert_all(resumed.windows == whole.windows >= 4, "same plan, several windows")
+    assert_all(np.allclose(resumed.omega, whole.omega, rtol=1e-12, atol=0), "omega")
+    assert_all(all(np.allclose(resumed.energies[k], whole.energies[k], rtol=1e-9, atol=1e-14)
+                   for k in whole.energies), "energies")
+    dm.destroy()
+
+
 def test_count_below_is_sylvester_inertia(comm, packing96):
     dm = dynmat.assemble(packing96, 1.0, comm)
     A = spectrum.scaled_operator(dm)
