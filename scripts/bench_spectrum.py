@@ -12,7 +12,8 @@ import sys
 import time
 
 import numpy as np
-from benchlib import OUT, PY, REPO, mpirun, peak_rss_gib, run_json, save, save_exact_spectrum
+from benchlib import (OUT, PY, REPO, NpzCheckpoint, file_sha, mpirun, peak_rss_gib, run_json, save,
+                      save_exact_spectrum)
 
 REPEATS_SMALL = 3
 COMMAND = ["python scripts/bench_spectrum.py " + " ".join(sys.argv[1:])]
@@ -37,8 +38,11 @@ def slepc_case(path: str, vectors: bool, window: str) -> None:
     dm = dynmat.assemble(p, 1.0, comm)
     win = None if window == "full" else tuple(map(float, window.split(",")))
     mpi = comm.tompi4py()
+    # windows of a killed run are resumed from here (a full N = 32768 spectrum outlasts a session)
+    tag = f"{file_sha(path)[:12]}_{window}_{int(vectors)}".replace(",", "_")
+    checkpoint = NpzCheckpoint(REPO / "cache" / f"bench_spectrum_windows_{tag}", comm.rank)
     mpi.Barrier()
-    t = time.perf_counter()
+    t = checkpoint.last = time.perf_counter()
     log = OUT / "spectrum_progress.log"  # follow a long run with tail -f
 
     def progress(done, total, modes):
@@ -47,15 +51,18 @@ def slepc_case(path: str, vectors: bool, window: str) -> None:
                 f.write(f"DOF={dm.size} {window}: window {done}/{total}, {modes} modes, "
                         f"{time.perf_counter() - t:.0f} s, rank-0 peak RSS {peak_rss_gib():.2f} GiB\n")
 
-    result = spectrum.solve(dm, window=win, vectors=vectors, progress=progress)
-    seconds = mpi.allreduce(time.perf_counter() - t, op=__import__("mpi4py").MPI.MAX)
+    result = spectrum.solve(dm, window=win, vectors=vectors, progress=progress, checkpoint=checkpoint)
+    seconds = mpi.allreduce(time.perf_counter() - t, op=__import__("mpi4py").MPI.MAX) + checkpoint.credited
+    mpi.Barrier()
+    checkpoint.clear()
     rss = mpi.allreduce(peak_rss_gib())
     if comm.rank == 0:
         if window == "full" and vectors:  # the exact reference bench_kpm.py compares against
             save_exact_spectrum(path, result, seconds)
         print(json.dumps({"seconds": seconds, "modes": int(result.omega.size), "rss": rss,
                           "residual": result.max_residual, "windows": result.windows,
-                          "omega_max": float(result.omega.max()), "dof": dm.size}))
+                          "omega_max": float(result.omega.max()), "dof": dm.size,
+                          "resumed_windows": checkpoint.resumed}))
 
 
 def eigh_case(path: str, vectors: bool) -> None:
@@ -111,7 +118,10 @@ def main() -> None:
             repeats = REPEATS_SMALL if n <= 2048 else 1
             slepc = [run_json(mpirun(2) + [PY, __file__, "--slepc", path, str(int(vectors)), "full"],
                               timeout=6 * 3600) for _ in range(repeats)]
-            row = {"N": n, "DOF": slepc[0]["dof"], "what": "omega + K/Q" if vectors else "omega only",
+            what = "omega + K/Q" if vectors else "omega only"
+            if slepc[0]["resumed_windows"]:  # time = this run + the windows kept by a killed run
+                what += f" (resumed: {slepc[0]['resumed_windows'] - 1} of {slepc[0]['windows']} windows)"
+            row = {"N": n, "DOF": slepc[0]["dof"], "what": what,
                    "SLEPc 2 ranks min/med/max [s]": fmt([r["seconds"] for r in slepc]),
                    "SLEPc peak RSS [GiB]": f"{max(r['rss'] for r in slepc):.2f}",
                    "max rel. residual": f"{max(r['residual'] for r in slepc):.1e}",
@@ -125,7 +135,7 @@ def main() -> None:
                 row.update({"eigh (2 threads) min/med/max [s]": fmt([r["seconds"] for r in eigh]),
                             "eigh peak RSS [GiB]": f"{max(r['rss'] for r in eigh):.2f}",
                             "eigh / SLEPc time (median)": f"{ratio:.2f}"})
-            table = [t for t in table if (t["N"], t["what"]) != (row["N"], row["what"])] + [row]
+            table = [t for t in table if (t["N"], t["what"][:11]) != (n, what[:11])] + [row]
             save_table(table)  # each row kept as soon as it is measured: the N = 32768 run takes hours
 
 

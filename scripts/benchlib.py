@@ -89,6 +89,43 @@ def load_exact_spectrum(packing_path) -> dict | None:
         return {k: data[k] for k in data.files}
 
 
+class NpzCheckpoint:
+    """``spectrum.solve(checkpoint=...)`` for the benchmarks: one npz per finished window in
+    ``directory`` (rank 0 writes, atomically; every rank reads), each with the seconds it took,
+    so a run of hours killed by the end of a session resumes and still reports its total time:
+    the seconds of this run plus ``credited``, the seconds of the windows taken from disk."""
+
+    def __init__(self, directory: Path, rank: int):
+        self.directory, self.rank = Path(directory), rank
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.credited, self.resumed, self.last = 0.0, 0, time.perf_counter()
+
+    def load(self, name: str) -> dict | None:
+        path = self.directory / f"{name}.npz"
+        if not path.exists():
+            return None
+        with np.load(path) as data:
+            part = {k: data[k] for k in data.files}
+        self.credited += float(part.pop("seconds"))
+        self.resumed += 1
+        self.last = time.perf_counter()
+        return part
+
+    def save(self, name: str, datasets: dict) -> None:
+        now = time.perf_counter()
+        if self.rank == 0:
+            tmp = self.directory / f"{name}.tmp.npz"
+            np.savez(tmp, seconds=now - self.last, **datasets)
+            os.replace(tmp, self.directory / f"{name}.npz")
+        self.last = now
+
+    def clear(self) -> None:
+        if self.rank == 0:
+            for f in self.directory.glob("*.npz"):
+                f.unlink()
+            self.directory.rmdir()
+
+
 class Timer:
     def __enter__(self):
         self.start = time.perf_counter()
