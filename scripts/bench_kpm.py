@@ -3,7 +3,7 @@
     python scripts/bench_kpm.py
 Exact reference: the full spectrum with K and Q that ``bench_spectrum.py`` leaves next to the
 packing (``cache/bench_<N>_exact_spectrum.npz``, checked against the packing file's hash); at
-N = 8192 it is solved here if absent, at N = 32768 (2 h) the rows are KPM time only without it.
+N = 8192 it is solved here if absent, at N = 32768 (1 h 45 min) the rows are KPM time only without it.
 rho = 1, bins 0.05/t0, 2 ranks.  Rows "K/Q": the channel-restricted KPM (``kpm.energies``) against the exact bin
 averages of K and Q; its error is the mode-weighted mean of |K_kpm / K_exact - 1| (and Q) over
 the bins.
