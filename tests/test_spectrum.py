@@ -28,8 +28,21 @@ def test_full_spectrum_equals_dense_eigh(comm, packing96, rho):
     nonzero = ref[ref > 1e-4]
     assert_all(result.omega.size == dm.size - 2 == nonzero.size, "count = DOF - 2 zero modes")
     assert_all(result.n_zero_modes == 2 and result.n_negative == 0, "zero modes")
-    assert_all(np.max(np.abs(result.omega - nonzero) / nonzero) < 1e-8, "omega vs eigh")
+    # issue 3 asks 1e-8; Rayleigh quotients give ~1e-14 (Ritz values alone: 1e-8 at rho = 2)
+    assert_all(np.max(np.abs(result.omega - nonzero) / nonzero) < 1e-11, "omega vs eigh")
     assert_all(result.windows >= 2, "several windows were exercised")
+    dm.destroy()
+
+
+def test_full_spectrum_survives_a_low_band_top_estimate(comm, packing96):
+    """The full spectrum's upper bound comes from the Lanczos omega_max (cached on dm); if that
+    were too low, the inertia sees the missing modes and the Gershgorin bound takes over."""
+    dm = dynmat.assemble(packing96, 1.0, comm)
+    ref = dense_omegas(dm)
+    dm.omega_max = 0.9 * ref.max()  # the top ~10 % of the band is above the estimate
+    result = spectrum.solve(dm, window=None, vectors=False)
+    assert_all(result.omega.size == dm.size - 2, "every mode found despite the low estimate")
+    assert_all(np.allclose(result.omega, ref[ref > 1e-4], rtol=1e-8), "omega vs eigh")
     dm.destroy()
 
 
