@@ -10,8 +10,9 @@ with a MUMPS Cholesky factorisation; the matrix is flagged symmetric and MUMPS I
 so that parallel inertias are right).  The interval starts at lambda_lo = zero_tol^2 > 0:
 zero modes (the two translations) then lie below the first shift and never make a
 factorisation singular; their number is the inertia at lambda_lo, and modes below
--lambda_lo (an unstable packing) are counted separately.  The full interval ends at
-||A||_inf >= lambda_max (Gershgorin).
+-lambda_lo (an unstable packing) are counted separately.  The full interval ends just above
+the Lanczos estimate of lambda_max, checked by the inertia there (Gershgorin ||A||_inf if it
+misses any mode).  Eigenvalues are Rayleigh quotients of the converged vectors.
 
 Bounded memory: slicing keeps every eigenvector of its interval, so the interval is cut into
 windows of at most ``max_window_modes`` modes, placed from Sylvester inertias (refined until
