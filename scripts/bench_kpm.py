@@ -21,7 +21,7 @@ SETTINGS = [(0, 16), (0, 64), (2000, 16), (2000, 64)]  # (moments, 0 = auto; pro
 
 
 def case(n: int, exact: bool) -> None:
-    from solver import dynmat, h5io, kpm, petscenv, spectrum, waves
+    from solver import dynmat, h5io, kpm, petscenv, spectrum
     from solver.modes import bin_average
 
     PETSc = petscenv.init([])
@@ -30,7 +30,7 @@ def case(n: int, exact: bool) -> None:
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
     out = {"n": n, "kpm": []}
     t0 = time.perf_counter()
-    w = waves.largest_omega(dm)
+    w = spectrum.largest_omega(dm)
     t_wmax = time.perf_counter() - t0
     edges = np.arange(0, 0.05 * (np.ceil(1.1 * w / 0.05) + 1), 0.05)
     if exact:

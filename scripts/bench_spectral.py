@@ -40,12 +40,12 @@ def exact_reference() -> None:
 
 
 def _setup(n):
-    from solver import dynmat, petscenv, waves
+    from solver import dynmat, petscenv, spectrum
 
     PETSc = petscenv.init([])
     p = load_packing(n)
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
-    omega_max = waves.largest_omega(dm)
+    omega_max = spectrum.largest_omega(dm)
     return PETSc, p, dm, omega_max, 2 * np.pi * 4 / p.box_length
 
 

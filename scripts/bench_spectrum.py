@@ -84,11 +84,11 @@ def eigh_case(path: str, vectors: bool) -> None:
 
 def omega_max_case(path: str) -> None:
     """The top of the band, by the cheap largest-eigenvalue solve (slicing [4.5, 100] took 7 min)."""
-    from solver import dynmat, h5io, petscenv, waves
+    from solver import dynmat, h5io, petscenv, spectrum
 
     PETSc = petscenv.init([])
     (p,) = h5io.read_packings(path)
-    omega_max = waves.largest_omega(dynmat.assemble(p, 1.0, PETSc.COMM_WORLD))
+    omega_max = spectrum.largest_omega(dynmat.assemble(p, 1.0, PETSc.COMM_WORLD))
     if PETSc.COMM_WORLD.rank == 0:
         print(json.dumps({"omega_max": omega_max}))
 

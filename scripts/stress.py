@@ -17,7 +17,7 @@ sys.path.insert(0, str(REPO / "scripts"))
 sys.path.insert(0, str(REPO / "tests"))
 
 from benchlib import machine  # noqa: E402
-from solver import dynmat, h5io, packing, petscenv, spectrum, waves  # noqa: E402
+from solver import dynmat, packing, petscenv, spectrum, waves  # noqa: E402
 from solver.errors import InputError  # noqa: E402
 
 PETSc = petscenv.init([])
@@ -84,7 +84,7 @@ def sizes():
         else:
             from solver import kpm
 
-            w = waves.largest_omega(dm)
+            w = spectrum.largest_omega(dm)
             edges = np.arange(0, 1.1 * w, 0.05)
             g = kpm.vdos(dm, edges, w**2, kpm.auto_moments(w**2, 0.05), 16, 0)
             what = f"KPM vDOS area {np.sum(g) * 0.05:.6f}, omega_max {w:.4f}"
@@ -101,7 +101,7 @@ def stability_edge():
 
     p = packing.generate(64, 0.9, np.random.SeedSequence([4, 0]))
     dm = dynmat.assemble(p, 1.0, COMM)
-    limit = waves.stability_limit("verlet", waves.largest_omega(dm))
+    limit = waves.stability_limit("verlet", spectrum.largest_omega(dm))
     for factor in (0.99, 1.01):
         spec = SimpleNamespace(integrator="verlet", dt=factor * limit)
         try:

@@ -37,7 +37,7 @@ class DynamicalMatrix:
     rho: float
     disk_range: tuple[int, int]
     n_contacts: int
-    omega_max: float | None = None  # cached by waves.largest_omega
+    omega_max: float | None = None  # cached by spectrum.largest_omega
     scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
 
     @property

@@ -81,7 +81,7 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, store=No
                      if found.get(f"waves/r{r_index:02d}_{m}_p{p_index:04d}", 0) is None]
         stability = None
         if wave_todo and scene.waves.method == "spectral":
-            stability = ("spectral", waves.largest_omega(dm), None)
+            stability = ("spectral", spectrum.largest_omega(dm), None)
         elif wave_todo:
             stability = _check_time_step(scene.waves, dm, rho)
         if found[f"matrices/{tag}"] is None:
@@ -105,7 +105,7 @@ def _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm):
     """Stochastic vDOS of one (rho, packing) into ``units``; return (edges, density, omega_max)."""
     spec = scene.spectrum
     t = time.perf_counter()
-    omega_max = waves.largest_omega(dm)
+    omega_max = spectrum.largest_omega(dm)
     edges = np.arange(0.0, spec.bin_width * (np.ceil(1.1 * omega_max / spec.bin_width) + 1), spec.bin_width)
     n_moments = spec.moments or kpm.auto_moments(omega_max**2, spec.bin_width)
     datasets = {"edges": edges}
@@ -194,7 +194,7 @@ def _check_time_step(spec, dm, rho) -> tuple[str, float, float | None]:
     Returns (integrator, omega_max, limit or None). Collective.
     """
     integrator = integrator_in_use(spec)
-    omega_max = waves.largest_omega(dm)
+    omega_max = spectrum.largest_omega(dm)
     limit = waves.stability_limit(integrator, omega_max)
     if limit is not None and spec.dt >= limit:
         raise InputError(f"waves.dt = {spec.dt}: above the stability limit {limit:.4f} t0 of "

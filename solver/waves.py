@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .spectrum import largest_omega, scaled_operator
+
 EXCITATIONS = {"L": [(0, 0), (1, 1)], "TR": [(0, 1), (1, 0)], "RT": [(2, 0), (2, 1)]}
 """mode -> [(excited DOF component, axis of k)] for its two directions."""
 
@@ -46,34 +48,6 @@ class WaveSeries:
 
 class StabilityError(RuntimeError):
     """dt above the scheme's stability limit, or a run that blew up."""
-
-
-def largest_omega(dm) -> float:
-    """omega_max of M^-1 D by a cheap SLEPc solve (prefix ``wmax_``), cached on ``dm``. Collective."""
-    from slepc4py import SLEPc
-
-    if dm.omega_max is not None:
-        return dm.omega_max
-
-    from .spectrum import scaled_operator
-
-    A = scaled_operator(dm)
-    eps = SLEPc.EPS().create(A.getComm())
-    eps.setOperators(A)
-    eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
-    eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
-    eps.setDimensions(nev=1)
-    eps.setTolerances(tol=1e-8)
-    eps.setOptionsPrefix("wmax_")
-    eps.setFromOptions()
-    eps.solve()
-    if eps.getConverged() < 1:
-        raise RuntimeError("could not compute the largest eigenfrequency (wmax_ EPS did not converge)")
-    lam = eps.getEigenvalue(0).real
-    eps.destroy()
-    A.destroy()
-    dm.omega_max = float(np.sqrt(lam))
-    return dm.omega_max
 
 
 def stability_limit(integrator: str, omega_max: float) -> float | None:
@@ -444,8 +418,6 @@ def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: f
     b[:, component] = np.exp(1j * k * r0[:, axis])  # conj of e^{-ik.r}: z = sum v e^{-ik.r} = b^H v
     b = b.ravel() * s
     if dm.scaled is None:
-        from .spectrum import scaled_operator
-
         dm.scaled = scaled_operator(dm)
     A = dm.scaled
     # PETSc vectors: one MatMult and two reductions per step (alpha with b.q, then |v|)

@@ -5,7 +5,7 @@ import pytest
 import scipy.linalg as sl
 from conftest import assert_all
 
-from solver import dynmat, kpm, packing, spectrum, waves
+from solver import dynmat, kpm, packing, spectrum
 
 
 @pytest.fixture(scope="module")
@@ -15,7 +15,7 @@ def packing256():
 
 def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
     dm = dynmat.assemble(packing256, 1.0, comm)
-    lam_max = waves.largest_omega(dm) ** 2
+    lam_max = spectrum.largest_omega(dm) ** 2
     mu, c, h = kpm.moments(dm, lam_max, 41, probes=5, seed=3)
     A = spectrum.scaled_operator(dm)
     dense = dynmat.gather_csr(A).toarray()
@@ -40,7 +40,7 @@ def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
 
 def test_vdos_against_exact_histogram(comm, packing256):
     dm = dynmat.assemble(packing256, 1.0, comm)
-    w = waves.largest_omega(dm)
+    w = spectrum.largest_omega(dm)
     A = spectrum.scaled_operator(dm)
     lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)[2:]
     A.destroy()
@@ -58,7 +58,7 @@ def test_vdos_against_exact_histogram(comm, packing256):
 def test_channel_moments_weigh_modes_by_their_share(comm, packing256):
     """Translation- plus rotation-restricted moments, dense reference: sum_q |P e_q|^2 T_n(x_q)."""
     dm = dynmat.assemble(packing256, 1.0, comm)
-    lam_max = waves.largest_omega(dm) ** 2
+    lam_max = spectrum.largest_omega(dm) ** 2
     A = spectrum.scaled_operator(dm)
     lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
     A.destroy()
@@ -76,7 +76,7 @@ def test_channel_moments_weigh_modes_by_their_share(comm, packing256):
 
 def test_kpm_energies_against_exact_bin_averages(comm, packing256):
     dm = dynmat.assemble(packing256, 1.0, comm)
-    w = waves.largest_omega(dm)
+    w = spectrum.largest_omega(dm)
     A = spectrum.scaled_operator(dm)
     lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
     A.destroy()

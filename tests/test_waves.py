@@ -72,7 +72,7 @@ def test_energy_bounded_over_long_run(comm, packing64):
     dm = dynmat.assemble(packing64, 1.0, comm)
     series = run(dm, packing64, "RT", 2 * np.pi / packing64.box_length, 0.05, t_end=400.0, every=20)
     drift = np.abs(series.energy - series.energy[0]) / series.energy[0]
-    omega_max = waves.largest_omega(dm)
+    omega_max = spectrum.largest_omega(dm)
     bound = (omega_max * 0.05) ** 2 / 4  # Verlet's shadow-energy oscillation, no secular growth
     assert_all(drift.max() < bound, f"drift {drift.max()} > {bound}")
     half = len(drift) // 2
@@ -150,7 +150,7 @@ def test_block_verlet_equals_blocks_of_one(comm, packing64):
 @pytest.mark.parametrize("block", [False, True])
 def test_blow_up_stops_with_error_not_nan(comm, packing64, block):
     dm = dynmat.assemble(packing64, 1.0, comm)
-    dt = 1.05 * waves.stability_limit("verlet", waves.largest_omega(dm))
+    dt = 1.05 * waves.stability_limit("verlet", spectrum.largest_omega(dm))
     k = 2 * np.pi / packing64.box_length
     with pytest.raises(waves.StabilityError, match="unstable|grew tenfold"):
         if block:
