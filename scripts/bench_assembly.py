@@ -15,7 +15,9 @@ FILE = str(REPO / "cache" / "bench_32768.h5")
 
 
 def case() -> None:
-    from solver import dynmat, h5io, petscenv
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.io import hdf5 as h5io
 
     PETSc = petscenv.init([])
     comm = PETSc.COMM_WORLD

@@ -21,8 +21,12 @@ SETTINGS = [(0, 16), (0, 64), (2000, 16), (2000, 64)]  # (moments, 0 = auto; pro
 
 
 def case(n: int, exact: bool) -> None:
-    from solver import dynmat, h5io, kpm, petscenv, spectrum
-    from solver.modes import bin_average
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.io import hdf5 as h5io
+    from solver.spectrum import kpm
+    from solver.spectrum import slicing as spectrum
+    from solver.spectrum.modes import bin_average
 
     PETSc = petscenv.init([])
     mpi = PETSc.COMM_WORLD.tompi4py()

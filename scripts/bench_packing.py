@@ -15,7 +15,8 @@ CASES = [(2048, [1, 2, 3]), (32768, [1])]
 
 
 def case(n: int, seed: int) -> None:
-    from solver import h5io, packing
+    from solver.io import hdf5 as h5io
+    from solver.packing import jammed as packing
 
     with Timer() as t:
         p = packing.generate(n, 0.9, np.random.SeedSequence([seed, 0]))

@@ -40,7 +40,9 @@ def exact_reference() -> None:
 
 
 def _setup(n):
-    from solver import dynmat, petscenv, spectrum
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.spectrum import slicing as spectrum
 
     PETSc = petscenv.init([])
     p = load_packing(n)
@@ -60,7 +62,7 @@ def _report(PETSc, seconds, z, extra=None):
 
 def case(n: int, method: str, setting: float) -> None:
     """One timed run on the communicator mpirun gives: spectral (setting = tol) or TS (setting = dt)."""
-    from solver import waves
+    from solver.waves import integrators as waves
 
     PETSc, p, dm, omega_max, k = _setup(n)
     PETSc.COMM_WORLD.tompi4py().Barrier()
@@ -83,7 +85,7 @@ def scipy_case(n: int, dt: float) -> None:
 
 def scaling_case() -> None:
     """N = 32768 on this communicator: 200 MatMults, 500 Verlet steps, one spectral wave."""
-    from solver import waves
+    from solver.waves import integrators as waves
 
     PETSc, p, dm, omega_max, k = _setup(32768)
     mpi = PETSc.COMM_WORLD.tompi4py()

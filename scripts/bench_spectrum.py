@@ -22,7 +22,8 @@ COMMAND = ["python scripts/bench_spectrum.py " + " ".join(sys.argv[1:])]
 def packing_file(n: int) -> str:
     path = REPO / "cache" / f"bench_{n}.h5"
     if not path.exists():
-        from solver import h5io, packing
+        from solver.io import hdf5 as h5io
+        from solver.packing import jammed as packing
 
         path.parent.mkdir(exist_ok=True)
         h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
@@ -30,7 +31,10 @@ def packing_file(n: int) -> str:
 
 
 def slepc_case(path: str, vectors: bool, window: str) -> None:
-    from solver import dynmat, h5io, petscenv, spectrum
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.io import hdf5 as h5io
+    from solver.spectrum import slicing as spectrum
 
     PETSc = petscenv.init([])
     comm = PETSc.COMM_WORLD
@@ -68,7 +72,10 @@ def slepc_case(path: str, vectors: bool, window: str) -> None:
 def eigh_case(path: str, vectors: bool) -> None:
     import scipy.linalg as sl
 
-    from solver import dynmat, h5io, petscenv, spectrum
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.io import hdf5 as h5io
+    from solver.spectrum import slicing as spectrum
 
     PETSc = petscenv.init([])
     (p,) = h5io.read_packings(path)
@@ -84,7 +91,10 @@ def eigh_case(path: str, vectors: bool) -> None:
 
 def omega_max_case(path: str) -> None:
     """The top of the band, by the cheap largest-eigenvalue solve (slicing [4.5, 100] took 7 min)."""
-    from solver import dynmat, h5io, petscenv, spectrum
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.io import hdf5 as h5io
+    from solver.spectrum import slicing as spectrum
 
     PETSc = petscenv.init([])
     (p,) = h5io.read_packings(path)

@@ -34,7 +34,9 @@ def exact_reference() -> None:
 
 def ts_case(integrator: str, dt: float) -> None:
     assert abs(SAMPLE / dt - round(SAMPLE / dt)) < 1e-9, "dt must divide the sampling interval"
-    from solver import dynmat, petscenv, waves
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.waves import integrators as waves
 
     PETSc = petscenv.init([])
     p = load_packing(2048)
@@ -61,7 +63,9 @@ def scipy_case(dt: float) -> None:
 
 def step_cost_case() -> None:
     """N = 32768: time per Verlet TS step vs per bare MatMult; and one run to t = 200."""
-    from solver import dynmat, petscenv, waves
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.waves import integrators as waves
 
     PETSc = petscenv.init([])
     p = load_packing(32768)

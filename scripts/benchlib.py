@@ -141,7 +141,8 @@ class Timer:
 
 def load_packing(n: int):
     """A jammed packing of n disks at phi = 0.9 (seed [1, 0]), generated once into cache/."""
-    from solver import h5io, packing
+    from solver.io import hdf5 as h5io
+    from solver.packing import jammed as packing
 
     path = REPO / "cache" / f"bench_{n}.h5"
     if not path.exists():
@@ -163,7 +164,9 @@ def exact_l_wave(p, k, times):
     """z(t) of the L wave from a dense eigendecomposition (serial; PHYSICS.md section 4)."""
     import scipy.linalg as sl
 
-    from solver import dynmat, petscenv, spectrum
+    from solver import petscenv
+    from solver.model import dynmat
+    from solver.spectrum import slicing as spectrum
 
     PETSc = petscenv.init([])
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
@@ -180,7 +183,7 @@ def scipy_verlet_l_wave(p, k, dt, t_end, sample):
     """The obvious alternative: velocity Verlet with scipy.sparse in one process.
     Returns (seconds, z sampled every ``sample``)."""
 
-    from solver import dynmat
+    from solver.model import dynmat
 
     D, _, _ = dynmat.local_csr(p, 1.0, (0, int((~p.rattler).sum())))
     minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], 3)

@@ -17,7 +17,11 @@ sys.path.insert(0, str(REPO / "scripts"))
 sys.path.insert(0, str(REPO / "tests"))
 
 from benchlib import machine  # noqa: E402
-from solver import dynmat, packing, petscenv, spectrum, waves  # noqa: E402
+from solver import petscenv  # noqa: E402
+from solver.model import dynmat
+from solver.packing import jammed as packing
+from solver.spectrum import slicing as spectrum
+from solver.waves import integrators as waves
 from solver.errors import InputError  # noqa: E402
 
 PETSc = petscenv.init([])
@@ -82,7 +86,7 @@ def sizes():
             r = spectrum.solve(dm, window=None, vectors=False)
             what = f"{r.omega.size} modes, {r.n_zero_modes} zero, {r.n_negative} negative, residual {r.max_residual:.0e}"
         else:
-            from solver import kpm
+            from solver.spectrum import kpm
 
             w = spectrum.largest_omega(dm)
             edges = np.arange(0, 1.1 * w, 0.05)

@@ -17,7 +17,8 @@ import argparse
 import sys
 import traceback
 
-from . import config, petscopts
+from .io import schema as config
+from . import options as petscopts
 from .errors import InputError, Interrupted
 
 EXIT_INPUT = 2

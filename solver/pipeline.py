@@ -15,10 +15,20 @@ import time
 
 import numpy as np
 
-from . import __version__, analysis, correlations, dynmat, h5io, kpm, modes, packing, parallel, petscopts, spectrum, waves
-from .config import Scene
+from . import __version__, parallel
+from .analysis import dispersion as analysis
+from .analysis import correlations
+from .model import dynmat
+from .io import hdf5 as h5io
+from .spectrum import kpm
+from .spectrum import modes
+from .packing import jammed as packing
+from . import options as petscopts
+from .spectrum import slicing as spectrum
+from .waves import integrators as waves
+from .io.schema import Scene
 from .errors import InputError, Interrupted
-from .units import UnitStore, WindowCheckpoint, content_key, packing_from_unit, packing_unit
+from .io.units import UnitStore, WindowCheckpoint, content_key, packing_from_unit, packing_unit
 
 _TERMINATE = [False]
 

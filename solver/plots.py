@@ -71,7 +71,7 @@ def plot_energies(f, stem: str, rhos=None) -> list[str]:
         return []
     fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.8), squeeze=False)
     vdos = {float(g.attrs["rho"]): g for g in _groups(f, "vdos")}
-    from .modes import bin_average
+    from .spectrum.modes import bin_average
 
     for ax, rho in zip(axes[0], rhos):
         mine = [g for g in spectra if float(g.attrs["rho"]) == rho]
@@ -103,7 +103,7 @@ def _pooled(groups, key):
 
 def _pooled_spectrum(groups):
     """(k (K,), omega (W,), S (K, W)) of waves groups sharing rho and mode, runs pooled."""
-    from .correlations import power_spectrum
+    from .analysis.correlations import power_spectrum
 
     ks, t = groups[0]["k"][()], groups[0]["t"][()]
     z = _pooled(groups, "z")
@@ -114,7 +114,7 @@ def _pooled_spectrum(groups):
 def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
     """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted); every
     rho of the file or only those in ``rhos``."""
-    from .correlations import vaf
+    from .analysis.correlations import vaf
 
     groups = _groups(f, "waves")
     if not groups:
@@ -223,7 +223,7 @@ def plot_dispersion_rt(f, stem: str) -> list[str]:
 def lattice_curve(k, rho, lattice, edge: bool = False):
     """(omega_t, omega_r) of the lattice model with the fitted parameters of ``lattice``; with
     ``edge``, omega_t uses a_t_edge (fitted beyond k_c) when the run found one."""
-    from .dispersion import lattice_omega
+    from .analysis.fits import lattice_omega
 
     a_t = lattice["a_t_edge"] if edge and np.isfinite(lattice.get("a_t_edge", np.nan)) else lattice["a_t"]
     return lattice_omega(k, rho, lattice["l"], a_t, lattice["a_r"])

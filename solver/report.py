@@ -118,7 +118,7 @@ def _signs(omega, a, b, edges):
     """Sign pattern of the bin-averaged a - b over bins with >= 5 modes: [[sign, lo, hi]].
 
     Runs of a single bin are dropped as noise before equal neighbours are merged."""
-    from .modes import bin_average
+    from .spectrum.modes import bin_average
 
     centres = 0.5 * (edges[1:] + edges[:-1])
     diff = bin_average(omega, a, edges) - bin_average(omega, b, edges)
@@ -253,7 +253,7 @@ def _wave_claims(d: Data, add, nm) -> None:
     add("Lattice model l (Fig. 4)", "0.446 d0", f"{lat['l']:.3f} +- {lat['l_err']:.3f}", "+-5 %",
         _near(lat["l"], 0.446, 0.0223))
     rt = {rho: fits[(rho, "RT")] for rho, mode in fits if mode == "RT" and rho > 0}
-    from .dispersion import lattice_omega
+    from .analysis.fits import lattice_omega
 
     big = [rho for rho in rt if rho > 1]
     if big:

@@ -12,7 +12,7 @@ GOOD = "packing: {n: 64, phi: 0.9}\n"
 
 
 def _valid(path, **changes):
-    from solver import packing
+    from solver.packing import jammed as packing
 
     p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
     data = {"positions": p.positions, "diameters": p.diameters, "box_length": p.box_length}
@@ -37,7 +37,7 @@ def _garbage(path):
 
 
 def _spread(path):
-    from solver import packing
+    from solver.packing import jammed as packing
 
     p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
     _valid(path, positions=3 * p.positions, box_length=3 * p.box_length)

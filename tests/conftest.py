@@ -63,6 +63,28 @@ def shared_tmp(tmp_path):
     return pathlib.Path(COMM.bcast(str(tmp_path), root=0))
 
 
+def assert_close(actual, expected, rtol: float, atol: float = 0.0, what: str = "") -> None:
+    """Assert |actual - expected| <= atol + rtol |expected| elementwise, on every rank.
+
+    Scale-aware: ``atol`` is 0 unless the caller passes one (with its reason written beside the
+    call), so a tolerance never silently widens the way ``np.allclose``'s default atol = 1e-8
+    does on quantities of order 1e-5.  NaN equals NaN only where both are NaN.
+    """
+    actual, expected = np.asarray(actual), np.asarray(expected)
+    ok = actual.shape == expected.shape
+    worst = np.inf
+    if ok:
+        both_nan = np.isnan(actual) & np.isnan(expected) if np.issubdtype(actual.dtype, np.floating) else False
+        err = np.abs(actual - expected)
+        bound = atol + rtol * np.abs(expected)
+        bad = ~(err <= bound) & ~both_nan
+        ok = not np.any(bad)
+        ratio = np.where(bound > 0, err / np.where(bound > 0, bound, 1.0), np.where(err > 0, np.inf, 0.0))
+        worst = float(np.max(np.where(both_nan, 0.0, ratio))) if err.size else 0.0
+    assert_all(ok, f"{what}: shapes {actual.shape} vs {expected.shape}, worst error / bound = {worst:.3g} "
+                   f"(rtol={rtol:g}, atol={atol:g})")
+
+
 def assert_all(condition: bool, message: str = "") -> None:
     """Assert on every rank that ``condition`` holds on every rank."""
     verdicts = COMM.allgather(bool(condition))
@@ -93,6 +115,6 @@ def run_cli(args: list[str], ranks: int = 1, timeout: float = 120, cwd=None):
 @pytest.fixture(scope="session")
 def small_packing():
     """A jammed 64-disk packing at phi = 0.9 (same on every rank)."""
-    from solver import packing
+    from solver.packing import jammed as packing
 
     return packing.generate(64, 0.9, np.random.SeedSequence([7, 0]))

@@ -5,8 +5,10 @@ import h5py
 import numpy as np
 import pytest
 
-from solver import analysis, dispersion, report
-from solver.config import AnalysisSpec
+from solver import report
+from solver.analysis import dispersion as analysis
+from solver.analysis import fits as dispersion
+from solver.io.schema import AnalysisSpec
 from conftest import run_cli
 
 pytestmark = pytest.mark.serial_only

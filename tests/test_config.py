@@ -2,7 +2,8 @@
 
 import pytest
 
-from solver import config, petscopts
+from solver.io import schema as config
+from solver import options as petscopts
 from solver.errors import InputError
 
 GOOD = {"output": "out.h5", "seed": 3, "packing": {"n": 64, "phi": 0.9, "count": 2},

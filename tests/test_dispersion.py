@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from solver import dispersion as dp
+from solver.analysis import fits as dp
 
 L_PAPER, A_R, A_T = 0.446, 0.73, 0.55
 
@@ -49,7 +49,7 @@ def test_damped_cosine_fit_recovers_parameters(omega, gamma):
 
 
 def test_lorentzian_agrees_with_time_fit():
-    from solver import correlations
+    from solver.analysis import correlations
 
     t = np.arange(0, 400, 0.1)
     c = np.exp(-0.05 * t) * np.cos(2.0 * t)

@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 from conftest import COMM, TOL, assert_all
 
-from solver import contacts, dynmat, packing
+from solver.packing import geometry as contacts
+from solver.model import dynmat
+from solver.packing import jammed as packing
 
 
 def pair_energies(ref_delta, contact, normal, radius_i, radius_j, rho, w):

@@ -5,7 +5,10 @@ import pytest
 import scipy.linalg as sl
 from conftest import assert_all
 
-from solver import dynmat, kpm, packing, spectrum
+from solver.model import dynmat
+from solver.spectrum import kpm
+from solver.packing import jammed as packing
+from solver.spectrum import slicing as spectrum
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +87,7 @@ def test_kpm_energies_against_exact_bin_averages(comm, packing256):
     n_disks = int(dm.active.sum())
     k_exact = (vec[0::3] ** 2 + vec[1::3] ** 2).sum(axis=0) / (4 * n_disks)
     edges = np.arange(0, 1.1 * w, 0.25)
-    from solver.modes import bin_average
+    from solver.spectrum.modes import bin_average
 
     ref_k = bin_average(omega, k_exact, edges)
     counts = np.histogram(omega, edges)[0]

@@ -5,7 +5,11 @@ import numpy as np
 import pytest
 from conftest import COMM, assert_all
 
-from solver import contacts, fire, h5io, packing, parallel
+from solver import parallel
+from solver.packing import geometry as contacts
+from solver.packing import fire
+from solver.io import hdf5 as h5io
+from solver.packing import jammed as packing
 from solver.errors import InputError
 
 

@@ -190,7 +190,9 @@ def test_sigterm_mid_spectrum_keeps_finished_windows(tmp_path, monkeypatch, caps
     the plan and the finished windows from the units folder and equals an uninterrupted run."""
     import yaml
 
-    from solver import config, pipeline, spectrum
+    from solver import pipeline
+    from solver.io import schema as config
+    from solver.spectrum import slicing as spectrum
     from solver.errors import Interrupted
 
     text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9, count: 1}}\n"

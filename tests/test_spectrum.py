@@ -5,7 +5,11 @@ import pytest
 import scipy.linalg as sl
 from conftest import COMM, assert_all
 
-from solver import dynmat, h5io, modes, packing, spectrum
+from solver.model import dynmat
+from solver.io import hdf5 as h5io
+from solver.spectrum import modes
+from solver.packing import jammed as packing
+from solver.spectrum import slicing as spectrum
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,11 @@ import pytest
 import scipy.linalg as sl
 from conftest import COMM, assert_all
 
-from solver import correlations, dynmat, packing, spectrum, waves
+from solver.analysis import correlations
+from solver.model import dynmat
+from solver.packing import jammed as packing
+from solver.spectrum import slicing as spectrum
+from solver.waves import integrators as waves
 
 
 @pytest.fixture(scope="module")

@@ -16,8 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from . import contact_law, contacts, parallel
-from .packing import Packing
+from .. import parallel
+from ..packing import geometry as contacts
+from . import contact_law
+from ..packing.jammed import Packing
 
 MASS = 1.0
 

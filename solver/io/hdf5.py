@@ -17,8 +17,8 @@ import os
 import h5py
 import numpy as np
 
-from .errors import InputError
-from .packing import Packing, from_arrays
+from ..errors import InputError
+from ..packing.jammed import Packing, from_arrays
 
 FORMAT_VERSION = 1
 EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force accepted on a loaded packing (FIRE reaches 1e-6)
@@ -75,7 +75,7 @@ def _read_one(group, where: str) -> Packing:
 
 def net_force(packing: Packing) -> float:
     """Largest net normal contact force on a non-rattler disk (units kn d0)."""
-    from . import contacts
+    from ..packing import geometry as contacts
 
     active = ~packing.rattler
     found = contacts.find_contacts(packing.positions, packing.diameters, packing.box_length, active)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .spectrum import largest_omega, scaled_operator
+from ..spectrum.slicing import largest_omega, scaled_operator
 
 EXCITATIONS = {"L": [(0, 0), (1, 1)], "TR": [(0, 1), (1, 0)], "RT": [(2, 0), (2, 1)]}
 """mode -> [(excited DOF component, axis of k)] for its two directions."""
@@ -405,7 +405,7 @@ def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: f
     from mpi4py import MPI
     from scipy.linalg import eigh_tridiagonal
 
-    from . import parallel
+    from .. import parallel
 
     mpi = dm.D.getComm().tompi4py()
     component, axis = EXCITATIONS[mode][direction]

@@ -31,3 +31,16 @@ def power_spectrum(z: np.ndarray, dt_sample: float, pad: int = 4) -> tuple[np.nd
     keep = omega >= 0
     power = np.sum(np.abs(transform[:, keep]) ** 2, axis=0) / np.sum(np.abs(z[:, 0]) ** 2)
     return omega[keep], power
+
+
+def pooled(z: np.ndarray, dt_sample: float, pad: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """C (K, S), omega (W,) and S (K, W) of runs z (R, K, S) pooled per wave number.
+
+    The one place where a set of runs (directions x configurations) of one (rho, mode) becomes
+    the paper's C_alpha(k, t) and S_alpha(k, omega); the units, the analysis and the figures
+    all call it.
+    """
+    z = np.asarray(z)
+    c = np.array([vaf(z[:, i]) for i in range(z.shape[1])])
+    spectra = [power_spectrum(z[:, i], dt_sample, pad) for i in range(z.shape[1])]
+    return c, spectra[0][0], np.array([s for _, s in spectra])

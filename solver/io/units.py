@@ -26,8 +26,8 @@ import shutil
 import h5py
 import numpy as np
 
-from . import parallel
-from .errors import InputError
+from .. import parallel
+from ..errors import InputError
 
 
 def content_key(*parts) -> str:
@@ -209,7 +209,7 @@ def packing_unit(p) -> tuple[dict, dict]:
 
 def packing_from_unit(unit):
     """Inverse of :func:`packing_unit`."""
-    from .packing import Packing
+    from ..packing.jammed import Packing
 
     datasets, attrs = unit
     attrs = dict(attrs)

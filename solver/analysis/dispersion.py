@@ -34,7 +34,8 @@ import warnings
 
 import numpy as np
 
-from . import correlations, dispersion
+from . import correlations
+from . import fits as dispersion
 
 _WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT)_p(\d+)$")
 

@@ -18,7 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import contact_law, contacts, fire
+from ..model import contact_law
+from . import fire
+from . import geometry as contacts
 
 SIZE_RATIO = 1.4
 D_SMALL = 2.0 / (1.0 + SIZE_RATIO)

@@ -69,6 +69,38 @@ def split_argv(argv: list[str]) -> tuple[list[str], list[str]]:
     return ours, petsc
 
 
+PREFIXES = {
+    "spectrum_": "the spectrum-slicing EPS (-spectrum_eps_*, -spectrum_st_*, -spectrum_st_mat_mumps_icntl_*)",
+    "inertia_": "the Sylvester-inertia factorisations that place windows and count modes "
+                "(-inertia_pc_factor_mat_solver_type, -inertia_mat_mumps_icntl_*)",
+    "wmax_": "the Lanczos EPS for the largest eigenfrequency (-wmax_eps_*)",
+    "waves_": "the standing-wave TS and its SNES/KSP (-waves_ts_*, -waves_ksp_*)",
+}
+"""Options prefix of each solver object -> what it configures (README table)."""
+
+STAGE_PREFIXES = {
+    ("spectra", "slicing"): ("spectrum_", "inertia_", "wmax_"),
+    ("spectra", "kpm"): ("wmax_",),
+    ("waves", "ts"): ("waves_", "wmax_"),
+    ("waves", "spectral"): ("wmax_",),
+}
+"""(stage, method) -> prefixes of the options that can change that stage's units."""
+
+
+def acting_on(argv: list[str], stage: str, method: str) -> dict[str, str | None]:
+    """The options in argv words (name without '-' -> value or None) that act on ``stage``
+    computed with ``method``: those with one of its prefixes. Not collective."""
+    prefixes = STAGE_PREFIXES.get((stage, method), ())
+    found: dict[str, str | None] = {}
+    for index, word in enumerate(argv):
+        if word.startswith("-") and len(word) > 1 and word[1].isalpha():
+            value = argv[index + 1] if index + 1 < len(argv) and not (
+                argv[index + 1].startswith("-") and len(argv[index + 1]) > 1 and argv[index + 1][1].isalpha()) else None
+            if word[1:].startswith(prefixes):
+                found[word[1:]] = value  # a later word wins, as in PETSc
+    return dict(sorted(found.items()))
+
+
 def option_names(argv: list[str]) -> list[str]:
     """Names (without '-') of the options in argv words."""
     return [w[1:] for w in argv if w.startswith("-") and len(w) > 1 and w[1].isalpha()]

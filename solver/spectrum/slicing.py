@@ -222,7 +222,7 @@ def _solve_window(A, edges, tol: float, vectors: bool, dof: int) -> dict:
 def solve(dm, *, window: tuple[float, float] | None, vectors: bool, tol: float = 1e-12,
           zero_tol: float = 1e-4, max_window_modes: int = 2000, progress=None,
           checkpoint=None) -> Spectrum:
-    """Eigenfrequencies of ``dm`` (a :class:`~solver.dynmat.DynamicalMatrix`). Collective.
+    """Eigenfrequencies of ``dm`` (a :class:`~solver.model.dynmat.DynamicalMatrix`). Collective.
 
     window : (omega_lo, omega_hi) in 1/t0, or None for the full spectrum above ``zero_tol``.
     vectors : also compute K_x, K_y, Q, K and the participation ratio per mode.
