@@ -75,12 +75,12 @@ def eigh_case(path: str, vectors: bool) -> None:
     from solver import petscenv
     from solver.model import dynmat
     from solver.io import hdf5 as h5io
-    from solver.spectrum import slicing as spectrum
+    from solver.model import operators
 
     PETSc = petscenv.init([])
     (p,) = h5io.read_packings(path)
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
-    A = spectrum.scaled_operator(dm)
+    A = operators.scaled_operator(dm)
     dense = dynmat.gather_csr(A).toarray()
     t = time.perf_counter()
     out = sl.eigh(dense, eigvals_only=not vectors, driver="evr" if vectors else "evd")
@@ -94,11 +94,11 @@ def omega_max_case(path: str) -> None:
     from solver import petscenv
     from solver.model import dynmat
     from solver.io import hdf5 as h5io
-    from solver.spectrum import slicing as spectrum
+    from solver.model import operators
 
     PETSc = petscenv.init([])
     (p,) = h5io.read_packings(path)
-    omega_max = spectrum.largest_omega(dynmat.assemble(p, 1.0, PETSc.COMM_WORLD))
+    omega_max = operators.largest_omega(dynmat.assemble(p, 1.0, PETSc.COMM_WORLD))
     if PETSc.COMM_WORLD.rank == 0:
         print(json.dumps({"omega_max": omega_max}))
 

@@ -45,8 +45,9 @@ def ts_case(integrator: str, dt: float) -> None:
     mpi = PETSc.COMM_WORLD.tompi4py()
     mpi.Barrier()
     t0 = time.perf_counter()
-    s = waves.integrate(dm, p.positions, "L", 0, float(ref["k"]), amplitude=1e-3, dt=dt, t_end=T_END,
-                        sample_every=int(round(SAMPLE / dt)), integrator=integrator)
+    s = waves.integrate(dm, p.positions, "L", 0, float(ref["k"]), amplitude=1e-3,
+                        schedule=waves.resolve_schedule(integrator=integrator, dt=dt, t_end=T_END,
+                                                        sample_every=int(round(SAMPLE / dt))))
     seconds = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     error = float(np.abs(s.z_fixed - ref["z"]).max() / np.abs(ref["z"]).max())
     if PETSc.COMM_WORLD.rank == 0:
@@ -82,24 +83,25 @@ def step_cost_case() -> None:
     k = 2 * np.pi * 32 / p.box_length
     mpi.Barrier()
     t0 = time.perf_counter()
-    s = waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3, dt=0.02, t_end=reps * 0.02,
-                        sample_every=reps, integrator="verlet")
+    s = waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
+                        schedule=waves.resolve_schedule(integrator="verlet", dt=0.02, t_end=reps * 0.02,
+                                                        sample_every=reps))
     step = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX) / s.steps
     mpi.Barrier()
     t0 = time.perf_counter()
-    full = waves.integrate(dm, p.positions, "RT", 0, k, amplitude=1e-3, dt=0.02, t_end=200.0,
-                           sample_every=5, integrator="verlet")
+    full = waves.integrate(dm, p.positions, "RT", 0, k, amplitude=1e-3,
+                           schedule=waves.resolve_schedule(integrator="verlet", dt=0.02, t_end=200.0, sample_every=5))
     run200 = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     batch = [("RT", d, 2 * np.pi * n / p.box_length) for d in (0, 1) for n in (8, 16, 24, 32)]
     mpi.Barrier()
     t0 = time.perf_counter()
+    short = waves.resolve_schedule(integrator="verlet", dt=0.02, t_end=20.0, sample_every=5)
     for mode, d, kk in batch:
-        waves.integrate(dm, p.positions, mode, d, kk, amplitude=1e-3, dt=0.02, t_end=20.0, sample_every=5,
-                        integrator="verlet")
+        waves.integrate(dm, p.positions, mode, d, kk, amplitude=1e-3, schedule=short)
     singles = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     mpi.Barrier()
     t0 = time.perf_counter()
-    waves.integrate_block(dm, p.positions, batch, amplitude=1e-3, dt=0.02, t_end=20.0, sample_every=5)
+    waves.integrate_block(dm, p.positions, batch, amplitude=1e-3, schedule=short)
     block = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     if PETSc.COMM_WORLD.rank == 0:
         print(json.dumps({"matmult": matmult, "step": step, "run200": run200, "steps200": full.steps,

@@ -165,12 +165,11 @@ def exact_l_wave(p, k, times):
     import scipy.linalg as sl
 
     from solver import petscenv
-    from solver.model import dynmat
-    from solver.spectrum import slicing as spectrum
+    from solver.model import dynmat, operators
 
     PETSc = petscenv.init([])
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
-    lam, vec = sl.eigh(dynmat.gather_csr(spectrum.scaled_operator(dm)).toarray())
+    lam, vec = sl.eigh(dynmat.gather_csr(operators.scaled_operator(dm)).toarray())
     omega = np.sqrt(np.clip(lam, 0, None))
     mass = dm.M.getArray()
     r0, v0 = _l_wave(p, k)

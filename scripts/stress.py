@@ -18,7 +18,7 @@ sys.path.insert(0, str(REPO / "tests"))
 
 from benchlib import machine  # noqa: E402
 from solver import petscenv  # noqa: E402
-from solver.model import dynmat
+from solver.model import dynmat, operators
 from solver.packing import jammed as packing
 from solver.spectrum import slicing as spectrum
 from solver.waves import integrators as waves
@@ -37,7 +37,7 @@ def row(case, happened, did):
 def dense_check(dm, result):
     import scipy.linalg as sl
 
-    A = spectrum.scaled_operator(dm)
+    A = operators.scaled_operator(dm)
     lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)
     A.destroy()
     ref = np.sqrt(lam[lam > 1e-8])
@@ -88,7 +88,7 @@ def sizes():
         else:
             from solver.spectrum import kpm
 
-            w = spectrum.largest_omega(dm)
+            w = operators.largest_omega(dm)
             edges = np.arange(0, 1.1 * w, 0.05)
             g = kpm.vdos(dm, edges, w**2, kpm.auto_moments(w**2, 0.05), 16, 0)
             what = f"KPM vDOS area {np.sum(g) * 0.05:.6f}, omega_max {w:.4f}"
@@ -99,19 +99,16 @@ def sizes():
 
 
 def stability_edge():
-    from types import SimpleNamespace
-
-    from solver import pipeline
-
     p = packing.generate(64, 0.9, np.random.SeedSequence([4, 0]))
     dm = dynmat.assemble(p, 1.0, COMM)
-    limit = waves.stability_limit("verlet", spectrum.largest_omega(dm))
+    limit = waves.stability_limit("verlet", operators.largest_omega(dm))
     for factor in (0.99, 1.01):
-        spec = SimpleNamespace(integrator="verlet", dt=factor * limit)
+        schedule = waves.resolve_schedule(integrator="verlet", dt=factor * limit, t_end=2000 * factor * limit,
+                                          sample_every=10)
         try:
-            pipeline._check_time_step(spec, dm, 1.0)
+            waves.check_schedule(schedule, operators.largest_omega(dm), 1.0)
             s = waves.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
-                                dt=factor * limit, t_end=2000 * factor * limit, sample_every=10, integrator="verlet")
+                                schedule=schedule)
             drift = np.abs(s.energy / s.energy[0] - 1).max()
             row(f"dt = {factor} x limit ({factor * limit:.4f})", f"ran 2000 steps; energy oscillates by up to "
                 f"{drift:.2f} (bounded: Verlet's shadow energy near the limit)", "accepted: below 2/omega_max; the "
@@ -126,8 +123,9 @@ def million_steps():
     p = packing.generate(64, 0.9, np.random.SeedSequence([5, 0]))
     dm = dynmat.assemble(p, 1.0, COMM)
     t = time.perf_counter()
-    s = waves.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3, dt=0.05,
-                        t_end=50_000.0, sample_every=1000, integrator="verlet")
+    s = waves.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
+                        schedule=waves.resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
+                                                        sample_every=1000))
     sec = time.perf_counter() - t
     dev = np.abs(s.energy / s.energy[0] - 1)
     row("10^6 Verlet steps (N = 64, dt = 0.05, t = 50000)", f"{s.steps} steps in {sec:.0f} s; max relative "
@@ -146,7 +144,7 @@ def square_lattice():
     p = packing.from_arrays(pos, np.ones(side * side), side * spacing)
     dm = dynmat.assemble(p, 1.0, COMM)
     r = spectrum.solve(dm, window=None, vectors=True, max_window_modes=40)
-    A = spectrum.scaled_operator(dm)
+    A = operators.scaled_operator(dm)
     lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)
     A.destroy()
     distinct = np.unique(np.round(lam, 8)).size

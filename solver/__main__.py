@@ -1,14 +1,9 @@
-"""Command line: ``python -m solver {run,plot,keys} ...`` (also installed as ``rotsound``).
+"""Command line of rotsound (also ``python -m solver``): run scenes, draw figures, write the
+reproduction report; ``rotsound --help`` prints the usage (``_EPILOG``).
 
-    rotsound run SCENE.yaml [--set key.path=value ...] [--fresh] [-petsc_option value ...]
-        (a file of several YAML documents runs them in order, one PETSc for all)
-    rotsound plot RESULTS.h5|SCENE.yaml [MORE.h5 ...]
-    rotsound report RESULTS.h5|SCENE.yaml [MORE ...] [--output REPRODUCTION.md]
-    rotsound keys                      # the scene reference as a Markdown table
-
-Words starting with a single '-' are PETSc/SLEPc options (they win over the scene's
-``petsc:`` mapping).  Bad input stops every rank with one message and exit code 2; an
-unexpected error prints its traceback and aborts all ranks (no rank is left waiting).
+Bad input stops every rank with one message and exit code 2; a numerical failure (a time
+integration that blew up) with one message and exit code 3; an unexpected error prints its
+traceback and aborts all ranks (no rank is left waiting).
 """
 
 from __future__ import annotations
@@ -17,12 +12,60 @@ import argparse
 import sys
 import traceback
 
-from .io import schema as config
+from . import __version__
 from . import options as petscopts
-from .errors import InputError, Interrupted
+from .errors import InputError, Interrupted, NumericalFailure
+from .io import scenes, schema
 
 EXIT_INPUT = 2
+EXIT_NUMERICAL = 3  # a solve failed numerically on every rank (e.g. a wave run blew up); nothing written
 EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports a job ended by SIGTERM
+
+
+_DESCRIPTION = "rotsound: sound in disordered frictional disk packings (run scenes, plot, report)."
+_EPILOG = """\
+usage of each command:
+  rotsound run SCENE.yaml [--set KEY.PATH=VALUE ...] [--fresh] [-petsc_option value ...]
+      a file of several YAML documents runs them in order, with one PETSc for all;
+      under MPI: mpirun -n 4 rotsound run SCENE.yaml
+  rotsound plot RESULTS.h5|SCENE.yaml [MORE ...]
+  rotsound report RESULTS.h5|SCENE.yaml [MORE ...] [--output REPRODUCTION.md] [--notes NOTES.md]
+  rotsound keys       the scene reference as a Markdown table
+  rotsound --version  rotsound, PETSc and SLEPc versions
+
+Words starting with a single '-' (after the scene) are PETSc/SLEPc options for 'run'; they win
+over the scene's petsc: mapping.  See README.md for the scene keys and the file formats.
+"""
+
+
+def _versions() -> str:
+    """rotsound's version and those of the PETSc and SLEPc it would use, without starting MPI or
+    PETSc: petsc4py and slepc4py are built with, and numbered as, the libraries they wrap, and
+    importing the packages (not their PETSc/SLEPc modules) initialises nothing."""
+    lines = [f"rotsound {__version__}"]
+    try:
+        from . import petscenv
+
+        petscenv.ensure_importable()
+        import petsc4py
+        import slepc4py
+
+        lines += [f"PETSc {petsc4py.__version__} (petsc4py at {petsc4py.get_config()['PETSC_DIR']})",
+                  f"SLEPc {slepc4py.__version__}"]
+    except ImportError as exc:
+        lines.append(f"PETSc/SLEPc: not found ({exc})")
+    return "\n".join(lines)
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: print :func:`_versions` (computed only when asked) and exit 0."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_versions())
+        parser.exit()
 
 
 class _ArgumentError(InputError):
@@ -37,7 +80,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="rotsound", description=__doc__.split("\n\n")[0])
+    parser = _Parser(prog="rotsound", description=_DESCRIPTION, epilog=_EPILOG,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action=_VersionAction, help="print rotsound, PETSc and SLEPc versions")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     run = sub.add_parser("run", help="run a scene under mpirun or serially")
     run.add_argument("scene", help="scene YAML file")
@@ -58,37 +103,18 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def load_scenes(path: str, assignments: list[str], comm) -> list[config.Scene]:
-    """Read on rank 0, broadcast, validate everywhere (same error on every rank). Collective.
-
-    A file of several YAML documents is several scenes run in order; ``--set`` applies to each."""
-    docs, error = None, None
-    if comm.rank == 0:
-        try:
-            docs = config.read_documents(path)
-            for raw in docs:
-                for assignment in assignments:
-                    config.set_key(raw, assignment)
-        except InputError as exc:
-            error = exc
-    docs, error = comm.bcast((docs, error), root=0)
-    if error is not None:
-        raise error
-    return config.build_all(path, docs)
-
-
 def _run(args, petsc_words, comm) -> None:
     from . import petscenv
 
-    scenes = load_scenes(args.scene, args.set, comm)
-    yaml_words = petscopts.to_argv(petscopts.flatten(scenes[0].petsc))
+    todo = scenes.load(args.scene, args.set, comm)
+    yaml_words = petscopts.to_argv(petscopts.flatten(todo[0].petsc))
     argv = yaml_words + petsc_words  # later words win: the command line beats the scene
     petscenv.init(argv)
     from . import pipeline
 
-    for index, scene in enumerate(scenes):
-        if len(scenes) > 1:
-            pipeline.say(comm, f"== scene {index + 1} of {len(scenes)}: {scene.output}")
+    for index, scene in enumerate(todo):
+        if len(todo) > 1:
+            pipeline.say(comm, f"== scene {index + 1} of {len(todo)}: {scene.output}")
         pipeline.run(scene, comm, argv, fresh=args.fresh)
 
 
@@ -97,7 +123,7 @@ def _targets(names: list[str]) -> list[str]:
     out = []
     for name in names:
         if name.endswith((".yaml", ".yml")):
-            out += [scene.output for scene in config.build_all(name, config.read_documents(name))]
+            out += [scene.output for scene in scenes.build_all(name, scenes.read_documents(name))]
         else:
             out.append(name)
     return out
@@ -145,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
             raise InputError(f"command line: PETSc options {petsc_words} only apply to 'run'")
         if args.command == "keys":
             print("| key | default | meaning |\n|---|---|---|")
-            for key, default, doc in config.reference():
+            for key, default, doc in schema.reference():
                 print(f"| `{key}` | `{default}` | {doc} |")
             return 0
         if args.command == "plot":
@@ -163,6 +189,10 @@ def main(argv: list[str] | None = None) -> int:
         if (comm.rank if comm is not None else _launcher_rank()) == 0:
             print(f"rotsound: error: {exc}", file=sys.stderr, flush=True)
         return EXIT_INPUT
+    except NumericalFailure as exc:  # raised on every rank together: no rank is left waiting
+        if comm.rank == 0:
+            print(f"rotsound: error: {exc}", file=sys.stderr, flush=True)
+        return EXIT_NUMERICAL
     except Interrupted:
         if comm.rank == 0:
             print("rotsound: stopped by SIGTERM after the unit in flight; finished units are kept: "

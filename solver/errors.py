@@ -1,4 +1,5 @@
-"""Exceptions the command line turns into exit codes: bad input (2), SIGTERM (143)."""
+"""Exceptions the command line turns into exit codes: bad input (2), numerical failure (3),
+SIGTERM (143)."""
 
 
 class InputError(Exception):
@@ -7,3 +8,8 @@ class InputError(Exception):
 
 class Interrupted(RuntimeError):
     """SIGTERM arrived; the unit in flight was finished and finished units are kept."""
+
+
+class NumericalFailure(RuntimeError):
+    """A computation that failed numerically (a time integration that blew up), raised on every
+    rank together; nothing of it is written."""

@@ -4,14 +4,17 @@ Flattening follows PETSc's own YAML reader: nested keys join with ``_``; ``null`
 without value, booleans become true/false, lists are comma-joined.  YAML options are put in
 front of the command-line options when PETSc is initialised, so the command line wins and
 options read at initialisation (``-log_view``, ``-malloc_debug``) work from YAML too.
-Options are without prefix for the main objects (``-eps_*``/``-st_*`` for the spectrum,
-``-ts_*`` for the waves).  Which options were never used (misspelt?) is read back from PETSc
-itself (``PetscOptionsUsed``, through ctypes: petsc4py 3.18 has no binding).
+Each solver object has its own options prefix (``PREFIXES``): ``-spectrum_eps_*``,
+``-waves_ts_*``, ...; rotsound never writes into the options database (defaults are set on the
+objects in code, then ``setFromOptions``), and what each object used is read back from it
+(``eps_settings``, ``ts_settings``).  Unused options: petsc4py 3.18 cannot ask PETSc which
+options were queried (no ``PetscOptionsUsed`` binding; PETSc's own report, ``-options_left``,
+comes only at PetscFinalize), so ``unused`` judges by prefix: an option is used when it belongs
+to an object of a stage the scene runs, or is one of PETSc's process-wide options.
 """
 
 from __future__ import annotations
 
-import ctypes
 from typing import Any
 
 from .errors import InputError
@@ -106,27 +109,134 @@ def option_names(argv: list[str]) -> list[str]:
     return [w[1:] for w in argv if w.startswith("-") and len(w) > 1 and w[1].isalpha()]
 
 
-def _libpetsc():
-    with open("/proc/self/maps", encoding="utf-8") as maps:
-        for line in maps:
-            path = line.split()[-1]
-            if "libpetsc" in path and ".so" in path:
-                return ctypes.CDLL(path)
-    raise RuntimeError("libpetsc is not loaded")
+GLOBAL_OPTIONS = frozenset((
+    "help", "version", "options_left", "options_view", "options_monitor", "options_monitor_cancel",
+    "options_file", "options_file_yaml", "options_string_yaml", "skip_petscrc",
+    "log_view", "log_view_memory", "log_view_gpu_time", "log_all", "log_trace", "log_exclude", "log_sync",
+    "log_mpe", "log_perfstubs", "log_summary", "malloc_debug", "malloc_dump", "malloc_view",
+    "malloc_view_threshold", "malloc_test", "malloc_requested_size", "malloc_coalesce", "memory_view",
+    "objects_dump", "info", "info_exclude", "on_error_abort", "on_error_mpiabort", "on_error_attach_debugger",
+    "fp_trap", "no_signal_handler", "check_pointer_intensity", "checkstack", "start_in_debugger",
+    "stop_for_debugger", "debugger_ranks", "debugger_pause", "display", "citations", "history",
+    "use_gpu_aware_mpi"))
+"""PETSc's process-wide options (read at initialisation or finalisation, by no solver object)."""
+
+_OBJECT_WORDS = {  # leading word of an unprefixed solver option -> prefixes that take it
+    "eps_": ("spectrum_", "wmax_"), "st_": ("spectrum_", "wmax_"), "bv_": ("spectrum_", "wmax_"),
+    "ds_": ("spectrum_", "wmax_"), "rg_": ("spectrum_", "wmax_"), "fn_": ("spectrum_", "wmax_"),
+    "ts_": ("waves_",), "snes_": ("waves_",), "ksp_": ("waves_",), "pc_": ("inertia_", "waves_"),
+    "mat_mumps_": ("spectrum_st_", "inertia_"),
+}
 
 
-def unused(names: list[str]) -> list[str]:
-    """Those of ``names`` that PETSc never queried (misspelt or not applicable). Not collective."""
-    func = _libpetsc().PetscOptionsUsed
-    func.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]
-    result = []
+def unused(names: list[str], stages: list[tuple[str, str]]) -> dict[str, str | None]:
+    """Those of ``names`` (options without '-') that no object of ``stages`` ((stage, method)
+    pairs, as in ``STAGE_PREFIXES``) reads and that are not PETSc process-wide options, each with
+    a suggestion (``'-spectrum_eps_tol'``) when it is a solver option without its prefix, else
+    None.  A misspelling after a valid prefix (``-spectrum_eps_tpye``) is not detected here:
+    ``-options_left`` makes PETSc list every option it never queried, at exit.  Not collective.
+    """
+    in_use = tuple(p for stage in stages for p in STAGE_PREFIXES.get(stage, ()))
+    result: dict[str, str | None] = {}
     for name in names:
-        used = ctypes.c_int(0)
-        if func(None, name.encode(), ctypes.byref(used)) != 0:
-            raise RuntimeError(f"PetscOptionsUsed failed for {name}")
-        if not used.value:
-            result.append(name)
+        if name in GLOBAL_OPTIONS or (in_use and name.startswith(in_use)):
+            continue
+        word = next((w for w in _OBJECT_WORDS if name.startswith(w)), None)
+        targets = _OBJECT_WORDS.get(word, ())
+        preferred = [t for t in targets if t.startswith(in_use)] if in_use else []
+        result[name] = " or ".join(f"-{t}{name}" for t in (preferred or targets)) or None
     return result
+
+
+def _which_name(eps) -> str:
+    from slepc4py import SLEPc
+
+    names = {v: k for k, v in vars(SLEPc.EPS.Which).items() if k.isupper()}
+    return names.get(eps.getWhichEigenpairs(), str(eps.getWhichEigenpairs())).lower()
+
+
+def pc_settings(pc) -> dict:
+    """Type of a PETSc PC and, for a factorisation, the package that factorises and (MUMPS, once
+    factorised) ICNTL 13 and 24, read back from the object. Not collective."""
+    from petsc4py import PETSc
+
+    out = {"pc_type": pc.getType()}
+    if out["pc_type"] in ("cholesky", "lu"):
+        out["factor_package"] = pc.getFactorSolverType()
+        if out["factor_package"] == "mumps":
+            try:  # the factor matrix exists once the PC is set up
+                factor = pc.getFactorMatrix()
+                out["mumps_icntl"] = {"13": factor.getMumpsIcntl(13), "24": factor.getMumpsIcntl(24)}
+            except PETSc.Error:  # not set up yet: no ICNTL to report
+                pass
+    return out
+
+
+def ksp_settings(ksp) -> dict:
+    """KSP type and tolerances with its PC (:func:`pc_settings`). Not collective."""
+    rtol, atol, _, max_it = ksp.getTolerances()
+    return {"ksp_type": ksp.getType(), "ksp_rtol": rtol, "ksp_atol": atol, "ksp_max_it": max_it,
+            **pc_settings(ksp.getPC())}
+
+
+def eps_settings(eps) -> dict:
+    """What a configured SLEPc EPS uses, read back from it: prefix, type, tolerance, iteration
+    limit, which eigenvalues, ST type; for spectrum slicing also the partitions and the KSP/PC of
+    the internal solver that factorises (SLEPc's child EPS). Not collective."""
+    from slepc4py import SLEPc
+
+    tol, max_it = eps.getTolerances()
+    st = eps.getST()
+    out = {"prefix": eps.getOptionsPrefix(), "eps_type": eps.getType(), "tol": tol, "max_it": max_it,
+           "which": _which_name(eps), "st_type": st.getType()}
+    if eps.getWhichEigenpairs() == SLEPc.EPS.Which.ALL and eps.getType() == SLEPc.EPS.Type.KRYLOVSCHUR:
+        out["partitions"] = eps.getKrylovSchurPartitions()
+        out.update(ksp_settings(eps.getKrylovSchurKSP()))
+    elif st.getType() != SLEPc.ST.Type.SHIFT:
+        out.update(ksp_settings(st.getKSP()))
+    return out
+
+
+_EXPLICIT_TS = ("euler", "rk", "ssp", "python")
+
+
+def ts_adapt_type(ts) -> str:
+    """The TSAdapt type of a TS on ``PETSc.COMM_SELF``, read from the TS's own view (petsc4py
+    3.18 has no TSAdapt binding). Not collective."""
+    import os
+    import tempfile
+
+    from petsc4py import PETSc
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "ts.txt")
+        viewer = PETSc.Viewer().createASCII(path, comm=PETSc.COMM_SELF)
+        ts.view(viewer)
+        viewer.destroy()
+        with open(path, encoding="utf-8") as view:
+            lines = [line.strip() for line in view]
+    found = [lines[i + 1] for i, line in enumerate(lines[:-1]) if line.startswith("TSAdapt Object")]
+    if not found or not found[0].startswith("type:"):
+        raise RuntimeError(f"no TSAdapt type in the view of TS {ts.getType()}")
+    return found[0].split(":", 1)[1].strip()
+
+
+def ts_settings(ts) -> dict:
+    """What a configured PETSc TS uses, read back from it: prefix, type (and RK variant or theta),
+    step, final time, step limit; for implicit types the SNES and KSP/PC.  (The adaptivity:
+    :func:`ts_adapt_type`.) Not collective."""
+    kind = ts.getType()
+    out = {"prefix": ts.getOptionsPrefix(), "ts_type": kind, "dt": ts.getTimeStep(),
+           "max_time": ts.getMaxTime(), "max_steps": ts.getMaxSteps()}
+    if kind == "rk":
+        out["rk_type"] = ts.getRKType()
+    elif kind in ("theta", "cn", "beuler"):
+        out["theta"], out["theta_endpoint"] = ts.getTheta(), bool(ts.getThetaEndpoint())
+    if kind not in _EXPLICIT_TS:
+        snes = ts.getSNES()
+        out["snes_type"] = snes.getType()
+        out.update(ksp_settings(snes.getKSP()))
+    return out
 
 
 def snapshot() -> dict[str, Any]:

@@ -5,20 +5,33 @@ All functions take ``comm`` (an ``mpi4py.MPI.Comm``) explicitly and are collecti
 
 from __future__ import annotations
 
+import pickle
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
 
+def _portable(error: BaseException | None) -> BaseException | None:
+    """``error``, or a RuntimeError naming its type and message if it cannot be pickled and
+    unpickled (an exception holding a lock or a file, or with a custom constructor): the
+    exchange in :func:`agree` must never fail on one rank only."""
+    try:
+        pickle.loads(pickle.dumps(error))
+        return error
+    except Exception:  # noqa: BLE001 - whatever pickling raises, send a plain copy instead
+        return RuntimeError(f"{type(error).__name__}: {error}")
+
+
 def agree(comm, error: BaseException | None) -> None:
     """Raise on every rank if any rank had an error. Collective.
 
-    The first failing rank's exception object is re-raised (same type and message).
+    The lowest failing rank's exception is raised everywhere (the same object on that rank,
+    with its traceback; an unpickled copy, same type and message, elsewhere).
     """
-    errors = comm.allgather(error)
-    for err in errors:
-        if err is not None:
-            raise err
+    errors = comm.allgather(_portable(error))
+    first = next((rank for rank, err in enumerate(errors) if err is not None), None)
+    if first is not None:
+        raise error if first == comm.rank else errors[first]
 
 
 def owner_compute(comm, tasks: Sequence[Any], func: Callable[[Any], Any]) -> list[Any]:
@@ -26,6 +39,10 @@ def owner_compute(comm, tasks: Sequence[Any], func: Callable[[Any], Any]) -> lis
 
     Collective.  Results do not depend on the number of ranks as long as ``func`` is
     deterministic in its task.  An exception on any rank is re-raised on every rank.
+    Decision: that includes BaseExceptions (KeyboardInterrupt, SystemExit, ...): let through on
+    their own rank only, they would leave the other ranks waiting in the next collective for a
+    rank that is gone; so they too are caught and raised on every rank (a Ctrl-C or a sys.exit
+    inside ``func`` stops every rank).
     """
     size, rank = comm.size, comm.rank
     mine: dict[int, Any] = {}
@@ -33,7 +50,7 @@ def owner_compute(comm, tasks: Sequence[Any], func: Callable[[Any], Any]) -> lis
     for index in range(rank, len(tasks), size):
         try:
             mine[index] = func(tasks[index])
-        except Exception as exc:  # noqa: BLE001 - re-raised on all ranks below
+        except BaseException as exc:  # noqa: BLE001 - re-raised on all ranks below (docstring)
             error = exc
             break
     agree(comm, error)

@@ -1,10 +1,16 @@
-"""Figures from results files only (never imports petsc4py or mpi4py). Not collective."""
+"""Figures: one function per figure of the paper, drawing arrays that ``io.results`` read from a
+results file; :func:`plot_results` draws every figure a file has data for.
+
+Never imports petsc4py or mpi4py; the correlations come from ``analysis.correlations.pooled`` and
+the model curves from ``analysis.lattice`` (eq:omega_t(k), eq:omega_r(k), fig:band_RT).  Each
+function writes ``<stem>.png`` and ``<stem>.pdf`` and returns their paths ([] when it has nothing
+to draw).  Not collective.
+"""
 
 from __future__ import annotations
 
 import os
 
-import h5py
 import matplotlib
 
 matplotlib.use("Agg")
@@ -12,7 +18,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
 
-from .errors import InputError  # noqa: E402
+from .analysis import correlations  # noqa: E402
+from .analysis import lattice as lattice_model  # noqa: E402
+from .io import results  # noqa: E402
+from .spectrum.modes import bin_average  # noqa: E402
 
 
 def _save(fig, stem: str) -> list[str]:
@@ -23,36 +32,36 @@ def _save(fig, stem: str) -> list[str]:
     return paths
 
 
-def plot_packing(group, stem: str) -> list[str]:
-    """Disks of one configuration, rattlers in red; units of d0."""
-    pos, diam = group["positions"][()], group["diameters"][()]
-    rattler, box = group["rattler"][()], float(group.attrs["box_length"])
+def plot_packing(packing: dict, stem: str) -> list[str]:
+    """Disks of one configuration (``results.first_packing``), rattlers in red; units of d0."""
+    pos, diam = packing["positions"], packing["diameters"]
+    rattler, box = packing["rattler"], packing["box_length"]
     fig, ax = plt.subplots(figsize=(6, 6))
     colors = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8"))
     ax.add_collection(EllipseCollection(diam, diam, np.zeros_like(diam), offsets=pos,
                                         units="xy", offset_transform=ax.transData,
                                         facecolors=colors, edgecolors="k", linewidths=0.2))
     ax.set(xlim=(0, box), ylim=(0, box), aspect="equal", xlabel="x / d0", ylabel="y / d0",
-           title=f"N = {diam.size}, phi = {group.attrs['phi']:.3f}, z = {group.attrs['z']:.2f}, "
+           title=f"N = {diam.size}, phi = {packing['phi']:.3f}, z = {packing['z']:.2f}, "
                  f"rattlers in red ({int(rattler.sum())})")
     return _save(fig, stem)
 
 
-def _groups(f, name):
-    return [f[name][k] for k in sorted(f[name])] if name in f else []
+def _centres(edges):
+    return 0.5 * (edges[1:] + edges[:-1])
 
 
-def plot_vdos(f, stem: str) -> list[str]:
-    """Fig. 1: g(omega) for every rho, rho = 0 dotted, omega_c marked."""
+def plot_vdos(vdos: dict, stem: str) -> list[str]:
+    """Fig. 1: g(omega) for every rho of ``vdos`` ({rho: results.Vdos}), rho = 0 dotted, omega_c marked."""
+    if not vdos:
+        return []
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    groups = sorted(_groups(f, "vdos"), key=lambda g: g.attrs["rho"])
     cmap = plt.get_cmap("viridis")
-    for index, g in enumerate(groups):
-        edges, density, rho = g["edges"][()], g["density"][()], float(g.attrs["rho"])
-        centres = 0.5 * (edges[1:] + edges[:-1])
-        style = {"ls": ":", "color": "k"} if rho == 0 else {"color": cmap(0.8 * index / max(1, len(groups) - 1))}
-        ax.plot(centres, density, label=f"rho = {rho:g}", **style)
-        ax.annotate("", xy=(g.attrs["omega_c"], 0), xytext=(g.attrs["omega_c"], 0.08 * density.max()),
+    for index, rho in enumerate(sorted(vdos)):
+        v = vdos[rho]
+        style = {"ls": ":", "color": "k"} if rho == 0 else {"color": cmap(0.8 * index / max(1, len(vdos) - 1))}
+        ax.plot(_centres(v.edges), v.density, label=f"rho = {rho:g}", **style)
+        ax.annotate("", xy=(v.omega_c, 0), xytext=(v.omega_c, 0.08 * v.density.max()),
                     arrowprops={"arrowstyle": "->", "color": style["color"], "lw": 0.8})
     ax.set(xlabel="omega t0", ylabel="g(omega) t0", xlim=(0, None), ylim=(0, None),
            title="vibrational density of states (arrows: omega_c)")
@@ -61,76 +70,46 @@ def plot_vdos(f, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
-def plot_energies(f, stem: str, rhos=None) -> list[str]:
+def plot_energies(vdos: dict, per_mode: dict, binned: dict, stem: str, rhos=None) -> list[str]:
     """Fig. 6: bin-averaged K (blue dotted) and Q (red) with g(omega) x 5e-3 (dashed), per rho
-    (every rho > 0 of the file, or those of ``rhos`` it has, in that order)."""
-    spectra = [g for g in _groups(f, "spectra") if "K" in g]
-    have = sorted({float(g.attrs["rho"]) for g in spectra if g.attrs["rho"] > 0})
+    (every rho > 0 with energies, or those of ``rhos`` in that order).  ``per_mode``: {rho: (omega,
+    K, Q)} (``results.mode_energies``), averaged over the vDOS bins; ``binned``: {rho:
+    results.BinnedEnergies} (KPM), each configuration weighted by its modes in the bin."""
+    have = sorted(r for r in {*per_mode, *binned} if r > 0 and r in vdos)
     rhos = have if rhos is None else [r for r in rhos if r in have]
     if not rhos:
         return []
     fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.8), squeeze=False)
-    vdos = {float(g.attrs["rho"]): g for g in _groups(f, "vdos")}
-    from .spectrum.modes import bin_average
-
     for ax, rho in zip(axes[0], rhos):
-        mine = [g for g in spectra if float(g.attrs["rho"]) == rho]
-        edges = vdos[rho]["edges"][()]
-        centres = 0.5 * (edges[1:] + edges[:-1])
-        for key, style in (("K", {"color": "tab:blue", "ls": ":"}), ("Q", {"color": "tab:red"})):
-            x = centres
-            if "omega" in mine[0]:  # per mode (slicing): average over the modes of each bin
-                omega = np.concatenate([g["omega"][()] for g in mine])
-                curve = bin_average(omega, np.concatenate([g[key][()] for g in mine]), edges)
-            else:  # kpm: already bin averages; weight each configuration by its modes in the bin
-                size = min(g[key].shape[0] for g in mine)
-                w = np.array([g["density"][:size] for g in mine])
+        edges = vdos[rho].edges
+        for index, (key, style) in enumerate((("K", {"color": "tab:blue", "ls": ":"}), ("Q", {"color": "tab:red"}))):
+            if rho in per_mode:
+                x, curve = _centres(edges), bin_average(per_mode[rho][0], per_mode[rho][1 + index], edges)
+            else:
+                b = binned[rho]
                 with np.errstate(invalid="ignore"):
-                    curve = np.nansum(w * np.array([g[key][:size] for g in mine]), axis=0) / w.sum(axis=0)
-                x = 0.5 * (mine[0]["edges"][1:size + 1] + mine[0]["edges"][:size])
+                    curve = np.nansum(b.density * b[2 + index], axis=0) / b.density.sum(axis=0)
+                x = _centres(b.edges)
             ax.semilogy(x, curve, label=key, **style)
-        ax.semilogy(centres, 5e-3 * vdos[rho]["density"][()], "k--", lw=0.8, label="g(omega) x 5e-3")
+        ax.semilogy(_centres(edges), 5e-3 * vdos[rho].density, "k--", lw=0.8, label="g(omega) x 5e-3")
         ax.set(xlabel="omega t0", ylabel="K, Q (m d0^2 / t0^2)", title=f"rho = {rho:g}")
         ax.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, stem)
 
 
-def _pooled(groups, key):
-    """Runs (R, K, S) of all configurations of groups sharing rho and mode."""
-    return np.concatenate([g[key][()] for g in groups], axis=0)
-
-
-def _pooled_spectrum(groups):
-    """(k (K,), omega (W,), S (K, W)) of waves groups sharing rho and mode, runs pooled."""
-    from .analysis.correlations import power_spectrum
-
-    ks, t = groups[0]["k"][()], groups[0]["t"][()]
-    z = _pooled(groups, "z")
-    rows = [power_spectrum(z[:, i], t[1] - t[0]) for i in range(len(ks))]
-    return ks, rows[0][0], np.array([r[1] for r in rows])
-
-
-def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
+def plot_vafs(waves: dict, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
     """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted); every
-    rho of the file or only those in ``rhos``."""
-    from .analysis.correlations import vaf
-
-    groups = _groups(f, "waves")
-    if not groups:
+    rho of ``waves`` ({(rho, mode): results.Waves}) or only those in ``rhos``."""
+    if not waves:
         return []
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
     for ax, mode, label in zip(axes, ("L", "TR", "RT"), ("C_l", "C_t", "C_r")):
-        mine = [g for g in groups if g.attrs["mode"] == mode]
-        for rho in sorted({float(g.attrs["rho"]) for g in mine}):
-            if rhos is not None and rho not in rhos:
-                continue
-            sel = [g for g in mine if float(g.attrs["rho"]) == rho]
-            ks = sel[0]["k"][()]
-            i = int(np.argmin(np.abs(ks - kd0)))
-            c = vaf(_pooled(sel, "z")[:, i])
-            ax.plot(sel[0]["t"][()], c, ":" if rho == 0 else "-", lw=1,
-                    label=f"rho = {rho:g}, k d0 = {ks[i]:.3f}")
+        for rho in sorted(r for r, m in waves if m == mode and (rhos is None or r in rhos)):
+            w = waves[(rho, mode)]
+            i = int(np.argmin(np.abs(w.k - kd0)))
+            c = correlations.pooled(w.z[:, [i]], w.t[1] - w.t[0])[0][0]
+            ax.plot(w.t, c, ":" if rho == 0 else "-", lw=1, label=f"rho = {rho:g}, k d0 = {w.k[i]:.3f}")
         ax.axhline(0, color="0.7", lw=0.5)
         ax.set(xlabel="t / t0", ylabel=label, title=f"{mode} mode")
         ax.legend(fontsize=7)
@@ -138,22 +117,25 @@ def plot_vafs(f, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
     return _save(fig, stem)
 
 
-def plot_spectra(f, stem: str, rhos=None) -> list[str]:
-    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho (or each in ``rhos``)."""
-    groups = _groups(f, "waves")
+def _spectrum(w):
+    """omega (W,) and S (K, W) of one (rho, mode) (results.Waves), runs pooled."""
+    _, omega, power = correlations.pooled(w.z, w.t[1] - w.t[0])
+    return omega, power
+
+
+def plot_spectra(waves: dict, stem: str, rhos=None) -> list[str]:
+    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho of ``waves`` (or each in ``rhos``);
+    one file ``<stem>_rho<rho>`` per rho."""
     written: list[str] = []
-    for rho in sorted({float(g.attrs["rho"]) for g in groups}):
-        if rhos is not None and rho not in rhos:
-            continue
-        mine = [g for g in groups if float(g.attrs["rho"]) == rho]
-        modes_here = [m for m in ("L", "TR", "RT") if any(g.attrs["mode"] == m for g in mine)]
+    for rho in sorted({r for r, _ in waves if rhos is None or r in rhos}):
+        modes_here = [m for m in ("L", "TR", "RT") if (rho, m) in waves]
         fig, axes = plt.subplots(1, len(modes_here), figsize=(4.2 * len(modes_here), 3.8), squeeze=False)
         for ax, mode in zip(axes[0], modes_here):
-            sel = [g for g in mine if g.attrs["mode"] == mode]
-            ks, omega, power = _pooled_spectrum(sel)
-            top = min(omega[-1], 1.15 * float(sel[0].attrs["omega_max"]))
+            w = waves[(rho, mode)]
+            omega, power = _spectrum(w)
+            top = min(omega[-1], 1.15 * w.omega_max)
             keep = omega <= top
-            mesh = ax.pcolormesh(ks, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest",
+            mesh = ax.pcolormesh(w.k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest",
                                  cmap="Greys", vmin=np.log10(power.max()) - 6)
             fig.colorbar(mesh, ax=ax, label="log10 S")
             ax.set(xlabel="k d0", ylabel="omega t0", title=f"{mode}, rho = {rho:g}")
@@ -166,50 +148,47 @@ def plot_vdos_compare(paths: list[str], stem: str) -> list[str]:
     """Fig. S1: g(omega) of several results files (e.g. different phi) overlaid, one panel per rho."""
     curves: dict[float, list] = {}
     for path in paths:
-        with h5py.File(path, "r") as f:
-            phi = float(f["packings"][sorted(f["packings"])[0]].attrs["phi"]) if "packings" in f else float("nan")
-            n = int(f["packings"][sorted(f["packings"])[0]]["diameters"].shape[0]) if "packings" in f else 0
-            for g in _groups(f, "vdos"):
-                curves.setdefault(float(g.attrs["rho"]), []).append(
-                    (phi, n, g["edges"][()], g["density"][()], float(g.attrs["omega_c"])))
+        with results.open_results(path) as f:
+            phi, n = results.packing_summary(f)
+            for rho, v in results.vdos(f).items():
+                curves.setdefault(rho, []).append((phi, n, v.edges, v.density))
     if not curves:
         return []
     rhos = sorted(curves)
     fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.6), squeeze=False)
     for ax, rho in zip(axes[0], rhos):
-        for phi, n, edges, density, omega_c in sorted(curves[rho], key=lambda c: c[0]):
-            ax.plot(0.5 * (edges[1:] + edges[:-1]), density, lw=1, label=f"phi = {phi:.3f} (N = {n})")
+        for phi, n, edges, density in sorted(curves[rho], key=lambda c: c[0]):
+            ax.plot(_centres(edges), density, lw=1, label=f"phi = {phi:.3f} (N = {n})")
         ax.set(xlabel="omega t0", ylabel="g(omega) t0", title=f"rho = {rho:g}", ylim=(0, None))
         ax.legend(fontsize=7)
     fig.tight_layout()
     return _save(fig, stem)
 
 
-def analysis_groups(f, mode=None):
-    """Analysis groups of ``f`` (fits per rho and mode), sorted by rho."""
-    if "analysis" not in f:
-        return []
-    groups = [f["analysis"][k] for k in f["analysis"] if "mode" in f["analysis"][k].attrs]
-    return sorted((g for g in groups if mode is None or g.attrs["mode"] == mode),
-                  key=lambda g: float(g.attrs["rho"]))
+def _of_mode(fits: dict, mode: str) -> list[tuple[float, dict]]:
+    """(rho, fit) of one mode, by rho."""
+    return sorted(((rho, fit) for (rho, m), fit in fits.items() if m == mode), key=lambda item: item[0])
 
 
-def _lattice(f):
-    return dict(f["analysis/lattice"].attrs) if "analysis/lattice" in f else None
+def lattice_curve(k, rho, lattice: dict, edge: bool = False):
+    """(omega_t, omega_r) of the lattice model (eq:omega_t(k), eq:omega_r(k)) with the fitted
+    parameters ``lattice`` (``results.lattice``); with ``edge``, omega_t uses ``analysis.lattice.edge_a_t``."""
+    a_t = lattice_model.edge_a_t(lattice) if edge else lattice["a_t"]
+    return lattice_model.lattice_omega(k, rho, lattice["l"], a_t, lattice["a_r"])
 
 
-def plot_dispersion_rt(f, stem: str) -> list[str]:
-    """Fig. 4: fitted omega_r(k) (symbols) for every rho > 0 with the lattice model (lines)."""
-    groups = [g for g in analysis_groups(f, "RT") if g.attrs["rho"] > 0]
-    lattice = _lattice(f)
-    if not groups or lattice is None:
+def plot_dispersion_rt(fits: dict, lattice: dict | None, stem: str) -> list[str]:
+    """Fig. 4: fitted omega_r(k) (symbols) for every rho > 0 with the lattice model (lines).
+    ``fits``: {(rho, mode): fit} (``results.fits``)."""
+    rt = [(rho, fit) for rho, fit in _of_mode(fits, "RT") if rho > 0]
+    if not rt or lattice is None:
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     cmap = plt.get_cmap("viridis")
     k_line = np.linspace(0, lattice["k_max"], 200)
-    for index, g in enumerate(groups):
-        rho, color = float(g.attrs["rho"]), cmap(0.9 * index / max(1, len(groups) - 1))
-        ax.plot(g["k"][()], g["omega"][()], "o", ms=3.5, mfc="none", color=color, label=f"rho = {rho:g}")
+    for index, (rho, fit) in enumerate(rt):
+        color = cmap(0.9 * index / max(1, len(rt) - 1))
+        ax.plot(fit["k"], fit["omega"], "o", ms=3.5, mfc="none", color=color, label=f"rho = {rho:g}")
         ax.plot(k_line, lattice_curve(k_line, rho, lattice)[1], "-", lw=0.9, color=color)
     ax.axvline(lattice["kd0_max_used"], color="0.6", ls=":", lw=0.8)
     ax.set(xlabel="k d0", ylabel="omega_r t0", title=f"RT dispersion; lines: lattice model, a_r = "
@@ -220,34 +199,25 @@ def plot_dispersion_rt(f, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
-def lattice_curve(k, rho, lattice, edge: bool = False):
-    """(omega_t, omega_r) of the lattice model with the fitted parameters of ``lattice``; with
-    ``edge``, omega_t uses a_t_edge (fitted beyond k_c) when the run found one."""
-    from .analysis.fits import lattice_omega
-
-    a_t = lattice["a_t_edge"] if edge and np.isfinite(lattice.get("a_t_edge", np.nan)) else lattice["a_t"]
-    return lattice_omega(k, rho, lattice["l"], a_t, lattice["a_r"])
-
-
-def plot_transition(f, stem: str, rho: float = 0.2) -> list[str]:
+def plot_transition(fits: dict, lattice: dict | None, waves: dict, stem: str, rho: float = 0.2) -> list[str]:
     """Fig. 5: (a) log10 S_r(k, omega) with k_c, (b) fitted omega_t and omega_r with both model
-    branches, at the analysed rho nearest ``rho``."""
-    rt = analysis_groups(f, "RT")
-    lattice = _lattice(f)
+    branches, at the analysed rho nearest ``rho``.  ``waves``: {(rho, mode): results.Waves}."""
+    rt = dict(_of_mode(fits, "RT"))
     if not rt or lattice is None:
         return []
-    g_rt = min(rt, key=lambda g: abs(float(g.attrs["rho"]) - rho))
-    rho = float(g_rt.attrs["rho"])
-    g_tr = next((g for g in analysis_groups(f, "TR") if float(g.attrs["rho"]) == rho), None)
-    k, omega, power = _pooled_spectrum([g for g in _groups(f, "waves")
-                                        if float(g.attrs["rho"]) == rho and g.attrs["mode"] == "RT"])
+    rho = min(rt, key=lambda r: abs(r - rho))
+    if (rho, "RT") not in waves:
+        return []
+    fit_rt, fit_tr = rt[rho], fits.get((rho, "TR"))
+    w = waves[(rho, "RT")]
+    omega, power = _spectrum(w)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4))
-    top = 1.1 * np.nanmax(g_rt["omega"][()]) + 1
+    top = 1.1 * np.nanmax(fit_rt["omega"]) + 1
     keep = omega <= top
-    mesh = ax.pcolormesh(k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest", cmap="Greys",
+    mesh = ax.pcolormesh(w.k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest", cmap="Greys",
                          vmin=np.log10(power.max()) - 5)
     fig.colorbar(mesh, ax=ax, label="log10 S_r")
-    k_c = float(g_rt.attrs["k_c"])
+    k_c = float(fit_rt["k_c"])
     if np.isfinite(k_c):
         ax.annotate("k_c", xy=(k_c, 0.02 * top), xytext=(k_c, 0.25 * top), color="tab:red",
                     arrowprops={"arrowstyle": "->", "color": "tab:red"}, ha="center")
@@ -257,9 +227,9 @@ def plot_transition(f, stem: str, rho: float = 0.2) -> list[str]:
     if np.isfinite(lattice.get("a_t_edge", np.nan)):
         bx.plot(k_line, lattice_curve(k_line, rho, lattice, edge=True)[0], ":", color="tab:purple",
                 label=f"model omega_t, a_t = {lattice['a_t_edge']:.2f} (fit beyond k_c)")
-    if g_tr is not None:
-        bx.plot(g_tr["k"][()], g_tr["omega"][()], "+", color="tab:blue", label="omega_t (TR fit)")
-    bx.plot(g_rt["k"][()], g_rt["omega"][()], "s", mfc="none", color="tab:red", label="omega_r (RT fit)")
+    if fit_tr is not None:
+        bx.plot(fit_tr["k"], fit_tr["omega"], "+", color="tab:blue", label="omega_t (TR fit)")
+    bx.plot(fit_rt["k"], fit_rt["omega"], "s", mfc="none", color="tab:red", label="omega_r (RT fit)")
     bx.plot(k_line, w_t, ":", color="tab:blue", label=f"model omega_t, a_t = {lattice['a_t']:.2f} (TR fit)")
     bx.plot(k_line, w_r, "-", color="tab:red", label="model omega_r")
     if np.isfinite(k_c):
@@ -271,17 +241,18 @@ def plot_transition(f, stem: str, rho: float = 0.2) -> list[str]:
     return _save(fig, stem)
 
 
-def plot_bands(f, stem: str, omega_c: dict | None = None) -> list[str]:
-    """Fig. 7: RT band limits against rho (data symbols, model lines and shaded band), omega_c
-    (crosses; ``omega_c`` maps rho -> value, else the file's own), log-log inset."""
-    lattice = _lattice(f)
-    if lattice is None or "analysis/bands" not in f:
+def plot_bands(lattice: dict | None, bands: dict | None, stem: str, omega_c: dict | None = None) -> list[str]:
+    """Fig. 7: RT band limits against rho (data symbols; model lines omega_r(0), omega_r(k_max),
+    omega_t(k_max) of ``analysis.lattice`` and the shaded band), omega_c (crosses; ``omega_c`` maps rho ->
+    value, else the bands' own), log-log inset.  ``bands``: ``results.bands``."""
+    if lattice is None or bands is None:
         return []
-    b = {key: f["analysis/bands"][key][()] for key in f["analysis/bands"]}
+    b = bands
     rho_line = np.linspace(1e-3, max(2.0, b["rho"].max()), 300)
-    a_r = lattice["a_r"]
-    a_t = lattice["a_t_edge"] if np.isfinite(lattice.get("a_t_edge", np.nan)) else lattice["a_t"]
-    r0, rk, tk = a_r * np.sqrt(40 * rho_line), 2 * a_r * np.sqrt(3 * rho_line + 1), a_t * np.sqrt(10 * rho_line)
+    a_t = lattice_model.edge_a_t(lattice)
+    r0 = lattice_model.omega_r_zero(rho_line, lattice["a_r"])
+    rk = lattice_model.omega_r_kmax(rho_line, lattice["a_r"])
+    tk = lattice_model.omega_t_kmax(rho_line, a_t)
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     inset = ax.inset_axes([0.62, 0.1, 0.35, 0.35])
     cross = omega_c if omega_c is not None else dict(zip(b["rho"], b["omega_c"]))
@@ -304,24 +275,22 @@ def plot_bands(f, stem: str, omega_c: dict | None = None) -> list[str]:
     return _save(fig, stem)
 
 
-def plot_speeds_attenuation(f, stem: str) -> list[str]:
+def plot_speeds_attenuation(fits: dict, stem: str) -> list[str]:
     """Figs. S2 and S3: phase speeds c = omega/k and attenuation gamma(k) (log-log, k^3 guide) of
     L and TR, per rho."""
-    groups = [g for g in analysis_groups(f) if g.attrs["mode"] in ("L", "TR")]
-    if not groups:
+    if not any(mode in ("L", "TR") for _, mode in fits):
         return []
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))
     cmap = plt.get_cmap("viridis")
-    rhos = sorted({float(g.attrs["rho"]) for g in groups})
+    rhos = sorted({rho for rho, mode in fits if mode in ("L", "TR")})
     for col, mode in enumerate(("L", "TR")):
-        for g in (g for g in groups if g.attrs["mode"] == mode):
-            rho = float(g.attrs["rho"])
+        for rho, fit in _of_mode(fits, mode):
             color = "k" if rho == 0 else cmap(0.9 * rhos.index(rho) / max(1, len(rhos) - 1))
-            k, gamma = g["k"][()], g["gamma"][()]
-            axes[0, col].plot(k, g["c"][()], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color, label=f"rho = {rho:g}")
+            k, gamma = fit["k"], fit["gamma"]
+            axes[0, col].plot(k, fit["c"], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color, label=f"rho = {rho:g}")
             good = gamma > 0
             axes[1, col].loglog(k[good], gamma[good], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color,
-                                label=f"rho = {rho:g}, p = {g.attrs['power_law_p']:.2f}")
+                                label=f"rho = {rho:g}, p = {fit['power_law_p']:.2f}")
         k_guide = np.array([0.2, 1.0])
         axes[1, col].loglog(k_guide, 0.05 * k_guide**3, "k-", lw=2, alpha=0.4, label="~ k^3")
         axes[0, col].set(xlabel="k d0", ylabel=f"c_{mode.lower()[0]} (d0 / t0)", title=f"phase speed, {mode}")
@@ -332,29 +301,60 @@ def plot_speeds_attenuation(f, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
+def report_figures(data, folder: str) -> list[tuple[str, str]]:
+    """Draw the reproduction report's figures into ``folder`` from the files that ``data``
+    (``analysis.claims.Data``, filled by ``results.gather``) names; return (caption, png path) pairs."""
+    os.makedirs(folder, exist_ok=True)
+    out: list[tuple[str, str]] = []
+
+    def keep(caption, paths):
+        pngs = [p for p in paths if p.endswith(".png")]
+        out.extend((caption if len(pngs) == 1 else f"{caption} ({os.path.basename(p)})", p) for p in pngs)
+
+    if data.vdos_file:
+        keep("Fig. 1: vDOS for every rho (rho = 0 dotted), arrows at omega_c", plot_vdos(data.vdos, f"{folder}/fig1_vdos"))
+    energies = data.energies_file.get(1.0) or data.energies_file.get(0.4)
+    if energies:
+        with results.open_results(energies) as f:
+            keep("Fig. 6: K (blue dotted), Q (red) and g x 5e-3 (dashed), rho = 1 and 0.4",
+                 plot_energies(results.vdos(f), results.mode_energies(f), results.binned_energies(f), f"{folder}/fig6_energies",
+                               rhos=(1.0, 0.4)))
+    if data.waves_file:
+        fits, lattice = data.fits, data.lattice
+        rt = [rho for rho, mode in fits if mode == "RT"]
+        transition = [min(rt, key=lambda r: abs(r - 0.2))] if rt else []
+        with results.open_results(data.waves_file) as f:  # only the rho drawn: the runs are the bulk of a file
+            waves = results.waves(f, rhos={0.0, 1.0, *transition})
+        keep("Fig. 2: VAFs at k d0 nearest 0.38 pi", plot_vafs(waves, f"{folder}/fig2_vaf", rhos=(0.0, 1.0)))
+        keep("Fig. 3: log10 S(k, omega), rho = 1", plot_spectra(waves, f"{folder}/fig3_spectrum", rhos=(1.0,)))
+        keep("Fig. 4: RT dispersion with the lattice model", plot_dispersion_rt(fits, lattice, f"{folder}/fig4_dispersion_rt"))
+        keep("Fig. 5: the RT transition at rho = 0.2", plot_transition(fits, lattice, waves, f"{folder}/fig5_transition"))
+        omega_c = {rho: v[2] for rho, v in data.vdos.items()}
+        keep("Fig. 7: RT band limits against rho", plot_bands(lattice, data.bands, f"{folder}/fig7_bands", omega_c or None))
+        keep("Figs. S2, S3: phase speeds and attenuation of L and TR", plot_speeds_attenuation(fits, f"{folder}/figS2_S3"))
+    with_vdos = [(path, phi) for path, phi, _, what in data.sources if "vdos" in what]
+    if len({round(phi, 4) for _, phi in with_vdos}) >= 2:
+        keep("Fig. S1: vDOS at several phi", plot_vdos_compare([p for p, _ in with_vdos], f"{folder}/figS1_vdos_phi"))
+    return out
+
+
 def plot_results(path: str) -> list[str]:
     """Write every figure the results file has data for, next to it; return the paths."""
-    if not os.path.isfile(path):
-        raise InputError(f"results file {path}: not found (run the scene first)")
     stem = os.path.splitext(path)[0]
     written: list[str] = []
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise InputError(f"results file {path}: not a readable HDF5 file ({exc})") from None
-    with f:
-        if "packings" in f and len(f["packings"]):
-            first = sorted(f["packings"])[0]
-            written += plot_packing(f["packings"][first], f"{stem}_packing")
-        if "vdos" in f:
-            written += plot_vdos(f, f"{stem}_vdos")
-            written += plot_energies(f, f"{stem}_energies")
-        if "waves" in f:
-            written += plot_vafs(f, f"{stem}_vaf")
-            written += plot_spectra(f, f"{stem}_spectrum")
-        if "analysis" in f:
-            written += plot_dispersion_rt(f, f"{stem}_dispersion_rt")
-            written += plot_transition(f, f"{stem}_transition")
-            written += plot_bands(f, f"{stem}_bands")
-            written += plot_speeds_attenuation(f, f"{stem}_speeds_attenuation")
+    with results.open_results(path) as f:
+        packing = results.first_packing(f)
+        if packing is not None:
+            written += plot_packing(packing, f"{stem}_packing")
+        vdos = results.vdos(f)
+        written += plot_vdos(vdos, f"{stem}_vdos")
+        written += plot_energies(vdos, results.mode_energies(f), results.binned_energies(f), f"{stem}_energies")
+        waves = results.waves(f)
+        written += plot_vafs(waves, f"{stem}_vaf")
+        written += plot_spectra(waves, f"{stem}_spectrum")
+        fits, lattice = results.fits(f), results.lattice(f)
+        written += plot_dispersion_rt(fits, lattice, f"{stem}_dispersion_rt")
+        written += plot_transition(fits, lattice, waves, f"{stem}_transition")
+        written += plot_bands(lattice, results.bands(f), f"{stem}_bands")
+        written += plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
     return written

@@ -56,6 +56,8 @@ CASES = [
     ("empty scene", "", [], "packing.n is missing", None),
     ("unknown top-level key", GOOD + "outptu: x.h5\n", [], "unknown key outptu", None),
     ("unknown nested key", "packing: {n: 64, phi: 0.9, size: 3}\n", [], "unknown key packing.size", None),
+    ("misspelt key (near miss)", GOOD + "spectrum: {energy: true}\n", [],
+     "unknown key spectrum.energy: did you mean spectrum.energies? allowed keys in spectrum are", None),
     ("N not an integer", "packing: {n: many, phi: 0.9}\n", [], "packing.n = 'many': must be an integer", None),
     ("N a boolean", "packing: {n: true, phi: 0.9}\n", [], "packing.n = True: must be an integer", None),
     ("N odd", "packing: {n: 63, phi: 0.9}\n", [], "packing.n = 63: must be an even integer >= 16", None),
@@ -92,6 +94,12 @@ CASES = [
     ("unknown integrator", GOOD + "waves: {n: [1], integrator: leapfrog}\n", [], "waves.integrator = 'leapfrog'", None),
     ("too few samples", GOOD + "waves: {n: [1], t_end: 1, sample_every: 50}\n", [], "fewer than 4 samples", None),
     ("PETSc value of an odd type", GOOD + "petsc: {eps_tol: 2024-01-01}\n", [], "petsc.eps_tol", None),
+    # --- generated packings that do not jam (before: SLEPc died of SIGFPE on a 0-DOF matrix)
+    ("packing does not jam (spectrum)", "packing: {n: 256, phi: 0.8}\nspectrum: {}\n", [],
+     "packing.phi = 0.8: configuration 0 did not jam: all 256 disks are rattlers", None),
+    ("packing does not jam (spectral waves)", "packing: {n: 256, phi: 0.8}\nmodel: {rho: 1}\n"
+     "waves: {n: [1], method: spectral}\n", [],
+     "packing.phi = 0.8: configuration 0 did not jam: all 256 disks are rattlers", None),
     # --- HDF5 packing files
     ("packing file missing", "packing: {file: nowhere.h5}\n", [], "packing file nowhere.h5: not found", None),
     ("packing file not HDF5", "packing: {file: '{file}'}\n", [], "not a readable HDF5 file", _garbage),

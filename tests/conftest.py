@@ -68,7 +68,8 @@ def assert_close(actual, expected, rtol: float, atol: float = 0.0, what: str = "
 
     Scale-aware: ``atol`` is 0 unless the caller passes one (with its reason written beside the
     call), so a tolerance never silently widens the way ``np.allclose``'s default atol = 1e-8
-    does on quantities of order 1e-5.  NaN equals NaN only where both are NaN.
+    does on quantities of order 1e-5.  ``atol`` may be an array (a bound per element).  NaN
+    equals NaN only where both are NaN.
     """
     actual, expected = np.asarray(actual), np.asarray(expected)
     ok = actual.shape == expected.shape
@@ -81,8 +82,9 @@ def assert_close(actual, expected, rtol: float, atol: float = 0.0, what: str = "
         ok = not np.any(bad)
         ratio = np.where(bound > 0, err / np.where(bound > 0, bound, 1.0), np.where(err > 0, np.inf, 0.0))
         worst = float(np.max(np.where(both_nan, 0.0, ratio))) if err.size else 0.0
+    atol_text = f"{np.max(atol):g} (largest of per-element values)" if np.ndim(atol) else f"{atol:g}"
     assert_all(ok, f"{what}: shapes {actual.shape} vs {expected.shape}, worst error / bound = {worst:.3g} "
-                   f"(rtol={rtol:g}, atol={atol:g})")
+                   f"(rtol={rtol:g}, atol={atol_text})")
 
 
 def assert_all(condition: bool, message: str = "") -> None:

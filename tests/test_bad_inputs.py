@@ -1,9 +1,11 @@
 """Every row of the bad-input catalogue on 2 ranks: exit 2, the message once, no traceback,
 no output written, no rank left hanging (each run has a timeout)."""
 
+import re
+
 import pytest
 from bad_inputs import CASES
-from conftest import run_cli
+from conftest import REPO, run_cli
 
 pytestmark = pytest.mark.serial_only  # launches its own mpirun
 
@@ -25,8 +27,17 @@ def materialise(tmp_path, case):
     return args, out
 
 
-def test_catalogue_has_at_least_30_rows():
-    assert len(CASES) >= 30
+def test_readme_table_is_the_catalogue():
+    """The README's bad-input table (rendered by scripts/render_bad_inputs.py) holds exactly the
+    catalogue's rows, in order, each showing a message that contains the row's expected
+    fragment: a row added, renamed or reworded without re-rendering fails here."""
+    text = (REPO / "README.md").read_text()
+    block = re.search(r"<!-- bad-inputs -->\n(.*)\n<!-- /bad-inputs -->", text, re.S).group(1)
+    rendered = [[cell.strip() for cell in line.split("|")[1:-1]] for line in block.splitlines()[2:]]
+    assert [row[1] for row in rendered] == [case[0] for case in CASES]
+    assert [row[0] for row in rendered] == [str(i) for i in range(1, len(CASES) + 1)]
+    for row, case in zip(rendered, CASES):
+        assert case[3].replace("|", "/") in row[2], (case[0], row[2])
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])

@@ -1,8 +1,10 @@
-"""Scene validation: every bad input gives one clear InputError naming key, value and range."""
+"""Scene validation (io.schema) and scene files (io.scenes): every bad input gives one clear
+InputError naming key, value and range."""
 
 import pytest
 
-from solver.io import schema as config
+from solver.io import scenes
+from solver.io import schema
 from solver import options as petscopts
 from solver.errors import InputError
 
@@ -11,7 +13,7 @@ GOOD = {"output": "out.h5", "seed": 3, "packing": {"n": 64, "phi": 0.9, "count":
 
 
 def build(raw):
-    return config.build(config.Scene, raw)
+    return schema.build(schema.Scene, raw)
 
 
 def test_good_scene_and_defaults():
@@ -35,7 +37,9 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": True, "phi": 0.9}}, ["packing.n", "an integer"]),
     ({"packing": {"n": 64}}, ["packing.phi is missing"]),
     ({"packing": {"n": 64, "phi": 0.9, "size": 3}}, ["unknown key packing.size", "n, phi, count"]),
-    ({"pakcing": {}}, ["unknown key pakcing", "allowed keys"]),
+    ({"pakcing": {}}, ["unknown key pakcing: did you mean packing? allowed keys"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energy": True}},
+     ["unknown key spectrum.energy: did you mean spectrum.energies? allowed keys in spectrum are window, "]),
     ({"packing": {"n": 64, "phi": 0.9}, "model": {"rho": -1}}, ["model.rho", "-1", "[0.0"]),
     ({"packing": {"n": 64, "phi": 0.9}, "model": {"rho": []}}, ["model.rho", "must not be empty"]),
     ({"packing": {"n": 64, "phi": 0.9}, "model": {"rho": [1, "x"]}}, ["model.rho", "a number"]),
@@ -83,51 +87,53 @@ def test_file_only_needs_no_n_phi():
 
 def test_set_overrides_and_errors():
     raw = {"packing": {"n": 64}}
-    config.set_key(raw, "packing.phi=0.85")
-    config.set_key(raw, "model.rho=[0.1, 1]")
+    scenes.set_key(raw, "packing.phi=0.85")
+    scenes.set_key(raw, "model.rho=[0.1, 1]")
     assert build(raw).model.rho == [0.1, 1.0]
     with pytest.raises(InputError, match="key.path=value"):
-        config.set_key(raw, "packing.phi")
+        scenes.set_key(raw, "packing.phi")
 
 
-def test_digest_ignores_output_only():
+def test_digest_ignores_output_and_petsc_block_only():
+    """The petsc block keys units through the options acting on them (io/units.py), not the scene."""
     a = build(GOOD)
     b = build({**GOOD, "output": "elsewhere.h5"})
+    p = build({**GOOD, "petsc": {"spectrum_eps_tol": 1e-10}})
     c = build({**GOOD, "seed": 4})
-    assert a.digest() == b.digest() != c.digest()
+    assert a.digest() == b.digest() == p.digest() != c.digest()
 
 
 def test_read_yaml_errors(tmp_path):
     with pytest.raises(InputError, match="not found"):
-        config.read_documents(str(tmp_path / "missing.yaml"))
+        scenes.read_documents(str(tmp_path / "missing.yaml"))
     bad = tmp_path / "bad.yaml"
     bad.write_text("packing: {n: 64\n")
     with pytest.raises(InputError, match="invalid YAML"):
-        config.read_documents(str(bad))
+        scenes.read_documents(str(bad))
     listy = tmp_path / "list.yaml"
     listy.write_text("- 1\n- 2\n")
     with pytest.raises(InputError, match="top level must be a mapping"):
-        config.read_documents(str(listy))
+        scenes.read_documents(str(listy))
 
 
 def test_multi_document_scenes(tmp_path):
     one = "output: results/{}.h5\npacking: {{n: 64, phi: 0.9}}\n"
     path = tmp_path / "multi.yaml"
     path.write_text(one.format("a") + "---\n" + one.format("b"))
-    scenes = config.build_all(str(path), config.read_documents(str(path)))
-    assert [s.output for s in scenes] == ["results/a.h5", "results/b.h5"]
+    built = scenes.build_all(str(path), scenes.read_documents(str(path)))
+    assert [s.output for s in built] == ["results/a.h5", "results/b.h5"]
     path.write_text(one.format("a") + "---\n" + one.format("a"))
     with pytest.raises(InputError, match="two documents write output 'results/a.h5'"):
-        config.build_all(str(path), config.read_documents(str(path)))
+        scenes.build_all(str(path), scenes.read_documents(str(path)))
     path.write_text(one.format("a") + "---\n" + one.format("b") + "petsc: {eps_tol: 1e-9}\n")
     with pytest.raises(InputError, match="document 2: petsc options configure the whole run"):
-        config.build_all(str(path), config.read_documents(str(path)))
+        scenes.build_all(str(path), scenes.read_documents(str(path)))
     path.write_text(one.format("a") + "---\n" + one.format("b") + "sead: 1\n")
     with pytest.raises(InputError, match="document 2: unknown key sead"):
-        config.build_all(str(path), config.read_documents(str(path)))
+        scenes.build_all(str(path), scenes.read_documents(str(path)))
     path.write_text(one.format("a") + "---\n- 1\n")
     with pytest.raises(InputError, match="document 2: top level must be a mapping"):
-        config.read_documents(str(path))
+        scenes.read_documents(str(path))
 
 
 def test_petsc_flattening_and_argv_split():
@@ -142,7 +148,7 @@ def test_petsc_flattening_and_argv_split():
 
 
 def test_reference_lists_every_key():
-    keys = [row[0] for row in config.reference()]
+    keys = [row[0] for row in schema.reference()]
     for key in ("output", "seed", "packing.n", "packing.phi", "packing.count", "packing.file",
                 "model.rho", "petsc"):
         assert key in keys

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 import scipy.linalg as sl
-from conftest import assert_all
+from scipy.stats import binned_statistic
+from conftest import assert_all, assert_close
 
-from solver.model import dynmat
+from solver.model import dynmat, operators
 from solver.spectrum import kpm
 from solver.packing import jammed as packing
-from solver.spectrum import slicing as spectrum
 
 
 @pytest.fixture(scope="module")
@@ -18,9 +18,9 @@ def packing256():
 
 def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
     dm = dynmat.assemble(packing256, 1.0, comm)
-    lam_max = spectrum.largest_omega(dm) ** 2
+    lam_max = operators.largest_omega(dm) ** 2
     mu, c, h = kpm.moments(dm, lam_max, 41, probes=5, seed=3)
-    A = spectrum.scaled_operator(dm)
+    A = operators.scaled_operator(dm)
     dense = dynmat.gather_csr(A).toarray()
     A.destroy()
     n = dense.shape[0]
@@ -37,14 +37,16 @@ def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
         t_prev, t_curr = t_curr, 2 * B @ t_curr - t_prev
         ref.append(np.sum(z * t_curr))
     ref = np.array(ref) / (5 * (n - 2))
-    assert_all(np.abs(mu - ref).max() < 1e-10, f"moments {np.abs(mu - ref).max()}")
+    # |mu_n| <= mu_0 (|T_n| <= 1), so errors are held relative to mu_0 (~1; some mu_n are 2e-4);
+    # the three-term recurrence's round-off grows at most ~n^2 eps by n = 40 (measured 1.5e-16)
+    assert_close(mu, ref, rtol=0, atol=1e-13 * ref[0], what="moments")
     dm.destroy()
 
 
 def test_vdos_against_exact_histogram(comm, packing256):
     dm = dynmat.assemble(packing256, 1.0, comm)
-    w = spectrum.largest_omega(dm)
-    A = spectrum.scaled_operator(dm)
+    w = operators.largest_omega(dm)
+    A = operators.scaled_operator(dm)
     lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)[2:]
     A.destroy()
     edges = np.arange(0, 1.1 * w, 0.25)  # wide bins: the exact histogram of 766 modes is noisy
@@ -52,7 +54,6 @@ def test_vdos_against_exact_histogram(comm, packing256):
     errors = []
     for m in (50, 400):
         g = kpm.vdos(dm, edges, w**2, m, probes=64, seed=0)
-        assert_all(abs(np.sum(g * np.diff(edges)) - 1) < 1e-12, "unit area")
         errors.append(np.sum(np.abs(g - ref) * np.diff(edges)))
     assert_all(errors[1] < errors[0] and errors[1] < 0.05, f"L1 errors {errors}")
     dm.destroy()
@@ -61,8 +62,8 @@ def test_vdos_against_exact_histogram(comm, packing256):
 def test_channel_moments_weigh_modes_by_their_share(comm, packing256):
     """Translation- plus rotation-restricted moments, dense reference: sum_q |P e_q|^2 T_n(x_q)."""
     dm = dynmat.assemble(packing256, 1.0, comm)
-    lam_max = spectrum.largest_omega(dm) ** 2
-    A = spectrum.scaled_operator(dm)
+    lam_max = operators.largest_omega(dm) ** 2
+    A = operators.scaled_operator(dm)
     lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
     A.destroy()
     n = lam.size
@@ -73,29 +74,42 @@ def test_channel_moments_weigh_modes_by_their_share(comm, packing256):
         share = np.sum(vec[mask, 2:] ** 2, axis=0)  # |P e_q|^2 of the non-zero modes
         ref = np.array([np.sum(share * np.cos(k * np.arccos(x))) for k in range(31)]) / (n - 2)
         # the stochastic trace's standard error with 400 probes is ~ sqrt(2 / 400) of a row norm:
-        assert_all(np.abs(mu - ref).max() < 0.02, f"{channel}: {np.abs(mu - ref).max()}")
+        assert_close(mu, ref, rtol=0, atol=0.02, what=channel)
     dm.destroy()
 
 
-def test_kpm_energies_against_exact_bin_averages(comm, packing256):
-    dm = dynmat.assemble(packing256, 1.0, comm)
-    w = spectrum.largest_omega(dm)
-    A = spectrum.scaled_operator(dm)
+@pytest.mark.parametrize("rho", [0.2, 1.0])
+def test_kpm_energies_against_exact_bin_averages(comm, packing256, rho):
+    """KPM's bin averages of K and Q, and its vDOS, against exact ones from dense eigenvectors.
+
+    Mode q has translational share w_q = 4N K_q and rotational share 1 - w_q = 2N Q_q.  With R
+    Rademacher probes, Hutchinson's estimate of a bin's channel mass has variance
+    <= 2 ||F||_F^2 / R <= 2 m / R for a bin of m modes, so the bin's mean share has a standard
+    error <= sigma = sqrt(2 / (R m)) per channel.  Both channels enter the ratio: held to 4 sigma
+    (the Jackson smearing adds ~0.01, measured with 256 probes; worst seen 0.8 sigma).
+    """
+    dm = dynmat.assemble(packing256, rho, comm)
+    w = operators.largest_omega(dm)
+    A = operators.scaled_operator(dm)
     lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
     A.destroy()
     omega, vec = np.sqrt(lam[2:]), vec[:, 2:]
     n_disks = int(dm.active.sum())
-    k_exact = (vec[0::3] ** 2 + vec[1::3] ** 2).sum(axis=0) / (4 * n_disks)
+    share_t = (vec[0::3] ** 2 + vec[1::3] ** 2).sum(axis=0)  # 4 N K_q
+    share_r = (vec[2::3] ** 2).sum(axis=0)                    # 2 N Q_q
     edges = np.arange(0, 1.1 * w, 0.25)
-    from solver.spectrum.modes import bin_average
-
-    ref_k = bin_average(omega, k_exact, edges)
+    ref_k = binned_statistic(omega, share_t / (4 * n_disks), "mean", edges).statistic
+    ref_q = binned_statistic(omega, share_r / (2 * n_disks), "mean", edges).statistic
     counts = np.histogram(omega, edges)[0]
-    g, k, q = kpm.energies(dm, edges, w**2, 400, probes=64, seed=2)
-    full = np.isfinite(k)
-    assert_all(np.allclose(2 * k[full] + q[full], 1 / (2 * n_disks), rtol=1e-12), "2K + Q = 1/2N per bin")
-    assert_all(abs(np.sum(g * np.diff(edges)) - 1) < 1e-12, "unit area")
-    busy = (counts >= 30) & full
-    rel = np.abs(k[busy] / ref_k[busy] - 1)
-    assert_all(busy.sum() >= 8 and rel.max() < 0.1, f"K relative errors {rel}")
+    probes = 64
+    g, k, q = kpm.energies(dm, edges, w**2, 400, probes=probes, seed=2)
+    busy = counts >= 30
+    assert_all(busy.sum() >= 8 and np.all(np.isfinite(k[busy]) & np.isfinite(q[busy])), f"busy bins {counts}")
+    sigma = np.sqrt(2 / (probes * counts[busy]))
+    assert_close(4 * n_disks * k[busy], 4 * n_disks * ref_k[busy], rtol=0, atol=4 * sigma, what="K (share units)")
+    assert_close(2 * n_disks * q[busy], 2 * n_disks * ref_q[busy], rtol=0, atol=4 * sigma, what="Q (share units)")
+    # g is the sum of the two channels' densities: against the exact histogram (L1 0.013-0.02 measured)
+    exact = np.histogram(omega, edges, density=True)[0]
+    error = np.sum(np.abs(g - exact) * np.diff(edges))
+    assert_all(error < 0.05, f"vDOS L1 error {error}")
     dm.destroy()

@@ -3,13 +3,15 @@
 import numpy as np
 import pytest
 import scipy.linalg as sl
-from conftest import COMM, assert_all
+from conftest import COMM, assert_all, assert_close
+from mpi4py import MPI
 
 from solver.analysis import correlations
-from solver.model import dynmat
+from solver.model import dynmat, operators
 from solver.packing import jammed as packing
-from solver.spectrum import slicing as spectrum
+from solver.waves import excitation
 from solver.waves import integrators as waves
+from solver.waves.spectral import spectral
 
 
 @pytest.fixture(scope="module")
@@ -19,12 +21,12 @@ def packing64():
 
 def exact_z_fixed(p, dm, mode, direction, k, amplitude, t):
     """z(t) with r_i(0) in the phase from the full eigendecomposition (PHYSICS.md section 4)."""
-    A = spectrum.scaled_operator(dm)
+    A = operators.scaled_operator(dm)
     lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
     A.destroy()
     omega = np.sqrt(np.clip(lam, 0, None))
     mass = dynmat.gather_vec(dm.M)
-    component, axis = waves.EXCITATIONS[mode][direction]
+    component, axis = excitation.EXCITATIONS[mode][direction]
     r0 = p.positions[~p.rattler]
     v0 = np.zeros((len(r0), dm.dof))
     v0[:, component] = amplitude * np.sin(k * r0[:, axis])
@@ -37,9 +39,14 @@ def exact_z_fixed(p, dm, mode, direction, k, amplitude, t):
     return (bt * a) @ np.cos(np.outer(omega, t))
 
 
+def schedule(integrator, dt, t_end, every):
+    """The scene's values as a schedule (no -waves_ts_* options are set in these tests)."""
+    return waves.resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)
+
+
 def run(dm, p, mode, k, dt, integrator="verlet", t_end=20.0, every=None, amplitude=1e-3, direction=0):
-    return waves.integrate(dm, p.positions, mode, direction, k, amplitude=amplitude, dt=dt, t_end=t_end,
-                           sample_every=every or int(round(0.5 / dt)), integrator=integrator)
+    return waves.integrate(dm, p.positions, mode, direction, k, amplitude=amplitude,
+                           schedule=schedule(integrator, dt, t_end, every or int(round(0.5 / dt))))
 
 
 @pytest.mark.parametrize("mode", ["L", "TR", "RT"])
@@ -76,7 +83,7 @@ def test_energy_bounded_over_long_run(comm, packing64):
     dm = dynmat.assemble(packing64, 1.0, comm)
     series = run(dm, packing64, "RT", 2 * np.pi / packing64.box_length, 0.05, t_end=400.0, every=20)
     drift = np.abs(series.energy - series.energy[0]) / series.energy[0]
-    omega_max = spectrum.largest_omega(dm)
+    omega_max = operators.largest_omega(dm)
     bound = (omega_max * 0.05) ** 2 / 4  # Verlet's shadow-energy oscillation, no secular growth
     assert_all(drift.max() < bound, f"drift {drift.max()} > {bound}")
     half = len(drift) // 2
@@ -101,11 +108,15 @@ def test_excitation_has_no_momentum_and_expected_channel(comm, packing64):
     mpi = COMM
     for mode in ("L", "TR", "RT"):
         for direction in (0, 1):
-            component, axis = waves.EXCITATIONS[mode][direction]
-            v0 = waves.start_velocity(dm, packing64.positions, component, axis, k, 1e-3, mpi).reshape(-1, 3)
+            component, axis = excitation.EXCITATIONS[mode][direction]
+            v0 = excitation.start_velocity(dm, packing64.positions, component, axis, k, 1e-3, mpi).reshape(-1, 3)
             momentum = mpi.allreduce(v0[:, :2].sum(axis=0))
             others = mpi.allreduce(np.abs(np.delete(v0, component, axis=1)).max())
-            assert_all(np.abs(momentum).max() < 1e-15 and others == 0, f"{mode} {direction}")
+            # the mean is removed: a sum of N terms of size <= max |v| cancels to N eps max |v|
+            largest = mpi.allreduce(np.abs(v0).max(), op=MPI.MAX)
+            assert_close(momentum, np.zeros(2), rtol=0, atol=packing64.n * np.finfo(float).eps * largest,
+                         what=f"{mode} {direction} momentum")
+            assert_all(others == 0, f"{mode} {direction}: other channels excited")
             if mode == "L":
                 assert_all(component == axis, "L: velocity along k")
             if mode == "TR":
@@ -120,7 +131,9 @@ def test_two_ranks_equal_one(comm, packing64):
     k = 2 * np.pi * 2 / packing64.box_length
     par = run(dynmat.assemble(packing64, 0.5, comm), packing64, "TR", k, 0.02)
     ser = run(dynmat.assemble(packing64, 0.5, PETSc.COMM_SELF), packing64, "TR", k, 0.02)
-    assert_all(np.abs(par.z - ser.z).max() < 1e-10 * np.abs(ser.z).max(), "1 vs 2 ranks")
+    # z crosses zero: the error is held relative to its amplitude; round-off of the MatMult sums
+    # over 1000 steps (measured 1e-15; the README's rank-count table)
+    assert_close(par.z, ser.z, rtol=0, atol=1e-12 * np.abs(ser.z).max(), what="1 vs 2 ranks")
 
 
 def test_vaf_and_spectrum_of_damped_cosine():
@@ -128,7 +141,8 @@ def test_vaf_and_spectrum_of_damped_cosine():
     omega0, gamma = 2.3, 0.05
     z = np.exp(-gamma * t) * np.cos(omega0 * t) * (1 + 0.5j)
     c = correlations.vaf(np.stack([z, 2 * z]))
-    np.testing.assert_allclose(c, np.exp(-gamma * t) * np.cos(omega0 * t), atol=1e-12)
+    # C crosses zero: held relative to C(0) = 1, the normalisation's round-off (measured 3e-16)
+    assert_close(c, np.exp(-gamma * t) * np.cos(omega0 * t), rtol=0, atol=1e-14, what="VAF")
     omega, power = correlations.power_spectrum(z[None], 0.1)
     assert abs(omega[np.argmax(power)] - omega0) < 2 * np.pi / (4 * 400)
     half = power > power.max() / 2
@@ -140,26 +154,27 @@ def test_block_verlet_equals_blocks_of_one(comm, packing64):
     dm = dynmat.assemble(packing64, 1.0, comm)
     L = packing64.box_length
     batch = [(mode, d, 2 * np.pi * n / L) for mode in ("L", "RT") for d in (0, 1) for n in (1, 3)]
-    block = waves.integrate_block(dm, packing64.positions, batch, amplitude=1e-3, dt=0.02, t_end=10.0,
-                                  sample_every=25)
+    block = waves.integrate_block(dm, packing64.positions, batch, amplitude=1e-3,
+                                  schedule=schedule("verlet", 0.02, 10.0, 25))
     for (mode, d, k), got in zip(batch, block):
         ref = run(dm, packing64, mode, k, 0.02, t_end=10.0, every=25, direction=d)
         scale = np.abs(ref.z).max()
         assert_all(np.abs(got.z - ref.z).max() < 1e-12 * scale and
                    np.abs(got.z_fixed - ref.z_fixed).max() < 1e-12 * scale, f"{mode} {d} {k}")
-        assert_all(np.allclose(got.energy, ref.energy, rtol=1e-10), "energy from cached acceleration")
+        # energies ~1e-5 and 2e-6 (the old default atol = 1e-8 hid any error); measured 1e-15
+        assert_close(got.energy, ref.energy, rtol=1e-12, what="energy from cached acceleration")
     dm.destroy()
 
 
 @pytest.mark.parametrize("block", [False, True])
 def test_blow_up_stops_with_error_not_nan(comm, packing64, block):
     dm = dynmat.assemble(packing64, 1.0, comm)
-    dt = 1.05 * waves.stability_limit("verlet", spectrum.largest_omega(dm))
+    dt = 1.05 * waves.stability_limit("verlet", operators.largest_omega(dm))
     k = 2 * np.pi / packing64.box_length
-    with pytest.raises(waves.StabilityError, match="unstable|grew tenfold"):
+    with pytest.raises(waves.StabilityError, match="unstable"):
         if block:
-            waves.integrate_block(dm, packing64.positions, [("RT", 0, k)], amplitude=1e-3, dt=dt,
-                                  t_end=2000 * dt, sample_every=1)
+            waves.integrate_block(dm, packing64.positions, [("RT", 0, k)], amplitude=1e-3,
+                                  schedule=schedule("verlet", dt, 2000 * dt, 1))
         else:
             run(dm, packing64, "RT", k, dt, t_end=2000 * dt, every=1)
     dm.destroy()
@@ -170,7 +185,7 @@ def test_spectral_path_matches_exact_reference(comm, packing64, mode):
     dm = dynmat.assemble(packing64, 1.0, comm)
     k = 2 * np.pi * 2 / packing64.box_length
     times = np.arange(0, 80.0 + 1e-9, 0.25)  # same sample times as the TS run below
-    s = waves.spectral(dm, packing64.positions, mode, 1, k, amplitude=1e-3, times=times, tol=1e-10)
+    s = spectral(dm, packing64.positions, mode, 1, k, amplitude=1e-3, times=times, tol=1e-10)
     exact = exact_z_fixed(packing64, dm, mode, 1, k, 1e-3, times)
     error = np.abs(s.z_fixed - exact).max() / np.abs(exact).max()
     assert_all(error < 1e-8 and s.error_estimate < 1e-10, f"spectral error {error}, estimate {s.error_estimate}")

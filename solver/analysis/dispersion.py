@@ -34,7 +34,7 @@ import warnings
 
 import numpy as np
 
-from . import correlations
+from . import correlations, lattice
 from . import fits as dispersion
 
 _WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT)_p(\d+)$")
@@ -71,9 +71,8 @@ def averaged_waves(units: dict) -> dict:
     for key, items in groups.items():
         k, t = np.asarray(items[0]["k"]), np.asarray(items[0]["t"])
         z = np.concatenate([np.asarray(d["z"]) for d in items], axis=0)  # (2 P, K, S)
-        c = np.array([correlations.vaf(z[:, i]) for i in range(k.size)])
-        spectra = [correlations.power_spectrum(z[:, i], t[1] - t[0]) for i in range(k.size)]
-        out[key] = (k, t, c, spectra[0][0], np.array([s for _, s in spectra]), len(items))
+        c, omega, power = correlations.pooled(z, t[1] - t[0])
+        out[key] = (k, t, c, omega, power, len(items))
     return out
 
 
@@ -91,7 +90,7 @@ def _fit_a_t(rows, l):
     with fewer than 2 points."""
     if sum(k.size for _, k, _ in rows) < 2:
         return np.nan, np.nan
-    model = np.concatenate([dispersion.lattice_omega(k, rho, l, 1.0, 1.0)[0] for rho, k, _ in rows])
+    model = np.concatenate([lattice.lattice_omega(k, rho, l, 1.0, 1.0)[0] for rho, k, _ in rows])
     data = np.concatenate([w for _, _, w in rows])
     a_t = float(model @ data / (model @ model))
     resid = data - a_t * model
@@ -123,9 +122,9 @@ def analyse(units: dict, spec) -> dict:
             {"rho": rho, "mode": mode, "configurations": count, "t_end": float(t[-1]),
              "power_law_p": p, "power_law_p_err": p_err, "power_law_points": p_points,
              "k_c": np.nan if k_c is None else k_c})
-    lattice = _lattice(fits, spec)
-    if lattice:
-        out["analysis/lattice"] = ({}, lattice)
+    params = _lattice(fits, spec)
+    if params:
+        out["analysis/lattice"] = ({}, params)
         out["analysis/bands"] = (_bands(fits, units), {
             "definition": "omega_r0: RT at the smallest k; omega_r_kmax, omega_t_kmax: RT and TR at the "
                           "largest k; omega_c: vDOS of this file (NaN without one)"})
@@ -152,7 +151,7 @@ def _lattice(fits, spec) -> dict:
     a_t_edge, a_t_edge_err = _fit_a_t([e for e in edge if np.isfinite(e[2]).all()], l)
     return {"a_r": a_r, "a_r_err": a_r_err, "l": l, "l_err": l_err, "a_t": a_t, "a_t_err": a_t_err,
             "a_t_edge": a_t_edge, "a_t_edge_err": a_t_edge_err,
-            "k_max": np.pi / (2 * l), "kd0_max_used": spec.lattice_kd0_max,
+            "k_max": lattice.k_max(l), "kd0_max_used": spec.lattice_kd0_max,
             "rho_values": np.array(sorted({r[0] for r in rt}))}
 
 

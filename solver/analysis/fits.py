@@ -1,12 +1,8 @@
-"""Dispersion analysis: damped-cosine and Lorentzian fits, power laws, the lattice model, k_c.
+"""Dispersion fits: damped cosine (eq:damped), Lorentzian, power laws, the lattice model's
+(a_r, l) fit, k_c.
 
-numpy/scipy only (no PETSc).  Units: omega, gamma in 1/t0; k in 1/d0.
-
-Lattice model (PHYSICS.md section 6): omega_t = a_t sqrt(f - sqrt(g)), omega_r = a_r sqrt(f + sqrt(g)),
-    f = 2 sin^2(kl) + 9 rho cos^2(kl) + 11 rho,
-    g = 4 sin^4(kl) + rho (399 rho - 4) cos^2(kl) - rho (121 rho / 4 + 21) sin^2(2 kl) + rho (rho + 4).
-The paper prints 300 for the coefficient 399: only 399 gives the limits the paper itself states,
-omega_t(0) = 0 and omega_r(0) = a_r sqrt(40 rho) (at k = 0, f^2 - g = (399 - X) rho^2).
+numpy/scipy only (no PETSc).  Units: omega, gamma in 1/t0; k in 1/d0.  The lattice model itself
+(eq:omega_t(k), eq:omega_r(k)) is in ``lattice``.
 """
 
 from __future__ import annotations
@@ -14,25 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, signal
 
-G_COEFFICIENT = 399.0  # the paper's eq. g(k) prints 300: a misprint (see module docstring)
-
-
-def lattice_fg(k, rho, l):
-    """f(k, rho) and g(k, rho) of the lattice model (arrays broadcast)."""
-    s, c = np.sin(k * l), np.cos(k * l)
-    f = 2 * s**2 + 9 * rho * c**2 + 11 * rho
-    g = (4 * s**4 + rho * (G_COEFFICIENT * rho - 4) * c**2
-         - rho * (121 * rho / 4 + 21) * np.sin(2 * k * l) ** 2 + rho * (rho + 4))
-    return f, g
-
-
-def lattice_omega(k, rho, l, a_t, a_r):
-    """(omega_t, omega_r) of the lattice model at wave numbers k (1/d0)."""
-    f, g = lattice_fg(k, rho, l)
-    root = np.sqrt(np.clip(g, 0.0, None))
-    return a_t * np.sqrt(np.clip(f - root, 0.0, None)), a_r * np.sqrt(f + root)
+from . import lattice
 
 
 @dataclass(frozen=True)
@@ -82,15 +62,18 @@ def fit_damped_cosine(t: np.ndarray, c: np.ndarray, decay_window: float = 3.0) -
 
 
 def fit_lorentzian(omega: np.ndarray, power: np.ndarray, width: float = 5.0) -> tuple[float, float]:
-    """(omega_0, gamma) of A gamma / ((w - w0)^2 + gamma^2) fitted around the peak of S(w)."""
+    """(omega_0, gamma) of A gamma / ((w - w0)^2 + gamma^2) fitted around the peak of S(w).
+
+    The starting gamma is the half width at half maximum of the highest peak
+    (``scipy.signal.peak_widths`` at half its height above zero), fitted over
+    |w - w_peak| <= ``width`` x that half width.  ``omega`` (W,) evenly spaced, ``power`` (W,).
+    """
     i = int(np.argmax(power))
-    half = power > power[i] / 2
-    left, right = i, i
-    while left > 0 and half[left - 1]:
-        left -= 1
-    while right < power.size - 1 and half[right + 1]:
-        right += 1
-    gamma0 = max(0.5 * (omega[right] - omega[left]), omega[1] - omega[0])
+    step = omega[1] - omega[0]
+    # prominence = the peak's height above 0 and bases at the ends: the width is taken at power[i] / 2
+    above_zero = (np.array([power[i]]), np.array([0]), np.array([power.size - 1]))
+    full = signal.peak_widths(power, [i], rel_height=0.5, prominence_data=above_zero)[0][0]  # in samples
+    gamma0 = max(0.5 * full * step, step)
     window = np.abs(omega - omega[i]) <= width * gamma0
 
     def model(w, w0, gamma, amp):
@@ -139,7 +122,7 @@ def fit_lattice(data: list[tuple[float, np.ndarray, np.ndarray]], k_max: float =
 
     def residual(params):
         a_r, l = params
-        return np.concatenate([lattice_omega(k, rho, l, 1.0, a_r)[1] - w for rho, k, w in rows])
+        return np.concatenate([lattice.lattice_omega(k, rho, l, 1.0, a_r)[1] - w for rho, k, w in rows])
 
     result = optimize.least_squares(residual, guess, bounds=([0.01, 0.05], [10.0, 2.0]))
     dof = max(1, result.fun.size - 2)

@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 from ..errors import InputError
+from .. import profiling
 from ..packing.jammed import Packing, from_arrays
 
 FORMAT_VERSION = 1
@@ -75,11 +76,12 @@ def _read_one(group, where: str) -> Packing:
 
 def net_force(packing: Packing) -> float:
     """Largest net normal contact force on a non-rattler disk (units kn d0)."""
+    from ..model import contact_law
     from ..packing import geometry as contacts
 
     active = ~packing.rattler
     found = contacts.find_contacts(packing.positions, packing.diameters, packing.box_length, active)
-    f = found.overlap[:, None] * found.normal
+    f = contact_law.normal_force(found.overlap)[:, None] * found.normal  # eq:eij, on i
     net = np.zeros((packing.n, 2))
     for axis in range(2):
         net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
@@ -125,24 +127,32 @@ def save_packings(path: str, packings: list[Packing]) -> None:
             write_packing(f.create_group(f"packings/{index:04d}"), packing)
 
 
+@profiling.logged("rsWriteResults")
 def write_results(path: str, provenance: dict, packings: list[Packing], units: dict) -> None:
     """Write the results file atomically (temporary file, then rename). Rank 0 only.
 
-    ``units`` maps a group path to (datasets dict, attrs dict).
+    ``units`` maps a group path to (datasets dict, attrs dict).  On any error the temporary
+    file is removed and the error raised: nothing is left behind (the caller raises it on
+    every rank).
     """
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
     partial = path + ".partial"
-    with h5py.File(partial, "w") as f:
-        f.attrs["format_version"] = FORMAT_VERSION
-        for key, value in provenance.items():
-            f.attrs[key] = value if isinstance(value, (str, int, float)) else json.dumps(value)
-        for index, packing in enumerate(packings):
-            write_packing(f.create_group(f"packings/{index:04d}"), packing)
-        for name, (datasets, attrs) in units.items():
-            group = f.create_group(name)
-            for key, value in datasets.items():
-                group.create_dataset(key, data=value)
-            for key, value in attrs.items():
-                group.attrs[key] = value
-    os.replace(partial, path)
+    try:
+        with h5py.File(partial, "w") as f:
+            f.attrs["format_version"] = FORMAT_VERSION
+            for key, value in provenance.items():
+                f.attrs[key] = value if isinstance(value, (str, int, float)) else json.dumps(value)
+            for index, packing in enumerate(packings):
+                write_packing(f.create_group(f"packings/{index:04d}"), packing)
+            for name, (datasets, attrs) in units.items():
+                group = f.create_group(name)
+                for key, value in datasets.items():
+                    group.create_dataset(key, data=value)
+                for key, value in attrs.items():
+                    group.attrs[key] = value
+        os.replace(partial, path)
+    except BaseException:
+        if os.path.isfile(partial):
+            os.remove(partial)
+        raise

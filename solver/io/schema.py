@@ -1,20 +1,20 @@
-"""Scenes: YAML run descriptions parsed into frozen, validated dataclasses.
+"""The scene schema: run descriptions as frozen, validated dataclasses.
 
 Every field carries its documentation, default and allowed range in ``metadata``; the README
-reference is printed from the same source (``python -m solver keys``).  Validation is pure
-(no MPI, no PETSc) and deterministic, so every rank that validates the same mapping raises
-the same :class:`~solver.errors.InputError`.  Units: d0 = m = kn = 1.
+reference is printed from the same source (``rotsound keys``, :func:`reference`).  Validation is
+pure (no MPI, no PETSc) and deterministic, so every rank that validates the same mapping raises
+the same :class:`~solver.errors.InputError`.  Reading scene files, ``--set`` and the rules across
+the documents of a file are in ``scenes``.  Units: d0 = m = kn = 1.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import hashlib
 import json
 import math
-import os
 from dataclasses import dataclass, field
-from typing import Any
 
 import yaml
 
@@ -86,7 +86,7 @@ class SpectrumSpec:
     energies: bool = _f(False, "also compute per-mode K, Q and participation ratio (needs eigenvectors); "
                                "with kpm: bin averages of K and Q (twice the probes' cost)", None, bool)
     bin_width: float = _f(0.05, "vDOS bin width in 1/t0", _range(0.0, 10.0, True), float)
-    tol: float = _f(1e-12, "SLEPc relative tolerance (-eps_tol wins)", _range(0.0, 1e-2, True), float)
+    tol: float = _f(1e-12, "SLEPc relative tolerance (-spectrum_eps_tol wins)", _range(0.0, 1e-2, True), float)
     zero_tol: float = _f(1e-4, "modes with omega below this (1/t0) are zero modes", _range(0.0, 1.0, True),
                          float)
     max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
@@ -137,12 +137,12 @@ class WavesSpec:
                                        "2 pi n / L (reported)", _kd0, "floats_list")
     amplitude: float = _f(1e-3, "initial velocity amplitude A (d0/t0, or 1/t0 for RT)",
                           _range(0.0, 1.0, True), float)
-    dt: float = _f(0.02, "time step (t0); refused above the scheme's stability limit", _range(0.0, 10.0, True),
+    dt: float = _f(0.02, "time step (t0); refused at or above the scheme's stability limit (-waves_ts_dt wins)", _range(0.0, 10.0, True),
                    float)
-    t_end: float = _f(100.0, "run length (t0)", _range(0.0, 1e7, True), float)
+    t_end: float = _f(100.0, "run length (t0) (-waves_ts_max_time wins)", _range(0.0, 1e7, True), float)
     sample_every: int = _f(5, "steps between samples of the Fourier components", _range(1, 10**6), int)
-    integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-ts_type wins for "
-                                   "first-order types)", _integrator, str)
+    integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-waves_ts_type wins: "
+                                   "any PETSc TS type; python is verlet)", _integrator, str)
     method: str = _f("ts", "ts: integrate with PETSc TS; spectral: Lanczos on the matrix, no time "
                            "stepping (samples every dt x sample_every, r_i(0) phase only)",
                      lambda v: None if v in ("ts", "spectral") else "must be ts or spectral", str)
@@ -182,25 +182,19 @@ class Scene:
     waves: WavesSpec | None = _f(None, "see waves.*; absent or null: no standing waves", None,
                                  ("optional", WavesSpec))
     petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
-                         "(-eps_*, -st_*, -ts_*, -log_view, ...); the command line wins", None, dict)
+                         "(-spectrum_eps_*, -waves_ts_*, -log_view, ...: see the option prefixes); the command line wins", None, dict)
     analysis: AnalysisSpec = _f(None, "see analysis.*; applies when the scene has waves", None, AnalysisSpec)
     cache: str = _f("auto", "shared unit cache: `auto` = a `cache` folder beside `output`, a folder path, or "
                             "`off` (or false); packings, matrix summaries, spectra and waves are reused from it "
                             "by content", None, "cache")
 
-    def cache_folder(self) -> str | None:
-        """The cache folder this scene uses, or None."""
-        if self.cache == "off":
-            return None
-        if self.cache == "auto":
-            return os.path.join(os.path.dirname(self.output) or ".", "cache")
-        return self.cache
-
     def digest(self) -> str:
-        """Stable hash of everything that determines the computed units (not ``output``, not
-        ``analysis``, which only post-processes them, not ``cache``)."""
+        """Stable hash of what the scene asks for (not ``output``, not ``analysis``, which only
+        post-processes units, not ``cache``, not ``petsc``: the options acting on a unit are part
+        of that unit's own content key, so changing them recomputes just those units, whether they
+        come from this block or the command line)."""
         data = dataclasses.asdict(self)
-        for name in ("output", "analysis", "cache"):
+        for name in ("output", "analysis", "cache", "petsc"):
             data.pop(name)
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -289,7 +283,9 @@ def build(cls, raw, where: str = ""):
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(map(str, raw)) - set(fields))
     if unknown:
-        raise InputError(f"unknown key {where}{unknown[0]}: allowed keys in "
+        near = difflib.get_close_matches(unknown[0], fields, n=1)
+        hint = f"did you mean {where}{near[0]}? " if near else ""
+        raise InputError(f"unknown key {where}{unknown[0]}: {hint}allowed keys in "
                          f"{where.rstrip('.') or 'the scene'} are {', '.join(fields)}")
     values = {}
     for name, f in fields.items():
@@ -330,65 +326,6 @@ def _cross_check(obj, where):
                          f"fewer than 4 samples in t_end = {obj.t_end}")
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
-
-
-def set_key(raw: dict, assignment: str) -> None:
-    """Apply one ``--set key.path=value`` (value parsed as YAML) to ``raw`` in place."""
-    if "=" not in assignment:
-        raise InputError(f"--set {assignment!r}: must look like key.path=value")
-    path, text = assignment.split("=", 1)
-    try:
-        value = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise InputError(f"--set {assignment!r}: value is not valid YAML ({exc})") from None
-    node = raw
-    keys = path.split(".")
-    for key in keys[:-1]:
-        node = node.setdefault(key, {})
-        if not isinstance(node, dict):
-            raise InputError(f"--set {assignment!r}: {key} is not a mapping")
-    node[keys[-1]] = value
-
-
-def read_documents(path: str) -> list[dict]:
-    """Read a scene file into one mapping per YAML document (``---`` separates scenes that run
-    one after another); errors name the file and document. Not collective."""
-    if not os.path.isfile(path):
-        raise InputError(f"scene file {path}: not found")
-    try:
-        with open(path, encoding="utf-8") as stream:
-            docs = list(yaml.safe_load_all(stream))
-    except yaml.YAMLError as exc:
-        raise InputError(f"scene file {path}: invalid YAML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"scene file {path}: cannot read: {exc}") from None
-    docs = [{} if d is None else d for d in docs] or [{}]
-    for index, raw in enumerate(docs):
-        if not isinstance(raw, dict):
-            where = f", document {index + 1}" if len(docs) > 1 else ""
-            raise InputError(f"scene file {path}{where}: top level must be a mapping of keys")
-    return docs
-
-
-def build_all(path: str, docs: list[dict]) -> list[Scene]:
-    """Validate every document of ``path``; the rules that span documents: distinct outputs, and
-    PETSc options only in the first (they configure the one PETSc of the whole run)."""
-    scenes = []
-    for index, raw in enumerate(docs):
-        try:
-            scenes.append(build(Scene, raw))
-        except InputError as exc:
-            if len(docs) == 1:
-                raise
-            raise InputError(f"scene file {path}, document {index + 1}: {exc}") from None
-        if index and scenes[-1].petsc:
-            raise InputError(f"scene file {path}, document {index + 1}: petsc options configure the whole "
-                             f"run; give them in the first document only")
-    outputs = [s.output for s in scenes]
-    for out in outputs:
-        if outputs.count(out) > 1:
-            raise InputError(f"scene file {path}: two documents write output {out!r}; each needs its own")
-    return scenes
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:

@@ -1,4 +1,4 @@
-"""Finished units of a run, kept so that a killed run resumes where it stopped.
+"""Finished units of a run, kept so that a killed run resumes where it stopped; the shared cache.
 
 Each unit (a packing, a matrix summary, a spectrum, the waves of one mode, ...) is written by
 rank 0 as its own small HDF5 file in ``<output>.units/`` -- to a temporary name, then renamed
@@ -8,16 +8,25 @@ rest; the final results file is assembled from them atomically.  ``scene.yaml`` 
 records which scene the units belong to: another scene pointed at the same output is refused.
 Delete the folder to recompute everything.
 
-A shared cache (scene key ``cache``, a folder) holds the same unit files under a content key:
-a hash of everything that determines the unit (packing recipe or packing arrays, rho, the
-stage's settings, the PETSc options), so another scene or output that needs the same unit
-loads it instead of computing it.  Cache entries are hard links to the unit files where the
-file system allows (copies otherwise) and are written atomically like the units themselves.
-All methods are collective on ``comm``.
+Every unit is keyed by its content (:class:`UnitKey`): what determines it -- the packing's
+arrays (or a packing's recipe), rho, the stage's settings, the PETSc options that act on the
+stage (``options.acting_on``: ``-log_view`` changes nothing), the rotsound version.  The key
+and its parts are stored in the unit file; a unit whose stored key differs from the key now is
+recomputed, and the log says what changed.  The spectrum's window checkpoints carry the key of
+their spectrum unit, so a checkpoint made with other settings is discarded, never mixed in.
+
+A shared cache (scene key ``cache``, a folder) holds the same unit files under that key, so
+another scene or output that needs the same unit loads it instead of computing it.  Cache
+entries are hard links to the unit files where the file system allows (copies otherwise) and
+are written atomically like the units themselves.
+
+All methods are collective on ``comm``; rank 0 does the file work, and an error there (of any
+type) is raised on every rank.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -26,8 +35,12 @@ import shutil
 import h5py
 import numpy as np
 
-from .. import parallel
+from .. import __version__, parallel
+from .. import options as petscopts
 from ..errors import InputError
+
+_META = ("complete", "unit_key", "unit_key_parts")
+"""Attributes of a unit file that describe the file, not the unit (not in the results file)."""
 
 
 def content_key(*parts) -> str:
@@ -40,6 +53,124 @@ def content_key(*parts) -> str:
         else:
             h.update(json.dumps(part, sort_keys=True, default=str).encode())
     return h.hexdigest()[:24]
+
+
+def cache_folder(scene) -> str | None:
+    """The cache folder ``scene`` uses (scene key ``cache``), or None for ``off``."""
+    if scene.cache == "off":
+        return None
+    if scene.cache == "auto":
+        return os.path.join(os.path.dirname(scene.output) or ".", "cache")
+    return scene.cache
+
+
+@dataclasses.dataclass(frozen=True)
+class UnitKey:
+    """What determines one unit: ``parts`` (JSON-able: unit, packing, rho, section, settings,
+    options, version, ...) and ``digest``, their hash (the cache file name)."""
+
+    parts_json: str
+
+    @classmethod
+    def of(cls, **parts) -> UnitKey:
+        return cls(json.dumps(parts, sort_keys=True, default=str))
+
+    @property
+    def parts(self) -> dict:
+        return json.loads(self.parts_json)
+
+    @property
+    def digest(self) -> str:
+        return hashlib.sha256(self.parts_json.encode()).hexdigest()[:24]
+
+    @property
+    def options(self) -> dict:
+        """The PETSc options acting on the unit (name without '-' -> value, None for a flag)."""
+        return self.parts.get("options", {})
+
+    def changes(self, stored_json: str | None) -> str:
+        """What differs between the key stored with a unit and this key, in words."""
+        if not stored_json:
+            return "no content key stored (written by an older rotsound)"
+        old, new = json.loads(stored_json), self.parts
+        said = []
+        for part in sorted(set(old) | set(new)):
+            a, b = old.get(part), new.get(part)
+            if a == b:
+                continue
+            if part == "options":
+                said.append(f"PETSc options acting on it changed ({_option_changes(a or {}, b or {})})")
+            elif part == "settings":
+                said.append(f"{new.get('section', 'stage')} settings changed ("
+                            + ", ".join(f"{k} {_show(a.get(k))} -> {_show(b.get(k))}"
+                                        for k in sorted(set(a or {}) | set(b or {}))
+                                        if (a or {}).get(k) != (b or {}).get(k)) + ")")
+            elif part == "packing":
+                said.append("packing changed")
+            else:
+                said.append(f"{part} changed ({_show(a)} -> {_show(b)})")
+        return "; ".join(said) or "content key differs"
+
+
+def _show(value) -> str:
+    return "none" if value is None else value if isinstance(value, str) else json.dumps(value)
+
+
+def _option_changes(old: dict, new: dict) -> str:
+    """'-spectrum_eps_tol 1e-3, was none; ...' for the options that differ."""
+    said = []
+    for name in sorted(set(old) | set(new)):
+        if name in old and name in new and old[name] == new[name]:
+            continue
+        now = (f"-{name}" + (f" {new[name]}" if new[name] is not None else "")) if name in new else f"-{name} not set"
+        was = "none" if name not in old else "set" if old[name] is None else old[name]
+        said.append(f"{now}, was {was}")
+    return "; ".join(said)
+
+
+def packing_key(scene, index: int) -> UnitKey:
+    """Key of generated packing ``index`` of ``scene``: its recipe."""
+    spec = scene.packing
+    return UnitKey.of(unit="packing", section="packing", version=__version__, settings={
+        "n": spec.n, "phi": spec.phi, "seed": scene.seed, "index": index, "force_tol": spec.force_tol,
+        "max_steps": spec.max_steps})
+
+
+def unit_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
+    """Content key of every matrix, spectrum and waves unit this scene can compute. Not collective.
+
+    A packing is keyed by its arrays (so a file and a generated packing with equal contents
+    share units); spectra and waves also by their section's settings and the PETSc options that
+    act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
+    KPM's probes by their seed.  The rotsound version is part of every key, so a new version
+    never reuses an older one's numbers.
+    """
+    keys = {}
+    for p_index, p in enumerate(packings):
+        base = {"packing": content_key(p.positions, p.diameters, np.float64(p.box_length), p.rattler),
+                "version": __version__}
+        for r_index, rho in enumerate(scene.model.rho):
+            tag = f"r{r_index:02d}_p{p_index:04d}"
+            keys[f"matrices/{tag}"] = UnitKey.of(unit="matrix", rho=rho, options={}, **base)
+            if scene.spectrum is not None:
+                method = scene.spectrum.method
+                keys[f"spectra/{tag}"] = UnitKey.of(
+                    unit="spectrum", rho=rho, section="spectrum", settings=dataclasses.asdict(scene.spectrum),
+                    seed=scene.seed + p_index if method == "kpm" else None,
+                    options=petscopts.acting_on(petsc_argv, "spectra", method), **base)
+            if scene.waves is not None:  # one mode's unit does not depend on the others asked
+                settings = {k: v for k, v in dataclasses.asdict(scene.waves).items() if k != "modes"}
+                options = petscopts.acting_on(petsc_argv, "waves", scene.waves.method)
+                for mode in scene.waves.modes:
+                    keys[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = UnitKey.of(
+                        unit="waves", rho=rho, mode=mode, section="waves", settings=settings,
+                        options=options, **base)
+    return keys
+
+
+def _on_root(comm, work):
+    """``work()`` on rank 0; its result on every rank, its error (any type) raised on every rank."""
+    return parallel.owner_compute(comm, [0], lambda _: work())[0]
 
 
 class UnitStore:
@@ -55,8 +186,8 @@ class UnitStore:
         self.cache = cache
         self.fresh = fresh
         self.counts: dict[str, dict[str, int]] = {}
-        error = None
-        if comm.rank == 0:
+
+        def claim():
             try:
                 if fresh:
                     shutil.rmtree(self.folder, ignore_errors=True)
@@ -65,9 +196,9 @@ class UnitStore:
                 self._claim(output, scene_yaml, digest)
                 if cache:
                     os.makedirs(cache, exist_ok=True)
-            except (InputError, OSError) as exc:
-                error = exc if isinstance(exc, InputError) else InputError(f"{self.folder}: {exc}")
-        parallel.agree(comm, error)
+            except OSError as exc:
+                raise InputError(f"{self.folder}: {exc}") from None
+        _on_root(comm, claim)
 
     def _claim(self, output, scene_yaml, digest):
         marker = os.path.join(self.folder, "scene.yaml")
@@ -94,8 +225,8 @@ class UnitStore:
     def _path(self, name: str) -> str:
         return os.path.join(self.folder, name.replace("/", "__") + ".h5")
 
-    def _cached(self, name: str, key: str) -> str:
-        return os.path.join(self.cache, name.split("/")[0], key + ".h5")
+    def _cached(self, name: str, digest: str) -> str:
+        return os.path.join(self.cache, name.split("/")[0], digest + ".h5")
 
     def _count(self, name: str, how: str) -> None:
         stage = self.counts.setdefault(name.split("/")[0], {"resumed": 0, "cache": 0, "computed": 0})
@@ -103,73 +234,107 @@ class UnitStore:
 
     @staticmethod
     def _read(path: str):
+        """(datasets, attrs, stored key, stored key parts) of a finished unit file, or None if it
+        is damaged or incomplete (an unreadable HDF5 file raises OSError in h5py)."""
         try:
             with h5py.File(path, "r") as f:
                 if f.attrs.get("complete", False):
-                    return {k: f[k][()] for k in f}, {k: v for k, v in f.attrs.items() if k != "complete"}
+                    return ({k: f[k][()] for k in f}, {k: v for k, v in f.attrs.items() if k not in _META},
+                            f.attrs.get("unit_key"), f.attrs.get("unit_key_parts"))
         except OSError:
             pass
         return None
 
-    def load(self, name: str, key: str | None = None) -> tuple[dict, dict] | None:
-        """(datasets, attrs) of a finished unit, or None: from the folder, else from the cache
-        under ``key`` (then also linked into the folder). A damaged file counts as missing."""
-        found, how = None, None
-        if self.comm.rank == 0:
+    def load(self, name: str, key: UnitKey | None = None, cache: bool = True,
+             say_why: bool = True) -> tuple[dict, dict] | None:
+        """(datasets, attrs) of a finished unit, or None: from the folder if its stored key is
+        ``key``, else from the cache under ``key`` (then also linked into the folder).  A damaged
+        file counts as missing; a unit of another key is recomputed, and (``say_why``) the log
+        says what changed."""
+        def find():
             path = self._path(name)
+            found, how, why = None, None, None
             if os.path.isfile(path):
-                found, how = self._read(path), "resumed"
-                if found is None:
+                unit = self._read(path)
+                if unit is None:
                     print(f"rotsound: warning: unit file {path} is damaged or incomplete: recomputing it",
                           flush=True)
-            if found is None and key and self.cache and not self.fresh:
-                cached = self._cached(name, key)
+                elif key is not None and unit[2] != key.digest:
+                    why = key.changes(unit[3])
+                else:
+                    found, how = unit[:2], "resumed"
+            if found is None and key is not None and cache and self.cache and not self.fresh:
+                cached = self._cached(name, key.digest)
                 if os.path.isfile(cached):
-                    found, how = self._read(cached), "cache"
-                    if found is not None:
+                    unit = self._read(cached)
+                    if unit is not None and unit[2] == key.digest:
+                        found, how = unit[:2], "cache"
                         self._link(cached, path)
-        found, how = self.comm.bcast((found, how), root=0)
+            if why and say_why:
+                print(f"{name}: {'taken from the cache' if how == 'cache' else 'recomputing'}: {why}", flush=True)
+            return found, how
+
+        found, how = _on_root(self.comm, find)
         if found is not None:
             self._count(name, how)
         return found
 
     @staticmethod
     def _link(source: str, target: str) -> None:
-        """Hard link (or copy) ``source`` to ``target`` atomically."""
+        """Hard link (or copy) ``source`` to ``target`` atomically. Rank 0."""
         os.makedirs(os.path.dirname(target), exist_ok=True)
         partial = target + ".partial"
         if os.path.exists(partial):
             os.remove(partial)
         try:
             os.link(source, partial)
-        except OSError:
+        except OSError:  # no hard links on this file system (or across them): copy
             shutil.copyfile(source, partial)
         os.replace(partial, target)
 
-    def save(self, name: str, datasets: dict, attrs: dict, key: str | None = None) -> None:
-        """Write one finished unit atomically (rank 0), and enter it in the cache under ``key``."""
-        error = None
-        if self.comm.rank == 0:
-            partial = self._path(name) + ".partial"
+    def save(self, name: str, datasets: dict, attrs: dict, key: UnitKey | None = None,
+             cache: bool = True) -> None:
+        """Write one finished unit atomically (rank 0) with its key, and (``cache``) enter it in
+        the cache under that key."""
+        def write():
+            path = self._path(name)
+            partial = path + ".partial"
             try:
                 with h5py.File(partial, "w") as f:
                     for k, value in datasets.items():
                         f.create_dataset(k, data=value)
                     for k, value in attrs.items():
                         f.attrs[k] = value
+                    if key is not None:
+                        f.attrs["unit_key"] = key.digest
+                        f.attrs["unit_key_parts"] = key.parts_json
                     f.attrs["complete"] = True
-                os.replace(partial, self._path(name))
-                if key and self.cache:
-                    self._link(self._path(name), self._cached(name, key))
-            except OSError as exc:
-                error = exc
-        parallel.agree(self.comm, error)
+                os.replace(partial, path)
+            except BaseException:
+                if os.path.exists(partial):
+                    os.remove(partial)
+                raise
+            if key is not None and cache and self.cache:
+                self._link(path, self._cached(name, key.digest))
+
+        _on_root(self.comm, write)
         self._count(name, "computed")
 
     def discard(self, name: str) -> None:
-        """Remove a unit file from the folder (rank 0), e.g. checkpoints made redundant."""
-        if self.comm.rank == 0 and os.path.exists(self._path(name)):
-            os.remove(self._path(name))
+        """Remove a unit file from the folder (rank 0)."""
+        def remove():
+            if os.path.exists(self._path(name)):
+                os.remove(self._path(name))
+        _on_root(self.comm, remove)
+
+    def discard_all(self, prefix: str) -> None:
+        """Remove every unit file of the folder whose name starts with ``prefix`` (rank 0)."""
+        def remove():
+            start = os.path.basename(self._path(prefix))[:-3]
+            for entry in sorted(os.listdir(self.folder)):
+                if entry.startswith(start) and entry.endswith(".h5"):
+                    os.remove(os.path.join(self.folder, entry))
+        _on_root(self.comm, remove)
 
     def summary(self) -> str:
         """Per stage, how many units were computed, resumed and reused from the cache."""
@@ -180,25 +345,25 @@ class UnitStore:
 
 class WindowCheckpoint:
     """Finished windows of one spectrum unit (``spectrum.solve(checkpoint=...)``), kept in the
-    store as ``spectrum_windows/<tag>_<name>`` so that a killed hours-long spectrum resumes
-    window by window.  Not cached across scenes: only the whole spectrum unit is."""
+    store as ``spectrum_windows/<tag>_<name>`` under the spectrum unit's key, so that a killed
+    hours-long spectrum resumes window by window, on any rank count; a plan or window of another
+    key is recomputed (the log says why once, for the plan).  Not cached across scenes: only
+    the whole spectrum unit is."""
 
-    def __init__(self, store: UnitStore, tag: str):
-        self.store, self.tag, self.names = store, tag, set()
+    def __init__(self, store: UnitStore, tag: str, key: UnitKey | None):
+        self.store, self.tag, self.key = store, tag, key
 
     def load(self, name: str) -> dict | None:
-        self.names.add(name)
-        unit = self.store.load(f"spectrum_windows/{self.tag}_{name}")
+        unit = self.store.load(f"spectrum_windows/{self.tag}_{name}", self.key, cache=False,
+                               say_why=name == "plan")
         return None if unit is None else unit[0]
 
     def save(self, name: str, datasets: dict) -> None:
-        self.names.add(name)
-        self.store.save(f"spectrum_windows/{self.tag}_{name}", datasets, {})
+        self.store.save(f"spectrum_windows/{self.tag}_{name}", datasets, {}, self.key, cache=False)
 
     def clear(self) -> None:
-        """Drop the window files once the whole spectrum unit is saved."""
-        for name in self.names:
-            self.store.discard(f"spectrum_windows/{self.tag}_{name}")
+        """Drop every window file of this spectrum (also stale ones) once its unit is saved."""
+        self.store.discard_all(f"spectrum_windows/{self.tag}_")
 
 
 def packing_unit(p) -> tuple[dict, dict]:

@@ -1,4 +1,6 @@
-"""Distributed dynamical matrix D and mass vector M of a packing (PETSc).
+"""Distributed dynamical matrix D and mass vector M of a packing (PETSc): the paper's eq:motion
+M u'' = -D u with the mass matrix eq:mm, D the Hessian of the contact energy eq:eij summed over
+contacts (blocks from ``contact_law``).
 
 DOF order per non-rattler disk, in packing order: (u_x, u_y, theta) for rho > 0.
 Decision for rho = 0 (frictionless): rotations carry no stiffness, so they are dropped and the
@@ -17,6 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import parallel
+from .. import profiling
 from ..packing import geometry as contacts
 from . import contact_law
 from ..packing.jammed import Packing
@@ -39,7 +42,8 @@ class DynamicalMatrix:
     rho: float
     disk_range: tuple[int, int]
     n_contacts: int
-    omega_max: float | None = None  # cached by spectrum.largest_omega
+    omega_max: float | None = None  # cached by operators.largest_omega
+    wmax_settings: dict | None = None  # what its wmax_ EPS used (operators.largest_omega)
     scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
 
     @property
@@ -97,6 +101,7 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int]
     return csr, dof, len(found)
 
 
+@profiling.logged("rsAssemble")
 def assemble(packing: Packing, rho: float, comm) -> DynamicalMatrix:
     """Assemble D and M on ``comm`` (PETSc communicator). Collective.
 

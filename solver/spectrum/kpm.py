@@ -16,6 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import profiling
+from ..model.operators import largest_omega
+
 
 def jackson(m: int) -> np.ndarray:
     """Jackson damping factors g_n, n = 0..m-1."""
@@ -24,6 +27,7 @@ def jackson(m: int) -> np.ndarray:
     return ((m - n + 1) * np.cos(q * n) + np.sin(q * n) / np.tan(q)) / (m + 1)
 
 
+@profiling.logged("rsKPMMoments")
 def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel: str | None = None
             ) -> tuple[np.ndarray, float, float]:
     """Stochastic Chebyshev moments (n_moments,) of the non-zero modes; also (c, h). Collective.
@@ -131,3 +135,37 @@ def auto_moments(lam_max: float, bin_width: float, omega_ref: float = 1.0) -> in
     """Moments so that Jackson's omega smearing at omega_ref is about half a bin."""
     h = 0.51 * lam_max
     return int(np.ceil(2 * np.pi * h / (2 * omega_ref * bin_width)))
+
+
+N_ZERO_MODES = 2
+"""Modes a KPM density leaves out: the two uniform translations, projected out of every probe
+(the only zero modes of a jammed packing with its rattlers removed)."""
+
+
+def solve(dm, *, bin_width: float, moments: int | None, probes: int, with_energies: bool, seed: int
+          ) -> tuple[dict, dict]:
+    """The KPM counterpart of ``slicing.solve``: the vDOS of ``dm`` as (datasets, attrs). Collective.
+
+    Bins [0, w), [w, 2w), ... of width ``bin_width`` up to 1.1 omega_max (omega_max from the
+    Lanczos solve, ``model.operators.largest_omega``); ``moments`` (None: :func:`auto_moments`).
+    datasets: edges (B+1,), density (B,) and, ``with_energies``, K and Q (B,): from channel-restricted
+    probes (:func:`energies`) when the matrix has rotations; at rho = 0 it has none, every mode has
+    K = 1/4N and Q = 0, and those are filled in without probes (NaN where the density is 0).
+    attrs: omega_max (1/t0), moments, probes, n_zero_modes (N_ZERO_MODES), dof, n_disks.
+    """
+    omega_max = largest_omega(dm)
+    edges = np.arange(0.0, bin_width * (np.ceil(1.1 * omega_max / bin_width) + 1), bin_width)
+    n_moments = moments or auto_moments(omega_max**2, bin_width)
+    n_disks = int(dm.active.sum())
+    datasets = {"edges": edges}
+    if with_energies and dm.dof == 3:  # K and Q from channel-restricted probes (same cost x 2)
+        datasets["density"], datasets["K"], datasets["Q"] = energies(dm, edges, omega_max**2, n_moments,
+                                                                     probes, seed)
+    else:
+        datasets["density"] = vdos(dm, edges, omega_max**2, n_moments, probes, seed)
+        if with_energies:
+            populated = datasets["density"] > 0
+            datasets["K"] = np.where(populated, 1.0 / (4 * n_disks), np.nan)
+            datasets["Q"] = np.where(populated, 0.0, np.nan)
+    return datasets, {"omega_max": omega_max, "moments": n_moments, "probes": probes,
+                      "n_zero_modes": N_ZERO_MODES, "dof": dm.size, "n_disks": n_disks}

@@ -12,6 +12,7 @@ spread evenly over all disks, 1/N for a mode on one disk).
 from __future__ import annotations
 
 import numpy as np
+from scipy import stats
 
 
 def local_sums(vectors: np.ndarray, dof: int) -> np.ndarray:
@@ -49,16 +50,38 @@ def vdos(omegas: list[np.ndarray], bin_width: float) -> tuple[np.ndarray, np.nda
 
 
 def bin_average(omega: np.ndarray, values: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """Mean of ``values`` over the modes in each bin of ``edges`` (NaN for empty bins)."""
-    index = np.digitize(omega, edges) - 1
-    ok = (index >= 0) & (index < edges.size - 1)
-    total = np.bincount(index[ok], values[ok], minlength=edges.size - 1)
-    count = np.bincount(index[ok], minlength=edges.size - 1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    """Mean of ``values`` over the modes in each bin of ``edges`` (B,), NaN for empty bins.
+
+    Bins as ``np.histogram``'s: [e_i, e_i+1), the last one closed; ``scipy.stats.binned_statistic``.
+    """
+    if np.size(omega) == 0:  # binned_statistic cannot take an empty sample
+        return np.full(np.size(edges) - 1, np.nan)
+    return stats.binned_statistic(omega, values, statistic="mean", bins=edges).statistic
 
 
 def cutoff(omegas: list[np.ndarray]) -> tuple[float, float]:
     """omega_c: mean over configurations of the largest eigenfrequency, and its std."""
     tops = np.array([w.max() for w in omegas if w.size])
     return float(tops.mean()), float(tops.std(ddof=1)) if tops.size > 1 else 0.0
+
+
+def pooled_vdos(spectra: list[tuple[dict, dict]], bin_width: float
+                ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """vDOS and omega_c of one rho from its configurations' spectrum units (datasets, attrs).
+
+    Slicing units (dataset ``omega``): the histogram of the pooled modes (:func:`vdos`) and
+    :func:`cutoff`.  KPM units (datasets ``edges``, ``density``; attribute ``omega_max``): all
+    share the bins [0, w), [w, 2w), ... and differ only in how far they reach, so their densities
+    are averaged on the longest grid (zero beyond a shorter one's top; unit area kept), and omega_c
+    is the mean of the omega_max.  Returns (edges (B+1,), density (B,), omega_c, its std over
+    configurations).
+    """
+    if "omega" in spectra[0][0]:
+        omegas = [datasets["omega"] for datasets, _ in spectra]
+        return (*vdos(omegas, bin_width), *cutoff(omegas))
+    edges = max((datasets["edges"] for datasets, _ in spectra), key=len)
+    density = np.zeros(edges.size - 1)
+    for datasets, _ in spectra:
+        density[: datasets["density"].size] += datasets["density"] / len(spectra)
+    tops = np.array([float(attrs["omega_max"]) for _, attrs in spectra])
+    return edges, density, float(tops.mean()), float(tops.std(ddof=1)) if tops.size > 1 else 0.0

@@ -16,24 +16,36 @@ misses any mode).  Eigenvalues are Rayleigh quotients of the converged vectors.
 
 Bounded memory: slicing keeps every eigenvector of its interval, so the interval is cut into
 windows of at most ``max_window_modes`` modes, placed from Sylvester inertias (refined until
-every cut is known to a quarter of a window piece), and solved one after another; each window's
+every cut is known to a quarter of a window), and solved one after another; each window's
 vectors are reduced to K, Q and the participation ratio and freed.  This also keeps
-n x nconv below 2^31 for the 32-bit-index PETSc build.  On p ranks each window is split
-into p sub-intervals with equal mode counts (``-eps_krylovschur_partitions``), each solved
-by one rank with a sequential factorisation.
+n x nconv below 2^31 for the 32-bit-index PETSc build.  The windows do not depend on the
+number of ranks (a checkpointed spectrum resumes on any rank count): when a window is solved
+on p ranks, it is split into p sub-intervals with equal mode counts, again from inertias
+(``krylovschur_partitions``), each solved by one rank with a sequential factorisation.
 
-Options: the EPS has no prefix, so ``-eps_*``, ``-st_*``, ``-mat_mumps_*`` work from the
-scene's ``petsc:`` block and the command line (set in code first, then setFromOptions).
+Options: the slicing EPS has the prefix ``spectrum_`` (``-spectrum_eps_*``, ``-spectrum_st_*``,
+``-spectrum_st_mat_mumps_icntl_*``), the inertia factorisations ``inertia_``
+(``-inertia_pc_factor_mat_solver_type``, ``-inertia_mat_mumps_icntl_*``), the lambda_max solve
+``wmax_`` (``model.operators``).  Defaults are set on the objects in code, then setFromOptions,
+so options win; nothing is written into the options database.  What each object used is read
+back into ``Spectrum.settings``.
 Units: omega in 1/t0.  Collective on the matrix's communicator.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import modes
+from .. import profiling
+from ..model.operators import largest_omega, scaled_operator
+from ..options import eps_settings, pc_settings
+
+SLICING_PREFIX = "spectrum_"
+INERTIA_PREFIX = "inertia_"
 
 INT32_LIMIT = 2**31 - 1
 
@@ -49,116 +61,158 @@ class Spectrum:
     inertia_count: int
     windows: int
     energies: dict | None = None
+    settings: dict | None = None  # what the solver objects used: {"spectrum": EPS, "inertia": PC}
 
 
-def scaled_operator(dm):
-    """A = M^-1/2 D M^-1/2 as a new PETSc Mat (flagged symmetric). Collective."""
-    from petsc4py import PETSc
-
-    scale = dm.M.copy()
-    scale.sqrtabs()
-    scale.reciprocal()
-    A = dm.D.copy()
-    A.diagonalScale(scale, scale)
-    A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-    A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
-    scale.destroy()
-    return A
+def _mumps_defaults(pc) -> None:
+    """ICNTL(13) = 1 (the root node is not factorised by ScaLAPACK, so parallel inertias are
+    right) and ICNTL(24) = 1 (null pivots detected instead of failing) on a PC that factorises
+    with MUMPS; a no-op for another package.  Called after setFromOptions: the factor matrix reads
+    its own options (``-<prefix>mat_mumps_icntl_*``) when it is factorised, so those still win.
+    Collective."""
+    if pc.getType() in ("cholesky", "lu") and pc.getFactorSolverType() == "mumps":
+        pc.setFactorSetUpSolverType()
+        factor = pc.getFactorMatrix()
+        factor.setMumpsIcntl(13, 1)
+        factor.setMumpsIcntl(24, 1)
 
 
-def largest_omega(dm) -> float:
-    """omega_max of M^-1 D by a cheap SLEPc solve (prefix ``wmax_``), cached on ``dm``. Collective."""
-    from slepc4py import SLEPc
+@profiling.logged("rsInertia")
+def inertia(A, sigma: float) -> tuple[int, dict]:
+    """(number of eigenvalues of A below ``sigma``, what the factorisation used). Collective.
 
-    if dm.omega_max is not None:
-        return dm.omega_max
-    A = scaled_operator(dm)
-    eps = SLEPc.EPS().create(A.getComm())
-    eps.setOperators(A)
-    eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
-    eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
-    eps.setDimensions(nev=1)
-    eps.setTolerances(tol=1e-8)
-    eps.setOptionsPrefix("wmax_")
-    eps.setFromOptions()
-    eps.solve()
-    if eps.getConverged() < 1:
-        raise RuntimeError("could not compute the largest eigenfrequency (wmax_ EPS did not converge)")
-    lam = eps.getEigenvalue(0).real
-    eps.destroy()
-    A.destroy()
-    dm.omega_max = float(np.sqrt(lam))
-    return dm.omega_max
-
-
-def count_below(A, sigma: float) -> int:
-    """Number of eigenvalues of A below ``sigma`` (Sylvester inertia of A - sigma I). Collective."""
+    Sylvester inertia of A - sigma I from a Cholesky factorisation (PC with the options prefix
+    ``inertia_``; defaults MUMPS with ICNTL 13 and 24, see :func:`_mumps_defaults`).
+    """
     from petsc4py import PETSc
 
     shifted = A.copy()
     shifted.shift(-sigma)
     shifted.setOption(PETSc.Mat.Option.SYMMETRIC, True)
     pc = PETSc.PC().create(A.getComm())
-    pc.setOperators(shifted)
-    pc.setType(PETSc.PC.Type.CHOLESKY)
-    pc.setFactorSolverType("mumps")
-    pc.setFactorSetUpSolverType()
-    factor = pc.getFactorMatrix()
-    factor.setMumpsIcntl(13, 1)  # inertia must include the root node on several ranks
-    factor.setMumpsIcntl(24, 1)  # detect null pivots instead of failing
-    pc.setUp()
-    negative, _, _ = factor.getInertia()
-    factor.destroy()  # the wrapper holds a reference: without this each call leaked the factor
-    pc.destroy()
-    shifted.destroy()
-    return int(negative)
+    try:
+        pc.setOperators(shifted)
+        pc.setType(PETSc.PC.Type.CHOLESKY)
+        pc.setFactorSolverType("mumps")
+        pc.setOptionsPrefix(INERTIA_PREFIX)
+        pc.setFromOptions()
+        _mumps_defaults(pc)
+        pc.setUp()
+        factor = pc.getFactorMatrix()
+        negative, _, _ = factor.getInertia()
+        used = pc_settings(pc)
+        factor.destroy()  # the wrapper holds a reference: without this each call leaked the factor
+    finally:
+        pc.destroy()
+        shifted.destroy()
+    return int(negative), {"prefix": INERTIA_PREFIX, **used}
 
 
-def plan_windows(A, lo: float, hi: float, max_modes: int, parts: int
-                 ) -> tuple[list[list[float]], int, int]:
-    """Cut (lo, hi] into windows of at most ~``max_modes`` modes, each window into ``parts``
-    sub-intervals (one per rank) of about equal count.
+def count_below(A, sigma: float) -> int:
+    """Number of eigenvalues of A below ``sigma`` (Sylvester inertia of A - sigma I). Collective."""
+    return inertia(A, sigma)[0]
 
-    Cut points come from Sylvester inertias, refined where needed: the count between two known
-    shifts is interpolated linearly only once it is below a quarter of a piece (new shifts are
-    placed by safeguarded interpolation, about three factorisations per cut), so a steep vDOS
-    cannot put several times the intended modes into one window (it once did at the low end of
-    an N = 32768 spectrum, and the run ran out of memory).  Collective; every rank makes the same
-    choices, since inertias are global.  Returns (sub-interval edges per window, count below lo,
-    count below hi).
+
+CLUSTER_WIDTH = 1e-9
+"""Relative width (of max(|hi|, 1)) below which a bracket holding more modes than the slack is
+taken to be one cluster of (nearly) equal eigenvalues and is no longer narrowed."""
+CLUSTER_MARGIN = 1e-7
+"""Relative distance kept between a cut and such a cluster: a slicing edge within round-off of an
+eigenvalue makes SLEPc's own inertia disagree with the modes it finds (error 77, raised on one
+rank only).  1e-7 is far above the eigenvalues' accuracy (~1e-14) and far below any bin."""
+
+
+def _place(A, known: dict, targets: np.ndarray, slack: float, scale: float) -> list[float]:
+    """Shifts where the eigenvalue count of A reaches each of ``targets`` (ascending, strictly
+    between the counts of the first and last shift of ``known``).
+
+    ``known`` maps shift -> Sylvester inertia and gains the shifts factorised here: the count
+    between two known shifts is interpolated linearly only once it is below ``slack`` (new
+    shifts are placed by safeguarded interpolation, about three factorisations per target).
+    A bracket narrower than CLUSTER_WIDTH x ``scale`` that still holds more than ``slack``
+    modes is a cluster of equal eigenvalues (a crystal's degenerate modes): the cut is never put
+    inside it but CLUSTER_MARGIN x ``scale`` below or above it, whichever count is nearer the
+    target, so the cluster stays whole in one piece.
+    Collective; every rank makes the same choices, since inertias are global.
     """
-    known = {lo: count_below(A, lo), hi: count_below(A, hi)}
-    below_lo, below_hi = known[lo], known[hi]
-    total = below_hi - below_lo
-    windows = max(1, -(-total // max_modes))
-    pieces = windows * parts
-    if pieces == 1:
-        return [[lo, hi]], below_lo, below_hi
-    step = total / pieces
-    targets = below_lo + step * np.arange(1, pieces)
-    slack, min_width = max(1.0, step / 4), 1e-12 * max(abs(hi), 1.0)
+    width, margin = CLUSTER_WIDTH * scale, CLUSTER_MARGIN * scale
     while True:
         xs = np.array(sorted(known))
         cs = np.array([known[x] for x in xs], dtype=float)
         right = np.searchsorted(cs, targets, side="right")  # cs[right - 1] <= target < cs[right]
-        new = set()
+        new, cuts = set(), []
         for r, t in zip(right, targets):
             x0, x1, c0, c1 = xs[r - 1], xs[r], cs[r - 1], cs[r]
-            if c1 - c0 > slack and x1 - x0 > min_width:
+            if c1 - c0 <= slack:
+                cuts.append(float(x0 + (t - c0) / (c1 - c0) * (x1 - x0)))
+            elif x1 - x0 > width:
                 frac = min(max((t - c0) / (c1 - c0), 0.1), 0.9)  # safeguard: always shrink
                 new.add(float(x0 + frac * (x1 - x0)))
+            else:  # a cluster: cut beside it, inside the outer interval (an edge there merges away)
+                cut = x0 - margin if t - c0 <= c1 - t else x1 + margin
+                cuts.append(float(min(max(cut, xs[0]), xs[-1])))
+                if xs[0] < cut < xs[-1] and cut not in known:
+                    new.add(cuts[-1])
         if not new:
-            break
+            return cuts
         for x in sorted(new):
             known[x] = count_below(A, x)
-    cuts = [lo] + [float(xs[r - 1] + (t - cs[r - 1]) / (cs[r] - cs[r - 1]) * (xs[r] - xs[r - 1]))
-                   for r, t in zip(right, targets)] + [hi]
-    plan = [cuts[w * parts:(w + 1) * parts + 1] for w in range(windows)]
-    return [list(np.unique(edges)) if len(np.unique(edges)) > 1 else [edges[0], edges[-1]]
-            for edges in plan], below_lo, below_hi
+
+
+def plan_windows(A, lo: float, hi: float, max_modes: int) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Cut (lo, hi] into windows of at most ~``max_modes`` modes each; the plan does not depend
+    on the number of ranks (a checkpointed spectrum resumes on any rank count).
+
+    Cut points come from Sylvester inertias, refined until every cut is known to a quarter of a
+    window (:func:`_place`), so a steep vDOS cannot put several times the intended modes into one
+    window (it once did at the low end of an N = 32768 spectrum, and the run ran out of memory);
+    then the inertia at every cut is computed, so each window's mode count is exact.
+    Collective.  Returns (edges (W+1,), counts (W+1,) of eigenvalues below each edge, every
+    inertia known: shift -> count), for :func:`split_window`.
+    """
+    known = {lo: count_below(A, lo), hi: count_below(A, hi)}
+    total = known[hi] - known[lo]
+    windows = max(1, -(-total // max_modes))
+    step = total / windows
+    cuts = _place(A, known, known[lo] + step * np.arange(1, windows), max(1.0, step / 4),
+                  max(abs(hi), 1.0))
+    edges = np.unique([lo, *cuts, hi])
+    for x in edges:
+        if x not in known:
+            known[float(x)] = count_below(A, float(x))
+    return edges, np.array([known[x] for x in edges], dtype=np.int64), known
+
+
+def split_window(A, known: dict, lo: float, hi: float, parts: int) -> list[float]:
+    """Edges of ``parts`` sub-intervals of the window (lo, hi] with about equal mode counts (one
+    per rank: Krylov-Schur partitions), placed from the inertias in ``known``
+    (which must hold lo and hi; refined as in :func:`plan_windows`, to a quarter of a piece).
+    Fewer sub-intervals if the window holds fewer modes than ``parts``.  Collective."""
+    inside = {x: c for x, c in known.items() if lo <= x <= hi}
+    pieces = max(1, min(parts, inside[hi] - inside[lo]))
+    if pieces == 1:
+        return [lo, hi]
+    step = (inside[hi] - inside[lo]) / pieces
+    cuts = _place(A, inside, inside[lo] + step * np.arange(1, pieces), max(1.0, step / 4),
+                  max(abs(hi), 1.0))
+    known.update(inside)
+    return [float(x) for x in np.unique([lo, *cuts, hi])]
 
 
 def _configure(eps, A, edges, tol):
+    """Slicing EPS on the interval (edges[0], edges[-1]], one partition per sub-interval, prefix
+    ``spectrum_``: defaults in code, then setFromOptions (options win). Collective.
+
+    SLEPc factorises in an internal child EPS that copies only the ST type from ``eps``: the
+    KSP/PC of ``eps``'s own ST are never used (setting MUMPS there left PETSc's Cholesky in
+    charge, 12x slower per factorisation at N = 32768).  The defaults therefore go on the child's
+    KSP (``getKrylovSchurKSP``, after the prefix and the partitions are set), before
+    setFromOptions, which configures that KSP with ``-spectrum_st_ksp_*``/``-spectrum_st_pc_*``.
+    The MUMPS ICNTLs go on the factor the child creates first (parallel when a window has fewer
+    sub-intervals than ranks: ICNTL 13 is kept, measured); with one sub-interval per rank SLEPc may
+    re-create a sequential factor when the shift moves, which then has MUMPS's own ICNTL 13 and 24
+    (irrelevant on one rank, and null pivots only at an exactly singular shift).
+    """
     from petsc4py import PETSc
     from slepc4py import SLEPc
 
@@ -168,30 +222,26 @@ def _configure(eps, A, edges, tol):
     eps.setWhichEigenpairs(SLEPc.EPS.Which.ALL)
     eps.setInterval(edges[0], edges[-1])
     eps.setTolerances(tol=tol)
-    st = eps.getST()
-    st.setType(SLEPc.ST.Type.SINVERT)
-    ksp = st.getKSP()
-    ksp.setType(PETSc.KSP.Type.PREONLY)
-    pc = ksp.getPC()
-    pc.setType(PETSc.PC.Type.CHOLESKY)
-    pc.setFactorSolverType("mumps")
+    eps.getST().setType(SLEPc.ST.Type.SINVERT)
     if len(edges) > 2:
         eps.setKrylovSchurPartitions(len(edges) - 1)
         eps.setKrylovSchurSubintervals(edges)
-    options = PETSc.Options()
-    # The solver type must also sit in the options database: eps.setFromOptions() otherwise
-    # resets it to PETSc's own Cholesky (measured: 12x slower factorisations at N = 32768).
-    for name, value in (("st_pc_factor_mat_solver_type", "mumps"),
-                        ("st_mat_mumps_icntl_13", "1"), ("st_mat_mumps_icntl_24", "1")):
-        if not options.hasName(name):
-            options.setValue(name, value)
+    eps.setOptionsPrefix(SLICING_PREFIX)
+    ksp = eps.getKrylovSchurKSP()
+    ksp.setType(PETSc.KSP.Type.PREONLY)
+    ksp.getPC().setType(PETSc.PC.Type.CHOLESKY)
+    ksp.getPC().setFactorSolverType("mumps")
     eps.setFromOptions()
+    _mumps_defaults(eps.getKrylovSchurKSP().getPC())
 
 
+@profiling.logged("rsWindowSolve")
 def _solve_window(A, edges, tol: float, vectors: bool, dof: int) -> dict:
     """Eigenvalues (and reduced K/Q sums) of one window. Collective; same result on every rank.
 
-    Returns {"lam": (M,), "sums": (M, 4) or (0, 4), "residual": max relative residual}.
+    Returns {"lam": (M,), "sums": (M, 4) or (0, 4), "residual": max relative residual,
+    "settings": what the EPS used (:func:`~solver.options.eps_settings`, JSON as bytes, so that it
+    is checkpointed with the window)}.
     Each eigenvalue is the Rayleigh quotient of its converged vector (one MatMult per mode):
     its error is ~ residual^2 / gap, where the back-transformed Ritz value carried errors up to
     the residual itself (omega off by 1e-8 relative at rho = 2, residuals 1e-7 from the shift at
@@ -215,8 +265,10 @@ def _solve_window(A, edges, tol: float, vectors: bool, dof: int) -> dict:
             local[i] = modes.local_sums(vec.getArray()[None, :], dof)[0]
     vec.destroy()
     image.destroy()
+    used = comm.tompi4py().bcast(eps_settings(eps), root=0)  # rank 0's partition speaks for all
     eps.destroy()
-    return {"lam": lam, "sums": comm.tompi4py().allreduce(local), "residual": np.float64(residual)}
+    return {"lam": lam, "sums": comm.tompi4py().allreduce(local), "residual": np.float64(residual),
+            "settings": np.bytes_(json.dumps(used))}
 
 
 def solve(dm, *, window: tuple[float, float] | None, vectors: bool, tol: float = 1e-12,
@@ -241,38 +293,42 @@ def solve(dm, *, window: tuple[float, float] | None, vectors: bool, tol: float =
     n = A.getSize()[0]
     lam_zero = zero_tol**2
     lo = lam_zero if window is None else max(window[0] ** 2, lam_zero)
-    # Full spectrum: top of the band from the cheap Lanczos solve. A Ritz value never exceeds
-    # lambda_max and is within 1e-8 of it, so 1e-6 above it is a safe bound; the Gershgorin bound
-    # ||A||_inf is ~1.9 lambda_max, and slicing that empty top took 318 s instead of ~120 s for
-    # the last window of the N = 32768 spectrum. The inertia at hi checks it (fallback below).
-    hi = largest_omega(dm) ** 2 * (1 + 1e-6) if window is None else window[1] ** 2
     max_modes = max(1, min(max_window_modes, INT32_LIMIT // (2 * n)))
-    saved_plan = checkpoint.load("plan") if checkpoint else None
-    if saved_plan is None:
-        plan, below_lo, below_hi = plan_windows(A, lo, hi, max_modes, comm.size)
-        if window is None and below_hi < n:  # modes above the Lanczos estimate: use Gershgorin
-            hi = A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9)
-            plan, below_lo, below_hi = plan_windows(A, lo, hi, max_modes, comm.size)
-        if checkpoint:
-            checkpoint.save("plan", {"edges": np.concatenate(plan), "sizes": [len(e) for e in plan],
-                                     "below": [below_lo, below_hi]})
-    else:
-        bounds = np.cumsum(np.concatenate(([0], saved_plan["sizes"])))
-        plan = [list(saved_plan["edges"][a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
-        below_lo, below_hi = (int(c) for c in saved_plan["below"])
-    n_zero = count_below(A, lam_zero) if window is not None else below_lo
-    n_negative = count_below(A, -lam_zero)
     parts = []
     try:
-        for w, edges in enumerate(plan):
+        saved_plan = checkpoint.load("plan") if checkpoint else None
+        if saved_plan is None:
+            # Full spectrum: top of the band from the cheap Lanczos solve. A Ritz value never
+            # exceeds lambda_max and is within 1e-8 of it, so 1e-6 above it is a safe bound; the
+            # Gershgorin bound ||A||_inf is ~1.9 lambda_max, and slicing that empty top took 318 s
+            # instead of ~120 s for the last window of the N = 32768 spectrum. The inertia at hi
+            # checks it (fallback below).
+            hi = largest_omega(dm) ** 2 * (1 + 1e-6) if window is None else window[1] ** 2
+            edges, counts, known = plan_windows(A, lo, hi, max_modes)
+            if window is None and counts[-1] < n:  # modes above the Lanczos estimate: use Gershgorin
+                hi = A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9)
+                edges, counts, known = plan_windows(A, lo, hi, max_modes)
+            if checkpoint:  # rank-free: window edges and inertias, split per rank count below
+                shifts = np.array(sorted(known))
+                checkpoint.save("plan", {"edges": edges, "counts": counts, "shifts": shifts,
+                                         "shift_counts": np.array([known[x] for x in shifts], dtype=np.int64)})
+        else:
+            edges, counts = np.asarray(saved_plan["edges"]), np.asarray(saved_plan["counts"])
+            known = dict(zip(saved_plan["shifts"].tolist(), saved_plan["shift_counts"].tolist()))
+        below_lo, below_hi = int(counts[0]), int(counts[-1])
+        windows = edges.size - 1
+        n_negative, inertia_used = inertia(A, -lam_zero)  # |omega^2| <= zero_tol^2 are the zero modes:
+        n_zero = (count_below(A, lam_zero) if window is not None else below_lo) - n_negative
+        for w in range(windows):
             part = checkpoint.load(f"window{w:04d}") if checkpoint else None
             if part is None:
-                part = _solve_window(A, edges, tol, vectors, dm.dof)
+                sub = split_window(A, known, float(edges[w]), float(edges[w + 1]), comm.size)
+                part = _solve_window(A, sub, tol, vectors, dm.dof)
                 if checkpoint:
                     checkpoint.save(f"window{w:04d}", part)
             parts.append(part)
             if progress is not None:
-                progress(len(parts), len(plan), sum(p["lam"].size for p in parts))
+                progress(len(parts), windows, sum(p["lam"].size for p in parts))
     finally:
         A.destroy()
     lam = np.concatenate([p["lam"] for p in parts])
@@ -286,4 +342,7 @@ def solve(dm, *, window: tuple[float, float] | None, vectors: bool, tol: float =
     if vectors:
         sums = np.concatenate([p["sums"] for p in parts])[order]
         energies = modes.energies(sums, int(dm.active.sum()))
-    return Spectrum(omega, n_zero, n_negative, residual, below_hi - below_lo, len(plan), energies)
+    used = [json.loads(bytes(p["settings"])) for p in parts if "settings" in p]
+    settings = {"spectrum": {**used[0], "partitions": [u.get("partitions") for u in used]} if used else None,
+                "inertia": inertia_used}
+    return Spectrum(omega, n_zero, n_negative, residual, below_hi - below_lo, windows, energies, settings)

@@ -1,0 +1,198 @@
+"""Reading results files (written by ``io.hdf5.write_results``) into what the report and the
+figures need: plain numpy arrays and dicts, no h5py objects outside this module.
+
+:func:`open_results` is the one door: it refuses a missing or unreadable file, a file without the
+root attribute ``format_version`` (not a rotsound results file) and a file of a newer
+``format_version`` than this rotsound reads, each with an :class:`~solver.errors.InputError`
+naming the file.  The readers take the open file and read one quantity each (the waves' sampled
+runs only when asked: they are the largest part).  :func:`gather` reads every file the report is
+given into :class:`~solver.analysis.claims.Data`.  h5py and numpy only (no PETSc, no MPI); not
+collective.  Units as in the file layout (README): omega in 1/t0, k in 1/d0, t in t0.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import NamedTuple
+
+import h5py
+import numpy as np
+
+from ..analysis.claims import PHI_MAIN, Data
+from ..errors import InputError
+from .hdf5 import FORMAT_VERSION
+
+
+class Vdos(NamedTuple):
+    """``vdos/r<i>``: g(omega) of one rho, every configuration pooled."""
+
+    edges: np.ndarray       # (B+1,) 1/t0
+    density: np.ndarray     # (B,) unit area
+    omega_c: float          # mean largest eigenfrequency
+    omega_c_std: float
+    configurations: int
+
+
+class BinnedEnergies(NamedTuple):
+    """KPM spectra of one rho: per-configuration bin averages, cut to the shortest grid."""
+
+    edges: np.ndarray       # (B+1,)
+    density: np.ndarray     # (C, B)
+    K: np.ndarray           # (C, B), NaN in near-empty bins
+    Q: np.ndarray           # (C, B)
+
+
+class Waves(NamedTuple):
+    """Sampled Fourier components of one (rho, mode), the runs of every configuration pooled."""
+
+    k: np.ndarray           # (K,) of the first configuration
+    t: np.ndarray           # (S,) t0, evenly spaced
+    z: np.ndarray           # (R, K, S) complex: R = 2 directions x configurations
+    omega_max: float        # largest matrix frequency over the configurations (1/t0)
+
+
+def open_results(path: str) -> h5py.File:
+    """Open a results file for reading after checking it is one this rotsound can read.
+
+    Use as ``with open_results(path) as f:``.  Raises InputError (naming ``path``) when the file
+    is missing, not HDF5, has no ``format_version`` root attribute, or a newer one than
+    ``io.hdf5.FORMAT_VERSION``.  Older versions are read (there is only version 1 so far).
+    """
+    if not os.path.isfile(path):
+        raise InputError(f"results file {path}: not found (run its scene first)")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"results file {path}: not a readable HDF5 file ({exc})") from None
+    version = f.attrs.get("format_version")
+    problem = None
+    if version is None:
+        problem = "not a rotsound results file (it has no root attribute format_version)"
+    elif not np.issubdtype(np.asarray(version).dtype, np.integer) or np.asarray(version).shape != () \
+            or int(version) < 1:
+        problem = f"not a rotsound results file (format_version = {version!r})"
+    elif int(version) > FORMAT_VERSION:
+        problem = (f"format_version {int(version)} is newer than this rotsound reads (format_version "
+                   f"{FORMAT_VERSION}); update rotsound to read it")
+    if problem:
+        f.close()
+        raise InputError(f"results file {path}: {problem}")
+    return f
+
+
+def _groups(f, name: str) -> list:
+    return [f[name][key] for key in sorted(f[name])] if name in f else []
+
+
+def contents(f) -> list[str]:
+    """Which of the top-level result kinds the file holds, in a fixed order."""
+    return [name for name in ("vdos", "spectra", "waves", "analysis") if name in f]
+
+
+def packing_summary(f) -> tuple[float, int]:
+    """(phi, N) of the first configuration; (NaN, 0) for a file without packings."""
+    groups = _groups(f, "packings")
+    if not groups:
+        return float("nan"), 0
+    return float(groups[0].attrs["phi"]), int(groups[0]["diameters"].shape[0])
+
+
+def first_packing(f) -> dict | None:
+    """The first configuration: positions (N, 2), diameters (N,), rattler (N,) bool and the
+    attributes box_length, phi, z (mean contact number; NaN if absent); None without packings."""
+    groups = _groups(f, "packings")
+    if not groups:
+        return None
+    g = groups[0]
+    return {"positions": g["positions"][()], "diameters": g["diameters"][()], "rattler": g["rattler"][()],
+            "box_length": float(g.attrs["box_length"]), "phi": float(g.attrs["phi"]),
+            "z": float(g.attrs.get("z", np.nan))}  # a loaded packing has no z attribute
+
+
+def vdos(f) -> dict[float, Vdos]:
+    """{rho: Vdos} of every ``vdos/`` group."""
+    return {float(g.attrs["rho"]): Vdos(g["edges"][()], g["density"][()], float(g.attrs["omega_c"]),
+                                        float(g.attrs["omega_c_std"]), int(g.attrs["configurations"]))
+            for g in _groups(f, "vdos")}
+
+
+def mode_energies(f) -> dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """{rho: (omega, K, Q)} per mode (slicing spectra with energies), configurations concatenated."""
+    per_rho: dict[float, list] = {}
+    for g in _groups(f, "spectra"):
+        if "K" in g and "omega" in g:
+            per_rho.setdefault(float(g.attrs["rho"]), []).append(g)
+    return {rho: tuple(np.concatenate([g[key][()] for g in groups]) for key in ("omega", "K", "Q"))
+            for rho, groups in per_rho.items()}
+
+
+def binned_energies(f) -> dict[float, BinnedEnergies]:
+    """{rho: BinnedEnergies} of KPM spectra with energies (bin averages, no per-mode data)."""
+    per_rho: dict[float, list] = {}
+    for g in _groups(f, "spectra"):
+        if "K" in g and "omega" not in g:
+            per_rho.setdefault(float(g.attrs["rho"]), []).append(g)
+    out = {}
+    for rho, groups in per_rho.items():
+        size = min(g["K"].shape[0] for g in groups)
+        out[rho] = BinnedEnergies(groups[0]["edges"][:size + 1],
+                                  *(np.array([g[key][:size] for g in groups]) for key in ("density", "K", "Q")))
+    return out
+
+
+def waves(f, rhos=None) -> dict[tuple[float, str], Waves]:
+    """{(rho, mode): Waves} of the ``waves/`` groups (only the rho in ``rhos`` when given)."""
+    per_key: dict[tuple, list] = {}
+    for g in _groups(f, "waves"):
+        rho = float(g.attrs["rho"])
+        if rhos is None or rho in rhos:
+            per_key.setdefault((rho, str(g.attrs["mode"])), []).append(g)
+    return {key: Waves(groups[0]["k"][()], groups[0]["t"][()],
+                       np.concatenate([g["z"][()] for g in groups], axis=0),
+                       max(float(g.attrs["omega_max"]) for g in groups))
+            for key, groups in per_key.items()}
+
+
+def fits(f) -> dict[tuple[float, str], dict]:
+    """{(rho, mode): datasets and attributes} of the ``analysis/rho<rho>_<mode>`` groups."""
+    if "analysis" not in f:
+        return {}
+    groups = [f["analysis"][name] for name in f["analysis"] if "mode" in f["analysis"][name].attrs]
+    return {(float(g.attrs["rho"]), str(g.attrs["mode"])): {**{key: g[key][()] for key in g}, **dict(g.attrs)}
+            for g in groups}
+
+
+def lattice(f) -> dict | None:
+    """Attributes of ``analysis/lattice`` (the fitted lattice model), None without it."""
+    return dict(f["analysis/lattice"].attrs) if "analysis/lattice" in f else None
+
+
+def bands(f) -> dict | None:
+    """Datasets of ``analysis/bands`` (band limits per rho > 0), None without it."""
+    return {key: f["analysis/bands"][key][()] for key in f["analysis/bands"]} if "analysis/bands" in f else None
+
+
+def gather(paths: list[str]) -> Data:
+    """Read every file for the report: the first file with a quantity at phi = PHI_MAIN provides it
+    (the vDOS as a whole; K and Q per rho; the wave analysis as a whole); every file's vDOS feeds
+    the phi comparison (Fig. S1)."""
+    data = Data()
+    for path in paths:
+        with open_results(path) as f:
+            phi, n = packing_summary(f)
+            data.sources.append((path, phi, n, ", ".join(contents(f)) or "nothing usable"))
+            curves = vdos(f)
+            if curves:
+                data.s1.setdefault(round(phi, 4), {}).update({rho: v[:3] for rho, v in curves.items()})
+            if abs(phi - PHI_MAIN) > 1e-6:
+                continue
+            if curves and not data.vdos:
+                data.vdos, data.vdos_file = curves, path
+            for rho, energies in mode_energies(f).items():
+                if rho in curves and rho not in data.energies:
+                    data.energies[rho] = energies
+                    data.energies_file[rho] = path
+            lat = lattice(f)
+            if lat is not None and data.lattice is None:
+                data.waves_file, data.lattice, data.bands, data.fits = path, lat, bands(f), fits(f)
+    return data

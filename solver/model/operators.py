@@ -1,0 +1,102 @@
+"""Operators built from the dynamical matrix D and the mass vector M (the paper's eq:motion
+M u'' = -D u), shared by the spectrum, the KPM vDOS and the standing waves.
+
+    A = M^-1/2 D M^-1/2           (symmetric standard form: eigenvalues omega^2 of M^-1 D)
+    omega_max = sqrt(lambda_max(A))  (Lanczos, SLEPc EPS with options prefix ``wmax_``)
+    J = [[0, I], [-M^-1 D, 0]]    (first-order form X' = J X of eq:motion, X = (u, v))
+
+Collective on the matrix's communicator.  Units: omega in 1/t0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import profiling
+from ..options import eps_settings
+
+WMAX_PREFIX = "wmax_"
+
+
+def scaled_operator(dm):
+    """A = M^-1/2 D M^-1/2 as a new PETSc Mat (flagged symmetric). Collective."""
+    from petsc4py import PETSc
+
+    scale = dm.M.copy()
+    scale.sqrtabs()
+    scale.reciprocal()
+    A = dm.D.copy()
+    A.diagonalScale(scale, scale)
+    A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
+    scale.destroy()
+    return A
+
+
+@profiling.logged("rsOmegaMax")
+def largest_omega(dm) -> float:
+    """omega_max of M^-1 D by a cheap Lanczos solve, cached on ``dm``. Collective.
+
+    The EPS has the options prefix ``wmax_`` (defaults in code: Krylov-Schur, largest real
+    eigenvalue, tol 1e-8; ``-wmax_eps_*`` win); what it used is kept in ``dm.wmax_settings``.
+    """
+    from slepc4py import SLEPc
+
+    if dm.omega_max is not None:
+        return dm.omega_max
+    A = scaled_operator(dm)
+    eps = SLEPc.EPS().create(A.getComm())
+    try:
+        eps.setOperators(A)
+        eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
+        eps.setDimensions(nev=1)
+        eps.setTolerances(tol=1e-8)
+        eps.setOptionsPrefix(WMAX_PREFIX)
+        eps.setFromOptions()
+        eps.solve()
+        if eps.getConverged() < 1:
+            raise RuntimeError("could not compute the largest eigenfrequency (wmax_ EPS did not converge)")
+        lam = eps.getEigenvalue(0).real
+        dm.wmax_settings = {**eps_settings(eps), "iterations": eps.getIterationNumber()}
+    finally:
+        eps.destroy()
+        A.destroy()
+    dm.omega_max = float(np.sqrt(lam))
+    return dm.omega_max
+
+
+def first_order_matrix(dm, minv):
+    """J = [[0, I], [-M^-1 D, 0]] (AIJ) on the state X = (u_loc, v_loc) laid out per rank.
+
+    ``minv``: the PETSc Vec M^-1.  Rank r owns rows [2 s_r, 2 e_r) of X, where [s_r, e_r) are
+    its rows of D: first its u, then its v.  X' = J X is the first-order form of eq:motion.
+    Collective.
+    """
+    import scipy.sparse as sp
+    from petsc4py import PETSc
+
+    comm = dm.D.getComm()
+    ranges = np.array(dm.D.getOwnershipRanges())
+    start, stop = dm.D.getOwnershipRange()
+    nloc = stop - start
+    indptr, indices, values = dm.D.getValuesCSR()
+    owner = np.searchsorted(ranges, indices, side="right") - 1
+    u_col = indices + ranges[owner]             # global column of u_g in X
+    rows_v = sp.csr_matrix((-np.repeat(minv.getArray(), np.diff(indptr)) * values, u_col, indptr),
+                           shape=(nloc, 2 * dm.size))
+    v_cols = 2 * start + nloc + np.arange(nloc)  # u' = v
+    rows_u = sp.csr_matrix((np.ones(nloc), v_cols, np.arange(nloc + 1)), shape=(nloc, 2 * dm.size))
+    # explicit zero diagonal: TS forms shift I - J in place (MatShift needs the entries)
+    diagonal = sp.coo_matrix((np.zeros(2 * nloc), (np.arange(2 * nloc), 2 * start + np.arange(2 * nloc))),
+                             shape=(2 * nloc, 2 * dm.size))
+    stacked = sp.vstack([rows_u, rows_v]).tocoo()
+    local = sp.coo_matrix((np.concatenate((stacked.data, diagonal.data)),
+                           (np.concatenate((stacked.row, diagonal.row)),
+                            np.concatenate((stacked.col, diagonal.col)))), shape=stacked.shape).tocsr()
+    local.sort_indices()
+    J = PETSc.Mat().createAIJ(size=((2 * nloc, 2 * dm.size),) * 2,
+                              csr=(local.indptr.astype(PETSc.IntType), local.indices.astype(PETSc.IntType),
+                                   local.data), comm=comm)
+    J.assemble()
+    return J

@@ -1,0 +1,161 @@
+"""The contact law eq:eij (solver/model/contact_law.py): its Hessian blocks and forces against
+central differences of its own energy, with Taylor-convergence checks, and the FIRE force."""
+
+import numpy as np
+import pytest
+from conftest import assert_close
+
+from solver.model import contact_law
+from solver.packing import jammed
+
+pytestmark = pytest.mark.serial_only  # pure numpy: nothing to gain from a second rank
+
+STEPS = np.array([2e-3, 1e-3, 5e-4, 2.5e-4])  # central-difference steps of the Taylor checks
+# (the mixed differences move a contact by up to 2 h + |w| < 0.01: never across xi = 0)
+
+
+def random_contacts(count=24, seed=0):
+    """Reference contacts of bidisperse disks at random angles, overlaps 0.01-0.05 d0.
+
+    Returns the keyword arguments of ``pair_energy`` except the displacements, and the overlaps.
+    """
+    rng = np.random.default_rng(seed)
+    radii = 0.5 * rng.choice([jammed.D_SMALL, jammed.D_LARGE], size=(2, count))
+    angle = rng.uniform(0, 2 * np.pi, count)
+    normal = np.stack((np.cos(angle), np.sin(angle)), axis=1)
+    contact = radii[0] + radii[1]
+    overlap = rng.uniform(0.01, 0.05, count)
+    geometry = {"separation": normal * (contact - overlap)[:, None], "contact": contact,
+                "normal": normal, "radius_i": radii[0], "radius_j": radii[1]}
+    return geometry, overlap
+
+
+def energy_of(geometry, rho, w):
+    """pair_energy for generalised displacements w (C, 6) = (u_i, theta_i, u_j, theta_j)."""
+    return contact_law.pair_energy(**geometry, rho=rho, du=w[:, 0:2] - w[:, 3:5],
+                                   theta_i=w[:, 2], theta_j=w[:, 5])
+
+
+def central_hessian(geometry, rho, h):
+    """(C, 6, 6) Hessian of every contact's energy at w = 0 by central differences, step h."""
+    count = geometry["contact"].size
+    out = np.empty((count, 6, 6))
+    for a in range(6):
+        for b in range(6):
+            e = []
+            for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                w = np.zeros((count, 6))
+                w[:, a] += sa * h
+                w[:, b] += sb * h
+                e.append(energy_of(geometry, rho, w))
+            out[:, a, b] = (e[0] - e[1] - e[2] + e[3]) / (4 * h * h)
+    return out
+
+
+def blocks_as_6x6(geometry, overlap, rho):
+    """[[H_ii, H_ij], [H_ji, H_jj]] (C, 6, 6) from contact_law.pair_blocks."""
+    distance = geometry["contact"] - overlap
+    h_ii, h_ij, h_jj = contact_law.pair_blocks(geometry["normal"], distance, overlap,
+                                               geometry["radius_i"], geometry["radius_j"], rho)
+    top = np.concatenate((h_ii, h_ij), axis=2)
+    bottom = np.concatenate((np.transpose(h_ij, (0, 2, 1)), h_jj), axis=2)
+    return np.concatenate((top, bottom), axis=1)
+
+
+def observed_order(errors):
+    """Slopes log2(e(h) / e(h/2)) of successive halvings of the step."""
+    errors = np.asarray(errors)
+    return np.log2(errors[:-1] / errors[1:])
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.2, 1.0])
+def test_hessian_blocks_match_central_differences_at_second_order(rho):
+    geometry, overlap = random_contacts()
+    exact = blocks_as_6x6(geometry, overlap, rho)
+    scale = np.abs(exact).max()
+    errors = [np.abs(central_hessian(geometry, rho, h) - exact).max() / scale for h in STEPS]
+    orders = observed_order(errors)
+    # Wrong blocks leave an error that does not fall with h (the geometric term alone is
+    # f_n / r ~ 0.01-0.05 here): the slope then drops to ~0 and the check fails.
+    assert np.all(np.abs(orders - 2) < 0.1), f"rho = {rho}: errors {errors}, orders {orders}"
+    assert errors[-1] < 1e-6, f"rho = {rho}: error {errors[-1]} at h = {STEPS[-1]}"
+
+
+def test_translation_blocks_at_rho_zero_are_the_full_blocks_without_rotation():
+    geometry, overlap = random_contacts(seed=1)
+    distance = geometry["contact"] - overlap
+    full = contact_law.pair_blocks(geometry["normal"], distance, overlap, geometry["radius_i"],
+                                   geometry["radius_j"], 0.0)
+    small = contact_law.pair_blocks(geometry["normal"], distance, overlap, geometry["radius_i"],
+                                    geometry["radius_j"], 0.0, with_rotation=False)
+    for f, s in zip(full, small):
+        assert_close(s, f[:, :2, :2], rtol=0.0, what="2 x 2 translation block")
+        assert np.all(f[:, 2, :] == 0) and np.all(f[:, :, 2] == 0), "rotations carry stiffness at rho = 0"
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.5])
+def test_forces_and_torques_are_minus_the_energy_gradient(rho):
+    geometry, _ = random_contacts(seed=2)
+    count = geometry["contact"].size
+    rng = np.random.default_rng(3)
+    w = 1e-3 * rng.normal(size=(count, 6))  # a displaced state: forces beyond the linear ones
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, rho=rho, du=w[:, 0:2] - w[:, 3:5],
+                                                  theta_i=w[:, 2], theta_j=w[:, 5])
+    generalised = np.concatenate((force, tau_i[:, None], -force, tau_j[:, None]), axis=1)
+    errors = []
+    for h in STEPS:
+        grad = np.empty((count, 6))
+        for a in range(6):
+            step = np.zeros((count, 6))
+            step[:, a] = h
+            grad[:, a] = (energy_of(geometry, rho, w + step) - energy_of(geometry, rho, w - step)) / (2 * h)
+        errors.append(np.abs(generalised + grad).max() / np.abs(generalised).max())
+    orders = observed_order(errors)
+    assert np.all(np.abs(orders - 2) < 0.1), f"errors {errors}, orders {orders}"
+    # Taylor remainder along a random direction: e(w + h v) - e(w) + h F.v = O(h^2)
+    v = rng.normal(size=(count, 6))
+    remainder = [np.abs(energy_of(geometry, rho, w + h * v) - energy_of(geometry, rho, w)
+                        + h * np.sum(generalised * v, axis=1)).max() for h in STEPS]
+    orders = observed_order(remainder)
+    assert np.all(np.abs(orders - 2) < 0.1), f"Taylor remainders {remainder}, orders {orders}"
+
+
+def test_unstressed_tangential_springs_and_rolling_without_slip():
+    geometry, overlap = random_contacts(seed=4)
+    count = overlap.size
+    zero, zero2 = np.zeros(count), np.zeros((count, 2))
+    # at the reference only the normal force acts: the packing stays in equilibrium for any rho
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, rho=1.0, du=zero2, theta_i=zero, theta_j=zero)
+    assert_close(force, contact_law.normal_force(overlap)[:, None] * geometry["normal"], rtol=1e-13,
+                 what="reference force")  # rtol: n recomputed from the separation, a few ulp
+    assert np.all(tau_i == 0) and np.all(tau_j == 0), "torques at the reference"
+    # two disks rolling on each other like gears (R_i theta_i = -R_j theta_j) do not slip
+    phi = 1e-3
+    rolling = contact_law.pair_energy(**geometry, rho=1.0, du=zero2, theta_i=phi / geometry["radius_i"],
+                                      theta_j=-phi / geometry["radius_j"])
+    assert_close(rolling, contact_law.normal_energy(overlap), rtol=1e-12, what="rolling without slip")
+    # equal spins make the contact points slide by (R_i + R_j) phi
+    sliding = contact_law.pair_energy(**geometry, rho=1.0, du=zero2, theta_i=np.full(count, phi),
+                                      theta_j=np.full(count, phi))
+    slip = (geometry["radius_i"] + geometry["radius_j"]) * phi
+    assert_close(sliding - contact_law.normal_energy(overlap), 0.5 * slip**2, rtol=1e-9, what="sliding")
+
+
+def test_fire_forces_are_minus_the_gradient_of_fire_energy():
+    """The FIRE force of packing/jammed.py (eq:eij at rho = 0 via contact_law.normal_pair)."""
+    rng = np.random.default_rng(6)
+    n, box = 24, 4.2  # dense enough for ~2-3 overlaps per disk, box > 2 max(d)
+    diameters = rng.permutation(jammed.bidisperse_diameters(n))
+    x = rng.uniform(0, box, size=(n, 2))
+    forces = jammed._FrictionlessForces(diameters, box)
+    f, energy = forces(x)
+    assert energy > 0.1, "no overlaps: the check would be empty"
+    h = 1e-6
+    grad = np.empty_like(x)
+    for i in range(n):
+        for axis in range(2):
+            step = np.zeros_like(x)
+            step[i, axis] = h
+            grad[i, axis] = (forces(x + step)[1] - forces(x - step)[1]) / (2 * h)
+    # central differences, h = 1e-6, of an energy ~1: truncation ~1e-12, round-off ~1e-10
+    assert_close(f, -grad, rtol=0.0, atol=1e-7 * np.abs(f).max(), what="FIRE force vs -grad E")

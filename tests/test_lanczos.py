@@ -1,0 +1,96 @@
+"""The spectral (Lanczos) path of standing waves, waves/spectral.py: its breakdown on an invariant
+subspace (exact closed-form answer on the perfect crystal of test_crystal.py) and its dense fallback
+when scipy's tridiagonal eigensolver fails."""
+
+import numpy as np
+import pytest
+import scipy.linalg
+from conftest import assert_all, assert_close
+from test_crystal import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
+
+from solver.model import dynmat
+from solver.packing import jammed
+from solver.waves import spectral as lanczos
+from solver.waves.excitation import EXCITATIONS
+
+AMPLITUDE = 1e-3
+TIMES = np.arange(0.0, 60.0 + 1e-9, 0.25)
+
+
+@pytest.fixture(scope="module")
+def crystal_packing():
+    return jammed.from_arrays(crystal(), np.full(N_X * N_Y, DIAMETER), L)
+
+
+def crystal_wave(comm, packing, mode, p):
+    """Lanczos z(t) of ``mode`` at k = 2 pi p / L along x on the crystal, and its closed form.
+
+    u_x alone (L) is a Bloch eigenvector there (the mirror y -> -y decouples it from u_y and
+    theta); u_y (TR) and theta (RT) span, with the other one, a 2-dimensional invariant subspace.
+    So z(t) = z(0) sum_j |e_j[c]|^2 cos(omega_j t) over the eigenpairs (omega_j^2, e_j) of the (u_x)
+    or (u_y, theta) block of the Bloch matrix, c the excited component, and
+    z(0) = sum_i A sin(k x_i) exp(-i k x_i) = -i A N / 2 (x: a sum over whole periods).
+    Returns (WaveSeries, expected z (S,), |z(0)|).
+    """
+    direction = [axis for _, axis in EXCITATIONS[mode]].index(0)  # the direction with k along x
+    component = EXCITATIONS[mode][direction][0]
+    k = 2 * np.pi * p / L
+    dm = dynmat.assemble(packing, 1.0, comm)
+    series = lanczos.spectral(dm, packing.positions, mode, direction, k, amplitude=AMPLITUDE,
+                              times=TIMES, tol=1e-10)
+    dm.destroy()
+    block = [0] if mode == "L" else [1, 2]
+    matrix = bloch_matrix(np.array([k, 0.0]), 1.0)
+    assert_all(np.abs(matrix[np.ix_(block, [c for c in range(3) if c not in block])]).max() < 1e-15,
+               "the block is decoupled (the premise)")
+    lam, vectors = np.linalg.eigh(matrix[np.ix_(block, block)])
+    weights = np.abs(vectors[block.index(component)]) ** 2
+    z0 = -0.5j * AMPLITUDE * N_X * N_Y
+    return series, z0 * (weights @ np.cos(np.outer(np.sqrt(lam), TIMES))), abs(z0)
+
+
+WAVES = [("L", 1, 1), ("L", 3, 1), ("TR", 2, 2), ("RT", 1, 2)]  # mode, p, invariant subspace dimension
+
+
+@pytest.mark.parametrize("mode, p, invariant", WAVES)
+def test_lanczos_on_an_invariant_subspace_gives_the_exact_cosines(comm, crystal_packing, mode, p, invariant):
+    series, expected, z0 = crystal_wave(comm, crystal_packing, mode, p)
+    # round-off of the start vector (the translation projected out, sin summed) and of the steps
+    assert_close(series.z, expected, rtol=0.0, atol=1e-12 * z0, what=f"{mode}, p = {p}")
+
+
+@pytest.mark.parametrize("mode, p, invariant", WAVES)
+def test_lanczos_stops_at_the_invariant_subspace(comm, crystal_packing, mode, p, invariant):
+    """RT, p = 1: |v| = 1.06e-14 after step 2 with alpha_2 = 1.13 and ||A|| = omega_max^2 = 24: a
+    threshold relative to the last alpha (1e-14 max(|alpha|, 1), before) missed the breakdown on
+    1 rank (187 steps) and caught it on 2; relative to ||A|| it is caught on any rank count."""
+    series, _, _ = crystal_wave(comm, crystal_packing, mode, p)
+    assert_all(series.steps == invariant and series.error_estimate == 0.0,
+               f"{series.steps} Lanczos steps (invariant subspace of dimension {invariant}), "
+               f"estimate {series.error_estimate}")
+
+
+def test_dense_fallback_gives_the_same_z_when_mrrr_fails(comm, monkeypatch):
+    """eigh_tridiagonal (MRRR) can raise LinAlgError on the clustered Ritz values that loss of
+    orthogonality makes; the code then diagonalises T densely.  Force the failure everywhere."""
+    p = jammed.generate(64, 0.9, np.random.SeedSequence([31, 0]))
+    k = 2 * np.pi * 2 / p.box_length
+    dm = dynmat.assemble(p, 1.0, comm)
+    reference = lanczos.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
+    calls = []
+
+    def failing(*args, **kwargs):
+        calls.append(1)
+        raise np.linalg.LinAlgError("forced by the test")
+
+    monkeypatch.setattr(scipy.linalg, "eigh_tridiagonal", failing)
+    if hasattr(lanczos, "eigh_tridiagonal"):  # imported at module level
+        monkeypatch.setattr(lanczos, "eigh_tridiagonal", failing)
+    fallback = lanczos.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
+    dm.destroy()
+    # rank 0 evaluates z (and broadcasts it): only there is the solver called
+    assert_all(comm.getRank() != 0 or len(calls) >= 2, f"the failing solver was called {len(calls)} times")
+    assert_all(fallback.steps == reference.steps, f"steps {fallback.steps} vs {reference.steps}")
+    # the same T diagonalised by LAPACK's dense solver instead of MRRR: round-off apart
+    scale = np.abs(reference.z).max()
+    assert_close(fallback.z, reference.z, rtol=0.0, atol=1e-12 * scale, what="z with the dense fallback")
