@@ -109,6 +109,7 @@ def _run(args, petsc_words, comm) -> None:
     todo = scenes.load(args.scene, args.set, comm)
     yaml_words = petscopts.to_argv(petscopts.flatten(todo[0].petsc))
     argv = yaml_words + petsc_words  # later words win: the command line beats the scene
+    petscopts.refuse_bare_solver_options(petscopts.option_names(argv))
     petscenv.init(argv)
     from . import pipeline
 

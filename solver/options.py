@@ -129,6 +129,21 @@ _OBJECT_WORDS = {  # leading word of an unprefixed solver option -> prefixes tha
 }
 
 
+def refuse_bare_solver_options(names: list[str]) -> None:
+    """Raise InputError for the first solver option given without an object's prefix
+    (``-ts_dt``, ``-eps_tol``, ``-ksp_type``...): every solver object of rotsound has its own
+    prefix (``PREFIXES``), so such an option would act on nothing and the run would silently use
+    other settings.  Called on the scene's block and the command line before any work. Not
+    collective (every rank sees the same words)."""
+    for name in names:
+        word = next((w for w in _OBJECT_WORDS if name.startswith(w)), None)
+        if word is not None:
+            hint = " or ".join(f"-{t}{name}" for t in _OBJECT_WORDS[word])
+            raise InputError(f"PETSc option -{name}: acts on no solver, because each of rotsound's solver "
+                             f"objects has its own options prefix; did you mean {hint}? (README: option "
+                             f"prefixes)")
+
+
 def unused(names: list[str], stages: list[tuple[str, str]]) -> dict[str, str | None]:
     """Those of ``names`` (options without '-') that no object of ``stages`` ((stage, method)
     pairs, as in ``STAGE_PREFIXES``) reads and that are not PETSc process-wide options, each with

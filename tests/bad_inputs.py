@@ -93,6 +93,10 @@ CASES = [
      "waves.dt = 0.5: above the stability limit", None),
     ("unknown integrator", GOOD + "waves: {n: [1], integrator: leapfrog}\n", [], "waves.integrator = 'leapfrog'", None),
     ("too few samples", GOOD + "waves: {n: [1], t_end: 1, sample_every: 50}\n", [], "fewer than 4 samples", None),
+    ("bare solver option in the petsc block", GOOD + "petsc: {eps_tol: 1.0e-9}\n", [],
+     "PETSc option -eps_tol: acts on no solver", None),
+    ("bare solver option on the command line (-ts_dt)", GOOD, ["--set", "seed=1", "-ts_dt", "0.6"],
+     "did you mean -waves_ts_dt?", None),
     ("PETSc value of an odd type", GOOD + "petsc: {eps_tol: 2024-01-01}\n", [], "petsc.eps_tol", None),
     # --- generated packings that do not jam (before: SLEPc died of SIGFPE on a 0-DOF matrix)
     ("packing does not jam (spectrum)", "packing: {n: 256, phi: 0.8}\nspectrum: {}\n", [],

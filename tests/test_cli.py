@@ -17,7 +17,7 @@ cache: off
 seed: 2
 packing: {{n: 64, phi: 0.9, count: 2}}
 model: {{rho: [0, 1]}}
-petsc: {{ksp_type: gmres, log_view_not_an_option: null}}
+petsc: {{waves_ksp_type: gmres, log_view_not_an_option: null}}
 """
 
 
@@ -31,17 +31,17 @@ def write(tmp_path, text, name="scene.yaml"):
 def test_run_writes_results_and_reports_unused_options(tmp_path, ranks):
     out = tmp_path / "r.h5"
     scene = write(tmp_path, SCENE.format(out=out))
-    proc = run_cli(["run", scene, "--set", "seed=3", "-ksp_type", "cg", "-eps_tpye", "x"], ranks)
+    proc = run_cli(["run", scene, "--set", "seed=3", "-waves_ksp_type", "cg", "-waves_ts_tpye", "x"], ranks)
     assert proc.returncode == 0, proc.stderr
     assert "wrote" in proc.stdout and str(out) in proc.stdout
     assert proc.stdout.count("wrote") == 1, "rank 1 must not print"
-    assert "-eps_tpye was never used" in proc.stdout
+    assert "-waves_ts_tpye was never used" in proc.stdout  # no waves in this scene
     with h5py.File(out) as f:
         assert sorted(f["packings"]) == ["0000", "0001"]
         assert len(f["matrices"]) == 4
         options = json.loads(f.attrs["petsc_options"])
-        assert options["ksp_type"] == "cg"  # the command line wins over the scene
-        assert "eps_tpye" in json.loads(f.attrs["petsc_options_unused"])
+        assert options["waves_ksp_type"] == "cg"  # the command line wins over the scene
+        assert "waves_ts_tpye" in json.loads(f.attrs["petsc_options_unused"])
         assert "seed: 3" in f.attrs["scene"]
         assert f.attrs["ranks"] == ranks
 
