@@ -11,7 +11,7 @@ import sys
 from benchlib import OUT, PY, REPO, machine
 
 ORDER = ["bench_packing.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py", "bench_spectral.py",
-         "bench_kpm.py"]
+         "bench_kpm.py", "bench_counting.py"]
 
 
 def render() -> None:

@@ -83,6 +83,7 @@ PREFIXES = {
 
 STAGE_PREFIXES = {
     ("spectra", "slicing"): ("spectrum_", "inertia_", "wmax_"),
+    ("spectra", "counting"): ("inertia_", "wmax_"),
     ("spectra", "kpm"): ("wmax_",),
     ("waves", "ts"): ("waves_", "wmax_"),
     ("waves", "spectral"): ("wmax_",),

@@ -21,7 +21,7 @@ from . import __version__, parallel
 from .analysis import dispersion as analysis
 from .model import dynmat
 from .io import hdf5 as h5io
-from .spectrum import kpm
+from .spectrum import counting, kpm
 from .spectrum import modes
 from .packing import jammed as packing
 from . import options as petscopts
@@ -117,6 +117,8 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoi
             with profiling.stage("kpm" if scene.spectrum.method == "kpm" else "spectrum"):
                 if scene.spectrum.method == "kpm":
                     _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm)
+                elif scene.spectrum.method == "counting":
+                    _counting_unit(scene, dm, rho, r_index, p_index, commit, comm)
                 else:
                     _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint)
         if wave_todo:
@@ -138,6 +140,24 @@ def _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm) -> None:
             "solver_settings": json.dumps({"wmax": dm.wmax_settings})})
     say(comm, f"kpm vDOS rho = {rho:g}, packing {p_index}: {attrs['moments']} moments x {spec.probes} probes, "
               f"omega_max = {attrs['omega_max']:.4f}, {seconds:.1f} s")
+
+
+def _counting_unit(scene, dm, rho, r_index, p_index, commit, comm) -> None:
+    """Exact vDOS of one (rho, packing) by counting (``counting.solve``) into ``units``. Collective."""
+    spec = scene.spectrum
+    t = time.perf_counter()
+    datasets, attrs, settings = counting.solve(dm, bin_width=spec.bin_width, zero_tol=spec.zero_tol)
+    seconds = parallel.global_max(comm, time.perf_counter() - t)
+    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", datasets,
+           {"rho": rho, "packing": p_index, "method": "counting", **attrs, "seconds": seconds,
+            "solver_settings": json.dumps(settings)})
+    say(comm, f"counted vDOS rho = {rho:g}, packing {p_index}: {attrs['inertia_count']} modes "
+              f"(+{attrs['n_zero_modes']} zero modes, {attrs['n_negative_modes']} negative) in "
+              f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias, omega_max = "
+              f"{attrs['omega_max']:.4f}, {seconds:.1f} s")
+    if attrs["n_negative_modes"]:
+        say(comm, f"rotsound: warning: {attrs['n_negative_modes']} modes with omega^2 < -zero_tol^2: the "
+                  f"packing is not a stable minimum")
 
 
 def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=None) -> np.ndarray:

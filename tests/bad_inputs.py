@@ -75,6 +75,8 @@ CASES = [
     ("output not HDF5", GOOD + "output: results.txt\n", [], "output = 'results.txt': must end in .h5", None),
     ("spectrum window reversed", GOOD + "spectrum: {window: [4, 2]}\n", [], "spectrum.window", None),
     ("unknown spectrum method", GOOD + "spectrum: {method: lanczos}\n", [], "spectrum.method = 'lanczos'", None),
+    ("counting with energies", GOOD + "spectrum: {method: counting, energies: true}\n", [],
+     "method = 'counting' gives mode counts only", None),
     ("KPM with a window", GOOD + "spectrum: {method: kpm, window: [1.0, 2.0]}\n", [], "window needs method 'slicing'", None),
     ("two documents, one output", GOOD + "---\n" + GOOD + "output: {out}\n", [],
      "two documents write output", None),

@@ -64,7 +64,12 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"window": [3, 2]}}, ["spectrum.window", "omega_lo < omega_hi"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energies": "yes"}}, ["spectrum.energies", "true or false"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "kpm", "window": [1.0, 2.0]}}, ["window needs method 'slicing'"]),
-    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "lanczos"}}, ["spectrum.method", "slicing or kpm"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "lanczos"}},
+     ["spectrum.method", "one of slicing, counting, kpm"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "counting", "window": [1.0, 2.0]}},
+     ["method = 'counting' gives the whole vDOS", "window needs method 'slicing'"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "counting", "energies": True}},
+     ["method = 'counting' gives mode counts only", "spectrum.energies needs"]),
 ])
 def test_bad_scenes_name_the_key(raw, words):
     with pytest.raises(InputError) as info:

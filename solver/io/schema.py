@@ -77,6 +77,9 @@ def _window(v):
     return None
 
 
+METHODS = ("slicing", "counting", "kpm")
+
+
 @dataclass(frozen=True)
 class SpectrumSpec:
     """Section ``spectrum`` (absent: no eigensolve; ``{}``: full spectrum with defaults)."""
@@ -91,9 +94,11 @@ class SpectrumSpec:
                          float)
     max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
                                _range(10, 10**7), int)
-    method: str = _f("slicing", "slicing: exact eigenvalues (SLEPc spectrum slicing); kpm: stochastic "
-                                "vDOS (Chebyshev moments, no factorisation; vDOS, omega_c and, with energies, binned K and Q)",
-                     lambda v: None if v in ("slicing", "kpm") else "must be slicing or kpm", str)
+    method: str = _f("slicing", "slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
+                                "vDOS from Sylvester inertias at the bin edges (no eigenvalues: vDOS, omega_c, mode "
+                                "counts); kpm: stochastic vDOS (Chebyshev moments, no factorisation; vDOS, omega_c "
+                                "and, with energies, binned K and Q)",
+                     lambda v: None if v in METHODS else f"must be one of {', '.join(METHODS)}", str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
                          "half a bin", _range(0, 10**6), int)
@@ -317,8 +322,12 @@ def _cross_check(obj, where):
             if getattr(obj, name) is None:
                 raise InputError(f"{where}{name} is missing: give packing.n and packing.phi, "
                                  f"or packing.file")
-    if isinstance(obj, SpectrumSpec) and obj.method == "kpm" and obj.window:
-        raise InputError(f"{where}method = 'kpm' gives the whole vDOS: {where}window needs method 'slicing'")
+    if isinstance(obj, SpectrumSpec) and obj.method != "slicing" and obj.window:
+        raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
+                         f"'slicing'")
+    if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
+        raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
+                         f"'slicing' (per mode) or 'kpm' (bin averages)")
     if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
         raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
     if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:

@@ -74,14 +74,20 @@ def pooled_vdos(spectra: list[tuple[dict, dict]], bin_width: float
     share the bins [0, w), [w, 2w), ... and differ only in how far they reach, so their densities
     are averaged on the longest grid (zero beyond a shorter one's top; unit area kept), and omega_c
     is the mean of the omega_max.  Returns (edges (B+1,), density (B,), omega_c, its std over
-    configurations).
+    configurations).  Counting units (also ``counts``) pool their integer counts instead, so their
+    vDOS equals the slicing histogram of the same modes.
     """
     if "omega" in spectra[0][0]:
         omegas = [datasets["omega"] for datasets, _ in spectra]
         return (*vdos(omegas, bin_width), *cutoff(omegas))
     edges = max((datasets["edges"] for datasets, _ in spectra), key=len)
     density = np.zeros(edges.size - 1)
-    for datasets, _ in spectra:
-        density[: datasets["density"].size] += datasets["density"] / len(spectra)
+    if "counts" in spectra[0][0]:  # counting: pool the modes themselves, as the slicing histogram does
+        for datasets, _ in spectra:
+            density[: datasets["counts"].size] += datasets["counts"]
+        density /= density.sum() * bin_width
+    else:
+        for datasets, _ in spectra:
+            density[: datasets["density"].size] += datasets["density"] / len(spectra)
     tops = np.array([float(attrs["omega_max"]) for _, attrs in spectra])
     return edges, density, float(tops.mean()), float(tops.std(ddof=1)) if tops.size > 1 else 0.0

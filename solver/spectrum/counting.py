@@ -1,0 +1,145 @@
+"""Exact vDOS by counting: how many eigenvalues fall in each bin, no eigenvalues, no eigenvectors.
+
+The number of eigenvalues of A = M^-1/2 D M^-1/2 below a shift sigma is the number of negative
+pivots of a Cholesky (LDL^T) factorisation of A - sigma I (Sylvester's law of inertia), so the
+count of modes with omega in [w_a, w_b) is the difference of the inertias at w_b^2 and w_a^2:
+one sparse factorisation per bin edge, exact integers, no Krylov iterations (PHYSICS.md section 3).
+
+Cost [decision]: the pattern of A - sigma I never changes, so each rank keeps one factorisation
+object (:class:`ShiftedInertia`) whose symbolic analysis (ordering, elimination tree) is done
+once and refactorises numerically only at every further shift.  Bin edges are independent: they
+are spread over the ranks of the communicator round-robin, each rank factorising its own
+sequential copy of A (so every rank holds one factor; memory per rank is that of one sequential
+factorisation).  The counts are integers gathered from their owners: identical on any rank count.
+
+Edges: bins [0, w), [w, 2w), ... up to past omega_max (the Lanczos estimate of
+``model.operators.largest_omega``, +1e-6 relative); if the inertia there misses any mode, more
+bins are added up to the Gershgorin bound.  Modes with omega below ``zero_tol`` (the two
+translations) are counted as zero modes and left out of the histogram, as in ``slicing``; those
+below -zero_tol^2 as negative modes.  A bin edge exactly on an eigenvalue counts it in the upper
+bin (the inertia counts lambda < sigma), as ``numpy.histogram`` does for [a, b).
+Units: omega in 1/t0.  Collective on the matrix's communicator.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import parallel, profiling
+from ..model.operators import largest_omega, scaled_operator
+from ..options import pc_settings
+from .slicing import INERTIA_PREFIX, _mumps_defaults
+
+
+class ShiftedInertia:
+    """Inertias of A - sigma I for many sigma with one factorisation object on A's communicator:
+    the symbolic analysis is done at the first shift, later shifts refactorise numerically only
+    (same pattern: A's values copied in place, then the diagonal shifted).  PC options prefix
+    ``inertia_`` (MUMPS Cholesky with ICNTL 13 and 24 by default, as ``slicing.inertia``).
+    Collective on A's communicator; call :meth:`destroy` when done."""
+
+    def __init__(self, A):
+        from petsc4py import PETSc
+
+        self.A = A
+        self.shifted = A.duplicate(copy=True)
+        self.shifted.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        self.pc = PETSc.PC().create(A.getComm())
+        self.pc.setOperators(self.shifted)
+        self.pc.setType(PETSc.PC.Type.CHOLESKY)
+        self.pc.setFactorSolverType("mumps")
+        self.pc.setOptionsPrefix(INERTIA_PREFIX)
+        self.pc.setFromOptions()
+        _mumps_defaults(self.pc)
+        self.factorisations = 0
+
+    @profiling.logged("rsInertiaReuse")
+    def count_below(self, sigma: float) -> int:
+        """Number of eigenvalues of A below ``sigma``. Collective on A's communicator."""
+        from petsc4py import PETSc
+
+        self.A.copy(self.shifted, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.shifted.shift(-sigma)
+        self.pc.setUp()  # same nonzero pattern: numeric factorisation only after the first
+        factor = self.pc.getFactorMatrix()
+        negative = int(factor.getInertia()[0])
+        factor.destroy()  # drops the wrapper's reference only; the PC keeps its factor
+        self.factorisations += 1
+        return negative
+
+    def settings(self) -> dict:
+        """What the factorisation used, read back from the PC. Not collective."""
+        return {"prefix": INERTIA_PREFIX, **pc_settings(self.pc)}
+
+    def destroy(self) -> None:
+        self.pc.destroy()
+        self.shifted.destroy()
+
+
+def counts_below(A, shifts, comm) -> tuple[np.ndarray, dict]:
+    """(number of eigenvalues of A below each of ``shifts`` (S,) int64, factorisation settings).
+
+    Collective on ``comm`` (mpi4py; A's communicator).  Shift i is counted by rank i % size on a
+    sequential copy of A with a reused :class:`ShiftedInertia`; every rank gets every count, and an
+    error on any rank is raised on all.
+    """
+    from petsc4py import PETSc
+
+    n = A.getSize()[0]
+    everything = PETSc.IS().createStride(n, 0, 1, comm=PETSc.COMM_SELF)
+    local = A.createSubMatrices(everything)[0]  # this rank's own sequential copy of A
+    everything.destroy()
+    counter, error = None, None
+    try:
+        counter = ShiftedInertia(local)
+    except BaseException as exc:  # noqa: BLE001 - raised on every rank below
+        error = exc
+    try:
+        parallel.agree(comm, error)
+        counts = parallel.owner_compute(comm, [float(s) for s in shifts], counter.count_below)
+        settings = comm.bcast(counter.settings(), root=0)  # rank 0 always counts shift 0
+    finally:
+        if counter is not None:
+            counter.destroy()
+        local.destroy()
+    return np.array(counts, dtype=np.int64), settings
+
+
+def solve(dm, *, bin_width: float, zero_tol: float) -> tuple[dict, dict, dict]:
+    """The exact vDOS of ``dm`` by counting, as (datasets, attrs, solver settings). Collective.
+
+    datasets: edges (B+1,) = 0, w, 2w, ... in 1/t0; counts (B,) int64, the modes with omega in each
+    bin (zero modes excluded); density (B,) = counts / (sum(counts) w), unit area.
+    attrs: omega_max (Lanczos, 1/t0), n_zero_modes, n_negative_modes, inertia_count (non-zero
+    modes counted), factorisations, dof, n_disks.
+    """
+    from petsc4py import PETSc
+
+    comm = dm.D.getComm().tompi4py()
+    omega_max = largest_omega(dm)
+    A = scaled_operator(dm)
+    try:
+        n = A.getSize()[0]
+        top = omega_max * (1 + 1e-6)
+        edges = bin_width * np.arange(int(np.floor(top / bin_width)) + 2)
+        lam0 = zero_tol**2
+        below, settings = counts_below(A, np.concatenate(([-lam0, lam0], edges[1:] ** 2)), comm)
+        if below[-1] < n:  # modes above the Lanczos estimate: count on up to the Gershgorin bound
+            bound = np.sqrt(A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9))
+            more = bin_width * np.arange(edges.size, int(np.floor(bound / bin_width)) + 2)
+            below = np.concatenate((below, counts_below(A, more**2, comm)[0]))
+            edges = np.concatenate((edges, more))
+    finally:
+        A.destroy()
+    n_negative, below_zero_tol = int(below[0]), int(below[1])
+    if below[-1] != n:
+        raise RuntimeError(f"counting: the inertia at the top edge counts {below[-1]} of {n} modes")
+    counts = np.diff(below[1:])
+    if np.any(counts < 0):
+        raise RuntimeError("counting: inertias decrease with the shift (a factorisation is wrong)")
+    density = counts / (counts.sum() * bin_width) if counts.sum() else np.zeros(counts.size)
+    attrs = {"omega_max": omega_max, "n_zero_modes": below_zero_tol - n_negative,
+             "n_negative_modes": n_negative, "inertia_count": int(counts.sum()),
+             "factorisations": int(below.size), "dof": dm.size, "n_disks": int(dm.active.sum())}
+    return {"edges": edges, "counts": counts, "density": density}, attrs, {"inertia": settings,
+                                                                           "wmax": dm.wmax_settings}

@@ -1,0 +1,72 @@
+"""The exact vDOS by counting (``spectrum.counting``): Sylvester inertias at the bin edges.
+
+Oracles: dense ``eigvalsh`` histograms (the counts must be equal, integer for integer), fresh
+factorisations at every shift (``slicing.count_below``) against the reused one, and the slicing
+scene's pooled vDOS through the pipeline.  Runs on 1 and 2 ranks (edges spread over the ranks).
+"""
+
+import numpy as np
+import pytest
+import yaml
+from conftest import COMM, assert_all, assert_close
+
+from solver import pipeline
+from solver.io import schema
+from solver.model import dynmat, operators
+from solver.spectrum import counting, slicing
+
+BIN = 0.05
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.5, 2.0])
+def test_counts_equal_dense_eigenvalue_histogram(comm, small_packing, rho):
+    dm = dynmat.assemble(small_packing, rho, comm)
+    try:
+        datasets, attrs, settings = counting.solve(dm, bin_width=BIN, zero_tol=1e-4)
+        A = operators.scaled_operator(dm)
+        lam = np.linalg.eigvalsh(dynmat.gather_csr(A).toarray())
+        A.destroy()
+    finally:
+        dm.destroy()
+    zero = np.abs(lam) < 1e-8
+    expected, _ = np.histogram(np.sqrt(lam[~zero]), datasets["edges"])
+    assert_all(np.array_equal(datasets["counts"], expected),
+               f"counts differ from eigvalsh in bins {np.nonzero(datasets['counts'] != expected)[0]}")
+    assert_all(attrs["n_zero_modes"] == zero.sum() == 2 and attrs["n_negative_modes"] == 0, str(attrs))
+    assert_all(datasets["edges"][-1] > np.sqrt(lam.max()), "the last edge must lie above every mode")
+    assert_close(attrs["omega_max"], np.sqrt(lam.max()), rtol=1e-8, what="omega_max (Lanczos tol 1e-8)")
+    assert_all(settings["inertia"]["factor_package"] == "mumps", str(settings))
+
+
+def test_reused_factorisation_counts_like_fresh_ones(comm, small_packing):
+    """Shifts out of order, so every refactorisation starts from another shift's values."""
+    dm = dynmat.assemble(small_packing, 1.0, comm)
+    A = operators.scaled_operator(dm)
+    try:
+        top = operators.largest_omega(dm) ** 2
+        shifts = top * np.array([0.6, 0.05, 0.3, 1e-9, 0.95, 0.15, 0.1, 0.8])
+        got, _ = counting.counts_below(A, shifts, COMM)
+        fresh = [slicing.count_below(A, float(s)) for s in shifts]
+    finally:
+        A.destroy()
+        dm.destroy()
+    assert_all(list(got) == fresh, f"{list(got)} != {fresh}")
+    assert_all(len(set(fresh)) == len(fresh), f"the shifts must tell the counts apart: {fresh}")
+
+
+def test_counting_scene_vdos_equals_the_slicing_histogram(shared_tmp):
+    scene = ("output: {out}\ncache: off\nseed: 4\npacking: {{n: 64, phi: 0.9, count: 2}}\n"
+             "model: {{rho: [0.0, 1.0]}}\nspectrum: {{method: {method}}}\n")
+    units = {m: pipeline.run(schema.build(schema.Scene, yaml.safe_load(
+        scene.format(out=shared_tmp / f"{m}.h5", method=m))), COMM, [])["units"] for m in ("counting", "slicing")}
+    for r in ("r00", "r01"):
+        (c, ca), (s, sa) = units["counting"][f"vdos/{r}"], units["slicing"][f"vdos/{r}"]
+        m = min(c["density"].size, s["density"].size)
+        assert_close(c["density"][:m], s["density"][:m], rtol=1e-12, what=f"vdos {r}")
+        assert_all(not c["density"][m:].any() and not s["density"][m:].any(), "empty tail bins")
+        assert_close(ca["omega_c"], sa["omega_c"], rtol=1e-8, what="omega_c (Lanczos tol 1e-8)")
+        for p in ("p0000", "p0001"):
+            cd, cattrs = units["counting"][f"spectra/{r}_{p}"]
+            sd, sattrs = units["slicing"][f"spectra/{r}_{p}"]
+            assert_all(cd["counts"].sum() == sd["omega"].size and
+                       cattrs["n_zero_modes"] == sattrs["n_zero_modes"], f"{r}_{p}")
