@@ -25,9 +25,10 @@ EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports a job ended by SIGTER
 _DESCRIPTION = "rotsound: sound in disordered frictional disk packings (run scenes, plot, report)."
 _EPILOG = """\
 usage of each command:
-  rotsound run SCENE.yaml [--set KEY.PATH=VALUE ...] [--fresh] [-petsc_option value ...]
+  rotsound run SCENE.yaml [--set KEY.PATH=VALUE ...] [--fresh] [--group-size G] [-petsc_option value ...]
       a file of several YAML documents runs them in order, with one PETSc for all;
-      under MPI: mpirun -n 4 rotsound run SCENE.yaml
+      under MPI: mpirun -n 4 rotsound run SCENE.yaml; mpirun -n 64 rotsound run SCENE.yaml
+      --group-size 2 solves 32 (rho, packing) units at a time, each on 2 ranks
   rotsound plot RESULTS.h5|SCENE.yaml [MORE ...]
   rotsound report RESULTS.h5|SCENE.yaml [MORE ...] [--output REPRODUCTION.md] [--notes NOTES.md]
   rotsound keys       the scene reference as a Markdown table
@@ -90,6 +91,10 @@ def _parser() -> argparse.ArgumentParser:
                      help="override a scene key (value parsed as YAML); repeatable")
     run.add_argument("--fresh", action="store_true",
                      help="discard the output file and its finished units first (no resume)")
+    run.add_argument("--group-size", metavar="G",
+                     help="split the ranks into groups of G consecutive ranks, each solving its share of "
+                          "the (rho, packing) units on its own (G divides the number of ranks; default: "
+                          "one group of all ranks)")
     plot = sub.add_parser("plot", help="figures from a results file (PNG and PDF beside it)")
     plot.add_argument("results", nargs="+", help="results .h5 file(s), or scene(s) whose output to plot; "
                                                  "with several, also an overlay of their vDOS (Fig. S1)")
@@ -103,9 +108,25 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _group_size(text: str | None, ranks: int) -> int | None:
+    """``--group-size`` as a divisor of ``ranks``, or None (one group of all ranks)."""
+    if text is None:
+        return None
+    try:
+        size = int(text)
+    except ValueError:
+        size, text = 0, repr(text)
+    if size < 1 or ranks % size:
+        divisors = ", ".join(str(d) for d in range(1, ranks + 1) if ranks % d == 0)
+        raise InputError(f"command line: --group-size = {text}: must be a whole number that divides the "
+                         f"number of ranks ({ranks}): one of {divisors}")
+    return size
+
+
 def _run(args, petsc_words, comm) -> None:
     from . import petscenv
 
+    group_size = _group_size(args.group_size, comm.size)
     todo = scenes.load(args.scene, args.set, comm)
     yaml_words = petscopts.to_argv(petscopts.flatten(todo[0].petsc))
     argv = yaml_words + petsc_words  # later words win: the command line beats the scene
@@ -116,7 +137,7 @@ def _run(args, petsc_words, comm) -> None:
     for index, scene in enumerate(todo):
         if len(todo) > 1:
             pipeline.say(comm, f"== scene {index + 1} of {len(todo)}: {scene.output}")
-        pipeline.run(scene, comm, argv, fresh=args.fresh)
+        pipeline.run(scene, comm, argv, fresh=args.fresh, group_size=group_size)
 
 
 def _targets(names: list[str]) -> list[str]:

@@ -81,3 +81,65 @@ def global_max(comm, value: float) -> float:
 def seed_sequence(seed: int, index: int) -> np.random.SeedSequence:
     """Seed sequence of configuration ``index`` of a scene seeded with ``seed`` (rank-free)."""
     return np.random.SeedSequence([int(seed), int(index)])
+
+
+class Groups:
+    """The ranks of ``comm`` in groups of ``size`` consecutive ranks (default: one group of all),
+    each group with its own sub-communicator ``local``, and independent tasks dealt to them.
+
+    Task t of a list goes to group t % count (round-robin): the caller fixes the list's order
+    without regard to the grouping, so a task's result depends on the grouping only through the
+    size of the communicator it is solved on.  A ``local`` of several groups is named
+    ``group <g>/<count>`` (MPI's communicator name, read back by :func:`label`).  Collective on
+    ``comm`` (making and freeing; use it as a context manager).
+    """
+
+    def __init__(self, comm, size: int | None = None):
+        size = comm.size if size is None else size
+        if size < 1 or comm.size % size:
+            raise ValueError(f"group size {size} does not divide {comm.size} ranks")
+        self.comm, self.size, self.count = comm, size, comm.size // size
+        self.index = comm.rank // size
+        self.local = comm if self.count == 1 else comm.Split(self.index, comm.rank)
+        if self.count > 1:
+            self.local.Set_name(f"group {self.index + 1}/{self.count}")
+
+    def __enter__(self) -> Groups:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.local is not self.comm:
+            self.local.Free()
+
+    def owner(self, task: int) -> int:
+        """The group that solves task number ``task``. Not collective."""
+        return task % self.count
+
+    def mine(self, tasks: Sequence[Any]) -> list[Any]:
+        """The tasks of this rank's group, in their order. Not collective."""
+        return list(tasks[self.index::self.count])
+
+    def wait(self, poll: float = 0.01) -> None:
+        """Barrier on ``comm`` that sleeps instead of spinning while the other groups finish their
+        tasks (a waiting rank would otherwise take a core from a working one). Collective."""
+        import time
+
+        request = self.comm.Ibarrier()
+        while not request.Test():
+            time.sleep(poll)
+
+    def share(self, results: dict[str, Any], owners: dict[str, int]) -> dict[str, Any]:
+        """Every group's ``results`` on every rank: ``owners`` maps each name to the group that
+        holds it (in ``results`` on all of that group's ranks); one broadcast per name from that
+        group's first rank, in ``owners``' order.  Collective on ``comm``."""
+        if self.count == 1:
+            return dict(results)
+        return {name: self.comm.bcast(results.get(name) if group == self.index else None, root=group * self.size)
+                for name, group in owners.items()}
+
+
+def label(comm) -> str:
+    """'[group g/count] ' for the sub-communicator of one of several :class:`Groups`, else ''
+    (a prefix for progress lines). Not collective."""
+    name = comm.Get_name()
+    return f"[{name}] " if name.startswith("group ") else ""

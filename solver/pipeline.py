@@ -7,12 +7,15 @@ matrix is assembled only if one of its units is missing.  SIGTERM (a batch syste
 is honoured at the next unit boundary, on every rank together.  Everything runs on the
 communicator given to :func:`run` (any mpi4py communicator, e.g. half of a split), and each
 stage inside its own PETSc log stage (``profiling.STAGES``), so ``-log_view`` splits the time.
+With ``group_size``, the (rho, packing) units are dealt to groups of ranks, each solving on its
+own sub-communicator (``parallel.Groups``); every rank then holds every unit.
 """
 
 from __future__ import annotations
 
 import json
 import signal
+import sys
 import time
 
 import numpy as np
@@ -31,7 +34,7 @@ from .waves import excitation
 from .waves import integrators as waves
 from .waves.unit import mode_unit
 from .io.schema import Scene
-from .errors import InputError, Interrupted
+from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import units as unitstore
 from .io.units import UnitStore, WindowCheckpoint, packing_from_unit, packing_unit
@@ -52,9 +55,12 @@ def check_interrupt(comm) -> None:
 
 
 def say(comm, message: str) -> None:
-    """Print on rank 0 only."""
+    """Print on rank 0 of ``comm`` only, prefixed '[group g/count] ' on a group's communicator
+    (``parallel.label``); one write per line, so that the lines of groups printing at the same
+    time do not interleave mid-line under mpirun."""
     if comm.rank == 0:
-        print(message, flush=True)
+        sys.stdout.write(parallel.label(comm) + message + "\n")
+        sys.stdout.flush()
 
 
 def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[packing.Packing]:
@@ -81,6 +87,69 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     packings = [by_index[i] if found[i] is None else packing_from_unit(found[i]) for i in range(count)]
     packing.require_jammed(packings, spec.phi)  # made, resumed or cached alike, before any solver
     return packings
+
+
+def _unit_names(scene: Scene, r_index: int, p_index: int) -> list[str]:
+    """The matrix, spectrum and waves units of (rho index, packing index) (no RT at rho = 0)."""
+    tag = f"r{r_index:02d}_p{p_index:04d}"
+    names = [f"matrices/{tag}"] + ([f"spectra/{tag}"] if scene.spectrum else [])
+    if scene.waves:
+        dof = 3 if scene.model.rho[r_index] > 0 else 2
+        names += [f"waves/r{r_index:02d}_{m}_p{p_index:04d}" for m in excitation.wave_modes(scene.waves, dof)]
+    return names
+
+
+def _solve_in_groups(scene: Scene, packings, keys, store: UnitStore, groups: parallel.Groups) -> dict:
+    """Every matrix, spectrum and waves unit of the scene, on every rank. Collective on ``groups.comm``.
+
+    The tasks -- each (rho, packing), rho-major, an order that does not depend on the grouping --
+    are dealt round-robin to the groups (``groups.mine``).  Each group loads or computes its
+    tasks' units on its own communicator, through its own handle to the units folder, and checks
+    for SIGTERM on that communicator between units; ``groups.comm`` is not used until every group
+    is done.  Then an error of any group is raised on every rank (before an interruption, should
+    both happen), else Interrupted if any group was stopped; otherwise every unit is shared among
+    all ranks and the groups' counts are added to ``store``'s.  An unexpected error in a group of
+    several ranks may be one rank's alone, with the others of its group stuck in a collective:
+    it is not caught here, and the command line aborts every rank (as without groups).
+    """
+    tasks = [(r_index, p_index) for r_index in range(len(scene.model.rho)) for p_index in range(len(packings))]
+    local = store.on(groups.local)
+    agreed = BaseException if groups.size == 1 else (InputError, NumericalFailure, Interrupted)
+    units: dict[str, tuple[dict, dict]] = {}
+    error = None
+    try:
+        for r_index, p_index in groups.mine(tasks):
+            _solve_task(scene, packings[p_index], r_index, p_index, keys, local, units)
+    except agreed as exc:  # raised on every rank of the group together: on every rank below
+        error = exc
+    groups.wait()
+    parallel.agree(groups.comm, None if isinstance(error, Interrupted) else error)
+    parallel.agree(groups.comm, error)  # by now an interruption
+    store.absorb(local)
+    return groups.share(units, {name: groups.owner(t) for t, task in enumerate(tasks)
+                                for name in _unit_names(scene, *task)})
+
+
+def _solve_task(scene: Scene, p, r_index: int, p_index: int, keys, store: UnitStore, units: dict) -> None:
+    """Load the finished units of (rho index, packing ``p``) from ``store`` into ``units``, and
+    compute the others. Collective on ``store.comm`` (one group)."""
+    comm = store.comm
+    check_interrupt(comm)
+    rho, tag = scene.model.rho[r_index], f"r{r_index:02d}_p{p_index:04d}"
+
+    def commit(name, datasets, attrs):  # each unit records the options that produced it
+        attrs = {**attrs, "petsc_options": json.dumps(keys[name].options)}
+        units[name] = (datasets, attrs)
+        store.save(name, datasets, attrs, keys[name])
+
+    found = {name: store.load(name, keys.get(name)) for name in _unit_names(scene, r_index, p_index)}
+    for name, unit in found.items():
+        if unit is not None:  # a cached unit may come from another scene's numbering
+            unit[1]["packing"] = p_index
+            units[name] = unit
+    if any(unit is None for unit in found.values()):
+        _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm,
+                 WindowCheckpoint(store, tag, keys.get(f"spectra/{tag}")))
 
 
 def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoint=None) -> None:
@@ -236,10 +305,13 @@ def _vdos_unit(scene, rho, r_index, spectra, units, comm) -> None:
     say(comm, f"vDOS rho = {rho:g}: omega_c = {omega_c:.4f} +- {spread:.4f} over {len(spectra)} configurations")
 
 
-def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
+def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_size: int | None = None) -> dict:
     """Execute ``scene`` on ``comm`` (mpi4py communicator); return a summary. Collective.
 
-    ``fresh`` discards the output file and its finished units first.
+    ``fresh`` discards the output file and its finished units first.  ``group_size`` G (a
+    divisor of ``comm.size``; default: all ranks) splits the ranks into groups of G that solve
+    the (rho, packing) units side by side (:func:`_solve_in_groups`); packings, the vDOS, the
+    analysis and the results file are made on ``comm`` as a whole.
     """
     from petsc4py import PETSc
 
@@ -250,44 +322,25 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
                           cache=unitstore.cache_folder(scene))
         with profiling.stage("packings"):
             packings = make_packings(scene, comm, store)
-        units: dict[str, tuple[dict, dict]] = {}
         keys = unitstore.unit_keys(scene, packings, petsc_argv)
-
-        def commit(name, datasets, attrs):  # each unit records the options that produced it
-            attrs = {**attrs, "petsc_options": json.dumps(keys[name].options)}
-            units[name] = (datasets, attrs)
-            store.save(name, datasets, attrs, keys[name])
-
         for index, p in enumerate(packings):
             i = p.info
             say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
                       f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                       f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                       + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
-        for r_index, rho in enumerate(scene.model.rho):
-            per_config = []  # spectrum units (datasets, attrs) of this rho
-            for p_index, p in enumerate(packings):
-                check_interrupt(comm)
-                tag = f"r{r_index:02d}_p{p_index:04d}"
-                dof = 3 if rho > 0 else 2
-                names = [f"matrices/{tag}"] + ([f"spectra/{tag}"] if scene.spectrum else [])
-                modes_here = excitation.wave_modes(scene.waves, dof) if scene.waves else []
-                if scene.waves and len(modes_here) < len(scene.waves.modes):
-                    say(comm, f"waves rho = {rho:g}: RT skipped (no rotational stiffness at rho = 0)")
-                names += [f"waves/r{r_index:02d}_{m}_p{p_index:04d}" for m in modes_here]
-                found = {name: store.load(name, keys.get(name)) for name in names}
-                for name, unit in found.items():
-                    if unit is not None:  # a cached unit may come from another scene's numbering
-                        unit[1]["packing"] = p_index
-                        units[name] = unit
-                if any(unit is None for unit in found.values()):
-                    _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm,
-                             WindowCheckpoint(store, tag, keys.get(f"spectra/{tag}")))
-                if scene.spectrum is not None:
-                    per_config.append(units[f"spectra/{tag}"])
-            if per_config:
+        if scene.waves and "RT" in scene.waves.modes and 0 in scene.model.rho:
+            say(comm, "waves rho = 0: RT skipped (no rotational stiffness at rho = 0)")
+        with parallel.Groups(comm, group_size) as groups:
+            if groups.count > 1:
+                say(comm, f"{groups.count} groups of {groups.size} rank{'s' if groups.size > 1 else ''} share "
+                          f"the {len(scene.model.rho) * len(packings)} (rho, packing) tasks")
+            units = _solve_in_groups(scene, packings, keys, store, groups)
+        if scene.spectrum is not None:
+            for r_index, rho in enumerate(scene.model.rho):
                 with profiling.stage("analysis"):
-                    _vdos_unit(scene, rho, r_index, per_config, units, comm)
+                    _vdos_unit(scene, rho, r_index, [units[f"spectra/r{r_index:02d}_p{p_index:04d}"]
+                                                     for p_index in range(len(packings))], units, comm)
         say(comm, f"units: {store.summary()} (folder {store.folder}; cache {store.cache or 'off'})")
         if scene.waves is not None:
             t = time.perf_counter()
@@ -309,7 +362,8 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False) -> dict:
         provenance = {
             "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
             "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
-            "ranks": comm.size, "petsc_options": petscopts.snapshot(), "petsc_options_unused": unused,
+            "ranks": comm.size, "group_size": groups.size, "petsc_options": petscopts.snapshot(),
+            "petsc_options_unused": unused,
         }
         try:  # rank 0 writes; any error it meets is raised on every rank (owner_compute)
             with profiling.stage("output"):

@@ -132,4 +132,10 @@ CASES = [
     ("unknown command", None, ["frobnicate"], "invalid choice: 'frobnicate'", None),
     ("--set without =", GOOD, ["--set", "packing.n"], "must look like key.path=value", None),
     ("--set to a bad value", GOOD, ["--set", "packing.phi=2"], "packing.phi = 2: must be in (0.0, 1.0)", None),
+    ("--group-size 0", GOOD, ["--group-size", "0"],
+     "--group-size = 0: must be a whole number that divides the number of ranks", None),
+    ("--group-size not dividing the number of ranks", GOOD, ["--group-size", "3"],
+     "--group-size = 3: must be a whole number that divides the number of ranks", None),
+    ("--group-size not an integer", GOOD, ["--group-size", "two"],
+     "--group-size = 'two': must be a whole number that divides the number of ranks", None),
 ]

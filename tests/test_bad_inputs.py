@@ -22,7 +22,7 @@ def materialise(tmp_path, case):
         text = scene.replace("{file}", str(file)).replace("{out}", str(out))
         path.write_text(text if text.startswith(("- ", "packing: {n: 64, phi: 0.9\n")) or not text.strip()
                         else f"output: {out}\n" + text)
-        if "--set" in words or not words:
+        if not words or words[0].startswith("--"):  # options of 'run' (--set, --group-size, ...)
             args = ["run", str(path)] + args
     return args, out
 

@@ -121,8 +121,8 @@ def rank_tolerance(key, ref, got, fit_change):
     ``fit_change`` is :func:`fit_sensitivity` of the reference file.
     """
     group, _, name = key.rpartition("@") if "@" in key else key.rpartition("/")
-    if name in ("ranks", "seconds", "assembly_seconds"):
-        return "skip"  # the rank count itself; timings
+    if name in ("ranks", "group_size", "seconds", "assembly_seconds"):
+        return "skip"  # the rank count and grouping themselves; timings
     if name in ("max_relative_residual", "error_estimate", "solver_settings"):
         return "skip"  # describe the solver's path (Krylov subspaces, Lanczos estimate ~1e-14, partitions)
     if name == "scene":  # the validated scene, whose output path differs
@@ -196,23 +196,27 @@ def test_results_do_not_depend_on_rank_count(tmp_path):
         proc = run_cli(["run", scene], ranks, timeout=300)
         assert proc.returncode == 0, proc.stderr
         for doc, ref in refs.items():
-            got = contents(tmp_path / f"r{ranks}_{doc}.h5")
-            assert sorted(got) == sorted(ref), set(got) ^ set(ref)
-            for key in ref:
-                bound = rank_tolerance(key, ref, got, fit_change)
-                if isinstance(bound, str):
-                    if bound == "scene":
-                        assert _without_output(got[key]) == _without_output(ref[key]), key
-                    elif bound == "exact":
-                        assert np.array_equal(got[key], ref[key], equal_nan=np.asarray(ref[key]).dtype.kind == "f"), \
-                            (ranks, doc, key)
-                    continue
-                x, y = np.asarray(got[key]), np.asarray(ref[key])
-                assert x.shape == y.shape and np.array_equal(np.isnan(x), np.isnan(y)), (ranks, doc, key)
-                with np.errstate(invalid="ignore"):  # equal infinities (dt_limit of spectral waves)
-                    error = np.where(x == y, 0.0, np.abs(x - y))
-                ok = np.isnan(y) | (error <= bound)
-                assert np.all(ok), (ranks, doc, key, float(np.nanmax(error / np.maximum(bound, 1e-300))))
+            assert_within_rank_tolerance(contents(tmp_path / f"r{ranks}_{doc}.h5"), ref, fit_change, (ranks, doc))
+
+
+def assert_within_rank_tolerance(got, ref, fit_change, what):
+    """Every key of two results files' :func:`contents` agrees to :func:`rank_tolerance`."""
+    assert sorted(got) == sorted(ref), set(got) ^ set(ref)
+    for key in ref:
+        bound = rank_tolerance(key, ref, got, fit_change)
+        if isinstance(bound, str):
+            if bound == "scene":
+                assert _without_output(got[key]) == _without_output(ref[key]), key
+            elif bound == "exact":
+                assert np.array_equal(got[key], ref[key], equal_nan=np.asarray(ref[key]).dtype.kind == "f"), \
+                    (what, key)
+            continue
+        x, y = np.asarray(got[key]), np.asarray(ref[key])
+        assert x.shape == y.shape and np.array_equal(np.isnan(x), np.isnan(y)), (what, key)
+        with np.errstate(invalid="ignore"):  # equal infinities (dt_limit of spectral waves)
+            error = np.where(x == y, 0.0, np.abs(x - y))
+        ok = np.isnan(y) | (error <= bound)
+        assert np.all(ok), (what, key, float(np.nanmax(error / np.maximum(bound, 1e-300))))
 
 
 def _without_output(scene):

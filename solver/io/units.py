@@ -21,11 +21,14 @@ entries are hard links to the unit files where the file system allows (copies ot
 are written atomically like the units themselves.
 
 All methods are collective on ``comm``; rank 0 does the file work, and an error there (of any
-type) is raised on every rank.
+type) is raised on every rank.  A run in groups of ranks (``--group-size``) claims the folder once
+on all ranks, then gives each group its own handle (:meth:`UnitStore.on`) on the group's
+communicator: the groups write different unit files into the same folder side by side.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import hashlib
 import json
@@ -200,6 +203,23 @@ class UnitStore:
                 raise InputError(f"{self.folder}: {exc}") from None
         _on_root(comm, claim)
 
+    def on(self, comm) -> UnitStore:
+        """A handle to the same folder and cache on ``comm`` (one group of this store's ranks,
+        ``parallel.Groups``), with counts of its own; it claims nothing (the folder was claimed
+        once, by this store).  Groups write different unit files into the folder side by side.
+        Not collective."""
+        handle = copy.copy(self)
+        handle.comm, handle.counts = comm, {}
+        return handle
+
+    def absorb(self, handle: UnitStore) -> None:
+        """Add to this store's counts those of the handles :meth:`on` made, one per group
+        (``handle``: this rank's group's).  Collective on this store's communicator."""
+        for counts in self.comm.allgather(handle.counts if handle.comm.rank == 0 else {}):
+            for stage, by_how in counts.items():
+                for how, number in by_how.items():
+                    self.counts.setdefault(stage, {"resumed": 0, "cache": 0, "computed": 0})[how] += number
+
     def _claim(self, output, scene_yaml, digest):
         marker = os.path.join(self.folder, "scene.yaml")
         if os.path.isfile(marker):
@@ -257,8 +277,8 @@ class UnitStore:
             if os.path.isfile(path):
                 unit = self._read(path)
                 if unit is None:
-                    print(f"rotsound: warning: unit file {path} is damaged or incomplete: recomputing it",
-                          flush=True)
+                    print(f"{parallel.label(self.comm)}rotsound: warning: unit file {path} is damaged or "
+                          f"incomplete: recomputing it", flush=True)
                 elif key is not None and unit[2] != key.digest:
                     why = key.changes(unit[3])
                 else:
@@ -271,7 +291,8 @@ class UnitStore:
                         found, how = unit[:2], "cache"
                         self._link(cached, path)
             if why and say_why:
-                print(f"{name}: {'taken from the cache' if how == 'cache' else 'recomputing'}: {why}", flush=True)
+                done = "taken from the cache" if how == "cache" else "recomputing"
+                print(f"{parallel.label(self.comm)}{name}: {done}: {why}", flush=True)
             return found, how
 
         found, how = _on_root(self.comm, find)
