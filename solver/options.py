@@ -145,23 +145,16 @@ def refuse_bare_solver_options(names: list[str]) -> None:
                              f"prefixes)")
 
 
-def unused(names: list[str], stages: list[tuple[str, str]]) -> dict[str, str | None]:
+def unused(names: list[str], stages: list[tuple[str, str]]) -> list[str]:
     """Those of ``names`` (options without '-') that no object of ``stages`` ((stage, method)
-    pairs, as in ``STAGE_PREFIXES``) reads and that are not PETSc process-wide options, each with
-    a suggestion (``'-spectrum_eps_tol'``) when it is a solver option without its prefix, else
-    None.  A misspelling after a valid prefix (``-spectrum_eps_tpye``) is not detected here:
+    pairs, as in ``STAGE_PREFIXES``) reads and that are not PETSc process-wide options: a prefix
+    of a stage the scene does not run, or no prefix of ours at all.  (Solver options without a
+    prefix never get here: :func:`refuse_bare_solver_options` stops the run first.)  A
+    misspelling after a valid prefix (``-spectrum_eps_tpye``) is not detected here:
     ``-options_left`` makes PETSc list every option it never queried, at exit.  Not collective.
     """
     in_use = tuple(p for stage in stages for p in STAGE_PREFIXES.get(stage, ()))
-    result: dict[str, str | None] = {}
-    for name in names:
-        if name in GLOBAL_OPTIONS or (in_use and name.startswith(in_use)):
-            continue
-        word = next((w for w in _OBJECT_WORDS if name.startswith(w)), None)
-        targets = _OBJECT_WORDS.get(word, ())
-        preferred = [t for t in targets if t.startswith(in_use)] if in_use else []
-        result[name] = " or ".join(f"-{t}{name}" for t in (preferred or targets)) or None
-    return result
+    return [name for name in names if name not in GLOBAL_OPTIONS and not (in_use and name.startswith(in_use))]
 
 
 def _which_name(eps) -> str:

@@ -224,9 +224,14 @@ def _counting_unit(scene, dm, rho, r_index, p_index, commit, comm) -> None:
               f"(+{attrs['n_zero_modes']} zero modes, {attrs['n_negative_modes']} negative) in "
               f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias, omega_max = "
               f"{attrs['omega_max']:.4f}, {seconds:.1f} s")
-    if attrs["n_negative_modes"]:
-        say(comm, f"rotsound: warning: {attrs['n_negative_modes']} modes with omega^2 < -zero_tol^2: the "
-                  f"packing is not a stable minimum")
+    _warn_negative(comm, attrs["n_negative_modes"])
+
+
+def _warn_negative(comm, count: int) -> None:
+    """Say that ``count`` > 0 modes have omega^2 < -zero_tol^2 (not an energy minimum)."""
+    if count:
+        say(comm, f"rotsound: warning: {count} modes with omega^2 < -zero_tol^2: the packing is not a "
+                  f"stable minimum")
 
 
 def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=None) -> np.ndarray:
@@ -262,9 +267,7 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=No
               f"(+{result.n_zero_modes} zero modes, {result.n_negative} negative), omega in "
               f"[{result.omega.min():.4f}, {result.omega.max():.4f}], max relative residual "
               f"{result.max_residual:.1e}, {result.windows} windows, {seconds:.1f} s")
-    if result.n_negative:
-        say(comm, f"rotsound: warning: {result.n_negative} modes with omega^2 < -zero_tol^2: the "
-                  f"packing is not a stable minimum")
+    _warn_negative(comm, result.n_negative)
     return result.omega
 
 
@@ -354,11 +357,10 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                          if lattice else ""))
         stages = ([("spectra", scene.spectrum.method)] if scene.spectrum else []) + (
             [("waves", scene.waves.method)] if scene.waves else [])
-        hints = petscopts.unused(petscopts.option_names(petsc_argv), stages)  # same on every rank
-        for name, hint in hints.items():
+        unused = petscopts.unused(petscopts.option_names(petsc_argv), stages)  # same on every rank
+        for name in unused:
             say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
-                      f"stage this scene does not run)" + (f"; did you mean {hint}?" if hint else ""))
-        unused = list(hints)
+                      f"stage this scene does not run)")
         provenance = {
             "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
             "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,

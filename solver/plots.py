@@ -19,16 +19,22 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
 
 from .analysis import correlations  # noqa: E402
+from .errors import InputError  # noqa: E402
 from .analysis import lattice as lattice_model  # noqa: E402
 from .io import results  # noqa: E402
 from .spectrum.modes import bin_average  # noqa: E402
 
 
 def _save(fig, stem: str) -> list[str]:
+    """Write ``fig`` as PNG and PDF at ``stem``; a folder that cannot take them is bad input."""
     paths = [f"{stem}.png", f"{stem}.pdf"]
-    for path in paths:
-        fig.savefig(path, dpi=150)
-    plt.close(fig)
+    try:
+        for path in paths:
+            fig.savefig(path, dpi=150)
+    except OSError as exc:
+        raise InputError(f"figure {path}: cannot write ({exc})") from None
+    finally:
+        plt.close(fig)
     return paths
 
 

@@ -67,7 +67,14 @@ def write(paths: list[str], output: str, notes: str | None = None) -> tuple[str,
     d = results.gather(paths)
     rows = claims(d)
     base = os.path.dirname(os.path.abspath(output))
+    try:
+        os.makedirs(os.path.join(base, "reproduction"), exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"report output {output}: cannot make its figure folder ({exc})") from None
     figures = plots.report_figures(d, os.path.join(base, "reproduction"))
-    with open(output, "w", encoding="utf-8") as stream:
-        stream.write(markdown(d, rows, figures, base, text))
+    try:
+        with open(output, "w", encoding="utf-8") as stream:
+            stream.write(markdown(d, rows, figures, base, text))
+    except OSError as exc:
+        raise InputError(f"report output {output}: cannot write ({exc})") from None
     return output, rows

@@ -114,6 +114,31 @@ def run_cli(args: list[str], ranks: int = 1, timeout: float = 120, cwd=None):
                           cwd=cwd or REPO)
 
 
+def run_stopped_after_windows(monkeypatch, scene, windows: int = 2) -> list:
+    """Run ``scene`` in-process until ``windows`` spectrum windows are solved, then stop it as
+    SIGTERM would (pipeline raises Interrupted on every rank); the windows stay on disk.  Returns
+    the list that counts ``_solve_window`` calls, which keeps counting on a later run. Collective."""
+    from solver import pipeline
+    from solver.errors import Interrupted
+    from solver.spectrum import slicing
+
+    solve_window, calls = slicing._solve_window, []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == windows:
+            pipeline._TERMINATE[0] = True  # as the SIGTERM handler would
+        return solve_window(*args, **kwargs)
+
+    monkeypatch.setattr(slicing, "_solve_window", counted)
+    try:
+        with pytest.raises(Interrupted):
+            pipeline.run(scene, COMM, [])
+    finally:
+        pipeline._TERMINATE[0] = False
+    return calls
+
+
 @pytest.fixture(scope="session")
 def small_packing():
     """A jammed 64-disk packing at phi = 0.9 (same on every rank)."""

@@ -301,3 +301,15 @@ def test_help_is_plain_text_and_shows_every_command():
     for usage in ("rotsound run SCENE.yaml", "rotsound plot RESULTS.h5", "rotsound report RESULTS.h5",
                   "rotsound keys", "rotsound --version"):
         assert usage in proc.stdout, (usage, proc.stdout)
+
+
+def test_report_to_an_unwritable_place_is_one_clear_error(tmp_path):
+    """A report (or its figures) that cannot be written is bad input: exit 2, one message, no
+    traceback (it was an OSError traceback with exit 1)."""
+    blocker = tmp_path / "file.txt"
+    blocker.write_text("a file, not a folder")
+    proc = run_cli(["report", str(REPO / "tests" / "data" / "results_v1.h5"),
+                    "--output", str(blocker / "REPRODUCTION.md")])
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.count("rotsound: error: report output") == 1, proc.stderr
+    assert "Traceback" not in proc.stderr

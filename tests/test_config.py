@@ -23,6 +23,15 @@ def test_good_scene_and_defaults():
     assert build({"packing": {"n": 16, "phi": 0.5}, "model": {"rho": 2}}).model.rho == [2.0]
 
 
+def test_yaml_exponents_without_a_dot_are_numbers_everywhere():
+    """PyYAML reads 1e1 and 2e3 (no dot) as strings: windows and integers take them too."""
+    scene = build({"packing": {"n": "2e3", "phi": 0.9, "max_steps": "2e6"}, "spectrum": {"window": [0, "1e1"]}})
+    assert (scene.packing.n, scene.packing.max_steps, scene.spectrum.window) == (2000, 2000000, [0.0, 10.0])
+    with pytest.raises(InputError, match="packing.n = '2.5e1x': must be an integer"):
+        build({"packing": {"n": "2.5e1x", "phi": 0.9}})
+    assert build(GOOD).model.rho is not build(GOOD).model.rho, "defaults must not be shared between scenes"
+
+
 def test_yaml_string_floats_are_numbers():
     scene = build({"packing": {"n": 64, "phi": "0.9", "force_tol": "1e-8"}})
     assert scene.packing.force_tol == 1e-8

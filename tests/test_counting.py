@@ -70,3 +70,22 @@ def test_counting_scene_vdos_equals_the_slicing_histogram(shared_tmp):
             sd, sattrs = units["slicing"][f"spectra/{r}_{p}"]
             assert_all(cd["counts"].sum() == sd["omega"].size and
                        cattrs["n_zero_modes"] == sattrs["n_zero_modes"], f"{r}_{p}")
+
+
+def test_low_top_estimate_extends_the_bins(comm, small_packing, monkeypatch):
+    """A Lanczos omega_max that falls short (forced here to half the true value) must not lose the
+    modes above it: more bins are counted up to the Gershgorin bound, and the counts still equal
+    eigvalsh's histogram."""
+    dm = dynmat.assemble(small_packing, 1.0, comm)
+    try:
+        true_top = operators.largest_omega(dm)
+        monkeypatch.setattr(counting, "largest_omega", lambda _: 0.5 * true_top)
+        datasets, attrs, _ = counting.solve(dm, bin_width=BIN, zero_tol=1e-4)
+        A = operators.scaled_operator(dm)
+        lam = np.linalg.eigvalsh(dynmat.gather_csr(A).toarray())
+        A.destroy()
+    finally:
+        dm.destroy()
+    expected, _ = np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), datasets["edges"])
+    assert_all(datasets["edges"][-1] > true_top, "bins must reach past the true omega_max")
+    assert_all(np.array_equal(datasets["counts"], expected), "counts differ from eigvalsh")

@@ -10,7 +10,7 @@ import time
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, REPO, mpirun, run_cli
+from conftest import COMM, REPO, mpirun, run_cli, run_stopped_after_windows
 
 pytestmark = pytest.mark.serial_only  # these tests launch and kill their own mpirun jobs
 
@@ -152,27 +152,12 @@ def test_sigterm_mid_spectrum_keeps_finished_windows(tmp_path, monkeypatch, caps
 
     from solver import pipeline
     from solver.io import schema as config
-    from solver.spectrum import slicing as spectrum
-    from solver.errors import Interrupted
 
     text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9, count: 1}}\n"
             "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 40}}\n")
     make = lambda name: config.build(config.Scene, yaml.safe_load(text.format(out=tmp_path / name)))  # noqa: E731
     reference = pipeline.run(make("ref.h5"), COMM, [])["units"]["spectra/r00_p0000"][0]
-    solve_window, calls = spectrum._solve_window, []
-
-    def terminated_after_two(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 2:
-            pipeline._TERMINATE[0] = True  # as the SIGTERM handler would
-        return solve_window(*args, **kwargs)
-
-    monkeypatch.setattr(spectrum, "_solve_window", terminated_after_two)
-    try:
-        with pytest.raises(Interrupted):
-            pipeline.run(make("cut.h5"), COMM, [])
-    finally:
-        pipeline._TERMINATE[0] = False
+    calls = run_stopped_after_windows(monkeypatch, make("cut.h5"))
     assert len(calls) == 2
     capsys.readouterr()
     resumed = pipeline.run(make("cut.h5"), COMM, [])["units"]["spectra/r00_p0000"][0]

@@ -205,14 +205,18 @@ def test_theta_beuler_ssp_converge_at_their_order(comm, packing64, integrator, o
     assert_all(np.all(np.abs(observed - order) < 0.1), f"{integrator}: errors {errors}, orders {observed}")
 
 
-def test_unused_options_are_judged_by_prefix_and_get_the_prefixed_name():
-    names = ["eps_tol", "ts_dt", "spectrum_eps_tol", "log_view", "waves_ts_dt", "st_pc_factor_mat_solver_type",
-             "mat_mumps_icntl_14", "not_an_option"]
-    hints = petscopts.unused(names, [("spectra", "slicing")])
-    assert hints == {"eps_tol": "-spectrum_eps_tol or -wmax_eps_tol", "ts_dt": "-waves_ts_dt",
-                     "waves_ts_dt": None,  # the waves do not run in this scene
-                     "st_pc_factor_mat_solver_type": "-spectrum_st_pc_factor_mat_solver_type or "
-                                                     "-wmax_st_pc_factor_mat_solver_type",
-                     "mat_mumps_icntl_14": "-spectrum_st_mat_mumps_icntl_14 or -inertia_mat_mumps_icntl_14",
-                     "not_an_option": None}, hints
-    assert petscopts.unused(["waves_ts_dt", "eps_tol"], [("waves", "ts")]) == {"eps_tol": "-wmax_eps_tol"}
+def test_unused_options_are_judged_by_prefix():
+    names = ["spectrum_eps_tol", "log_view", "waves_ts_dt", "inertia_mat_mumps_icntl_14", "not_an_option"]
+    assert petscopts.unused(names, [("spectra", "slicing")]) == ["waves_ts_dt", "not_an_option"]
+    assert petscopts.unused(names, [("waves", "ts")]) == ["spectrum_eps_tol", "inertia_mat_mumps_icntl_14",
+                                                         "not_an_option"]
+
+
+def test_bare_solver_options_are_refused_with_the_prefixed_name():
+    from solver.errors import InputError
+
+    for name, hint in (("eps_tol", "-spectrum_eps_tol or -wmax_eps_tol"), ("ts_dt", "-waves_ts_dt"),
+                       ("mat_mumps_icntl_14", "-spectrum_st_mat_mumps_icntl_14 or -inertia_mat_mumps_icntl_14")):
+        with pytest.raises(InputError, match=f"did you mean {hint}"):
+            petscopts.refuse_bare_solver_options(["log_view", name])
+    petscopts.refuse_bare_solver_options(["log_view", "spectrum_eps_tol", "waves_ts_dt"])

@@ -8,12 +8,11 @@ import h5py
 import numpy as np
 import pytest
 import yaml
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, run_stopped_after_windows
 
 from solver import pipeline
 from solver.io import schema as config
 from solver.io import units
-from solver.spectrum import slicing as spectrum
 
 SCENE = """\
 output: {out}
@@ -95,27 +94,12 @@ def test_stored_key_parts_say_what_changed():
 def test_window_checkpoint_of_other_options_is_discarded(shared_tmp, capsys, monkeypatch):
     """A spectrum stopped after two windows, resumed with an option acting on spectra: the
     saved plan and windows are recomputed (never mixed in), and the log says why once."""
-    from solver.errors import Interrupted
-
     text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 32, phi: 0.9, count: 1}}\n"
             "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 20}}\n")
     scene = config.build(config.Scene, yaml.safe_load(text.format(out=shared_tmp / "cut.h5")))
     reference = pipeline.run(config.build(config.Scene, yaml.safe_load(text.format(out=shared_tmp / "ref.h5"))),
                              COMM, [])["units"]["spectra/r00_p0000"][0]
-    solve_window, calls = spectrum._solve_window, []
-
-    def terminated_after_two(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 2:
-            pipeline._TERMINATE[0] = True  # as the SIGTERM handler would
-        return solve_window(*args, **kwargs)
-
-    monkeypatch.setattr(spectrum, "_solve_window", terminated_after_two)
-    try:
-        with pytest.raises(Interrupted):
-            pipeline.run(scene, COMM, [])
-    finally:
-        pipeline._TERMINATE[0] = False
+    calls = run_stopped_after_windows(monkeypatch, scene)
     capsys.readouterr()
     resumed = pipeline.run(scene, COMM, ["-spectrum_eps_tol", "1e-12"])["units"]["spectra/r00_p0000"][0]
     log = COMM.bcast(capsys.readouterr().out, root=0)

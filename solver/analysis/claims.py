@@ -229,7 +229,7 @@ def _wave_claims(d: Data, add, nm) -> None:
             add("Gap at k_c in the RT branch at rho = 0.2 (Fig. 5a)", "1.2 < omega t0 < 1.5",
                 "no k_c detected", "+-0.15 each end", "FAIL")
     if b is not None:
-        r, r0, rk, tk, oc = b["rho"], b["omega_r0"], b["omega_r_kmax"], b["omega_t_kmax"], b["omega_c"]
+        r, r0, rk = b["rho"], b["omega_r0"], b["omega_r_kmax"]
         model0 = lattice.omega_r_zero(r, lat["a_r"])
         dev0 = float(np.max(np.abs(r0 / model0 - 1)))
         add("omega_r(0) follows a_r sqrt(40 rho) for all rho (Fig. 7)", "agree well", f"max deviation {100 * dev0:.1f} %",

@@ -5,12 +5,12 @@ Pure post-processing (numpy/scipy, no MPI; the pipeline runs it on rank 0): it r
 ``analysis/...``.  Definitions:
 
 * C_alpha(k, t) and S_alpha(k, omega) pool the runs of both directions and every configuration
-  (``correlations``); C is fitted with exp(-gamma t) cos(omega t) (``dispersion.fit_damped_cosine``)
+  (``correlations``); C is fitted with exp(-gamma t) cos(omega t) (``fits.fit_damped_cosine``)
   and cross-checked by a Lorentzian fit of S.  c = omega / k.
 * gamma ~ k^p (L and TR only; RT is optical-like with gamma(0) > 0) is fitted over
   k d0 <= ``power_law_kd0_max`` where the run resolves the decay (gamma t_end >= 1).
 * k_c (RT): the first drop of the fitted RT frequency larger than ``kc_min_jump`` and 2.5x the
-  median step (``dispersion.transition_k``): the optical-like branch ends there; the TR branch's
+  median step (``fits.transition_k``): the optical-like branch ends there; the TR branch's
   complementary jump is the first rise by the same rule.  Where the VAF holds both branches, one
   damped cosine interpolates between them and the drop can spread over several k below the
   threshold (met at rho = 0.1, N = 8192).  Detecting on the Lorentzian peak instead was tried: it
@@ -35,7 +35,7 @@ import warnings
 import numpy as np
 
 from . import correlations, lattice
-from . import fits as dispersion
+from . import fits
 
 _WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT)_p(\d+)$")
 
@@ -47,13 +47,13 @@ def _fit_one(t, c, omega_grid, power, decay_window):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # OptimizeWarning (no covariance) is recorded as NaN errors
         try:
-            fit = dispersion.fit_damped_cosine(t, c, decay_window)
+            fit = fits.fit_damped_cosine(t, c, decay_window)
             row.update(omega=fit.omega, gamma=fit.gamma, omega_err=fit.omega_err,
                        gamma_err=fit.gamma_err, rms=fit.rms, t_fit=fit.t_max)
         except (RuntimeError, ValueError):
             pass
         try:
-            row["omega_lorentz"], row["gamma_lorentz"] = dispersion.fit_lorentzian(omega_grid, power)
+            row["omega_lorentz"], row["gamma_lorentz"] = fits.fit_lorentzian(omega_grid, power)
         except (RuntimeError, ValueError):
             pass
     return row
@@ -76,12 +76,12 @@ def averaged_waves(units: dict) -> dict:
     return out
 
 
-def _power_law(k, fits, t_end, kd0_max):
-    gamma = fits["gamma"]
+def _power_law(k, fitted, t_end, kd0_max):
+    gamma = fitted["gamma"]
     use = (k <= kd0_max) & np.isfinite(gamma) & (gamma * t_end >= 1.0) & (gamma > 0)
     if use.sum() < 3:
         return np.nan, np.nan, int(use.sum())
-    p, err = dispersion.power_law(k[use], gamma[use])
+    p, err = fits.power_law(k[use], gamma[use])
     return p, err, int(use.sum())
 
 
@@ -104,7 +104,7 @@ def analyse(units: dict, spec) -> dict:
     if not waves:
         return {}
     out: dict = {}
-    fits: dict = {}
+    fitted: dict = {}
     for (rho, mode), (k, t, c, omega_grid, power, count) in sorted(waves.items()):
         rows = [_fit_one(t, c[i], omega_grid, power[i], spec.decay_window) for i in range(k.size)]
         table = {key: np.array([r[key] for r in rows]) for key in rows[0]}
@@ -114,27 +114,27 @@ def analyse(units: dict, spec) -> dict:
                               else (np.nan, np.nan, 0))  # RT is optical-like: gamma(0) > 0
         jump_of = {"RT": table["omega"], "TR": -table["omega"]}.get(mode)
         finite = np.isfinite(table["omega"])
-        k_c = (dispersion.transition_k(k[finite], jump_of[finite], spec.kc_min_jump)
+        k_c = (fits.transition_k(k[finite], jump_of[finite], spec.kc_min_jump)
                if jump_of is not None else None)
-        fits[(rho, mode)] = (k, table, k_c)
+        fitted[(rho, mode)] = (k, table, k_c)
         out[f"analysis/rho{rho:g}_{mode}"] = (
             {"k": k, **table, "c": table["omega"] / k},
             {"rho": rho, "mode": mode, "configurations": count, "t_end": float(t[-1]),
              "power_law_p": p, "power_law_p_err": p_err, "power_law_points": p_points,
              "k_c": np.nan if k_c is None else k_c})
-    params = _lattice(fits, spec)
+    params = _lattice(fitted, spec)
     if params:
         out["analysis/lattice"] = ({}, params)
-        out["analysis/bands"] = (_bands(fits, units), {
+        out["analysis/bands"] = (_bands(fitted, units), {
             "definition": "omega_r0: RT at the smallest k; omega_r_kmax, omega_t_kmax: RT and TR at the "
                           "largest k; omega_c: vDOS of this file (NaN without one)"})
     return out
 
 
-def _lattice(fits, spec) -> dict:
+def _lattice(fitted, spec) -> dict:
     """Joint (a_r, l) fit over rho > 0 on the long-wave RT data below k_c, then a_t from TR."""
     rt, tr = [], []
-    for (rho, mode), (k, table, k_c) in sorted(fits.items()):
+    for (rho, mode), (k, table, k_c) in sorted(fitted.items()):
         if rho <= 0:
             continue
         keep = (k <= spec.lattice_kd0_max) & np.isfinite(table["omega"])
@@ -144,9 +144,9 @@ def _lattice(fits, spec) -> dict:
             (rt if mode == "RT" else tr).append((rho, k[keep], table["omega"][keep]))
     if sum(r[1].size for r in rt) < 3:
         return {}
-    a_r, a_r_err, l, l_err = dispersion.fit_lattice(rt, k_max=spec.lattice_kd0_max)
+    a_r, a_r_err, l, l_err = fits.fit_lattice(rt, k_max=spec.lattice_kd0_max)
     a_t, a_t_err = _fit_a_t(tr, l)
-    edge = [(rho, k[k > k_c], table["omega"][k > k_c]) for (rho, mode), (k, table, k_c) in sorted(fits.items())
+    edge = [(rho, k[k > k_c], table["omega"][k > k_c]) for (rho, mode), (k, table, k_c) in sorted(fitted.items())
             if mode == "RT" and rho > 0 and k_c is not None]
     a_t_edge, a_t_edge_err = _fit_a_t([e for e in edge if np.isfinite(e[2]).all()], l)
     return {"a_r": a_r, "a_r_err": a_r_err, "l": l, "l_err": l_err, "a_t": a_t, "a_t_err": a_t_err,
@@ -155,15 +155,15 @@ def _lattice(fits, spec) -> dict:
             "rho_values": np.array(sorted({r[0] for r in rt}))}
 
 
-def _bands(fits, units) -> dict:
+def _bands(fitted, units) -> dict:
     """Band limits per rho > 0 from the fitted frequencies (and omega_c of the vDOS, if any)."""
     vdos = {float(a["rho"]): float(a["omega_c"]) for n, (_, a) in units.items() if n.startswith("vdos/")}
-    rhos = sorted({rho for rho, mode in fits if rho > 0 and mode == "RT"})
+    rhos = sorted({rho for rho, mode in fitted if rho > 0 and mode == "RT"})
     cols = {key: [] for key in ("rho", "omega_r0", "omega_r_kmax", "omega_t_kmax", "omega_c",
                                 "k_small", "k_large")}
     for rho in rhos:
-        k, rt, _ = fits[(rho, "RT")]
-        tr = fits.get((rho, "TR"), (k, {"omega": np.full(k.size, np.nan)}, None))[1]
+        k, rt, _ = fitted[(rho, "RT")]
+        tr = fitted.get((rho, "TR"), (k, {"omega": np.full(k.size, np.nan)}, None))[1]
         cols["rho"].append(rho)
         cols["omega_r0"].append(rt["omega"][0])
         cols["omega_r_kmax"].append(rt["omega"][-1])

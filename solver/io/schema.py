@@ -9,6 +9,7 @@ the documents of a file are in ``scenes``.  Units: d0 = m = kn = 1.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
 import hashlib
@@ -25,7 +26,7 @@ def _f(default, doc, check=None, kind=None):
     """Field with documentation ``doc``; ``check(value) -> str | None`` says what is allowed."""
     meta = {"doc": doc, "check": check, "kind": kind}
     if isinstance(default, (list, dict)):
-        return field(default_factory=lambda: default, metadata=meta)
+        return field(default_factory=lambda: copy.deepcopy(default), metadata=meta)  # never shared
     return field(default=default, metadata=meta)
 
 
@@ -223,11 +224,17 @@ def _coerce(value, kind, where):
         raise InputError(f"{where} = {value!r}: must be {_type_name(kind)}")
 
     if kind is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            if isinstance(value, float) and value.is_integer():
-                return int(value)
+        if isinstance(value, bool):
             fail()
-        return value
+        if isinstance(value, int):
+            return value
+        try:  # 2e6 (a string to PyYAML) or 2.0e6 is the integer 2000000
+            number = float(value) if isinstance(value, (float, str)) else None
+        except ValueError:
+            number = None
+        if number is None or not number.is_integer():
+            fail()
+        return int(number)
     if kind is float:
         if isinstance(value, bool):
             fail()
@@ -239,22 +246,14 @@ def _coerce(value, kind, where):
         if not isinstance(value, (int, float)):
             fail()
         return float(value)
-    if kind is str:
+    if kind == "cache" and value is False:  # YAML reads a bare off/no/false as False
+        return "off"
+    if kind in (str, "cache"):
         if not isinstance(value, str) or not value:
             fail()
         return value
-    if kind is dict:
-        if not isinstance(value, dict):
-            fail()
-        return value
-    if kind == "cache":  # YAML reads a bare off/no/false as False
-        if value is False:
-            return "off"
-        if not isinstance(value, str) or not value:
-            fail()
-        return value
-    if kind is bool:
-        if not isinstance(value, bool):
+    if kind in (dict, bool):
+        if not isinstance(value, kind):
             fail()
         return value
     if kind in ("strs", "ints", "floats_list"):
@@ -262,11 +261,10 @@ def _coerce(value, kind, where):
             fail()
         item = {"strs": str, "ints": int, "floats_list": float}[kind]
         return [_coerce(v, item, where) for v in value]
-    if kind == "window":
-        if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                                  for v in value):
+    if kind == "window":  # numbers, including PyYAML's strings such as 1e1
+        if not isinstance(value, list) or any(isinstance(v, bool) for v in value):
             fail()
-        return [float(v) for v in value]
+        return [_coerce(v, float, where) for v in value]
     if kind == "floats":
         items = value if isinstance(value, list) else [value]
         if not items:

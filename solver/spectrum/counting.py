@@ -6,7 +6,7 @@ count of modes with omega in [w_a, w_b) is the difference of the inertias at w_b
 one sparse factorisation per bin edge, exact integers, no Krylov iterations (PHYSICS.md section 3).
 
 Cost [decision]: the pattern of A - sigma I never changes, so each rank keeps one factorisation
-object (:class:`ShiftedInertia`) whose symbolic analysis (ordering, elimination tree) is done
+object (``slicing.ShiftedInertia``) whose symbolic analysis (ordering, elimination tree) is done
 once and refactorises numerically only at every further shift.  Bin edges are independent: they
 are spread over the ranks of the communicator round-robin, each rank factorising its own
 sequential copy of A (so every rank holds one factor; memory per rank is that of one sequential
@@ -25,55 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import parallel, profiling
+from .. import parallel
 from ..model.operators import largest_omega, scaled_operator
-from ..options import pc_settings
-from .slicing import INERTIA_PREFIX, _mumps_defaults
-
-
-class ShiftedInertia:
-    """Inertias of A - sigma I for many sigma with one factorisation object on A's communicator:
-    the symbolic analysis is done at the first shift, later shifts refactorise numerically only
-    (same pattern: A's values copied in place, then the diagonal shifted).  PC options prefix
-    ``inertia_`` (MUMPS Cholesky with ICNTL 13 and 24 by default, as ``slicing.inertia``).
-    Collective on A's communicator; call :meth:`destroy` when done."""
-
-    def __init__(self, A):
-        from petsc4py import PETSc
-
-        self.A = A
-        self.shifted = A.duplicate(copy=True)
-        self.shifted.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-        self.pc = PETSc.PC().create(A.getComm())
-        self.pc.setOperators(self.shifted)
-        self.pc.setType(PETSc.PC.Type.CHOLESKY)
-        self.pc.setFactorSolverType("mumps")
-        self.pc.setOptionsPrefix(INERTIA_PREFIX)
-        self.pc.setFromOptions()
-        _mumps_defaults(self.pc)
-        self.factorisations = 0
-
-    @profiling.logged("rsInertiaReuse")
-    def count_below(self, sigma: float) -> int:
-        """Number of eigenvalues of A below ``sigma``. Collective on A's communicator."""
-        from petsc4py import PETSc
-
-        self.A.copy(self.shifted, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.shifted.shift(-sigma)
-        self.pc.setUp()  # same nonzero pattern: numeric factorisation only after the first
-        factor = self.pc.getFactorMatrix()
-        negative = int(factor.getInertia()[0])
-        factor.destroy()  # drops the wrapper's reference only; the PC keeps its factor
-        self.factorisations += 1
-        return negative
-
-    def settings(self) -> dict:
-        """What the factorisation used, read back from the PC. Not collective."""
-        return {"prefix": INERTIA_PREFIX, **pc_settings(self.pc)}
-
-    def destroy(self) -> None:
-        self.pc.destroy()
-        self.shifted.destroy()
+from .slicing import ShiftedInertia
 
 
 def counts_below(A, shifts, comm) -> tuple[np.ndarray, dict]:

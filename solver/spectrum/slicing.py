@@ -77,35 +77,59 @@ def _mumps_defaults(pc) -> None:
         factor.setMumpsIcntl(24, 1)
 
 
-@profiling.logged("rsInertia")
+class ShiftedInertia:
+    """Inertias of A - sigma I for many sigma with one factorisation object on A's communicator:
+    the symbolic analysis is done at the first shift, later shifts refactorise numerically only
+    (same pattern: A's values copied in place, then the diagonal shifted).  PC options prefix
+    ``inertia_`` (MUMPS Cholesky with ICNTL 13 and 24 by default, :func:`_mumps_defaults`).
+    Collective on A's communicator; call :meth:`destroy` when done."""
+
+    def __init__(self, A):
+        from petsc4py import PETSc
+
+        self.A = A
+        self.shifted = A.duplicate(copy=True)
+        self.shifted.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        self.pc = PETSc.PC().create(A.getComm())
+        self.pc.setOperators(self.shifted)
+        self.pc.setType(PETSc.PC.Type.CHOLESKY)
+        self.pc.setFactorSolverType("mumps")
+        self.pc.setOptionsPrefix(INERTIA_PREFIX)
+        self.pc.setFromOptions()
+        _mumps_defaults(self.pc)
+        self.factorisations = 0
+
+    @profiling.logged("rsInertia")
+    def count_below(self, sigma: float) -> int:
+        """Number of eigenvalues of A below ``sigma``. Collective on A's communicator."""
+        from petsc4py import PETSc
+
+        self.A.copy(self.shifted, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.shifted.shift(-sigma)
+        self.pc.setUp()  # same nonzero pattern: numeric factorisation only after the first
+        factor = self.pc.getFactorMatrix()
+        negative = int(factor.getInertia()[0])
+        factor.destroy()  # drops the wrapper's reference only; the PC keeps its factor
+        self.factorisations += 1
+        return negative
+
+    def settings(self) -> dict:
+        """What the factorisation used, read back from the PC. Not collective."""
+        return {"prefix": INERTIA_PREFIX, **pc_settings(self.pc)}
+
+    def destroy(self) -> None:
+        self.pc.destroy()
+        self.shifted.destroy()
+
+
 def inertia(A, sigma: float) -> tuple[int, dict]:
-    """(number of eigenvalues of A below ``sigma``, what the factorisation used). Collective.
-
-    Sylvester inertia of A - sigma I from a Cholesky factorisation (PC with the options prefix
-    ``inertia_``; defaults MUMPS with ICNTL 13 and 24, see :func:`_mumps_defaults`).
-    """
-    from petsc4py import PETSc
-
-    shifted = A.copy()
-    shifted.shift(-sigma)
-    shifted.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-    pc = PETSc.PC().create(A.getComm())
+    """(number of eigenvalues of A below ``sigma``, what the factorisation used), from a fresh
+    :class:`ShiftedInertia` freed at once (no factor is kept between calls). Collective."""
+    counter = ShiftedInertia(A)
     try:
-        pc.setOperators(shifted)
-        pc.setType(PETSc.PC.Type.CHOLESKY)
-        pc.setFactorSolverType("mumps")
-        pc.setOptionsPrefix(INERTIA_PREFIX)
-        pc.setFromOptions()
-        _mumps_defaults(pc)
-        pc.setUp()
-        factor = pc.getFactorMatrix()
-        negative, _, _ = factor.getInertia()
-        used = pc_settings(pc)
-        factor.destroy()  # the wrapper holds a reference: without this each call leaked the factor
+        return counter.count_below(sigma), counter.settings()
     finally:
-        pc.destroy()
-        shifted.destroy()
-    return int(negative), {"prefix": INERTIA_PREFIX, **used}
+        counter.destroy()
 
 
 def count_below(A, sigma: float) -> int:

@@ -209,9 +209,8 @@ class BlockVerlet:
         self.D, self.minv, self.nloc, self.runs = D, minv_local[:, None], nloc, runs
         size = ((nloc, n), (PETSc.DECIDE, runs))
         self.U = PETSc.Mat().createDense(size, array=np.zeros((nloc, runs), order="F"), comm=comm)
-        self.V = PETSc.Mat().createDense(size, array=np.zeros((nloc, runs), order="F"), comm=comm)
         self.DU = PETSc.Mat().createDense(size, array=np.zeros((nloc, runs), order="F"), comm=comm)
-        for m in (self.U, self.V, self.DU):
+        for m in (self.U, self.DU):
             m.assemble()
         self.acc = np.zeros((nloc, runs), order="F")
         # a block of one uses MatMult on Vecs (measured: MatMatMult with one column costs ~1.5x more)
@@ -250,7 +249,7 @@ class BlockVerlet:
 
     def destroy(self, ts=None):
         """Called by TS when it is destroyed."""
-        for m in (self.U, self.V, self.DU, self.u1, self.du1):
+        for m in (self.U, self.DU, self.u1, self.du1):
             m.destroy()
 
 
