@@ -18,7 +18,7 @@ pytestmark = pytest.mark.serial_only
 A_R, L_MODEL, A_T = 0.73, 0.446, 0.55
 RHOS = (0.2, 1.0, 2.0)
 K = np.linspace(0.1, 3.4, 24)
-K_C = 2.2  # the synthetic rho = 0.2 RT branch leaves the optical branch here
+K_C = 2.2  # the synthetic rho = 0.2 RT and TR branches exchange here
 
 
 def _truth(rho, mode):
@@ -27,8 +27,8 @@ def _truth(rho, mode):
     gamma = 0.02 * K**3 + (0.05 if mode == "RT" else 0.0)
     if mode == "L":
         return 1.6 * w_t, gamma
-    if mode == "TR":
-        return w_t, gamma
+    if mode == "TR":  # beyond k_c (rho < 1) TR jumps up to the optical branch, branch (iii) of Fig. 5b
+        return (np.where(K < K_C, w_t, w_r) if rho < 1 else w_t), gamma
     if rho < 1:  # RT on the acoustic branch beyond k_c, 20 % above the TR model branch
         return np.where(K < K_C, w_r, 1.2 * w_t), gamma
     return w_r, gamma
@@ -73,9 +73,11 @@ def test_power_law_and_transition(analysed):
         attrs = analysed[f"analysis/rho{rho:g}_TR"][1]
         assert_close(attrs["power_law_p"], 3.0, rtol=0.01, what=f"p at rho {rho}")  # measured |p - 3| <= 0.004
         assert np.isnan(analysed[f"analysis/rho{rho:g}_RT"][1]["power_law_p"])  # optical branch: not fitted
-    spacing = K[1] - K[0]
-    assert abs(analysed["analysis/rho0.2_RT"][1]["k_c"] - K_C) <= spacing
-    assert np.isnan(analysed["analysis/rho1_RT"][1]["k_c"]) and np.isnan(analysed["analysis/rho2_RT"][1]["k_c"])
+    # RT and TR exchange abruptly between two grid points around K_C: k_c lies between them
+    assert_close(analysed["analysis/rho0.2_RT"][1]["k_c"], K_C, rtol=0, atol=K[1] - K[0], what="k_c")
+    for rho in RHOS:  # k_c is a property of rho: the same on every mode's group (NaN for rho >= 1)
+        k_c = [analysed[f"analysis/rho{rho:g}_{mode}"][1]["k_c"] for mode in ("L", "TR", "RT")]
+        assert np.array_equal(k_c, [k_c[2]] * 3, equal_nan=True) and np.isnan(k_c[2]) == (rho >= 1), (rho, k_c)
 
 
 def test_lattice_fit_and_bands(analysed):

@@ -74,7 +74,7 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energies": "yes"}}, ["spectrum.energies", "true or false"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "kpm", "window": [1.0, 2.0]}}, ["window needs method 'slicing'"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "lanczos"}},
-     ["spectrum.method", "one of slicing, counting, kpm"]),
+     ["spectrum.method", "one of auto, slicing, counting, kpm"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "counting", "window": [1.0, 2.0]}},
      ["method = 'counting' gives the whole vDOS", "window needs method 'slicing'"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "counting", "energies": True}},
@@ -92,6 +92,16 @@ def test_optional_sections():
     assert build({"packing": {"n": 16, "phi": 0.9}, "spectrum": {}}).spectrum.bin_width == 0.05
     waves = build({"packing": {"n": 16, "phi": 0.9}, "waves": {"kd0": [1.19]}}).waves
     assert waves.modes == ["L", "TR", "RT"] and waves.integrator == "verlet"
+
+
+def test_spectrum_method_auto_chooses_the_cheapest_exact_method():
+    """Only counts asked -> counting; eigenvectors or a band -> slicing; an explicit choice stays."""
+    base = {"packing": {"n": 16, "phi": 0.9}}
+    method = lambda spectrum: build({**base, "spectrum": spectrum}).spectrum.method  # noqa: E731
+    assert method({}) == "counting" and method({"method": "auto"}) == "counting"
+    assert method({"energies": True}) == "slicing" and method({"window": [1.0, 2.0]}) == "slicing"
+    assert method({"method": "slicing"}) == "slicing" and method({"method": "kpm"}) == "kpm"
+    assert "method: counting" in build({**base, "spectrum": {}}).to_yaml()  # the stored scene says which
 
 
 def test_file_only_needs_no_n_phi():

@@ -1,8 +1,9 @@
-"""Lattice model limits and band edges, fitters on synthetic data, the k_c detector."""
+"""Lattice model limits and band edges, fitters on synthetic data, k_c (the RT/TR branch exchange)."""
 
 import numpy as np
 import pytest
 from conftest import assert_close
+from scipy import optimize
 
 from solver.analysis import fits as dp
 from solver.analysis import lattice
@@ -95,15 +96,87 @@ def test_power_law_exponent():
     assert abs(p - 3) < 4 * err + 0.02 and err < 0.1
 
 
-def test_transition_detector_on_two_branches():
-    k = np.linspace(0.1, 3.0, 30)
+# k grids of the reproduction scenes: configs/reproduce.yaml (29 k, N = 8192), configs/paper.yaml
+# (42 k, N = 32768), and every n of an N = 32768 box (L ~ 150 d0, spacing 2 pi / L = 0.042)
+K_COARSE = np.array([0.07, 0.15, 0.22, 0.29, 0.37, 0.44, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.35,
+                     1.5, 1.65, 1.8, 1.95, 2.1, 2.25, 2.4, 2.55, 2.7, 2.85, 3.0, 3.15, 3.3, 3.52])
+K_PAPER = np.array([0.037, 0.073, 0.11, 0.15, 0.18, 0.22, 0.26, 0.29, 0.33, 0.37, 0.44, 0.5, 0.6, 0.7,
+                    0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0, 2.1, 2.2, 2.3, 2.4,
+                    2.5, 2.6, 2.7, 2.8, 2.9, 3.0, 3.1, 3.2, 3.3, 3.4, 3.52])
+K_FINE = np.arange(1, 85) * 2 * np.pi / 150
+A_EDGE = 0.8  # the acoustic branch RT drops to, a_t beyond k_c (REPRODUCTION.md: 0.83)
+
+
+def exchanging_branches(k, rho=0.2, k_star=2.3, width=0.1):
+    """(omega_RT, omega_TR) of a smooth exchange (Fig. 5b): RT goes from the optical branch (iv),
+    the model omega_r, to the acoustic one (ii), omega_t with a_t = A_EDGE; TR from the acoustic
+    branch (i), omega_t with a_t = A_T, up to (iii), here omega_r; the switch is a logistic of
+    width ``width`` around ``k_star``, spread over ~4 width = 0.4 / d0 (the measured RT drop at
+    N = 32768 spread over four k steps of 0.1)."""
+    w_t, w_r = lattice.lattice_omega(k, rho, L_PAPER, A_T, A_R)
+    w_edge = lattice.lattice_omega(k, rho, L_PAPER, A_EDGE, A_R)[0]
+    s = 1 / (1 + np.exp((k - k_star) / width))
+    return s * w_r + (1 - s) * w_edge, s * w_t + (1 - s) * w_r
+
+
+def true_exchange(**kw):
+    """The crossing of the continuous branches (brentq to 1e-12)."""
+    return optimize.brentq(lambda x: np.subtract(*exchanging_branches(np.array([x]), **kw))[0], 1.5, 3.4,
+                           xtol=1e-12)
+
+
+def test_k_c_is_the_branch_exchange_on_any_k_grid():
+    """k_c on the reproduce (29 k), paper (42 k) and N = 32768 (84 k) grids agrees with the
+    crossing of the continuous branches and across grids.  The old jump detector (the first RT
+    drop > 0.15/t0 and 2.5x the median step) found 2.325 on the coarse grid and nothing on the
+    other two: the drop is spread over several finer steps (at most 0.12/t0 on the paper grid)."""
+    truth = true_exchange()
+    found = {}
+    for name, k in (("coarse", K_COARSE), ("paper", K_PAPER), ("fine", K_FINE)):
+        found[name] = dp.exchange_k(k, exchanging_branches(k)[0], k, exchanging_branches(k)[1])
+        # linear interpolation of the difference across the crossing: measured 3.3e-3, 2.7e-3 and
+        # 4.9e-4 off; 0.01 is 1/15 of the coarse grid's spacing (0.15) there
+        assert_close(found[name], truth, rtol=0, atol=0.01, what=f"k_c on the {name} grid")
+    for name in ("paper", "fine"):  # each within 0.01 of the truth: within 0.02 of each other
+        assert_close(found[name], found["coarse"], rtol=0, atol=0.02, what=f"k_c {name} against coarse")
+
+
+def test_k_c_ignores_a_noisy_dip_before_the_exchange_and_failed_fits():
+    truth = true_exchange()
+    rt, tr = exchanging_branches(K_PAPER)
     rng = np.random.default_rng(3)
-    wt, wr = lattice.lattice_omega(k, 0.2, L_PAPER, 0.8, A_R)
-    k_c = 1.7
-    data = np.where(k < k_c, wr, wt) + 0.01 * rng.normal(size=k.size)
-    found = dp.transition_k(k, data)
-    assert found is not None and abs(found - k_c) <= (k[1] - k[0])
-    assert dp.transition_k(k, wr + 0.01 * rng.normal(size=k.size)) is None  # rho > 1-like: no jump
+    rt, tr = rt + 0.005 * rng.normal(size=rt.size), tr + 0.005 * rng.normal(size=tr.size)
+    below = int(np.searchsorted(K_PAPER, truth)) - 2  # two k (0.2 / d0) below the crossing
+    rt[below] = tr[below] - 0.05  # one RT fit dips under TR there
+    d = rt - tr
+    assert np.count_nonzero((d[:-1] >= 0) & (d[1:] < 0)) == 2  # the data do cross twice
+    # noise 0.005 on each branch moves the zero of d (slope -3.3 /t0 per 1/d0) by ~2e-3 (measured 1.5e-3)
+    assert_close(dp.exchange_k(K_PAPER, rt, K_PAPER, tr), truth, rtol=0, atol=0.01, what="k_c with a dip")
+    rt[below + 2:below + 4] = np.nan  # failed fits at the two k just beyond the crossing
+    # the zero of the chord across 0.3 / d0 (instead of 0.1) of a switch 0.4 / d0 wide: measured 0.033 off
+    assert_close(dp.exchange_k(K_PAPER, rt, K_PAPER, tr), truth, rtol=0, atol=0.05, what="k_c across NaN")
+
+
+@pytest.mark.parametrize("k", [K_COARSE, K_PAPER, K_FINE], ids=["coarse", "paper", "fine"])
+def test_no_exchange_no_k_c(k):
+    for rho in (1.0, 2.0):  # RT above TR at every k: the model branches, with noise
+        w_t, w_r = lattice.lattice_omega(k, rho, L_PAPER, A_T, A_R)
+        rng = np.random.default_rng(int(10 * rho))
+        assert np.isnan(dp.exchange_k(k, w_r + 0.01 * rng.normal(size=k.size), k, w_t))
+    rt, tr = exchanging_branches(k)
+    assert np.isnan(dp.exchange_k(k, tr, k, rt))  # RT below TR from the first k: no exchange seen
+    short = k < 2.0  # a run that stops before the exchange: RT still above TR at its largest k
+    assert np.isnan(dp.exchange_k(k[short], rt[short], k[short], tr[short]))
+    back = k > 3.0  # RT back above TR at the largest k: not below it for good, so no k_c
+    assert np.isnan(dp.exchange_k(k, np.where(back, tr + 0.05, rt), k, tr))
+
+
+def test_k_c_needs_one_k_grid_for_rt_and_tr():
+    rt, tr = exchanging_branches(K_PAPER)
+    with pytest.raises(ValueError, match="different k"):
+        dp.exchange_k(K_PAPER, rt, K_PAPER * 1.001, tr)
+    with pytest.raises(ValueError, match="different k"):
+        dp.exchange_k(K_PAPER, rt, K_PAPER[:-1], tr[:-1])
 
 
 def test_joint_lattice_fit_recovers_parameters():

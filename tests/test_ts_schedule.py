@@ -97,7 +97,7 @@ cache: off
 seed: 4
 packing: {{n: 64, phi: 0.9}}
 model: {{rho: 1}}
-spectrum: {{energies: false}}
+spectrum: {{method: slicing}}
 waves: {{n: [1], modes: [L], dt: 0.05, t_end: 4, sample_every: 5}}
 """
 

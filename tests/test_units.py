@@ -20,7 +20,7 @@ cache: {cache}
 seed: 3
 packing: {{n: 32, phi: 0.9, count: 1}}
 model: {{rho: [1.0]}}
-spectrum: {{max_window_modes: 20}}
+spectrum: {{method: slicing, max_window_modes: 20}}
 waves: {{modes: [L], n: [1, 2], t_end: 40, dt: 0.05}}
 """
 

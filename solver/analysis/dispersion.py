@@ -9,13 +9,14 @@ Pure post-processing (numpy/scipy, no MPI; the pipeline runs it on rank 0): it r
   and cross-checked by a Lorentzian fit of S.  c = omega / k.
 * gamma ~ k^p (L and TR only; RT is optical-like with gamma(0) > 0) is fitted over
   k d0 <= ``power_law_kd0_max`` where the run resolves the decay (gamma t_end >= 1).
-* k_c (RT): the first drop of the fitted RT frequency larger than ``kc_min_jump`` and 2.5x the
-  median step (``fits.transition_k``): the optical-like branch ends there; the TR branch's
-  complementary jump is the first rise by the same rule.  Where the VAF holds both branches, one
-  damped cosine interpolates between them and the drop can spread over several k below the
-  threshold (met at rho = 0.1, N = 8192).  Detecting on the Lorentzian peak instead was tried: it
-  finds that drop but also false ones at large k for rho >= 0.8, where the broad RT peak makes the
-  Lorentzian fit jump; so the paper's omega (damped cosine) is kept.
+* k_c: where the RT and TR branches exchange (the paper's Fig. 5 text: RT drops from branch (iv)
+  to (ii), TR jumps from (i) to (iii)), a property of rho stored on every analysis group of that
+  rho: the linearly interpolated zero of omega_RT - omega_TR (damped-cosine fits) after which RT
+  stays below TR at every larger k (``fits.exchange_k``); NaN where RT stays above TR (rho >= 1),
+  where it is below from the first k, or without both RT and TR.  It has no threshold and no step
+  size, so it does not depend on the k spacing.  It replaced a jump detector (the first drop of
+  the RT frequency larger than a threshold), which found no k_c at rho = 0.2 on the N = 32768 k
+  grid, where one damped cosine spreads the drop over several finer k steps.
 * Lattice model: a_r and l fitted jointly over every rho > 0 to the RT frequencies on
   k d0 <= ``lattice_kd0_max`` and below k_c; then a_t (one value, l fixed) to the TR frequencies
   on the same range (``a_t``, the long-wave TR value), and separately to the RT frequencies beyond
@@ -112,16 +113,15 @@ def analyse(units: dict, spec) -> dict:
             table[key][(table["omega_lorentz"] <= 0) | (table["omega_lorentz"] > omega_grid[-1])] = np.nan
         p, p_err, p_points = (_power_law(k, table, t[-1], spec.power_law_kd0_max) if mode != "RT"
                               else (np.nan, np.nan, 0))  # RT is optical-like: gamma(0) > 0
-        jump_of = {"RT": table["omega"], "TR": -table["omega"]}.get(mode)
-        finite = np.isfinite(table["omega"])
-        k_c = (fits.transition_k(k[finite], jump_of[finite], spec.kc_min_jump)
-               if jump_of is not None else None)
-        fitted[(rho, mode)] = (k, table, k_c)
+        fitted[(rho, mode)] = (k, table)
         out[f"analysis/rho{rho:g}_{mode}"] = (
             {"k": k, **table, "c": table["omega"] / k},
             {"rho": rho, "mode": mode, "configurations": count, "t_end": float(t[-1]),
-             "power_law_p": p, "power_law_p_err": p_err, "power_law_points": p_points,
-             "k_c": np.nan if k_c is None else k_c})
+             "power_law_p": p, "power_law_p_err": p_err, "power_law_points": p_points})
+    k_c = {rho: _exchange(fitted, rho) for rho, _ in fitted}
+    fitted = {(rho, mode): (k, table, k_c[rho]) for (rho, mode), (k, table) in fitted.items()}
+    for rho, mode in fitted:
+        out[f"analysis/rho{rho:g}_{mode}"][1]["k_c"] = k_c[rho]
     params = _lattice(fitted, spec)
     if params:
         out["analysis/lattice"] = ({}, params)
@@ -131,6 +131,14 @@ def analyse(units: dict, spec) -> dict:
     return out
 
 
+def _exchange(fitted, rho) -> float:
+    """k_c of one rho from its RT and TR fits (``fits.exchange_k``); NaN without both."""
+    if (rho, "RT") not in fitted or (rho, "TR") not in fitted:
+        return np.nan
+    (k_rt, rt), (k_tr, tr) = fitted[(rho, "RT")], fitted[(rho, "TR")]
+    return fits.exchange_k(k_rt, rt["omega"], k_tr, tr["omega"])
+
+
 def _lattice(fitted, spec) -> dict:
     """Joint (a_r, l) fit over rho > 0 on the long-wave RT data below k_c, then a_t from TR."""
     rt, tr = [], []
@@ -138,7 +146,7 @@ def _lattice(fitted, spec) -> dict:
         if rho <= 0:
             continue
         keep = (k <= spec.lattice_kd0_max) & np.isfinite(table["omega"])
-        if k_c is not None:
+        if np.isfinite(k_c):
             keep &= k < k_c
         if keep.any() and mode in ("RT", "TR"):
             (rt if mode == "RT" else tr).append((rho, k[keep], table["omega"][keep]))
@@ -147,7 +155,7 @@ def _lattice(fitted, spec) -> dict:
     a_r, a_r_err, l, l_err = fits.fit_lattice(rt, k_max=spec.lattice_kd0_max)
     a_t, a_t_err = _fit_a_t(tr, l)
     edge = [(rho, k[k > k_c], table["omega"][k > k_c]) for (rho, mode), (k, table, k_c) in sorted(fitted.items())
-            if mode == "RT" and rho > 0 and k_c is not None]
+            if mode == "RT" and rho > 0 and np.isfinite(k_c)]
     a_t_edge, a_t_edge_err = _fit_a_t([e for e in edge if np.isfinite(e[2]).all()], l)
     return {"a_r": a_r, "a_r_err": a_r_err, "l": l, "l_err": l_err, "a_t": a_t, "a_t_err": a_t_err,
             "a_t_edge": a_t_edge, "a_t_edge_err": a_t_edge_err,

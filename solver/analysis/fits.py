@@ -1,5 +1,5 @@
 """Dispersion fits: damped cosine (eq:damped), Lorentzian, power laws, the lattice model's
-(a_r, l) fit, k_c.
+(a_r, l) fit, k_c (where the RT and TR branches exchange).
 
 numpy/scipy only (no PETSc).  Units: omega, gamma in 1/t0; k in 1/d0.  The lattice model itself
 (eq:omega_t(k), eq:omega_r(k)) is in ``lattice``.
@@ -91,25 +91,31 @@ def power_law(k: np.ndarray, gamma: np.ndarray) -> tuple[float, float]:
     return float(p), float(np.sqrt(cov[0, 0]))
 
 
-def transition_k(k: np.ndarray, omega: np.ndarray, min_jump: float = 0.15, factor: float = 2.5
-                 ) -> float | None:
-    """k_c: the first k after which the frequency drops by a jump (None if it never does).
+def exchange_k(k_rt: np.ndarray, omega_rt: np.ndarray, k_tr: np.ndarray, omega_tr: np.ndarray) -> float:
+    """k_c (1/d0): where the RT and TR branches exchange; NaN if they do not.  Not collective.
 
-    A jump is a decrease omega(k_i+1) - omega(k_i) < -max(min_jump, factor x median |step|): a
-    step that the smooth parts of the curve cannot produce at this k spacing.  For RT it is
-    where the fitted frequency leaves the optical-like branch for the acoustic one; pass -omega
-    to find the TR branch's complementary rise.  k_c is the midpoint of the two wave numbers
-    around the jump, so it is known to half the k spacing.
+    The paper (Fig. 5 text): at k_c the RT frequency drops from branch (iv) to (ii) while the TR
+    frequency jumps from (i) to (iii), so RT lies above TR for k < k_c and below it beyond.  With
+    d(k) = omega_rt - omega_tr on the k where both are finite, k_c is the zero of d linearly
+    interpolated between the last k with d >= 0 and the next one; d < 0 at every larger k, so a
+    noisy point that dips below TR before the exchange cannot make an earlier k_c.  NaN if d >= 0
+    at the largest k (no exchange: rho >= 1), if d < 0 from the first k, or with no finite pair.
+    No threshold and no step size enter, so k_c does not depend on the k spacing beyond the linear
+    interpolation of d.  k (K,) ascending, omega (K,) in 1/t0; RT and TR must be sampled on the
+    same k (one scene excites every mode at the same k), else ValueError.
     """
-    steps = np.diff(omega)
-    if steps.size == 0:
-        return None
-    threshold = max(min_jump, factor * float(np.median(np.abs(steps))))
-    drops = np.nonzero(steps < -threshold)[0]
-    if drops.size == 0:
-        return None
-    i = int(drops[0])
-    return float(0.5 * (k[i] + k[i + 1]))
+    k = np.asarray(k_rt, float)
+    if k.shape != np.shape(k_tr) or not np.array_equal(k, np.asarray(k_tr, float)):
+        raise ValueError(f"RT and TR sampled on different k ({np.size(k_rt)} and {np.size(k_tr)} values): "
+                         "the branch exchange needs one k grid")
+    d = np.asarray(omega_rt, float) - np.asarray(omega_tr, float)
+    finite = np.isfinite(d)
+    k, d = k[finite], d[finite]
+    above = np.nonzero(d >= 0)[0]
+    if above.size == 0 or above[-1] == d.size - 1:
+        return np.nan
+    i = int(above[-1])
+    return float(k[i] + d[i] / (d[i] - d[i + 1]) * (k[i + 1] - k[i]))
 
 
 def fit_lattice(data: list[tuple[float, np.ndarray, np.ndarray]], k_max: float = np.pi / 2,

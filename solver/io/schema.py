@@ -78,7 +78,7 @@ def _window(v):
     return None
 
 
-METHODS = ("slicing", "counting", "kpm")
+METHODS = ("auto", "slicing", "counting", "kpm")
 
 
 @dataclass(frozen=True)
@@ -95,7 +95,8 @@ class SpectrumSpec:
                          float)
     max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
                                _range(10, 10**7), int)
-    method: str = _f("slicing", "slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
+    method: str = _f("auto", "auto: counting when only counts are asked (no energies, no window), else "
+                             "slicing; slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
                                 "vDOS from Sylvester inertias at the bin edges (no eigenvalues: vDOS, omega_c, mode "
                                 "counts); kpm: stochastic vDOS (Chebyshev moments, no factorisation; vDOS, omega_c "
                                 "and, with energies, binned K and Q)",
@@ -169,9 +170,6 @@ class AnalysisSpec:
     power_law_kd0_max: float = _f(1.0, "gamma ~ k^p is fitted for k d0 <= this, over the k whose decay "
                                        "the run resolves (gamma t_end >= 1)", _range(0.0, 2 * math.pi, True),
                                   float)
-    kc_min_jump: float = _f(0.15, "k_c detector: smallest drop of the fitted RT frequency (1/t0) between "
-                                  "neighbouring k that counts as a jump (it must also exceed 2.5x the median "
-                                  "step)", _range(0.0, 10.0, True), float)
 
 
 @dataclass(frozen=True)
@@ -310,6 +308,8 @@ def build(cls, raw, where: str = ""):
                 raise InputError(f"{key} = {raw[name]!r}: {problem}")
         values[name] = value
     obj = cls(**values)
+    if isinstance(obj, SpectrumSpec) and obj.method == "auto":  # the cheapest exact method for what is asked
+        obj = dataclasses.replace(obj, method="slicing" if obj.energies or obj.window else "counting")
     _cross_check(obj, where)
     return obj
 
