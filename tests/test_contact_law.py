@@ -159,3 +159,124 @@ def test_fire_forces_are_minus_the_gradient_of_fire_energy():
             grad[i, axis] = (forces(x + step)[1] - forces(x - step)[1]) / (2 * h)
     # central differences, h = 1e-6, of an energy ~1: truncation ~1e-12, round-off ~1e-10
     assert_close(f, -grad, rtol=0.0, atol=1e-7 * np.abs(f).max(), what="FIRE force vs -grad E")
+
+
+# --- 3D spheres and rolling / twisting springs (PHYSICS.md section 8) ---------------------------
+
+def random_contacts_nd(dim, count=16, seed=0):
+    """Like ``random_contacts`` in ``dim`` = 2 or 3 (normals uniform on the circle / sphere)."""
+    rng = np.random.default_rng(seed)
+    radii = 0.5 * rng.choice([jammed.D_SMALL, jammed.D_LARGE], size=(2, count))
+    normal = rng.normal(size=(count, dim))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    contact = radii[0] + radii[1]
+    overlap = rng.uniform(0.01, 0.05, count)
+    geometry = {"separation": normal * (contact - overlap)[:, None], "contact": contact,
+                "normal": normal, "radius_i": radii[0], "radius_j": radii[1]}
+    return geometry, overlap
+
+
+def split(w, dim):
+    """(du, theta_i, theta_j) from generalised displacements w (C, 2m) = (u_i, theta_i, u_j, theta_j)."""
+    m = w.shape[1] // 2
+    theta_i, theta_j = w[:, dim:m], w[:, m + dim:]
+    if dim == 2:
+        theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
+    return w[:, :dim] - w[:, m:m + dim], theta_i, theta_j
+
+
+def energy_nd(geometry, springs, w):
+    du, theta_i, theta_j = split(w, geometry["normal"].shape[1])
+    return contact_law.pair_energy(**geometry, **springs, du=du, theta_i=theta_i, theta_j=theta_j)
+
+
+SPRINGS = [(2, {"rho": 0.5, "rho_roll": 0.3}), (2, {"rho": 0.0, "rho_roll": 0.7}),
+           (3, {"rho": 0.5, "rho_roll": 0.3, "rho_twist": 0.2}), (3, {"rho": 1.0}),
+           (3, {"rho": 0.0, "rho_roll": 0.0, "rho_twist": 0.4})]
+
+
+@pytest.mark.parametrize("dim, springs", SPRINGS)
+def test_nd_hessian_blocks_match_central_differences_at_second_order(dim, springs):
+    geometry, overlap = random_contacts_nd(dim)
+    count, size = overlap.size, 2 * (dim + (1 if dim == 2 else 3))
+    h_ii, h_ij, h_jj = contact_law.pair_blocks(geometry["normal"], geometry["contact"] - overlap, overlap,
+                                               geometry["radius_i"], geometry["radius_j"], **springs)
+    exact = np.concatenate((np.concatenate((h_ii, h_ij), 2),
+                            np.concatenate((np.transpose(h_ij, (0, 2, 1)), h_jj), 2)), 1)
+    assert exact.shape == (count, size, size)
+    errors = []
+    for h in STEPS:
+        fd = np.empty_like(exact)
+        for a in range(size):
+            for b in range(size):
+                e = []
+                for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                    w = np.zeros((count, size))
+                    w[:, a] += sa * h
+                    w[:, b] += sb * h
+                    e.append(energy_nd(geometry, springs, w))
+                fd[:, a, b] = (e[0] - e[1] - e[2] + e[3]) / (4 * h * h)
+        errors.append(np.abs(fd - exact).max() / np.abs(exact).max())
+    orders = observed_order(errors)
+    # the springs are quadratic, so only the exact-geometry normal term leaves an O(h^2) error;
+    # a wrong block leaves an error that does not fall with h (slope ~0)
+    assert np.all(np.abs(orders - 2) < 0.1), f"{dim}D {springs}: errors {errors}, orders {orders}"
+    assert errors[-1] < 1e-6, f"{dim}D {springs}: error {errors[-1]}"
+
+
+@pytest.mark.parametrize("dim, springs", SPRINGS)
+def test_nd_forces_and_torques_are_minus_the_energy_gradient(dim, springs):
+    geometry, _ = random_contacts_nd(dim, seed=2)
+    count, size = geometry["contact"].size, 2 * (dim + (1 if dim == 2 else 3))
+    w = 1e-3 * np.random.default_rng(3).normal(size=(count, size))
+    du, theta_i, theta_j = split(w, dim)
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, **springs, du=du, theta_i=theta_i, theta_j=theta_j)
+    col = (lambda t: t[:, None]) if dim == 2 else (lambda t: t)  # noqa: E731
+    generalised = np.concatenate((force, col(tau_i), -force, col(tau_j)), axis=1)
+    errors = []
+    for h in STEPS:
+        grad = np.empty((count, size))
+        for a in range(size):
+            step = np.zeros((count, size))
+            step[:, a] = h
+            grad[:, a] = (energy_nd(geometry, springs, w + step) - energy_nd(geometry, springs, w - step)) / (2 * h)
+        errors.append(np.abs(generalised + grad).max() / np.abs(generalised).max())
+    orders = observed_order(errors)
+    assert np.all(np.abs(orders - 2) < 0.1), f"{dim}D {springs}: errors {errors}, orders {orders}"
+
+
+def test_3d_springs_act_on_the_motions_they_resist():
+    """Uniform spin: only the tangential spring, slip (R_i + R_j) phi; a relative spin about n:
+    only twisting, a' |dphi|; a relative spin about an axis normal to n: only rolling."""
+    geometry, overlap = random_contacts_nd(3, seed=5)
+    n, count = geometry["normal"], overlap.size
+    base = contact_law.normal_energy(overlap)
+    zero3 = np.zeros((count, 3))
+    axis = np.cross(n, np.random.default_rng(6).normal(size=(count, 3)))
+    axis /= np.linalg.norm(axis, axis=1)[:, None]  # unit, normal to n
+    reduced = geometry["radius_i"] * geometry["radius_j"] / (geometry["radius_i"] + geometry["radius_j"])
+    phi = 1e-3
+
+    def extra(springs, theta_i, theta_j):
+        return contact_law.pair_energy(**geometry, **springs, du=zero3, theta_i=theta_i, theta_j=theta_j) - base
+
+    spin = phi * axis
+    zero = 1e-12 * base  # round-off of e - e_normal; a spring that acts adds ~(a' phi)^2 ~ 1e-8 >> this
+    slip = (geometry["radius_i"] + geometry["radius_j"]) * phi
+    assert_close(extra({"rho": 1.0}, spin, spin), 0.5 * slip**2, rtol=1e-9, what="uniform spin, tangential")
+    assert np.all(np.abs(extra({"rho": 0.0, "rho_roll": 1.0, "rho_twist": 1.0}, spin, spin)) < zero), \
+        "rolling / twisting springs resist a uniform spin"
+    twist = phi * n
+    assert_close(extra({"rho": 0.0, "rho_twist": 1.0}, twist, -twist), 0.5 * (2 * phi * reduced) ** 2,
+                 rtol=1e-9, what="relative twist")
+    assert np.all(np.abs(extra({"rho": 0.0, "rho_roll": 1.0}, twist, -twist)) < zero), "rolling resists a twist"
+    assert_close(extra({"rho": 0.0, "rho_roll": 1.0}, spin, -spin), 0.5 * (2 * phi * reduced) ** 2,
+                 rtol=1e-9, what="relative roll")
+    assert np.all(np.abs(extra({"rho": 0.0, "rho_twist": 1.0}, spin, -spin)) < zero), "twisting resists a roll"
+
+
+def test_twisting_spring_is_refused_in_2d():
+    geometry, overlap = random_contacts_nd(2)
+    with pytest.raises(ValueError, match="rho_twist = 0.1: twisting resistance exists in 3D only"):
+        contact_law.pair_blocks(geometry["normal"], geometry["contact"] - overlap, overlap,
+                                geometry["radius_i"], geometry["radius_j"], 0.5, rho_twist=0.1)

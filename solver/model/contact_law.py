@@ -1,28 +1,32 @@
-"""The contact law, the paper's eq:eij, in one place: pair energy, forces and torques, and the
-exact pair Hessian blocks of the dynamical matrix (PHYSICS.md sections 1, 2 and 8).
+"""The contact law, the paper's eq:eij and its 3D form with rolling and twisting springs, in one
+place: pair energy, forces and torques, and the exact pair Hessian blocks of the dynamical matrix
+(PHYSICS.md sections 1, 2 and 8).
 
-Units m = d0 = kn = 1, kt = rho kn.  Per contact (i, j), with the reference (jammed) geometry
-n = (r_i - r_j)/r_ij (minimum image), t = (-n_y, n_x), R = d/2, and displacements u, theta
-(Delta u = u_i - u_j):
+Units m = d0 = kn = 1; kt = rho kn, kr = rho_roll kn, ko = rho_twist kn (3D only).  Per contact
+(i, j), with the reference (jammed) geometry n = (r_i - r_j)/r_ij (minimum image), P = I - n n^T,
+R = d/2, a' = R_i R_j / (R_i + R_j), displacements u (D components) and rotations theta (a
+scalar about z in 2D, a 3-vector in 3D), Delta u = u_i - u_j:
 
-    e_ij = kn xi^2 / 2 + kt delta_t^2 / 2                                       (eq:eij)
+    e_ij = kn xi^2 / 2 + kt |s_t|^2 / 2 + kr |s_r|^2 / 2 + ko s_o^2 / 2         (eq:eij at kr = ko = 0)
     xi = (d_i + d_j)/2 - |r_i - r_j + Delta u|     exact geometry; the kn term is 0 once xi <= 0
-    delta_t = t . Delta u - R_i theta_i - R_j theta_j
+    s_t = P Delta u - (R_i theta_i + R_j theta_j) x n      tangential displacement of the contact point
+    s_r = a' (theta_i - theta_j) x n,   s_o = a' n . (theta_i - theta_j)     rolling, twisting
 
-delta_t is the tangential displacement of the contact point (the paper's u_perp = u_ij - u_par
-- theta_ij x n, written along t; PHYSICS.md section 8's s_t in 2D), measured from the
-unstressed state: the tangential springs are switched on after FIRE, so the packing stays in
-equilibrium for every rho.  The normal part alone (rho = 0) is the energy FIRE minimises
-(``normal_pair``).  To second order in the displacements (PHYSICS.md section 2), with
-f_n = kn xi, k* = kt - f_n / r_ij, P = kn n n^T + k* t t^T, DOF order (u_x, u_y, theta):
+In 2D theta x n is theta t with t = (-n_y, n_x), so s_t = delta_t t with the paper's
+delta_t = t . Delta u - R_i theta_i - R_j theta_j (its u_perp = u_ij - u_par - theta_ij x n).  The
+springs are measured from the unstressed state: they are switched on after FIRE, so the packing
+stays in equilibrium for every rho.  The normal part alone is the energy FIRE minimises
+(``normal_pair``).  To second order the springs are linear maps B of (u_i, theta_i, u_j, theta_j)
+and add k B^T B; the normal spring adds K = kn n n^T - (f_n / r_ij) P on the translations (the
+geometric, prestress term, kept).  In 2D, DOF order (u_x, u_y, theta), with k* = kt - f_n / r_ij
+and kr = 0 this is
 
-    H_ii = [[ P, -kt R_i t], [-kt R_i t^T, kt R_i^2]]   H_jj = [[ P, kt R_j t], [kt R_j t^T, kt R_j^2]]
-    H_ij = [[-P, -kt R_j t], [ kt R_i t^T, kt R_i R_j]]  H_ji = H_ij^T
+    H_ii = [[ P', -kt R_i t], [-kt R_i t^T, kt R_i^2]]   H_jj = [[ P', kt R_j t], [kt R_j t^T, kt R_j^2]]
+    H_ij = [[-P', -kt R_j t], [ kt R_i t^T, kt R_i R_j]]  H_ji = H_ij^T,   P' = kn n n^T + k* t t^T.
 
-The -f_n/r_ij t t^T term is the geometric (prestress) term of the normal force; it is kept,
-so the blocks are the exact Hessian of e_ij at the reference (tests/test_contact_law.py checks
-them against central differences of ``pair_energy``).  Every function is vectorised over the
-C contacts.  Not collective.
+The blocks are the exact Hessian of e_ij at the reference (tests/test_contact_law.py checks them,
+and the forces, against central differences of ``pair_energy`` in 2D and 3D with every spring on).
+Every function is vectorised over the C contacts.  Not collective.
 """
 
 from __future__ import annotations
@@ -43,87 +47,152 @@ def normal_energy(overlap: np.ndarray) -> np.ndarray:
 
 
 def normal_pair(separation: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Exact-geometry normal force and energy of pairs at ``separation`` r_i - r_j (C, 2).
+    """Exact-geometry normal force and energy of pairs at ``separation`` r_i - r_j (C, D), D = 2 or 3.
 
-    ``contact`` (C,) is (d_i + d_j)/2.  Returns (force on i (C, 2), energy (C,)); the force on
+    ``contact`` (C,) is (d_i + d_j)/2.  Returns (force on i (C, D), energy (C,)); the force on
     j is minus that on i.  Pairs with xi <= 0 give zero.  This is eq:eij at rho = 0, the
     frictionless energy FIRE minimises.
     """
-    distance = np.hypot(separation[:, 0], separation[:, 1])
+    distance = np.sqrt(np.einsum("cd,cd->c", separation, separation))
     overlap = np.maximum(contact - distance, 0.0)
     force = (normal_force(overlap) / distance)[:, None] * separation
     return force, normal_energy(overlap)
 
 
 def tangent(normal: np.ndarray) -> np.ndarray:
-    """t = (-n_y, n_x) (C, 2): n rotated by +90 degrees, so that z x n = t."""
+    """t = (-n_y, n_x) (C, 2): n rotated by +90 degrees, so that z x n = t (2D only)."""
     return np.stack((-normal[:, 1], normal[:, 0]), axis=1)
 
 
-def tangential_stretch(normal: np.ndarray, radius_i: np.ndarray, radius_j: np.ndarray,
-                       du: np.ndarray, theta_i: np.ndarray, theta_j: np.ndarray) -> np.ndarray:
-    """delta_t = t . (u_i - u_j) - R_i theta_i - R_j theta_j (C,), t from the reference ``normal``."""
-    return np.sum(tangent(normal) * du, axis=1) - radius_i * theta_i - radius_j * theta_j
+def _rotation_map(normal: np.ndarray) -> np.ndarray:
+    """C_n (C, D, r) with C_n theta = theta x n: 2D (r = 1) the column t; 3D (r = 3) -[n]_x."""
+    if normal.shape[1] == 2:
+        return tangent(normal)[:, :, None]
+    nx, ny, nz = normal.T
+    zero = np.zeros_like(nx)
+    return -np.stack((np.stack((zero, -nz, ny), 1), np.stack((nz, zero, -nx), 1),
+                      np.stack((-ny, nx, zero), 1)), 1)
+
+
+def _rotations(theta: np.ndarray) -> np.ndarray:
+    """theta as (C, r): 2D rotations come as (C,) scalars, 3D as (C, 3)."""
+    return theta[:, None] if theta.ndim == 1 else theta
+
+
+def _springs(normal: np.ndarray, rho_twist: float) -> None:
+    """Refuse a twisting spring in 2D (PHYSICS.md section 8: 3D only)."""
+    if normal.shape[1] == 2 and rho_twist != 0:
+        raise ValueError(f"rho_twist = {rho_twist}: twisting resistance exists in 3D only")
+
+
+def stretches(normal: np.ndarray, radius_i: np.ndarray, radius_j: np.ndarray, du: np.ndarray,
+              theta_i: np.ndarray, theta_j: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(s_t (C, D), s_r (C, D), s_o (C,)) of PHYSICS.md section 8, from the reference ``normal``.
+
+    s_t = P (u_i - u_j) - (R_i theta_i + R_j theta_j) x n (tangential; in 2D delta_t t),
+    s_r = a' (theta_i - theta_j) x n (rolling), s_o = a' n . (theta_i - theta_j) (twisting; 0 in 2D),
+    with a' = R_i R_j / (R_i + R_j).  du (C, D); theta (C,) in 2D, (C, 3) in 3D.
+    """
+    c_n = _rotation_map(normal)
+    ti, tj = _rotations(theta_i), _rotations(theta_j)
+    reduced = radius_i * radius_j / (radius_i + radius_j)
+    spin = radius_i[:, None] * ti + radius_j[:, None] * tj
+    s_t = du - np.einsum("cd,cd->c", normal, du)[:, None] * normal - np.einsum("cdr,cr->cd", c_n, spin)
+    s_r = reduced[:, None] * np.einsum("cdr,cr->cd", c_n, ti - tj)
+    s_o = (reduced * np.einsum("cd,cd->c", normal, ti - tj) if normal.shape[1] == 3
+           else np.zeros(normal.shape[0]))
+    return s_t, s_r, s_o
 
 
 def pair_energy(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
                 radius_i: np.ndarray, radius_j: np.ndarray, rho: float, du: np.ndarray,
-                theta_i: np.ndarray, theta_j: np.ndarray) -> np.ndarray:
-    """Energy e_ij (C,) of eq:eij after displacements from the reference contacts.
+                theta_i: np.ndarray, theta_j: np.ndarray, rho_roll: float = 0.0,
+                rho_twist: float = 0.0) -> np.ndarray:
+    """Energy e_ij (C,) after displacements from the reference contacts (eq:eij; in 3D and with
+    rolling and twisting springs PHYSICS.md section 8).
 
-    separation : (C, 2) reference r_i - r_j (minimum image);  contact : (C,) (d_i + d_j)/2;
-    normal : (C, 2) reference n;  radius_i, radius_j : (C,);  rho = kt / kn;
-    du : (C, 2) u_i - u_j;  theta_i, theta_j : (C,) rotations.
+    separation : (C, D) reference r_i - r_j (minimum image);  contact : (C,) (d_i + d_j)/2;
+    normal : (C, D) reference n;  radius_i, radius_j : (C,);  rho = kt / kn, rho_roll = kr / kn,
+    rho_twist = ko / kn (3D only);  du : (C, D) u_i - u_j;  theta_i, theta_j : (C,) in 2D, (C, 3) in 3D.
     """
+    _springs(normal, rho_twist)
     _, normal_part = normal_pair(separation + du, contact)
-    stretch = tangential_stretch(normal, radius_i, radius_j, du, theta_i, theta_j)
-    return normal_part + 0.5 * rho * KN * stretch**2
+    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
+    return normal_part + 0.5 * KN * (rho * np.einsum("cd,cd->c", s_t, s_t)
+                                     + rho_roll * np.einsum("cd,cd->c", s_r, s_r) + rho_twist * s_o**2)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b per contact: (C,) (the z component) in 2D, (C, 3) in 3D."""
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] if a.shape[1] == 2 else np.cross(a, b)
 
 
 def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
                 radius_i: np.ndarray, radius_j: np.ndarray, rho: float, du: np.ndarray,
-                theta_i: np.ndarray, theta_j: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Minus the gradient of ``pair_energy`` (same arguments): (F_i (C, 2), tau_i (C,), tau_j (C,)).
+                theta_i: np.ndarray, theta_j: np.ndarray, rho_roll: float = 0.0,
+                rho_twist: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Minus the gradient of ``pair_energy`` (same arguments): (F_i (C, D), tau_i, tau_j), the
+    torques (C,) in 2D and (C, 3) in 3D.
 
-    F_i = f_n n' - kt delta_t t (n' the current normal), F_j = -F_i;
-    tau_i = kt delta_t R_i and tau_j = kt delta_t R_j (torques about each disk's centre).
+    F_i = f_n n' - kt s_t (n' the current normal), F_j = -F_i;
+    tau_i = -kt R_i s_t x n - kr a' n x s_r - ko a' s_o n,
+    tau_j = -kt R_j s_t x n + kr a' n x s_r + ko a' s_o n (torques about each centre).
+    In 2D (s_t = delta_t t): tau_i = kt delta_t R_i - kr a'^2 (theta_i - theta_j).
     """
+    _springs(normal, rho_twist)
     force, _ = normal_pair(separation + du, contact)
-    kt_stretch = rho * KN * tangential_stretch(normal, radius_i, radius_j, du, theta_i, theta_j)
-    force = force - kt_stretch[:, None] * tangent(normal)
-    return force, kt_stretch * radius_i, kt_stretch * radius_j
+    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
+    reduced = radius_i * radius_j / (radius_i + radius_j)
+    slide = _cross(s_t, normal)
+    roll = _cross(normal, s_r)
+    tau_common = -KN * rho_roll * _expand(reduced, roll)
+    twist = -KN * rho_twist * _expand(reduced * s_o, normal) if normal.shape[1] == 3 else 0.0
+    tau_i = -KN * rho * _expand(radius_i, slide) + tau_common + twist
+    tau_j = -KN * rho * _expand(radius_j, slide) - tau_common - twist
+    return force - KN * rho * s_t, tau_i, tau_j
+
+
+def _expand(scale: np.ndarray, value: np.ndarray) -> np.ndarray:
+    """scale (C,) times value (C,) or (C, 3)."""
+    return scale * value if value.ndim == 1 else scale[:, None] * value
 
 
 def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
                 radius_i: np.ndarray, radius_j: np.ndarray, rho: float,
-                with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                with_rotation: bool = True, rho_roll: float = 0.0,
+                rho_twist: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return the Hessian blocks (H_ii, H_ij, H_jj) of every contact, each (C, k, k).
 
-    ``k`` is 3 with rotations (x, y, theta) and 2 without (translations only, used for
-    rho = 0 where rotations carry no stiffness).  H_ji is H_ij transposed.
+    ``k`` is D + r with rotations ((x, y, theta) in 2D, (x, y, z, theta_x, theta_y, theta_z) in
+    3D) and D without (translations only, for a model with no rotational stiffness, where the
+    rotations would be free).  H_ji is H_ij transposed.  Each spring adds k B^T B, B the linear
+    map of its stretch on (u_i, theta_i, u_j, theta_j) (PHYSICS.md section 8); the normal spring
+    adds [[K, -K], [-K, K]] on the translations, K = kn n n^T - (f_n / r_ij) P (geometric term kept).
     """
-    kt = rho * KN
-    n = normal
-    t = tangent(n)
-    kstar = kt - normal_force(overlap) / distance
-    proj = KN * n[:, :, None] * n[:, None, :] + kstar[:, None, None] * t[:, :, None] * t[:, None, :]
-    dof = 3 if with_rotation else 2
-    count = normal.shape[0]
-    h_ii = np.zeros((count, dof, dof))
-    h_ij = np.zeros((count, dof, dof))
-    h_jj = np.zeros((count, dof, dof))
-    h_ii[:, :2, :2] = proj
-    h_jj[:, :2, :2] = proj
-    h_ij[:, :2, :2] = -proj
-    if with_rotation:
-        ri = (kt * radius_i)[:, None] * t
-        rj = (kt * radius_j)[:, None] * t
-        h_ii[:, :2, 2] = h_ii[:, 2, :2] = -ri
-        h_jj[:, :2, 2] = h_jj[:, 2, :2] = rj
-        h_ij[:, :2, 2] = -rj
-        h_ij[:, 2, :2] = ri
-        h_ii[:, 2, 2] = kt * radius_i**2
-        h_jj[:, 2, 2] = kt * radius_j**2
-        h_ij[:, 2, 2] = kt * radius_i * radius_j
-    return h_ii, h_ij, h_jj
+    _springs(normal, rho_twist)
+    count, dim = normal.shape
+    c_n = _rotation_map(normal)
+    rot = c_n.shape[2]
+    m = dim + rot
+    reduced = radius_i * radius_j / (radius_i + radius_j)
+    proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
+    stiff = KN * normal[:, :, None] * normal[:, None, :] - (normal_force(overlap) / distance)[:, None, None] * proj
+    full = np.zeros((count, 2 * m, 2 * m))
+    for a, sa in ((0, 1), (m, -1)):
+        for b, sb in ((0, 1), (m, -1)):
+            full[:, a:a + dim, b:b + dim] = sa * sb * stiff
+    b_t = np.zeros((count, dim, 2 * m))
+    b_t[:, :, :dim], b_t[:, :, m:m + dim] = proj, -proj
+    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -radius_i[:, None, None] * c_n, -radius_j[:, None, None] * c_n
+    b_r = np.zeros((count, dim, 2 * m))
+    b_r[:, :, dim:m], b_r[:, :, m + dim:] = reduced[:, None, None] * c_n, -reduced[:, None, None] * c_n
+    springs = [(rho, b_t), (rho_roll, b_r)]
+    if dim == 3:
+        b_o = np.zeros((count, 1, 2 * m))
+        b_o[:, 0, dim:m], b_o[:, 0, m + dim:] = reduced[:, None] * normal, -reduced[:, None] * normal
+        springs.append((rho_twist, b_o))
+    for ratio, b in springs:
+        if ratio:
+            full += KN * ratio * np.einsum("cki,ckj->cij", b, b)
+    k = m if with_rotation else dim
+    return full[:, :k, :k], full[:, :k, m:m + k], full[:, m:m + k, m:m + k]
