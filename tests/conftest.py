@@ -87,6 +87,32 @@ def assert_close(actual, expected, rtol: float, atol: float = 0.0, what: str = "
                    f"(rtol={rtol:g}, atol={atol_text})")
 
 
+def central_hessian(energy, count: int, size: int, h: float) -> np.ndarray:
+    """(count, size, size) Hessian at w = 0 of ``energy(w (count, size)) -> (count,)`` (one value
+    per contact) by central differences with step h; truncation error O(h^2)."""
+    out = np.empty((count, size, size))
+    for a in range(size):
+        for b in range(size):
+            e = []
+            for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                w = np.zeros((count, size))
+                w[:, a] += sa * h
+                w[:, b] += sb * h
+                e.append(energy(w))
+            out[:, a, b] = (e[0] - e[1] - e[2] + e[3]) / (4 * h * h)
+    return out
+
+
+def central_gradient(energy, w: np.ndarray, h: float) -> np.ndarray:
+    """Gradient (count, size) of ``energy`` at w (count, size) by central differences, step h."""
+    grad = np.empty_like(w)
+    for a in range(w.shape[1]):
+        step = np.zeros_like(w)
+        step[:, a] = h
+        grad[:, a] = (energy(w + step) - energy(w - step)) / (2 * h)
+    return grad
+
+
 def assert_all(condition: bool, message: str = "") -> None:
     """Assert on every rank that ``condition`` holds on every rank."""
     verdicts = COMM.allgather(bool(condition))

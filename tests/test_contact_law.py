@@ -3,7 +3,7 @@ central differences of its own energy, with Taylor-convergence checks, and the F
 
 import numpy as np
 import pytest
-from conftest import assert_close
+from conftest import assert_close, central_gradient, central_hessian
 
 from solver.model import contact_law
 from solver.packing import jammed
@@ -36,22 +36,6 @@ def energy_of(geometry, rho, w):
                                    theta_i=w[:, 2], theta_j=w[:, 5])
 
 
-def central_hessian(geometry, rho, h):
-    """(C, 6, 6) Hessian of every contact's energy at w = 0 by central differences, step h."""
-    count = geometry["contact"].size
-    out = np.empty((count, 6, 6))
-    for a in range(6):
-        for b in range(6):
-            e = []
-            for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
-                w = np.zeros((count, 6))
-                w[:, a] += sa * h
-                w[:, b] += sb * h
-                e.append(energy_of(geometry, rho, w))
-            out[:, a, b] = (e[0] - e[1] - e[2] + e[3]) / (4 * h * h)
-    return out
-
-
 def blocks_as_6x6(geometry, overlap, rho):
     """[[H_ii, H_ij], [H_ji, H_jj]] (C, 6, 6) from contact_law.pair_blocks."""
     distance = geometry["contact"] - overlap
@@ -73,7 +57,9 @@ def test_hessian_blocks_match_central_differences_at_second_order(rho):
     geometry, overlap = random_contacts()
     exact = blocks_as_6x6(geometry, overlap, rho)
     scale = np.abs(exact).max()
-    errors = [np.abs(central_hessian(geometry, rho, h) - exact).max() / scale for h in STEPS]
+    count = geometry["contact"].size
+    errors = [np.abs(central_hessian(lambda w: energy_of(geometry, rho, w), count, 6, h) - exact).max() / scale
+              for h in STEPS]
     orders = observed_order(errors)
     # Wrong blocks leave an error that does not fall with h (the geometric term alone is
     # f_n / r ~ 0.01-0.05 here): the slope then drops to ~0 and the check fails.
@@ -102,14 +88,8 @@ def test_forces_and_torques_are_minus_the_energy_gradient(rho):
     force, tau_i, tau_j = contact_law.pair_forces(**geometry, rho=rho, du=w[:, 0:2] - w[:, 3:5],
                                                   theta_i=w[:, 2], theta_j=w[:, 5])
     generalised = np.concatenate((force, tau_i[:, None], -force, tau_j[:, None]), axis=1)
-    errors = []
-    for h in STEPS:
-        grad = np.empty((count, 6))
-        for a in range(6):
-            step = np.zeros((count, 6))
-            step[:, a] = h
-            grad[:, a] = (energy_of(geometry, rho, w + step) - energy_of(geometry, rho, w - step)) / (2 * h)
-        errors.append(np.abs(generalised + grad).max() / np.abs(generalised).max())
+    errors = [np.abs(generalised + central_gradient(lambda x: energy_of(geometry, rho, x), w, h)).max()
+              / np.abs(generalised).max() for h in STEPS]
     orders = observed_order(errors)
     assert np.all(np.abs(orders - 2) < 0.1), f"errors {errors}, orders {orders}"
     # Taylor remainder along a random direction: e(w + h v) - e(w) + h F.v = O(h^2)
@@ -204,19 +184,8 @@ def test_nd_hessian_blocks_match_central_differences_at_second_order(dim, spring
     exact = np.concatenate((np.concatenate((h_ii, h_ij), 2),
                             np.concatenate((np.transpose(h_ij, (0, 2, 1)), h_jj), 2)), 1)
     assert exact.shape == (count, size, size)
-    errors = []
-    for h in STEPS:
-        fd = np.empty_like(exact)
-        for a in range(size):
-            for b in range(size):
-                e = []
-                for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
-                    w = np.zeros((count, size))
-                    w[:, a] += sa * h
-                    w[:, b] += sb * h
-                    e.append(energy_nd(geometry, springs, w))
-                fd[:, a, b] = (e[0] - e[1] - e[2] + e[3]) / (4 * h * h)
-        errors.append(np.abs(fd - exact).max() / np.abs(exact).max())
+    errors = [np.abs(central_hessian(lambda w: energy_nd(geometry, springs, w), count, size, h) - exact).max()
+              / np.abs(exact).max() for h in STEPS]
     orders = observed_order(errors)
     # the springs are quadratic, so only the exact-geometry normal term leaves an O(h^2) error;
     # a wrong block leaves an error that does not fall with h (slope ~0)
@@ -233,14 +202,8 @@ def test_nd_forces_and_torques_are_minus_the_energy_gradient(dim, springs):
     force, tau_i, tau_j = contact_law.pair_forces(**geometry, **springs, du=du, theta_i=theta_i, theta_j=theta_j)
     col = (lambda t: t[:, None]) if dim == 2 else (lambda t: t)  # noqa: E731
     generalised = np.concatenate((force, col(tau_i), -force, col(tau_j)), axis=1)
-    errors = []
-    for h in STEPS:
-        grad = np.empty((count, size))
-        for a in range(size):
-            step = np.zeros((count, size))
-            step[:, a] = h
-            grad[:, a] = (energy_nd(geometry, springs, w + step) - energy_nd(geometry, springs, w - step)) / (2 * h)
-        errors.append(np.abs(generalised + grad).max() / np.abs(generalised).max())
+    errors = [np.abs(generalised + central_gradient(lambda x: energy_nd(geometry, springs, x), w, h)).max()
+              / np.abs(generalised).max() for h in STEPS]
     orders = observed_order(errors)
     assert np.all(np.abs(orders - 2) < 0.1), f"{dim}D {springs}: errors {errors}, orders {orders}"
 

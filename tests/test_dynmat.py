@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import COMM, TOL, assert_all, assert_close
+from conftest import COMM, TOL, assert_all, assert_close, central_hessian
 
 from solver.packing import geometry as contacts
 from solver.model import contact_law, dynmat
@@ -28,16 +28,7 @@ def finite_difference_matrix(p, rho, h=1e-5):  # 2 h below the smallest overlap 
     args = (ref, 0.5 * (diam[found.i] + diam[found.j]), found.normal,
             0.5 * diam[found.i], 0.5 * diam[found.j], rho)
     count = len(found)
-    local = np.zeros((count, 6, 6))
-    for a in range(6):
-        for b in range(6):
-            e = []
-            for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
-                w = np.zeros((count, 6))
-                w[:, a] += sa * h
-                w[:, b] += sb * h
-                e.append(pair_energies(*args, w))
-            local[:, a, b] = (e[0] - e[1] - e[2] + e[3]) / (4 * h * h)
+    local = central_hessian(lambda w: pair_energies(*args, w), count, 6, h)
     dof = 3 if rho > 0 else 2
     n = active.sum() * dof
     dense = np.zeros((n, n))

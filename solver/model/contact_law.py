@@ -79,7 +79,7 @@ def _rotations(theta: np.ndarray) -> np.ndarray:
     return theta[:, None] if theta.ndim == 1 else theta
 
 
-def _springs(normal: np.ndarray, rho_twist: float) -> None:
+def _refuse_twist_in_2d(normal: np.ndarray, rho_twist: float) -> None:
     """Refuse a twisting spring in 2D (PHYSICS.md section 8: 3D only)."""
     if normal.shape[1] == 2 and rho_twist != 0:
         raise ValueError(f"rho_twist = {rho_twist}: twisting resistance exists in 3D only")
@@ -115,7 +115,7 @@ def pair_energy(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     normal : (C, D) reference n;  radius_i, radius_j : (C,);  rho = kt / kn, rho_roll = kr / kn,
     rho_twist = ko / kn (3D only);  du : (C, D) u_i - u_j;  theta_i, theta_j : (C,) in 2D, (C, 3) in 3D.
     """
-    _springs(normal, rho_twist)
+    _refuse_twist_in_2d(normal, rho_twist)
     _, normal_part = normal_pair(separation + du, contact)
     s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
     return normal_part + 0.5 * KN * (rho * np.einsum("cd,cd->c", s_t, s_t)
@@ -139,7 +139,7 @@ def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     tau_j = -kt R_j s_t x n + kr a' n x s_r + ko a' s_o n (torques about each centre).
     In 2D (s_t = delta_t t): tau_i = kt delta_t R_i - kr a'^2 (theta_i - theta_j).
     """
-    _springs(normal, rho_twist)
+    _refuse_twist_in_2d(normal, rho_twist)
     force, _ = normal_pair(separation + du, contact)
     s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
     reduced = radius_i * radius_j / (radius_i + radius_j)
@@ -169,7 +169,7 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
     map of its stretch on (u_i, theta_i, u_j, theta_j) (PHYSICS.md section 8); the normal spring
     adds [[K, -K], [-K, K]] on the translations, K = kn n n^T - (f_n / r_ij) P (geometric term kept).
     """
-    _springs(normal, rho_twist)
+    _refuse_twist_in_2d(normal, rho_twist)
     count, dim = normal.shape
     c_n = _rotation_map(normal)
     rot = c_n.shape[2]
