@@ -11,13 +11,22 @@ import sys
 
 from benchlib import OUT, PY, REPO, machine
 
-ORDER = ["bench_packing.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py", "bench_spectral.py",
-         "bench_kpm.py", "bench_vdos.py"]
+ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py",
+         "bench_spectral.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py"]
 ARGS = {"bench_vdos.py": ["--skip", "slicing:32768"]}  # over an hour; the spectrum section has it with K/Q
 HAND_WRITTEN = ["bench_paper_programme.md"]  # configs/paper.yaml, timed from its own log
 
 
+def _sections(text: str) -> dict[str, str]:
+    """The '## name' sections of an existing BENCHMARKS.md, name -> text (heading included)."""
+    parts = ("\n" + text).split("\n## ")[1:]
+    return {part.split("\n", 1)[0].strip(): "## " + part.strip() for part in parts}
+
+
 def render() -> None:
+    """Write BENCHMARKS.md from results/bench/*.json; a benchmark with no record here (measured
+    on another checkout, or not rerun) keeps its section from the existing BENCHMARKS.md."""
+    old = _sections((REPO / "BENCHMARKS.md").read_text()) if (REPO / "BENCHMARKS.md").exists() else {}
     lines = ["# Benchmarks", "",
              "Regenerate with `make bench` (runs `scripts/bench_*.py` one after another, then "
              "renders this file from `results/bench/*.json`). Every comparison is measured in the "
@@ -26,7 +35,8 @@ def render() -> None:
     for script in ORDER:
         path = OUT / f"{script[6:-3]}.json"
         if not path.exists():
-            lines += [f"## {script[6:-3]}", "", f"not run yet (`python scripts/{script}`)", ""]
+            kept = old.get(script[6:-3])
+            lines += [kept, ""] if kept else [f"## {script[6:-3]}", "", f"not run yet (`python scripts/{script}`)", ""]
             continue
         record = json.loads(path.read_text())
         lines += [f"## {record['name']}", "", f"Command: `{record['command']}`  ", f"Date: {record['date']}  ",

@@ -33,7 +33,7 @@ from .model import operators
 from .waves import excitation
 from .waves import integrators as waves
 from .waves.unit import mode_unit
-from .io.schema import Scene
+from .io.schema import Scene, check_dimension
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import units as unitstore
@@ -79,7 +79,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     missing = [i for i in range(count) if found[i] is None]
     made = parallel.owner_compute(
         comm, [parallel.seed_sequence(scene.seed, i) for i in missing],
-        lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps))
+        lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim))
     for i, p in zip(missing, made):
         if store:
             store.save(f"packings/{i:04d}", *packing_unit(p), key=recipe[i])
@@ -90,12 +90,13 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
 
 
 def _unit_names(scene: Scene, r_index: int, p_index: int) -> list[str]:
-    """The matrix, spectrum and waves units of (rho index, packing index) (no RT at rho = 0)."""
+    """The matrix, spectrum and waves units of (rho index, packing index) (no RT or R without
+    rotational springs)."""
     tag = f"r{r_index:02d}_p{p_index:04d}"
     names = [f"matrices/{tag}"] + ([f"spectra/{tag}"] if scene.spectrum else [])
     if scene.waves:
-        dof = 3 if scene.model.rho[r_index] > 0 else 2
-        names += [f"waves/r{r_index:02d}_{m}_p{p_index:04d}" for m in excitation.wave_modes(scene.waves, dof)]
+        rotations = dynmat.has_rotations(scene.model.rho[r_index], scene.model.rho_roll, scene.model.rho_twist)
+        names += [f"waves/r{r_index:02d}_{m}_p{p_index:04d}" for m in excitation.wave_modes(scene.waves, rotations)]
     return names
 
 
@@ -159,11 +160,11 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoi
 
     t = time.perf_counter()
     with profiling.stage("assembly"):
-        dm = dynmat.assemble(p, rho, PETSc.Comm(comm))
+        dm = dynmat.assemble(p, rho, PETSc.Comm(comm), scene.model.rho_roll, scene.model.rho_twist)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     nnz = int(dm.D.getInfo()["nz_used"])  # PETSc's default is the global sum
     say(comm, f"matrix rho = {rho:g}, packing {p_index}: {dm.size} DOF "
-              f"({dm.dof} per disk), {nnz} non-zeros, assembled in {seconds:.3f} s")
+              f"({dm.dof} per particle), {nnz} non-zeros, assembled in {seconds:.3f} s")
     try:
         wave_todo = [m for m in (scene.waves.modes if scene.waves else [])
                      if found.get(f"waves/r{r_index:02d}_{m}_p{p_index:04d}", 0) is None]
@@ -179,7 +180,8 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoi
                 stability = (schedule, omega_max, waves.check_schedule(schedule, omega_max, rho))
         if found[f"matrices/{tag}"] is None:
             commit(f"matrices/{tag}", {}, {
-                "rho": rho, "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
+                "rho": rho, "rho_roll": dm.rho_roll, "rho_twist": dm.rho_twist, "dim": dm.dim,
+                "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
         if scene.spectrum is not None and found[f"spectra/{tag}"] is None:
             check_interrupt(comm)
@@ -272,7 +274,8 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=No
 
 
 def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, todo) -> None:
-    """Every (mode, direction, k) of one (rho, packing) into ``units`` (``waves.unit.mode_unit``).
+    """Every (mode, run, k) of one (rho, packing) into ``units`` (``waves.unit.mode_unit``; a mode's
+    runs: ``excitation.runs(mode, dm.dim)``).
 
     ``stability``: (schedule or None for the spectral path, omega_max, stability limit or None).
     Collective."""
@@ -290,8 +293,8 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
         commit(f"waves/r{r_index:02d}_{mode}_p{p_index:04d}", datasets,
                {**attrs, "packing": p_index, "seconds": seconds})
-        say(comm, f"waves rho = {rho:g}, {mode}, packing {p_index}: {len(ks)} k x 2 directions, {summary}, "
-                  f"{seconds:.1f} s")
+        say(comm, f"waves rho = {rho:g}, {mode}, packing {p_index}: {len(ks)} k x {len(datasets['runs'])} runs, "
+                  f"{summary}, {seconds:.1f} s")
 
 
 def window_label(window) -> str:
@@ -325,6 +328,9 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                           cache=unitstore.cache_folder(scene))
         with profiling.stage("packings"):
             packings = make_packings(scene, comm, store)
+        if scene.packing.file is not None:  # generated packings were checked with the scene
+            check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
+                                                    f"(positions (N, 2))")
         keys = unitstore.unit_keys(scene, packings, petsc_argv)
         for index, p in enumerate(packings):
             i = p.info
@@ -332,8 +338,11 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                       f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                       f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                       + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
-        if scene.waves and "RT" in scene.waves.modes and 0 in scene.model.rho:
-            say(comm, "waves rho = 0: RT skipped (no rotational stiffness at rho = 0)")
+        for rho in scene.model.rho:
+            if scene.waves and not dynmat.has_rotations(rho, scene.model.rho_roll, scene.model.rho_twist):
+                skipped = [m for m in scene.waves.modes if m in ("RT", "R")]
+                if skipped:
+                    say(comm, f"waves rho = {rho:g}: {', '.join(skipped)} skipped (no rotational stiffness)")
         with parallel.Groups(comm, group_size) as groups:
             if groups.count > 1:
                 say(comm, f"{groups.count} groups of {groups.size} rank{'s' if groups.size > 1 else ''} share "

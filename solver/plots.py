@@ -25,6 +25,9 @@ from .io import results  # noqa: E402
 from .spectrum.modes import bin_average  # noqa: E402
 
 
+MODES = ("L", "TR", "RT", "R")  # R: angular velocity along k, 3D only
+
+
 def _save(fig, stem: str) -> list[str]:
     """Write ``fig`` as PNG and PDF at ``stem``; a folder that cannot take them is bad input."""
     paths = [f"{stem}.png", f"{stem}.pdf"]
@@ -39,17 +42,26 @@ def _save(fig, stem: str) -> list[str]:
 
 
 def plot_packing(packing: dict, stem: str) -> list[str]:
-    """Disks of one configuration (``results.first_packing``), rattlers in red; units of d0."""
+    """Disks of one configuration (``results.first_packing``), rattlers in red; units of d0.
+    Spheres (positions (N, 3)): their sections by the plane z = L/2, as disks of diameter
+    2 sqrt(R^2 - dz^2) (dz the periodic distance of the centre from the plane)."""
     pos, diam = packing["positions"], packing["diameters"]
     rattler, box = packing["rattler"], packing["box_length"]
+    colors, section = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8")), ""
+    if pos.shape[1] == 3:
+        dz = pos[:, 2] - 0.5 * box
+        dz -= box * np.rint(dz / box)
+        cut = np.abs(dz) < 0.5 * diam
+        pos, rattler, colors = pos[cut, :2], rattler[cut], colors[cut]
+        diam = 2.0 * np.sqrt(0.25 * diam[cut] ** 2 - dz[cut] ** 2)
+        section = ", section z = L/2"
     fig, ax = plt.subplots(figsize=(6, 6))
-    colors = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8"))
     ax.add_collection(EllipseCollection(diam, diam, np.zeros_like(diam), offsets=pos,
                                         units="xy", offset_transform=ax.transData,
                                         facecolors=colors, edgecolors="k", linewidths=0.2))
     ax.set(xlim=(0, box), ylim=(0, box), aspect="equal", xlabel="x / d0", ylabel="y / d0",
-           title=f"N = {diam.size}, phi = {packing['phi']:.3f}, z = {packing['z']:.2f}, "
-                 f"rattlers in red ({int(rattler.sum())})")
+           title=f"N = {packing['diameters'].size}, phi = {packing['phi']:.3f}, z = {packing['z']:.2f}, "
+                 f"rattlers in red ({int(packing['rattler'].sum())}){section}")
     return _save(fig, stem)
 
 
@@ -105,12 +117,13 @@ def plot_energies(vdos: dict, per_mode: dict, binned: dict, stem: str, rhos=None
 
 
 def plot_vafs(waves: dict, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> list[str]:
-    """Fig. 2: C_l, C_t, C_r at the k nearest k d0 = 0.38 pi, per rho (rho = 0 dotted); every
-    rho of ``waves`` ({(rho, mode): results.Waves}) or only those in ``rhos``."""
+    """Fig. 2: C_l, C_t, C_r (and C_R of the 3D twist mode R, when run) at the k nearest
+    k d0 = 0.38 pi, per rho (rho = 0 dotted); every rho of ``waves`` ({(rho, mode): results.Waves}) or only those in ``rhos``."""
     if not waves:
         return []
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
-    for ax, mode, label in zip(axes, ("L", "TR", "RT"), ("C_l", "C_t", "C_r")):
+    present = [(m, label) for m, label in zip(MODES, ("C_l", "C_t", "C_r", "C_R")) if any(w == m for _, w in waves)]
+    fig, axes = plt.subplots(1, len(present), figsize=(4 * len(present), 3.6), squeeze=False)
+    for ax, (mode, label) in zip(axes[0], present):
         for rho in sorted(r for r, m in waves if m == mode and (rhos is None or r in rhos)):
             w = waves[(rho, mode)]
             i = int(np.argmin(np.abs(w.k - kd0)))
@@ -130,11 +143,11 @@ def _spectrum(w):
 
 
 def plot_spectra(waves: dict, stem: str, rhos=None) -> list[str]:
-    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT) for each rho of ``waves`` (or each in ``rhos``);
+    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT, and R in 3D) for each rho of ``waves`` (or each in ``rhos``);
     one file ``<stem>_rho<rho>`` per rho."""
     written: list[str] = []
     for rho in sorted({r for r, _ in waves if rhos is None or r in rhos}):
-        modes_here = [m for m in ("L", "TR", "RT") if (rho, m) in waves]
+        modes_here = [m for m in MODES if (rho, m) in waves]
         fig, axes = plt.subplots(1, len(modes_here), figsize=(4.2 * len(modes_here), 3.8), squeeze=False)
         for ax, mode in zip(axes[0], modes_here):
             w = waves[(rho, mode)]
@@ -181,6 +194,25 @@ def lattice_curve(k, rho, lattice: dict, edge: bool = False):
     parameters ``lattice`` (``results.lattice``); with ``edge``, omega_t uses ``analysis.lattice.edge_a_t``."""
     a_t = lattice_model.edge_a_t(lattice) if edge else lattice["a_t"]
     return lattice_model.lattice_omega(k, rho, lattice["l"], a_t, lattice["a_r"])
+
+
+def plot_dispersion(fits: dict, stem: str) -> list[str]:
+    """Fitted omega(k) of every mode run (L, TR, RT and, in 3D, R), one panel per rho; drawn
+    when the file has more than the paper's RT to show (``fits``: {(rho, mode): fit})."""
+    rhos = sorted({rho for rho, _ in fits})
+    if not rhos or {mode for _, mode in fits} <= {"RT"}:
+        return []
+    fig, axes = plt.subplots(1, len(rhos), figsize=(3.6 * len(rhos), 3.6), squeeze=False, sharey=True)
+    for ax, rho in zip(axes[0], rhos):
+        for mode, marker, color in zip(MODES, "os^D", ("tab:blue", "tab:green", "tab:red", "tab:purple")):
+            if (rho, mode) in fits:
+                fit = fits[(rho, mode)]
+                ax.plot(fit["k"], fit["omega"], marker, ms=3.5, mfc="none", color=color, label=mode)
+        ax.set(xlabel="k d0", title=f"rho = {rho:g}")
+        ax.legend(fontsize=7)
+    axes[0][0].set(ylabel="omega t0 (fit of C(k, t))")
+    fig.tight_layout()
+    return _save(fig, stem)
 
 
 def plot_dispersion_rt(fits: dict, lattice: dict | None, stem: str) -> list[str]:
@@ -359,6 +391,7 @@ def plot_results(path: str) -> list[str]:
         written += plot_vafs(waves, f"{stem}_vaf")
         written += plot_spectra(waves, f"{stem}_spectrum")
         fits, lattice = results.fits(f), results.lattice(f)
+        written += plot_dispersion(fits, f"{stem}_dispersion")
         written += plot_dispersion_rt(fits, lattice, f"{stem}_dispersion_rt")
         written += plot_transition(fits, lattice, waves, f"{stem}_transition")
         written += plot_bands(lattice, results.bands(f), f"{stem}_bands")

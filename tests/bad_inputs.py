@@ -11,10 +11,10 @@ import numpy as np
 GOOD = "packing: {n: 64, phi: 0.9}\n"
 
 
-def _valid(path, **changes):
+def _valid(path, dim=2, **changes):
     from solver.packing import jammed as packing
 
-    p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
+    p = packing.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([1, 0]), dim=dim)
     data = {"positions": p.positions, "diameters": p.diameters, "box_length": p.box_length}
     data.update(changes)
     with h5py.File(path, "w") as f:
@@ -36,11 +36,11 @@ def _garbage(path):
         f.write(b"not an HDF5 file at all")
 
 
-def _spread(path):
+def _spread(path, dim=2):
     from solver.packing import jammed as packing
 
-    p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
-    _valid(path, positions=3 * p.positions, box_length=3 * p.box_length)
+    p = packing.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([1, 0]), dim=dim)
+    _valid(path, dim, positions=3 * p.positions, box_length=3 * p.box_length)
 
 
 def _nan(path):
@@ -65,12 +65,18 @@ CASES = [
     ("phi <= 0", "packing: {n: 64, phi: 0}\n", [], "packing.phi = 0: must be in (0.0, 1.0)", None),
     ("phi >= 1", "packing: {n: 64, phi: 1.2}\n", [], "packing.phi = 1.2: must be in (0.0, 1.0)", None),
     ("phi not a number", "packing: {n: 64, phi: dense}\n", [], "packing.phi = 'dense': must be a number", None),
+    ("dimension not 2 or 3", "packing: {n: 64, phi: 0.9, dim: 4}\n", [], "packing.dim = 4: must be 2 or 3", None),
     ("n given without phi", "packing: {n: 64}\n", [], "packing.phi is missing", None),
     ("count 0", "packing: {n: 64, phi: 0.9, count: 0}\n", [], "packing.count = 0", None),
     ("force tolerance 0", "packing: {n: 64, phi: 0.9, force_tol: 0}\n", [], "packing.force_tol = 0", None),
     ("negative rho", GOOD + "model: {rho: -0.5}\n", [], "model.rho = -0.5: must be in [0.0", None),
     ("rho list with a word", GOOD + "model: {rho: [1, high]}\n", [], "model.rho = 'high': must be a number", None),
     ("empty rho list", GOOD + "model: {rho: []}\n", [], "model.rho = []: must not be empty", None),
+    ("twisting spring in 2D", GOOD + "model: {rho: 1, rho_twist: 0.1}\n", [],
+     "model.rho_twist = 0.1: twisting resistance needs spheres in 3D", None),
+    ("twisting spring on a 2D packing file", "packing: {file: '{file}'}\nmodel: {rho: 1, rho_twist: 0.1}\n", [],
+     "twisting resistance needs spheres in 3D, but packing.file", _valid),
+    ("negative rolling stiffness", GOOD + "model: {rho_roll: -1}\n", [], "model.rho_roll = -1: must be in [0.0", None),
     ("negative seed", GOOD + "seed: -1\n", [], "seed = -1", None),
     ("output not HDF5", GOOD + "output: results.txt\n", [], "output = 'results.txt': must end in .h5", None),
     ("spectrum window reversed", GOOD + "spectrum: {window: [4, 2]}\n", [], "spectrum.window", None),
@@ -85,7 +91,9 @@ CASES = [
     ("analysis window out of range", GOOD + "analysis: {decay_window: 0}\n", [], "analysis.decay_window = 0", None),
     ("energies not a boolean", GOOD + "spectrum: {energies: maybe}\n", [], "spectrum.energies = 'maybe'", None),
     ("empty mode list", GOOD + "waves: {modes: [], n: [1]}\n", [], "waves.modes = []", None),
-    ("unknown mode", GOOD + "waves: {modes: [L, SH], n: [1]}\n", [], "from L, TR, RT", None),
+    ("unknown mode", GOOD + "waves: {modes: [L, SH], n: [1]}\n", [], "from L, TR, RT, R", None),
+    ("twist wave R in 2D", GOOD + "waves: {modes: [L, R], n: [1]}\n", [], "mode R (angular velocity along k) needs 3D",
+     None),
     ("both n and kd0", GOOD + "waves: {n: [1], kd0: [1.0]}\n", [], "give exactly one of them", None),
     ("neither n nor kd0", GOOD + "waves: {modes: [L]}\n", [], "give exactly one of them", None),
     ("wave number n = 0", GOOD + "waves: {n: [0]}\n", [], "waves.n = [0]", None),
@@ -106,6 +114,10 @@ CASES = [
     ("packing does not jam (spectral waves)", "packing: {n: 256, phi: 0.8}\nmodel: {rho: 1}\n"
      "waves: {n: [1], method: spectral}\n", [],
      "packing.phi = 0.8: configuration 0 did not jam: all 256 disks are rattlers", None),
+    ("3D packing does not jam (no contacts)", "packing: {n: 64, phi: 0.3, dim: 3}\nspectrum: {}\n", [],
+     "packing.phi = 0.3: configuration 0 did not jam: all 64 spheres are rattlers", None),
+    ("3D box smaller than two diameters (generated)", "packing: {n: 16, phi: 0.9, dim: 3}\n", [],
+     "packing.n = 16, packing.phi = 0.9: the 3D box would have side L = 2.16", None),
     # --- HDF5 packing files
     ("packing file missing", "packing: {file: nowhere.h5}\n", [], "packing file nowhere.h5: not found", None),
     ("packing file not HDF5", "packing: {file: '{file}'}\n", [], "not a readable HDF5 file", _garbage),
@@ -114,14 +126,19 @@ CASES = [
      lambda p: _valid(p, positions=None)),
     ("box_length missing", "packing: {file: '{file}'}\n", [], "attribute 'box_length' is missing",
      lambda p: _valid(p, box_length=None)),
-    ("positions of the wrong shape", "packing: {file: '{file}'}\n", [], "'positions' has shape (64, 3)",
-     lambda p: _valid(p, positions=np.zeros((64, 3)))),
+    ("positions of the wrong shape (N, 4)", "packing: {file: '{file}'}\n", [],
+     "'positions' has shape (64, 4); need (64, 2) (disks) or (64, 3) (spheres)",
+     lambda p: _valid(p, positions=np.zeros((64, 4)))),
     ("NaN positions", "packing: {file: '{file}'}\n", [], "'positions' contains NaN", _nan),
     ("negative diameters", "packing: {file: '{file}'}\n", [], "'diameters' must be finite and > 0",
      lambda p: _valid(p, diameters=-np.ones(64))),
     ("box smaller than two diameters", "packing: {file: '{file}'}\n", [], "must be finite and > 2 max(diameters)",
      lambda p: _valid(p, box_length=2.0)),
     ("no contacts (not jammed)", "packing: {file: '{file}'}\n", [], "all disks are rattlers", _spread),
+    ("3D file: box smaller than two diameters", "packing: {file: '{file}'}\n", [],
+     "must be finite and > 2 max(diameters)", lambda p: _valid(p, 3, box_length=2.0)),
+    ("3D file: no contacts (not jammed)", "packing: {file: '{file}'}\n", [],
+     "no sphere has 4 or more contacts (not a jammed packing: all spheres are rattlers)", lambda p: _spread(p, 3)),
     ("not in mechanical equilibrium", "packing: {file: '{file}'}\n", [], "not in mechanical equilibrium",
      lambda p: _valid(p, box_length=100.0)),
     ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],

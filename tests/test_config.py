@@ -45,7 +45,7 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": "many", "phi": 0.9}}, ["packing.n", "'many'", "an integer"]),
     ({"packing": {"n": True, "phi": 0.9}}, ["packing.n", "an integer"]),
     ({"packing": {"n": 64}}, ["packing.phi is missing"]),
-    ({"packing": {"n": 64, "phi": 0.9, "size": 3}}, ["unknown key packing.size", "n, phi, count"]),
+    ({"packing": {"n": 64, "phi": 0.9, "size": 3}}, ["unknown key packing.size", "n, phi, dim, count"]),
     ({"pakcing": {}}, ["unknown key pakcing: did you mean packing? allowed keys"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energy": True}},
      ["unknown key spectrum.energy: did you mean spectrum.energies? allowed keys in spectrum are window, "]),

@@ -9,48 +9,90 @@ from solver.model import contact_law, dynmat
 from solver.packing import jammed as packing
 
 
-def pair_energies(ref_delta, contact, normal, radius_i, radius_j, rho, w):
-    """Energy of every contact (C,) for relative coordinates w (C, 6) = (u_i, th_i, u_j, th_j).
+def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, w):
+    """Energy of every contact (C,) for relative coordinates w (C, 2m) = (u_i, th_i, u_j, th_j),
+    m = D + r (r = 1 rotation in 2D, 3 in 3D); ``springs`` = (rho, rho_roll, rho_twist).
 
-    contact_law's eq:eij energy (its own blocks are checked against it, with a Taylor test, in
-    test_contact_law.py); here the assembled D is checked against the same energy.
+    contact_law's energy (its own blocks are checked against it in test_contact_law.py); here
+    the assembled D is checked against the same energy.
     """
+    dim = normal.shape[1]
+    m = w.shape[1] // 2
+    rho, rho_roll, rho_twist = springs
+    theta_i, theta_j = w[:, dim:m], w[:, m + dim:]
+    if dim == 2:
+        theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
     return contact_law.pair_energy(ref_delta, contact, normal, radius_i, radius_j, rho,
-                                   du=w[:, 0:2] - w[:, 3:5], theta_i=w[:, 2], theta_j=w[:, 5])
+                                   du=w[:, :dim] - w[:, m:m + dim], theta_i=theta_i, theta_j=theta_j,
+                                   rho_roll=rho_roll, rho_twist=rho_twist)
 
 
-def finite_difference_matrix(p, rho, h=1e-5):  # 2 h below the smallest overlap (9e-5)
+def finite_difference_matrix(p, springs, h=1e-5):  # 2 h below the smallest overlap
     """Dense Hessian from central differences of each contact's energy, assembled by hand."""
     active = ~p.rattler
     pos, diam = p.positions[active], p.diameters[active]
     found = contacts.find_contacts(pos, diam, p.box_length)
     ref = contacts.minimum_image(pos[found.i] - pos[found.j], p.box_length)
     args = (ref, 0.5 * (diam[found.i] + diam[found.j]), found.normal,
-            0.5 * diam[found.i], 0.5 * diam[found.j], rho)
-    count = len(found)
-    local = central_hessian(lambda w: pair_energies(*args, w), count, 6, h)
-    dof = 3 if rho > 0 else 2
+            0.5 * diam[found.i], 0.5 * diam[found.j], springs)
+    count, dim = found.normal.shape
+    m = dim + (1 if dim == 2 else 3)
+    local = central_hessian(lambda w: pair_energies(*args, w), count, 2 * m, h)
+    dof = dynmat.dof_per_particle(dim, *springs)
     n = active.sum() * dof
     dense = np.zeros((n, n))
-    keep = [0, 1, 2][:dof]
+    keep = np.arange(dof)
     for c in range(count):
-        idx = np.concatenate((found.i[c] * dof + np.arange(dof), found.j[c] * dof + np.arange(dof)))
-        sel = np.concatenate((keep, [3 + k for k in keep]))
+        idx = np.concatenate((found.i[c] * dof + keep, found.j[c] * dof + keep))
+        sel = np.concatenate((keep, m + keep))
         dense[np.ix_(idx, idx)] += local[c][np.ix_(sel, sel)]
     return dense
 
 
-@pytest.mark.parametrize("rho", [0.0, 0.2, 1.0])
-def test_hessian_matches_finite_differences(comm, small_packing, rho):
-    dm = dynmat.assemble(small_packing, rho, comm)
+def spheres(seed=5, cells=2, spacing=0.985):
+    """A small 3D test configuration (not a jammed packing; contacts are all D needs): an FCC
+    crystal of ``cells``^3 cubic cells, diameters 1 +- 3 %, centres moved by up to 0.02, so that
+    normals, radii and overlaps all differ. 32 spheres, about 190 contacts."""
+    rng = np.random.default_rng(seed)
+    basis = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]])
+    grid = np.stack(np.meshgrid(*[np.arange(cells)] * 3, indexing="ij"), -1).reshape(-1, 1, 3)
+    lattice = spacing * np.sqrt(2.0)
+    positions = ((grid + basis) * lattice).reshape(-1, 3) + rng.uniform(-0.02, 0.02, (4 * cells**3, 3))
+    diameters = rng.uniform(0.97, 1.03, 4 * cells**3)
+    return packing.from_arrays(positions, diameters, cells * lattice,
+                               rattler=np.zeros(4 * cells**3, dtype=bool))
+
+
+SPRINGS = [(0.0, 0.0, 0.0), (0.2, 0.0, 0.0), (1.0, 0.0, 0.0), (0.7, 0.3, 0.0)]
+SPRINGS_3D = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.7, 0.3, 0.4), (0.0, 0.5, 0.2)]
+
+
+@pytest.mark.parametrize("dim, springs", [(2, s) for s in SPRINGS] + [(3, s) for s in SPRINGS_3D])
+def test_hessian_matches_finite_differences(comm, small_packing, dim, springs):
+    p = small_packing if dim == 2 else spheres()
+    found = contacts.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
+    assert found.overlap.min() > 5e-5, "h = 1e-5 steps must not open a contact"
+    dm = dynmat.assemble(p, springs[0], comm, rho_roll=springs[1], rho_twist=springs[2])
     dense = dynmat.gather_csr(dm.D).toarray()
+    assert dm.dim == dim and dm.dof == dynmat.dof_per_particle(dim, *springs)
     dm.destroy()
-    fd = finite_difference_matrix(small_packing, rho)
+    fd = finite_difference_matrix(p, springs)
     error = np.abs(dense - fd).max()
     assert_all(error < TOL["fd_hessian"] * np.abs(dense).max(), f"D differs from FD Hessian: {error}")
     # the check resolves the geometric term f_n/r (~0.02): dropping it would fail the test
-    found = contacts.find_contacts(small_packing.positions, small_packing.diameters, small_packing.box_length)
     assert_all(error < 1e-3 * np.max(found.overlap / found.distance), "FD check cannot see f_n/r")
+
+
+def test_sphere_mass_matrix(comm):
+    p = spheres()
+    dm = dynmat.assemble(p, 1.0, comm, rho_roll=0.1)
+    mass = dynmat.gather_vec(dm.M).reshape(-1, 6)
+    assert dm.D.getBlockSize() == 6
+    # I = m d^2 / 10 of a uniform sphere of unit mass, on each of the three rotations
+    assert_close(mass[:, 3:], np.repeat(p.diameters[:, None] ** 2 / 10.0, 3, axis=1),
+                 rtol=2 * np.finfo(float).eps, what="sphere inertia")
+    assert_close(mass[:, :3], np.ones((p.n, 3)), rtol=0, what="unit masses")
+    dm.destroy()
 
 
 @pytest.mark.parametrize("rho", [0.0, 0.5, 2.0])
@@ -85,12 +127,13 @@ def test_block_size_mass_and_rattlers_excluded(comm):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("rho", [0.0, 1.0])
-def test_parallel_matrix_equals_serial(comm, small_packing, rho):
+@pytest.mark.parametrize("dim, springs", [(2, (0.0, 0.0, 0.0)), (2, (1.0, 0.2, 0.0)), (3, (1.0, 0.3, 0.4))])
+def test_parallel_matrix_equals_serial(comm, small_packing, dim, springs):
     from petsc4py import PETSc
 
-    dm = dynmat.assemble(small_packing, rho, comm)
-    ref = dynmat.assemble(small_packing, rho, PETSc.COMM_SELF)
+    p = small_packing if dim == 2 else spheres()
+    dm = dynmat.assemble(p, springs[0], comm, rho_roll=springs[1], rho_twist=springs[2])
+    ref = dynmat.assemble(p, springs[0], PETSc.COMM_SELF, rho_roll=springs[1], rho_twist=springs[2])
     D, R = dynmat.gather_csr(dm.D), dynmat.gather_csr(ref.D)
     assert_all(abs(D - R).max() <= TOL["rank_invariance"] * abs(R).max(), "D differs from serial")
     assert_all(np.array_equal(dynmat.gather_vec(dm.M), dynmat.gather_vec(ref.M)), "M differs")

@@ -11,7 +11,7 @@ from test_crystal import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
 from solver.model import dynmat
 from solver.packing import jammed
 from solver.waves import spectral as lanczos
-from solver.waves.excitation import EXCITATIONS
+from solver.waves.excitation import runs
 
 AMPLITUDE = 1e-3
 TIMES = np.arange(0.0, 60.0 + 1e-9, 0.25)
@@ -32,8 +32,8 @@ def crystal_wave(comm, packing, mode, p):
     z(0) = sum_i A sin(k x_i) exp(-i k x_i) = -i A N / 2 (x: a sum over whole periods).
     Returns (WaveSeries, expected z (S,), |z(0)|).
     """
-    direction = [axis for _, axis in EXCITATIONS[mode]].index(0)  # the direction with k along x
-    component = EXCITATIONS[mode][direction][0]
+    direction = [axis for _, axis in runs(mode, 2)].index(0)  # the direction with k along x
+    component = runs(mode, 2)[direction][0]
     k = 2 * np.pi * p / L
     dm = dynmat.assemble(packing, 1.0, comm)
     series = lanczos.spectral(dm, packing.positions, mode, direction, k, amplitude=AMPLITUDE,

@@ -80,10 +80,10 @@ def test_rattler_rule_is_a_fixed_point():
     found = contacts.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
     kept = found.count_per_particle(p.n)[~p.rattler]
     assert p.rattler.sum() >= 1
-    assert kept.min() >= packing.MIN_CONTACTS
+    assert kept.min() >= packing.min_contacts(2)
     # each rattler really is one under the rule applied to the packing without it
     everyone = contacts.find_contacts(p.positions, p.diameters, p.box_length).count_per_particle(p.n)
-    one_pass = everyone < packing.MIN_CONTACTS
+    one_pass = everyone < packing.min_contacts(2)
     assert np.all(p.rattler[one_pass]), "first-pass rattlers must be rattlers"
 
 

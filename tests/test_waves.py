@@ -26,7 +26,7 @@ def exact_z_fixed(p, dm, mode, direction, k, amplitude, t):
     A.destroy()
     omega = np.sqrt(np.clip(lam, 0, None))
     mass = dynmat.gather_vec(dm.M)
-    component, axis = excitation.EXCITATIONS[mode][direction]
+    component, axis = excitation.runs(mode, 2)[direction]
     r0 = p.positions[~p.rattler]
     v0 = np.zeros((len(r0), dm.dof))
     v0[:, component] = amplitude * np.sin(k * r0[:, axis])
@@ -108,7 +108,7 @@ def test_excitation_has_no_momentum_and_expected_channel(comm, packing64):
     mpi = COMM
     for mode in ("L", "TR", "RT"):
         for direction in (0, 1):
-            component, axis = excitation.EXCITATIONS[mode][direction]
+            component, axis = excitation.runs(mode, 2)[direction]
             v0 = excitation.start_velocity(dm, packing64.positions, component, axis, k, 1e-3, mpi).reshape(-1, 3)
             momentum = mpi.allreduce(v0[:, :2].sum(axis=0))
             others = mpi.allreduce(np.abs(np.delete(v0, component, axis=1)).max())

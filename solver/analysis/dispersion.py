@@ -4,10 +4,13 @@ Pure post-processing (numpy/scipy, no MPI; the pipeline runs it on rank 0): it r
 ``waves/...`` (and, if present, ``vdos/...``) result units and returns new groups
 ``analysis/...``.  Definitions:
 
-* C_alpha(k, t) and S_alpha(k, omega) pool the runs of both directions and every configuration
-  (``correlations``); C is fitted with exp(-gamma t) cos(omega t) (``fits.fit_damped_cosine``)
-  and cross-checked by a Lorentzian fit of S.  c = omega / k.
-* gamma ~ k^p (L and TR only; RT is optical-like with gamma(0) > 0) is fitted over
+* C_alpha(k, t) and S_alpha(k, omega) pool the runs (both directions in 2D; every direction and
+  polarisation in 3D: ``waves.excitation.runs``) and every configuration (``correlations``); C
+  is fitted with exp(-gamma t) cos(omega t) (``fits.fit_damped_cosine``) and cross-checked by a
+  Lorentzian fit of S.  c = omega / k.
+* Modes L, TR, RT and (3D) R are fitted alike; R, the twist mode, is read like RT (peak
+  frequency and decay; it enters neither k_c, the lattice model nor the band limits).
+* gamma ~ k^p (L and TR only; RT and R are optical-like with gamma(0) > 0) is fitted over
   k d0 <= ``power_law_kd0_max`` where the run resolves the decay (gamma t_end >= 1).
 * k_c: where the RT and TR branches exchange (the paper's Fig. 5 text: RT drops from branch (iv)
   to (ii), TR jumps from (i) to (iii)), a property of rho stored on every analysis group of that
@@ -38,7 +41,7 @@ import numpy as np
 from . import correlations, lattice
 from . import fits
 
-_WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT)_p(\d+)$")
+_WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT|R)_p(\d+)$")
 
 
 def _fit_one(t, c, omega_grid, power, decay_window):
@@ -63,7 +66,8 @@ def _fit_one(t, c, omega_grid, power, decay_window):
 def averaged_waves(units: dict) -> dict:
     """{(rho, mode): (k (K,), t (S,), C (K, S), omega (W,), S (K, W), packings)} from
     ``waves/rXX_MODE_pYYYY`` units (name -> (datasets, attrs)): C and S pool the runs of every
-    direction and configuration (correlations module), not averages of per-file ratios."""
+    direction, polarisation and configuration (correlations module), not averages of per-file
+    ratios."""
     groups: dict = {}
     for name, (data, attrs) in sorted(units.items()):
         if _WAVES.match(name):
@@ -71,7 +75,7 @@ def averaged_waves(units: dict) -> dict:
     out = {}
     for key, items in groups.items():
         k, t = np.asarray(items[0]["k"]), np.asarray(items[0]["t"])
-        z = np.concatenate([np.asarray(d["z"]) for d in items], axis=0)  # (2 P, K, S)
+        z = np.concatenate([np.asarray(d["z"]) for d in items], axis=0)  # (runs x P, K, S)
         c, omega, power = correlations.pooled(z, t[1] - t[0])
         out[key] = (k, t, c, omega, power, len(items))
     return out
@@ -111,8 +115,8 @@ def analyse(units: dict, spec) -> dict:
         table = {key: np.array([r[key] for r in rows]) for key in rows[0]}
         for key in ("omega_lorentz", "gamma_lorentz"):  # a peak outside the grid is a failed fit
             table[key][(table["omega_lorentz"] <= 0) | (table["omega_lorentz"] > omega_grid[-1])] = np.nan
-        p, p_err, p_points = (_power_law(k, table, t[-1], spec.power_law_kd0_max) if mode != "RT"
-                              else (np.nan, np.nan, 0))  # RT is optical-like: gamma(0) > 0
+        p, p_err, p_points = (_power_law(k, table, t[-1], spec.power_law_kd0_max) if mode in ("L", "TR")
+                              else (np.nan, np.nan, 0))  # RT and R are optical-like: gamma(0) > 0
         fitted[(rho, mode)] = (k, table)
         out[f"analysis/rho{rho:g}_{mode}"] = (
             {"k": k, **table, "c": table["omega"] / k},

@@ -3,10 +3,12 @@
 Packing file format (input from any code, and what rotsound writes under ``/packings``):
   one configuration at the top level, or several as groups ``/packings/<i>`` (sorted by
   name), each holding
-    positions   (N, 2) float64   disk centres, any real values (folded into [0, L))
+    positions   (N, D) float64   centres of disks (D = 2) or spheres (D = 3), any real values
+                                 (folded into [0, L)); the dimension is read from this shape
     diameters   (N,)   float64   > 0, units of the mean diameter d0
-    rattler     (N,)   bool      optional; computed (iterative < 3 contacts rule) if absent
-    attribute box_length  float  side L of the periodic square box, L > 2 max(diameters)
+    rattler     (N,)   bool      optional; computed (iterative < D + 1 contacts rule) if absent
+    attribute box_length  float  side L of the periodic square or cubic box, L > 2 max(diameters)
+                                 (in 2D and 3D alike: a pair then touches through one image only)
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from .. import profiling
-from ..packing.jammed import Packing, from_arrays
+from ..packing.jammed import NAMES, Packing, from_arrays, min_contacts
 
 FORMAT_VERSION = 1
 EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force accepted on a loaded packing (FIRE reaches 1e-6)
@@ -53,8 +55,9 @@ def _read_one(group, where: str) -> Packing:
     n = diameters.shape[0] if diameters.ndim == 1 else -1
     if diameters.ndim != 1 or n < 2:
         fail(f"'diameters' has shape {diameters.shape}; need (N,) with N >= 2")
-    if positions.shape != (n, 2):
-        fail(f"'positions' has shape {positions.shape}; need ({n}, 2) to match 'diameters'")
+    if positions.shape not in ((n, 2), (n, 3)):
+        fail(f"'positions' has shape {positions.shape}; need ({n}, 2) (disks) or ({n}, 3) (spheres) to "
+             f"match 'diameters'")
     if rattler is not None and rattler.shape != (n,):
         fail(f"'rattler' has shape {rattler.shape}; need ({n},)")
     if not np.all(np.isfinite(positions)):
@@ -65,7 +68,9 @@ def _read_one(group, where: str) -> Packing:
         fail(f"box_length = {box_length}: must be finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
     packing = from_arrays(positions, diameters, box_length, rattler, {"source": where})
     if packing.rattler.all():
-        fail("no disk has 3 or more contacts (not a jammed packing: all disks are rattlers)")
+        name = NAMES[packing.dim]
+        fail(f"no {name[:-1]} has {min_contacts(packing.dim)} or more contacts (not a jammed packing: all "
+             f"{name} are rattlers)")
     residual = net_force(packing)
     if residual > EQUILIBRIUM_TOL:
         fail(f"not in mechanical equilibrium: the largest net contact force on a non-rattler is "
@@ -75,15 +80,15 @@ def _read_one(group, where: str) -> Packing:
 
 
 def net_force(packing: Packing) -> float:
-    """Largest net normal contact force on a non-rattler disk (units kn d0)."""
+    """Largest net normal contact force on a non-rattler particle (units kn d0)."""
     from ..model import contact_law
     from ..packing import geometry as contacts
 
     active = ~packing.rattler
     found = contacts.find_contacts(packing.positions, packing.diameters, packing.box_length, active)
     f = contact_law.normal_force(found.overlap)[:, None] * found.normal  # eq:eij, on i
-    net = np.zeros((packing.n, 2))
-    for axis in range(2):
+    net = np.zeros((packing.n, packing.dim))
+    for axis in range(packing.dim):
         net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
                         - np.bincount(found.j, f[:, axis], minlength=packing.n))
     return float(np.sqrt((net[active] ** 2).sum(axis=1)).max())

@@ -98,7 +98,7 @@ def packing_summary(f) -> tuple[float, int]:
 
 
 def first_packing(f) -> dict | None:
-    """The first configuration: positions (N, 2), diameters (N,), rattler (N,) bool and the
+    """The first configuration: positions (N, D) (D = 2 or 3), diameters (N,), rattler (N,) bool and the
     attributes box_length, phi, z (mean contact number; NaN if absent); None without packings."""
     groups = _groups(f, "packings")
     if not groups:

@@ -44,7 +44,7 @@ def _range(lo=None, hi=None, lo_open=False, hi_open=False):
 
 def _even_n(v):
     if v < 16 or v % 2:
-        return "must be an even integer >= 16 (50:50 mixture; the box must exceed two diameters)"
+        return "must be an even integer >= 16 (50:50 mixture; in 2D that also makes the box exceed two diameters)"
     return None
 
 
@@ -52,14 +52,19 @@ def _even_n(v):
 class PackingSpec:
     """Section ``packing``: how configurations are made or where they are read from."""
 
-    n: int | None = _f(None, "number of disks N (even, >= 16); required unless `file` is given", _even_n, int)
-    phi: float | None = _f(None, "area fraction phi, in (0, 1); required unless `file` is given",
+    n: int | None = _f(None, "number of particles N, disks or spheres (even, >= 16; in 3D the box must also "
+                             "exceed two large diameters); required unless `file` is given", _even_n, int)
+    phi: float | None = _f(None, "area (2D) or volume (3D) fraction phi, in (0, 1); required unless `file` is given",
                            _range(0.0, 1.0, True, True), float)
+    dim: int = _f(2, "dimension of generated packings: 2 (disks in a square box) or 3 (spheres in a cubic box); "
+                     "a packing file's positions give its own", lambda v: None if v in (2, 3) else "must be 2 or 3",
+                  int)
     count: int | None = _f(None, "number of independent configurations; default 1 when "
                                  "generating, all of the file's with `file`", _range(1, 100000), int)
     file: str | list[str] | None = _f(None, "HDF5 packing file, or a list of files (see README format)",
                                       None, "paths")
-    force_tol: float = _f(1e-6, "FIRE stops when the largest net force per disk, divided by m, is below force_tol (kn d0/m)",
+    force_tol: float = _f(1e-6, "FIRE stops when the largest net force per particle, divided by m, is below "
+                                "force_tol (kn d0/m)",
                           _range(0.0, 1e-2, True), float)
     max_steps: int = _f(2_000_000, "FIRE step limit per configuration", _range(1), int)
 
@@ -70,6 +75,10 @@ class ModelSpec:
 
     rho: list[float] = _f([1.0], "stiffness ratio kt/kn: a number or a list, each >= 0",
                           _range(0.0, 1e6), "floats")
+    rho_roll: float = _f(0.0, "rolling stiffness ratio kr/kn (2D and 3D), the same for every rho; >= 0",
+                         _range(0.0, 1e6), float)
+    rho_twist: float = _f(0.0, "twisting stiffness ratio ko/kn, the same for every rho; >= 0; 3D only",
+                          _range(0.0, 1e6), float)
 
 
 def _window(v):
@@ -109,10 +118,13 @@ class SpectrumSpec:
 INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
 
 
+WAVE_MODES = ("L", "TR", "RT", "R")
+
+
 def _modes(v):
-    bad = [m for m in v if m not in ("L", "TR", "RT")]
+    bad = [m for m in v if m not in WAVE_MODES]
     if not v or bad or len(set(v)) != len(v):
-        return "must be a non-empty list of distinct modes from L, TR, RT"
+        return "must be a non-empty list of distinct modes from L, TR, RT, R (R: 3D only)"
     return None
 
 
@@ -136,7 +148,8 @@ def _integrator(v):
 class WavesSpec:
     """Section ``waves`` (absent: no standing waves)."""
 
-    modes: list[str] = _f(["L", "TR", "RT"], "modes to excite, from L, TR, RT (paper's Table 1)", _modes,
+    modes: list[str] = _f(["L", "TR", "RT"], "modes to excite, from L, TR, RT (paper's Table 1) and R "
+                                             "(angular velocity along k, the twist mode; 3D only)", _modes,
                           "strs")
     n: list[int] | None = _f(None, "wave numbers as integers n, k = 2 pi n / L (give n or kd0)",
                              _positive_ints, "ints")
@@ -331,8 +344,25 @@ def _cross_check(obj, where):
     if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:
         raise InputError(f"{where}sample_every = {obj.sample_every}: with dt = {obj.dt} that leaves "
                          f"fewer than 4 samples in t_end = {obj.t_end}")
+    if isinstance(obj, Scene) and obj.packing.file is None:
+        check_dimension(obj, obj.packing.dim, f"packing.dim is {obj.packing.dim}")
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
+
+
+def check_dimension(scene: Scene, dim: int, source: str) -> None:
+    """Raise InputError if ``scene`` asks in ``dim`` dimensions for what exists only in 3D: a
+    twisting spring, the twist wave R.  ``source`` says where ``dim`` came from, as a clause
+    ("packing.dim is 2", "packing.file F holds disks"). Not collective."""
+    if dim == 3:
+        return
+    if scene.model.rho_twist > 0.0:
+        raise InputError(f"model.rho_twist = {scene.model.rho_twist}: twisting resistance needs spheres in 3D, "
+                         f"but {source} (in 2D a contact has no twist: set model.rho_twist to 0, or "
+                         f"use spheres)")
+    if scene.waves is not None and "R" in scene.waves.modes:
+        raise InputError(f"waves.modes = {scene.waves.modes}: mode R (angular velocity along k) needs 3D, but "
+                         f"{source}: in 2D the only rotation is about z (use RT, or spheres)")
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:

@@ -132,26 +132,36 @@ def _option_changes(old: dict, new: dict) -> str:
 
 
 def packing_key(scene, index: int) -> UnitKey:
-    """Key of generated packing ``index`` of ``scene``: its recipe."""
+    """Key of generated packing ``index`` of ``scene``: its recipe.
+
+    ``dim`` joins the settings only in 3D: a 2D recipe hashes as it did before ``packing.dim``
+    existed, so 2D packings already in a units folder or the cache are found again (and a 3D
+    recipe never matches a 2D one).
+    """
     spec = scene.packing
-    return UnitKey.of(unit="packing", section="packing", version=__version__, settings={
-        "n": spec.n, "phi": spec.phi, "seed": scene.seed, "index": index, "force_tol": spec.force_tol,
-        "max_steps": spec.max_steps})
+    settings = {"n": spec.n, "phi": spec.phi, "seed": scene.seed, "index": index, "force_tol": spec.force_tol,
+                "max_steps": spec.max_steps}
+    if spec.dim == 3:
+        settings["dim"] = 3
+    return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
 
 
 def unit_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     """Content key of every matrix, spectrum and waves unit this scene can compute. Not collective.
 
     A packing is keyed by its arrays (so a file and a generated packing with equal contents
-    share units); spectra and waves also by their section's settings and the PETSc options that
+    share units, and 2D and 3D never do: the arrays' shapes are hashed); the rolling and twisting
+    ratios join every key when they are not 0 (so units made before they existed keep their keys); spectra and waves also by their section's settings and the PETSc options that
     act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
     KPM's probes by their seed.  The rotsound version is part of every key, so a new version
     never reuses an older one's numbers.
     """
     keys = {}
+    springs = {name: value for name in ("rho_roll", "rho_twist")
+               if (value := getattr(scene.model, name))}  # only when on: 2D keys stay as before
     for p_index, p in enumerate(packings):
         base = {"packing": content_key(p.positions, p.diameters, np.float64(p.box_length), p.rattler),
-                "version": __version__}
+                "version": __version__, **springs}
         for r_index, rho in enumerate(scene.model.rho):
             tag = f"r{r_index:02d}_p{p_index:04d}"
             keys[f"matrices/{tag}"] = UnitKey.of(unit="matrix", rho=rho, options={}, **base)

@@ -53,7 +53,10 @@ def normal_pair(separation: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray
     j is minus that on i.  Pairs with xi <= 0 give zero.  This is eq:eij at rho = 0, the
     frictionless energy FIRE minimises.
     """
-    distance = np.sqrt(np.einsum("cd,cd->c", separation, separation))
+    squared = separation[:, 0] * separation[:, 0]
+    for axis in range(1, separation.shape[1]):  # column sums: faster than einsum in FIRE's loop
+        squared += separation[:, axis] * separation[:, axis]
+    distance = np.sqrt(squared)
     overlap = np.maximum(contact - distance, 0.0)
     force = (normal_force(overlap) / distance)[:, None] * separation
     return force, normal_energy(overlap)

@@ -1,14 +1,18 @@
 """Distributed dynamical matrix D and mass vector M of a packing (PETSc): the paper's eq:motion
-M u'' = -D u with the mass matrix eq:mm, D the Hessian of the contact energy eq:eij summed over
-contacts (blocks from ``contact_law``).
+M u'' = -D u with the mass matrix eq:mm, D the Hessian of the contact energy eq:eij (in 3D and
+with rolling and twisting springs, PHYSICS.md section 8) summed over contacts (blocks from
+``contact_law``).
 
-DOF order per non-rattler disk, in packing order: (u_x, u_y, theta) for rho > 0.
-Decision for rho = 0 (frictionless): rotations carry no stiffness, so they are dropped and the
-matrix is the 2N' x 2N' translational block (block size 2) -- the N' free rotations never
-appear as spurious zero modes.  Rattlers are excluded.  Each rank owns a contiguous range of
-disks (3 or 2 rows each), computes the contact blocks touching its rows (vectorised) and
-inserts only its own rows, with exact preallocation from the local CSR pattern.
-Units: m = d0 = kn = 1; M = diag(m, m, I_i) with I_i = m d_i^2 / 8.
+DOF order per non-rattler particle, in packing order: the D translations, then the rotations
+(D = 2: (u_x, u_y, theta); D = 3: (u_x, u_y, u_z, theta_x, theta_y, theta_z)).
+Decision: rotations are in the matrix whenever any rotational spring is on (rho, rho_roll or
+rho_twist > 0).  With none (frictionless, rho = 0) they carry no stiffness, so they are dropped
+and the matrix is the D N' x D N' translational block -- the free rotations never appear as
+spurious zero modes.  Rattlers are excluded.  Each rank owns a contiguous range of particles
+(``dof`` rows each), computes the contact blocks touching its rows (vectorised) and inserts
+only its own rows, with exact preallocation from the local CSR pattern.
+Units: m = d0 = kn = 1; M = diag(m, ..., I_i, ...) with I_i = m d_i^2 / 8 (disk) or
+m d_i^2 / 10 (sphere).
 """
 
 from __future__ import annotations
@@ -31,8 +35,10 @@ MASS = 1.0
 class DynamicalMatrix:
     """D (PETSc Mat, block size ``dof``), M (PETSc Vec) and the DOF bookkeeping.
 
-    active : (N,) bool, disks in the matrix;  dof : 3 (x, y, theta) or 2 (rho = 0);
-    disk_range : this rank's [start, stop) among active disks;  n_contacts : global count.
+    active : (N,) bool, particles in the matrix;  dim : D (2 or 3);  dof : DOF per particle,
+    D translations then (with rotations) 1 (2D) or 3 (3D) rotations;  rho, rho_roll, rho_twist :
+    kt/kn, kr/kn, ko/kn;  disk_range : this rank's [start, stop) among active particles;
+    n_contacts : global count.
     """
 
     D: object
@@ -42,6 +48,9 @@ class DynamicalMatrix:
     rho: float
     disk_range: tuple[int, int]
     n_contacts: int
+    dim: int = 2
+    rho_roll: float = 0.0
+    rho_twist: float = 0.0
     omega_max: float | None = None  # cached by operators.largest_omega
     wmax_settings: dict | None = None  # what its wmax_ EPS used (operators.largest_omega)
     scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
@@ -49,6 +58,24 @@ class DynamicalMatrix:
     @property
     def size(self) -> int:
         return int(self.active.sum()) * self.dof
+
+    @property
+    def rotations(self) -> bool:
+        """Whether the matrix has rotational DOF (some rotational spring is on)."""
+        return self.dof > self.dim
+
+    def rigid_modes(self) -> list[tuple[int, str]]:
+        """The exact zero modes of every packing's D, as (DOF slot, name): the uniform translation
+        along each axis, and -- with rotations but no tangential spring (rho = 0) -- the uniform
+        spin about each rotation axis, which rolling and twisting springs do not resist
+        (PHYSICS.md section 8).  Slot s means the vector with 1 in DOF s of every particle.
+        Not collective."""
+        names = "xyz"
+        modes = [(axis, f"translation {names[axis]}") for axis in range(self.dim)]
+        if self.rotations and self.rho == 0.0:
+            spins = ["z"] if self.dim == 2 else list(names)
+            modes += [(self.dim + k, f"spin {axis}") for k, axis in enumerate(spins)]
+        return modes
 
     def destroy(self) -> None:
         """Free the PETSc objects. Collective."""
@@ -58,24 +85,36 @@ class DynamicalMatrix:
             self.scaled.destroy()
 
 
-def mass_diagonal(diameters: np.ndarray, dof: int) -> np.ndarray:
-    """Diagonal of M for the given disks, (len(diameters) * dof,)."""
+def has_rotations(rho: float, rho_roll: float = 0.0, rho_twist: float = 0.0) -> bool:
+    """Whether the matrix keeps rotational DOF: some rotational spring is on. Not collective."""
+    return rho > 0.0 or rho_roll > 0.0 or rho_twist > 0.0
+
+
+def dof_per_particle(dim: int, rho: float, rho_roll: float = 0.0, rho_twist: float = 0.0) -> int:
+    """DOF per particle: D translations, plus 1 (2D) or 3 (3D) rotations when any rotational
+    spring is on. Not collective."""
+    return dim + (dim * (dim - 1) // 2 if has_rotations(rho, rho_roll, rho_twist) else 0)
+
+
+def mass_diagonal(diameters: np.ndarray, dim: int, dof: int) -> np.ndarray:
+    """Diagonal of M (len(diameters) * dof,): m on translations, I = m d^2 / 8 (disk) or
+    m d^2 / 10 (sphere) on rotations."""
     diag = np.empty((diameters.size, dof))
-    diag[:, :2] = MASS
-    if dof == 3:
-        diag[:, 2] = MASS * diameters**2 / 8.0
+    diag[:, :dim] = MASS
+    if dof > dim:
+        diag[:, dim:] = (MASS * diameters**2 / (8.0 if dim == 2 else 10.0))[:, None]
     return diag.ravel()
 
 
-def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int]
-              ) -> tuple[sp.csr_matrix, int, int]:
+def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_roll: float = 0.0,
+              rho_twist: float = 0.0) -> tuple[sp.csr_matrix, int, int]:
     """Rows of D owned by ``disk_range`` as a CSR (local rows x global columns).
 
     Returns (csr, dof, global number of contacts).  Not collective.
     """
     active = ~packing.rattler
-    dof = 3 if rho > 0.0 else 2
-    index = np.cumsum(active) - 1  # disk -> position among active disks
+    dof = dof_per_particle(packing.dim, rho, rho_roll, rho_twist)
+    index = np.cumsum(active) - 1  # particle -> position among active particles
     found = contacts.find_contacts(packing.positions, packing.diameters, packing.box_length, active)
     a, b = index[found.i], index[found.j]
     start, stop = disk_range
@@ -84,7 +123,8 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int]
     radius = 0.5 * packing.diameters
     h_ii, h_ij, h_jj = contact_law.pair_blocks(
         found.normal[touch], found.distance[touch], found.overlap[touch],
-        radius[found.i[touch]], radius[found.j[touch]], rho, with_rotation=dof == 3)
+        radius[found.i[touch]], radius[found.j[touch]], rho, with_rotation=dof > packing.dim,
+        rho_roll=rho_roll, rho_twist=rho_twist)
     block_rows = np.concatenate((a, a, b, b))
     block_cols = np.concatenate((a, b, b, a))
     blocks = np.concatenate((h_ii, h_ij, h_jj, np.transpose(h_ij, (0, 2, 1))))
@@ -102,8 +142,10 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int]
 
 
 @profiling.logged("rsAssemble")
-def assemble(packing: Packing, rho: float, comm) -> DynamicalMatrix:
-    """Assemble D and M on ``comm`` (PETSc communicator). Collective.
+def assemble(packing: Packing, rho: float, comm, rho_roll: float = 0.0,
+             rho_twist: float = 0.0) -> DynamicalMatrix:
+    """Assemble D and M of ``packing`` (2D or 3D) with kt = rho kn, kr = rho_roll kn and
+    ko = rho_twist kn (3D only) on ``comm`` (PETSc communicator). Collective.
 
     D is flagged symmetric (needed by Cholesky-based inertia in the spectrum stage).
     """
@@ -111,7 +153,7 @@ def assemble(packing: Packing, rho: float, comm) -> DynamicalMatrix:
 
     active = ~packing.rattler
     disk_range = parallel.block_range(int(active.sum()), comm.tompi4py())
-    csr, dof, n_contacts = local_csr(packing, rho, disk_range)
+    csr, dof, n_contacts = local_csr(packing, rho, disk_range, rho_roll, rho_twist)
     n_global = int(active.sum()) * dof
     n_local = csr.shape[0]
     D = PETSc.Mat().createAIJ(size=((n_local, n_global), (n_local, n_global)), bsize=dof,
@@ -122,8 +164,8 @@ def assemble(packing: Packing, rho: float, comm) -> DynamicalMatrix:
     D.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     M = D.createVecLeft()
     start, stop = disk_range
-    M.setArray(mass_diagonal(packing.diameters[active][start:stop], dof))
-    return DynamicalMatrix(D, M, active, dof, rho, disk_range, n_contacts)
+    M.setArray(mass_diagonal(packing.diameters[active][start:stop], packing.dim, dof))
+    return DynamicalMatrix(D, M, active, dof, rho, disk_range, n_contacts, packing.dim, rho_roll, rho_twist)
 
 
 def gather_csr(mat) -> sp.csr_matrix:

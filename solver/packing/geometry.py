@@ -1,4 +1,6 @@
-"""Periodic square box geometry and contact detection (units: d0 = 1).
+"""Periodic square (2D) or cubic (3D) box geometry and contact detection (units: d0 = 1).
+
+Every function works in D = 2 or 3 dimensions, read from the shape of ``positions`` (N, D).
 
 Neighbours come from ``scipy.spatial.cKDTree`` with ``boxsize=L`` (periodic), never from a
 Python loop over particles.  Not collective.
@@ -13,22 +15,24 @@ from scipy.spatial import cKDTree
 
 
 def wrap(positions: np.ndarray, box_length: float) -> np.ndarray:
-    """Return ``positions`` (N, 2) folded into ``[0, L)``."""
+    """Return ``positions`` (N, D) folded into ``[0, L)``."""
     wrapped = np.mod(positions, box_length)
     wrapped[wrapped >= box_length] = 0.0  # np.mod can round -tiny up to exactly L
     return wrapped
 
 
 def minimum_image(delta: np.ndarray, box_length: float) -> np.ndarray:
-    """Return separation vectors ``delta`` (..., 2) mapped to their nearest periodic image."""
+    """Return separation vectors ``delta`` (..., D) mapped to their nearest periodic image."""
     return delta - box_length * np.rint(delta / box_length)
 
 
 def candidate_pairs(positions: np.ndarray, box_length: float, cutoff: float) -> np.ndarray:
-    """Return all pairs (P, 2), ``i < j``, closer than ``cutoff`` under periodic images."""
-    tree = cKDTree(wrap(positions, box_length), boxsize=box_length)
+    """Return all pairs (P, 2), ``i < j``, closer than ``cutoff`` under periodic images, sorted
+    by i, then j.  (An unbalanced tree and one argsort of i N + j: measured 1.5x faster than a
+    balanced tree and a lexsort at N = 32768 in 3D, where FIRE rebuilds its list ~100 times.)"""
+    tree = cKDTree(wrap(positions, box_length), boxsize=box_length, balanced_tree=False, compact_nodes=False)
     pairs = tree.query_pairs(r=cutoff, output_type="ndarray")
-    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    return pairs[np.argsort(pairs[:, 0] * positions.shape[0] + pairs[:, 1])]
 
 
 @dataclass(frozen=True)
@@ -36,7 +40,7 @@ class Contacts:
     """Overlapping pairs of a configuration.
 
     i, j : (C,) int      particle indices, i < j
-    normal : (C, 2)      unit vector n = (r_i - r_j) / r_ij (minimum image)
+    normal : (C, D)      unit vector n = (r_i - r_j) / r_ij (minimum image)
     distance : (C,)      r_ij
     overlap : (C,)       xi_ij = (d_i + d_j)/2 - r_ij > 0
     """
@@ -56,10 +60,10 @@ class Contacts:
 
 
 def pair_geometry(positions, diameters, box_length, pairs):
-    """Return (normal (P,2), distance (P,), overlap (P,)) of the given pairs (P,2)."""
+    """Return (normal (P, D), distance (P,), overlap (P,)) of the given pairs (P, 2)."""
     i, j = pairs[:, 0], pairs[:, 1]
     delta = minimum_image(positions[i] - positions[j], box_length)
-    distance = np.hypot(delta[:, 0], delta[:, 1])
+    distance = np.sqrt(np.einsum("pd,pd->p", delta, delta))
     overlap = 0.5 * (diameters[i] + diameters[j]) - distance
     return delta / distance[:, None], distance, overlap
 

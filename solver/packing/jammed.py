@@ -1,13 +1,16 @@
-"""Jammed 50:50 bidisperse disk packings (the paper's Materials and Methods).
+"""Jammed 50:50 bidisperse packings of disks (2D) or spheres (3D) (the paper's Materials and Methods).
 
-Diameters d_S = 2/2.4 and d_L = 1.4 d_S (mean d0 = 1), equal masses m = 1, periodic square box
-with area fraction phi, uniform random start from a seed, FIRE on the frictionless harmonic
-energy E_n = sum kn xi^2 / 2 until max_i |F_i| / m < force_tol (default 1e-6 kn d0 / m).
+Diameters d_S = 2/2.4 and d_L = 1.4 d_S (mean d0 = 1), equal masses m = 1, periodic square (2D)
+or cubic (3D) box with area or volume fraction phi, uniform random start from a seed, FIRE on
+the frictionless harmonic energy E_n = sum kn xi^2 / 2 until max_i |F_i| / m < force_tol
+(default 1e-6 kn d0 / m).  The dimension D = 2 or 3 is the number of columns of ``positions``.
 
-Rattlers [choice]: a disk with fewer than 3 contacts among the remaining non-rattlers is a
-rattler; the rule is applied repeatedly until no new rattler appears.  Rattlers stay in the
-packing (flagged) and are excluded from the dynamical matrix.  After minimisation disks are
-renumbered in horizontal strips (by y, then x) so that contiguous rank blocks are compact in
+Rattlers [choice]: a particle with fewer than D + 1 contacts among the remaining non-rattlers is
+a rattler (3 for a disk, 4 for a sphere: fewer cannot hold it in force balance against every
+direction); the rule is applied repeatedly until no new rattler appears.  Rattlers stay in the
+packing (flagged) and are excluded from the dynamical matrix.  After minimisation particles are
+renumbered in a spatial order (2D: horizontal strips by y, x inside a strip; 3D: slabs by z,
+strips by y inside a slab, x inside a strip) so that contiguous rank blocks are compact in
 space; the renumbering depends only on the packing, never on the number of ranks.
 Not collective.
 """
@@ -17,6 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import sparse
+from scipy.spatial import cKDTree
 
 from ..errors import InputError
 from ..model import contact_law
@@ -27,14 +32,24 @@ from . import geometry as contacts
 SIZE_RATIO = 1.4
 D_SMALL = 2.0 / (1.0 + SIZE_RATIO)
 D_LARGE = SIZE_RATIO * D_SMALL
-MIN_CONTACTS = 3
+NAMES = {2: "disks", 3: "spheres"}
+
+
+def min_contacts(dim: int) -> int:
+    """Contacts a non-rattler needs in ``dim`` dimensions: dim + 1."""
+    return dim + 1
+
+
+def solid_volume(diameters: np.ndarray, dim: int) -> float:
+    """Total area (2D: sum pi d^2 / 4) or volume (3D: sum pi d^3 / 6) of the particles."""
+    return float(np.pi * np.sum(diameters**2) / 4.0 if dim == 2 else np.pi * np.sum(diameters**3) / 6.0)
 
 
 @dataclass(frozen=True)
 class Packing:
     """One configuration (units d0 = m = kn = 1).
 
-    positions : (N, 2) float64 in [0, L);  diameters : (N,) float64;  box_length : L;
+    positions : (N, D) float64 in [0, L), D = 2 or 3;  diameters : (N,) float64;  box_length : L;
     rattler : (N,) bool;  info : provenance and statistics (energy, pressure, z, ...).
     """
 
@@ -49,8 +64,14 @@ class Packing:
         return int(self.diameters.size)
 
     @property
+    def dim(self) -> int:
+        """Dimension D (2 or 3), read from the shape of ``positions``."""
+        return int(self.positions.shape[1])
+
+    @property
     def phi(self) -> float:
-        return float(np.pi * np.sum(self.diameters**2) / 4.0 / self.box_length**2)
+        """Area (2D) or volume (3D) fraction."""
+        return solid_volume(self.diameters, self.dim) / self.box_length**self.dim
 
 
 def bidisperse_diameters(n: int) -> np.ndarray:
@@ -60,57 +81,127 @@ def bidisperse_diameters(n: int) -> np.ndarray:
     return d
 
 
-def box_length_for(diameters: np.ndarray, phi: float) -> float:
-    """Side L of the square box in which ``diameters`` fill area fraction ``phi``."""
-    return float(np.sqrt(np.pi * np.sum(diameters**2) / 4.0 / phi))
+def box_length_for(diameters: np.ndarray, phi: float, dim: int = 2) -> float:
+    """Side L of the square (2D) or cubic (3D) box in which ``diameters`` fill fraction ``phi``."""
+    volume = solid_volume(diameters, dim) / phi
+    return float(np.sqrt(volume) if dim == 2 else np.cbrt(volume))
+
+
+def smallest_n(phi: float, dim: int) -> int:
+    """Smallest even N >= 16 whose bidisperse box at ``phi`` exceeds two large diameters."""
+    pair = solid_volume(np.array([D_SMALL, D_LARGE]), dim)  # one small and one large particle
+    n = int(np.floor(2.0 * phi * (2.0 * D_LARGE) ** dim / pair)) + 1  # L^D = (n/2) pair / phi
+    n += n % 2
+    while box_length_for(bidisperse_diameters(n), phi, dim) <= 2.0 * D_LARGE:  # round-off at the edge
+        n += 2
+    return max(16, n)
 
 
 class _FrictionlessForces:
-    """Harmonic normal forces with a Verlet list (skin) rebuilt after large moves.
+    """Harmonic normal forces on a Verlet list (skin s), kept valid by cheap partial refreshes.
 
     Positions are not wrapped during minimisation, so each listed pair keeps the periodic
-    image shift found when the list was built; per step only gathers and bincounts remain.
+    image shift found when it was listed.  Every particle has a reference position, and none
+    moves more than s/2 from it: when one would, the particles that moved more than s/4 are
+    re-listed from where they are now, against everybody, out to their contact distance plus
+    1.25 s, and their references reset (a full rebuild, out to contact plus s, when more than
+    half of the particles have been re-listed since the last one).  A pair is decided when one of
+    its particles is (re-)listed; from then on the other moves at most 3s/4 (s/4 then, s/2 from
+    its reference after) and the re-listed one s/2, so an unlisted pair cannot touch.  (Late in
+    FIRE a few particles, about 1 %, trip the list while the median has moved s/30: measured at
+    N = 2048 in 3D.)  The skin is at most (L/2 - max d)/1.25, so that a listed pair touches
+    through its listed image only (tiny 3D boxes).  Per step two sparse products remain: the
+    separations x_i - x_j + shift (one CSR product with +1, -1 per row) and the net forces (two
+    CSR products with the pairs sorted by (i, j): the same sums, bit for bit, as ``np.bincount``
+    over the pairs, so 2D packings are what they were).  Measured at N = 32768 in 3D: 11 ms per
+    step against 25 ms for fancy-index gathers and bincounts over all pairs within max d + s;
+    a refresh of 1 % of the particles 30 ms against 150 ms for a rebuild; at N = 8192 the
+    refreshes cut the packing's time by a fifth.
     """
 
+    REACH = 1.25  # reach of a partial refresh, in skins (see above)
+
     def __init__(self, diameters: np.ndarray, box_length: float, skin: float = 0.3):
-        self.diameters, self.box_length, self.skin = diameters, box_length, skin
+        self.diameters, self.box_length = diameters, box_length
+        self.largest = float(diameters.max())
+        self.skin = min(skin, (0.5 * box_length - self.largest) / self.REACH)
         self.reference: np.ndarray | None = None
-        self.rebuilds = 0
+        self.rebuilds = self.refreshes = 0
+
+    def _near(self, x: np.ndarray, i: np.ndarray, j: np.ndarray, reach: float):
+        """The pairs among (i, j) closer than their contact distance plus ``reach``, as
+        (i, j, shift (P, D), contact (P,))."""
+        delta = x[i] - x[j]
+        shift = contacts.minimum_image(delta, self.box_length) - delta
+        contact = 0.5 * (self.diameters[i] + self.diameters[j])
+        separation = delta + shift
+        near = np.einsum("pd,pd->p", separation, separation) < (contact + reach) ** 2
+        return i[near], j[near], shift[near], contact[near]
+
+    def _use(self, n: int, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray) -> None:
+        """Make the list (pairs sorted by (i, j)) and its three CSR matrices current."""
+        self.i, self.j, self.shift, self.contact = i, j, shift, contact
+        count, listed = i.size, np.arange(i.size)
+        self.difference = sparse.csr_matrix(  # row p: +1 at i_p, -1 at j_p (i_p < j_p)
+            (np.tile([1.0, -1.0], count), np.stack((i, j), axis=1).ravel(), 2 * np.arange(count + 1)),
+            shape=(count, n))
+        self.on_i, self.on_j = (sparse.coo_matrix((np.ones(count), (k, listed)), shape=(n, count)).tocsr()
+                                for k in (i, j))  # within a row, the pairs in list order
 
     def _rebuild(self, x: np.ndarray) -> None:
-        pairs = contacts.candidate_pairs(x, self.box_length, float(self.diameters.max()) + self.skin)
-        self.i, self.j = pairs[:, 0].copy(), pairs[:, 1].copy()
-        delta = x[self.i] - x[self.j]
-        shift = contacts.minimum_image(delta, self.box_length) - delta
-        self.shift_x, self.shift_y = shift[:, 0].copy(), shift[:, 1].copy()
-        self.contact = 0.5 * (self.diameters[self.i] + self.diameters[self.j])
+        pairs = contacts.candidate_pairs(x, self.box_length, self.largest + self.skin)  # sorted by (i, j)
+        self._use(x.shape[0], *self._near(x, pairs[:, 0], pairs[:, 1], self.skin))
         self.reference = x.copy()
+        self.relisted = np.zeros(x.shape[0], dtype=bool)
         self.rebuilds += 1
 
+    def _refresh(self, x: np.ndarray, movers: np.ndarray) -> None:
+        """Re-list the pairs of ``movers`` (N,) bool from the current positions."""
+        n, index = x.shape[0], np.flatnonzero(movers)
+        reach = self.REACH * self.skin
+        wrapped = contacts.wrap(x, self.box_length)
+        trees = [cKDTree(points, boxsize=self.box_length, balanced_tree=False, compact_nodes=False)
+                 for points in (wrapped, wrapped[index])]
+        found = trees[0].sparse_distance_matrix(trees[1], self.largest + reach, output_type="ndarray")
+        other, mover = found["i"], index[found["j"]]
+        once = (other != mover) & (~movers[other] | (other < mover))  # a pair of two movers once
+        fresh = self._near(x, np.minimum(other, mover)[once], np.maximum(other, mover)[once], reach)
+        order = np.argsort(fresh[0] * n + fresh[1])
+        stay = ~(movers[self.i] | movers[self.j])
+        at = np.searchsorted(self.i[stay] * n + self.j[stay], fresh[0][order] * n + fresh[1][order])
+        self._use(n, *(np.insert(old[stay], at, new[order], axis=0) for old, new in
+                       zip((self.i, self.j, self.shift, self.contact), fresh)))  # still sorted by (i, j)
+        self.reference[movers] = x[movers]
+        self.relisted |= movers
+        self.refreshes += 1
+
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, float]:
-        if self.reference is None or np.max(np.sum((x - self.reference) ** 2, axis=1)) > (0.5 * self.skin) ** 2:
+        if self.reference is None:
             self._rebuild(x)
-        px, py = x[:, 0], x[:, 1]
-        separation = np.stack((px[self.i] - px[self.j] + self.shift_x,
-                               py[self.i] - py[self.j] + self.shift_y), axis=1)
+        else:
+            step = x - self.reference
+            moved = np.einsum("nd,nd->n", step, step)
+            if moved.max() > (0.5 * self.skin) ** 2:
+                movers = moved > (0.25 * self.skin) ** 2
+                if np.count_nonzero(movers | self.relisted) > x.shape[0] // 2:
+                    self._rebuild(x)
+                else:
+                    self._refresh(x, movers)
+        separation = self.difference @ x + self.shift
         pair_force, energy = contact_law.normal_pair(separation, self.contact)  # eq:eij, rho = 0
-        n = x.shape[0]
-        force = np.empty_like(x)
-        for axis in range(2):
-            f = pair_force[:, axis]
-            force[:, axis] = np.bincount(self.i, f, minlength=n) - np.bincount(self.j, f, minlength=n)
-        return force, float(energy.sum())
+        return self.on_i @ pair_force - self.on_j @ pair_force, float(energy.sum())
 
 
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box_length: float) -> np.ndarray:
-    """Rattler mask (N,): iteratively, disks with fewer than 3 contacts among non-rattlers."""
+    """Rattler mask (N,): iteratively, particles with fewer than D + 1 contacts among non-rattlers."""
     found = contacts.find_contacts(positions, diameters, box_length)
     rattler = np.zeros(diameters.size, dtype=bool)
+    needed = min_contacts(positions.shape[1])
     while True:
         keep = ~rattler[found.i] & ~rattler[found.j]
         count = (np.bincount(found.i[keep], minlength=rattler.size)
                  + np.bincount(found.j[keep], minlength=rattler.size))
-        new = ~rattler & (count < MIN_CONTACTS)
+        new = ~rattler & (count < needed)
         if not new.any():
             return rattler
         rattler |= new
@@ -118,7 +209,9 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box_length: floa
 
 def describe(positions: np.ndarray, diameters: np.ndarray, box_length: float,
              rattler: np.ndarray) -> dict:
-    """Energy, pressure (2D virial), mean contact number z and rattler fraction of a packing."""
+    """Energy, pressure (virial sum_c f_c r_c / (D L^D)), mean contact number z and rattler
+    fraction of a packing (units kn = d0 = 1)."""
+    dim = positions.shape[1]
     found = contacts.find_contacts(positions, diameters, box_length)
     fn = contact_law.normal_force(found.overlap)
     active = ~rattler
@@ -126,7 +219,7 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box_length: float,
     n_active = int(active.sum())
     return {
         "energy": float(np.sum(contact_law.normal_energy(found.overlap))),
-        "pressure": float(np.sum(fn * found.distance) / (2.0 * box_length**2)),
+        "pressure": float(np.sum(fn * found.distance) / (dim * box_length**dim)),
         "z": float(2.0 * keep.sum() / n_active) if n_active else 0.0,
         "rattler_fraction": float(rattler.mean()),
         "n_contacts": int(keep.sum()),
@@ -134,43 +227,53 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box_length: float,
     }
 
 
-def strip_order(positions: np.ndarray, box_length: float, n: int) -> np.ndarray:
-    """Permutation sorting disks into ~sqrt(n) horizontal strips, by x inside a strip."""
-    strips = max(1, int(np.sqrt(n)))
-    row = np.minimum((positions[:, 1] / box_length * strips).astype(int), strips - 1)
-    return np.lexsort((positions[:, 0], row))
+def spatial_order(positions: np.ndarray, box_length: float) -> np.ndarray:
+    """Permutation sorting particles into ~n^(1/D) slices along the last axis (2D: strips by y;
+    3D: slabs by z, then ~n^(1/3) strips by y inside a slab), by x inside a strip."""
+    n, dim = positions.shape
+    slices = max(1, int(np.sqrt(n) if dim == 2 else np.cbrt(n)))
+    cell = np.minimum((positions[:, 1:] / box_length * slices).astype(int), slices - 1)
+    return np.lexsort((positions[:, 0], *cell.T))  # the last key (y in 2D, z in 3D) sorts first
 
 
 @profiling.logged("rsPackingFIRE")
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
-             max_steps: int = 2_000_000) -> Packing:
-    """Make one jammed packing of ``n`` disks at area fraction ``phi``. Not collective.
+             max_steps: int = 2_000_000, dim: int = 2) -> Packing:
+    """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
+    fraction ``phi``. Not collective.
 
-    Raises RuntimeError if FIRE does not reach ``force_tol`` within ``max_steps``.
+    Raises InputError (naming packing.n and packing.phi) before FIRE if the box would not exceed
+    two large diameters (a pair could touch through two periodic images: tiny N at high phi in
+    3D), and RuntimeError if FIRE does not reach ``force_tol`` within ``max_steps``.
     """
     rng = np.random.default_rng(seed)
     diameters = rng.permutation(bidisperse_diameters(n))  # mixed, so the sort below is safe
-    box_length = box_length_for(diameters, phi)
+    box_length = box_length_for(diameters, phi, dim)
+    if box_length <= 2.0 * D_LARGE:
+        raise InputError(f"packing.n = {n}, packing.phi = {phi}: the {dim}D box would have side L = "
+                         f"{box_length:.4g}, not more than two large diameters (2 d_L = {2 * D_LARGE:.4g}), so a "
+                         f"pair could touch through two periodic images: choose packing.n >= "
+                         f"{smallest_n(phi, dim)} at this phi, or a smaller packing.phi")
     forces = _FrictionlessForces(diameters, box_length)
-    start = rng.uniform(0.0, box_length, size=(n, 2))
-    start = start[strip_order(start, box_length, n)]  # spatial order: cache-friendly gathers
+    start = rng.uniform(0.0, box_length, size=(n, dim))
+    start = start[spatial_order(start, box_length)]  # spatial order: cache-friendly gathers
     result = fire.minimize(start, forces, force_tol, max_steps)
     if not result.converged:
         raise RuntimeError(f"FIRE did not converge: max |F| = {result.max_force:.3e} > "
-                           f"{force_tol:.1e} after {result.steps} steps (n={n}, phi={phi})")
+                           f"{force_tol:.1e} after {result.steps} steps (n={n}, phi={phi}, dim={dim})")
     positions = contacts.wrap(result.x, box_length)
-    order = strip_order(positions, box_length, n)
+    order = spatial_order(positions, box_length)
     positions, diameters = positions[order], diameters[order]
     rattler = find_rattlers(positions, diameters, box_length)
     info = describe(positions, diameters, box_length, rattler)
     info.update(fire_steps=result.steps, max_force=result.max_force, force_tol=force_tol,
-                neighbour_rebuilds=forces.rebuilds)
+                neighbour_rebuilds=forces.rebuilds, neighbour_refreshes=forces.refreshes)
     return Packing(positions, diameters, box_length, rattler, info)
 
 
 def from_arrays(positions: np.ndarray, diameters: np.ndarray, box_length: float,
                 rattler: np.ndarray | None = None, info: dict | None = None) -> Packing:
-    """Build a :class:`Packing` from user arrays (e.g. another code's packing).
+    """Build a :class:`Packing` from user arrays (e.g. another code's packing), positions (N, D).
 
     Rattlers are computed with the iterative rule when ``rattler`` is None.
     """
@@ -183,32 +286,37 @@ def from_arrays(positions: np.ndarray, diameters: np.ndarray, box_length: float,
     return Packing(positions, diameters, float(box_length), np.asarray(rattler, dtype=bool), stats)
 
 
-PHI_JAMMING = 0.84
-"""Where this mixture jams (O'Hern et al., PRE 68, 011306 (2003)); finite packings scatter around
-it (measured: at N = 256, 2 of 4 seeds jam at phi = 0.84, all at 0.845; at N = 16, 19 of 20 at 0.85)."""
+PHI_JAMMING = {2: 0.84, 3: 0.648}
+"""Where this mixture jams, per dimension (O'Hern et al., PRE 68, 011306 (2003): 2D, and their 3D
+1:1.4 mixture for 0.648, a value not checked here against the paper's text); finite packings
+scatter around it (measured in 2D: at N = 256, 2 of 4 seeds jam at phi = 0.84, all at 0.845; at
+N = 16, 19 of 20 at 0.85; in 3D: at N = 256, 0 of 6 seeds jam at 0.63, 1 of 6 at 0.64, all at 0.65)."""
 
 
 def jamming_failure(packing: Packing) -> str | None:
     """Why the dynamical matrix cannot be built on ``packing``, or None if it can. Not collective.
 
-    Decision: refused when no disk is left after removing rattlers (FIRE relaxed every overlap
-    to ``force_tol``: the packing did not jam; its matrix has 0 DOF and the solvers die), or when
-    the N' non-rattlers share fewer than 2N' - 1 contacts.  A rigid contact network in a periodic
-    box needs 2(N' - 1) contacts for its 2N' DOF less the two translations, plus one to carry a
-    positive pressure (the isostatic count; Goodrich, Liu & Nagel, PRL 109, 095704 (2012)); fewer
-    means a floppy cluster held only by FIRE's residual overlaps, whose matrix has zero modes
-    besides the two translations that the spectrum and KPM take as the only ones.  That count is
-    the minimum of non-rattlers, rather than a fixed number: it needs at least 5 disks (4 disks
-    make at most 6 < 7 contacts), and every packing measured that jammed passes it (N = 16 to
-    1024, phi = 0.83 to 0.9, 90 seeds; the smallest margin was 1 contact).
+    Decision: refused when no particle is left after removing rattlers (FIRE relaxed every
+    overlap to ``force_tol``: the packing did not jam; its matrix has 0 DOF and the solvers die),
+    or when the N' non-rattlers share fewer than D(N' - 1) + 1 contacts (D = 2 or 3).  A rigid
+    contact network in a periodic box needs D(N' - 1) contacts for its DN' DOF less the D
+    translations, plus one to carry a positive pressure (the isostatic count; Goodrich, Liu &
+    Nagel, PRL 109, 095704 (2012)); fewer means a floppy cluster held only by FIRE's residual
+    overlaps, whose matrix has zero modes besides the D translations that the spectrum and KPM
+    take as the only ones.  That count is the minimum of non-rattlers, rather than a fixed
+    number: in 2D it needs at least 5 disks (4 make at most 6 < 7 contacts), in 3D at least 7
+    spheres (6 make at most 15 < 16), and every 2D packing measured that jammed passes it (N = 16
+    to 1024, phi = 0.83 to 0.9, 90 seeds; the smallest margin was 1 contact).
     """
     stats = describe(packing.positions, packing.diameters, packing.box_length, packing.rattler)
+    dim, name = packing.dim, NAMES[packing.dim]
     n_active = packing.n - int(packing.rattler.sum())
     if n_active == 0:
-        return f"all {packing.n} disks are rattlers (pressure {stats['pressure']:.1e})"
-    if stats["n_contacts"] < 2 * n_active - 1:
-        return (f"only {n_active} of {packing.n} disks are not rattlers and they share "
-                f"{stats['n_contacts']} contacts, fewer than the 2N' - 1 = {2 * n_active - 1} of a "
+        return f"all {packing.n} {name} are rattlers (pressure {stats['pressure']:.1e})"
+    needed = dim * (n_active - 1) + 1
+    if stats["n_contacts"] < needed:
+        return (f"only {n_active} of {packing.n} {name} are not rattlers and they share "
+                f"{stats['n_contacts']} contacts, fewer than the {dim}N' - {dim - 1} = {needed} of a "
                 f"rigid packing (pressure {stats['pressure']:.1e})")
     return None
 
@@ -220,8 +328,10 @@ def require_jammed(packings: list[Packing], phi: float) -> None:
     if not failures:
         return
     index, why = failures[0]
+    dim = packings[index].dim
     what = (f"configuration {index} did not jam: {why}" if len(failures) == 1 else
             f"configurations {', '.join(str(i) for i, _ in failures)} of {len(packings)} did not jam "
             f"(configuration {index}: {why})")
-    raise InputError(f"packing.phi = {phi}: {what}; this mixture jams near phi = {PHI_JAMMING} and "
-                     f"small packings scatter around it: choose a larger packing.phi (the paper's is 0.9)")
+    mixture, example = ("mixture", "the paper's is 0.9") if dim == 2 else ("3D mixture", "e.g. 0.7")
+    raise InputError(f"packing.phi = {phi}: {what}; this {mixture} jams near phi = {PHI_JAMMING[dim]} and "
+                     f"small packings scatter around it: choose a larger packing.phi ({example})")

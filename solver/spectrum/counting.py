@@ -14,9 +14,10 @@ factorisation).  The counts are integers gathered from their owners: identical o
 
 Edges: bins [0, w), [w, 2w), ... up to past omega_max (the Lanczos estimate of
 ``model.operators.largest_omega``, +1e-6 relative); if the inertia there misses any mode, more
-bins are added up to the Gershgorin bound.  Modes with omega below ``zero_tol`` (the two
-translations) are counted as zero modes and left out of the histogram, as in ``slicing``; those
-below -zero_tol^2 as negative modes.  A bin edge exactly on an eigenvalue counts it in the upper
+bins are added up to the Gershgorin bound.  Modes with omega below ``zero_tol`` (the uniform
+translations, and the uniform spins without tangential springs: ``dm.rigid_modes()``) are counted
+as zero modes and left out of the histogram, as in ``slicing``; those below -zero_tol^2 as
+negative modes.  A bin edge exactly on an eigenvalue counts it in the upper
 bin (the inertia counts lambda < sigma), as ``numpy.histogram`` does for [a, b).
 Units: omega in 1/t0.  Collective on the matrix's communicator.
 """
@@ -65,7 +66,8 @@ def solve(dm, *, bin_width: float, zero_tol: float) -> tuple[dict, dict, dict]:
     datasets: edges (B+1,) = 0, w, 2w, ... in 1/t0; counts (B,) int64, the modes with omega in each
     bin (zero modes excluded); density (B,) = counts / (sum(counts) w), unit area.
     attrs: omega_max (Lanczos, 1/t0), n_zero_modes, n_negative_modes, inertia_count (non-zero
-    modes counted), factorisations, dof, n_disks.
+    modes counted), factorisations, dof (the matrix's size), n_disks (particles in the matrix,
+    disks or spheres).
     """
     from petsc4py import PETSc
 

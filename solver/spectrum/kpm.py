@@ -1,7 +1,8 @@
 """Stochastic vDOS by the kernel polynomial method (KPM): no factorisation, no eigenvectors.
 
 Moments mu_n = tr T_n(B) / n_modes of B = (A - c I) / h, A = M^-1/2 D M^-1/2, estimated with R
-Rademacher probe vectors from which the two uniform translations (exact zero modes) are
+Rademacher probe vectors from which the exact zero modes of ``dm.rigid_modes()`` (the uniform
+translations; and the uniform spins when there are rotations but no tangential springs) are
 projected out, so the density counts exactly the non-zero modes.  One MatMatMult per two
 moments (mu_2n = 2 <T_n, T_n> - mu_0, mu_2n+1 = 2 <T_n+1, T_n> - mu_1), Jackson kernel.
 The mass of every omega bin [w_a, w_b) is the exact integral of the expansion over
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import modes
 from .. import profiling
 from ..model.operators import largest_omega
 
@@ -32,9 +34,10 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel:
             ) -> tuple[np.ndarray, float, float]:
     """Stochastic Chebyshev moments (n_moments,) of the non-zero modes; also (c, h). Collective.
 
-    ``channel`` "translation" or "rotation" restricts the probes to those DOF, so the moments
-    weigh mode q by |P e_q|^2 (its translational or rotational share, PHYSICS.md section 3);
-    the two channels add up to the unrestricted moments in expectation.
+    ``channel`` "translation" or "rotation" restricts the probes to those DOF (slots 0..dim-1 or
+    dim..dof-1 of every particle), so the moments weigh mode q by |P e_q|^2 (its translational or
+    rotational share, PHYSICS.md section 3); the two channels add up to the unrestricted moments
+    in expectation.
     """
     from petsc4py import PETSc
 
@@ -49,17 +52,19 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel:
     rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
     full = rng.choice([-1.0, 1.0], size=(n, probes))
     if channel is not None:
-        rotation = (np.arange(n) % dm.dof) == 2
+        rotation = (np.arange(n) % dm.dof) >= dm.dim
         full[rotation if channel == "translation" else ~rotation] = 0.0
     z = np.asfortranarray(full[start:start + nloc])
-    # project out the two translations (in A's space: e_x ~ M^1/2 (1, 0, 0, ...)), exact zero modes
+    # project out the exact zero modes: slot s of every particle is M^1/2 (1 in slot s) in A's
+    # space (e_x ~ M^1/2 (1, 0, 0, ...)); different slots, so they are orthogonal to each other
     sq = 1.0 / s
-    for axis in range(2):
+    rigid = dm.rigid_modes()
+    for slot, _ in rigid:
         e = np.zeros(nloc)
-        e[axis::dm.dof] = sq[axis::dm.dof]
+        e[slot::dm.dof] = sq[slot::dm.dof]
         norm2 = mpi.allreduce(float(e @ e))
         z -= np.outer(e, mpi.allreduce(e @ z) / norm2)
-    n_modes = n - 2
+    n_modes = n - len(rigid)
     size = ((nloc, n), (PETSc.DECIDE, probes))
     X = PETSc.Mat().createDense(size, array=np.zeros((nloc, probes), order="F"), comm=comm)
     Y = PETSc.Mat().createDense(size, array=np.zeros((nloc, probes), order="F"), comm=comm)
@@ -112,12 +117,14 @@ def vdos(dm, edges: np.ndarray, lam_max: float, n_moments: int, probes: int, see
 def energies(dm, edges: np.ndarray, lam_max: float, n_moments: int, probes: int, seed: int
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(g (B,), K (B,), Q (B,)): the vDOS and the bin averages of K and Q over its modes (Fig. 6)
-    from translation- and rotation-restricted probes. Collective; needs rotations (rho > 0).
+    from translation- and rotation-restricted probes. Collective; needs rotations (``dm.rotations``).
 
-    Mode q carries w_T = sum over translational DOF of e_q^2 = 4 N K_q and w_R = 2 N Q_q, and
-    w_T + w_R = 1; so the two restricted densities add up to the vDOS (used as such: g costs
-    nothing extra), and K = mass_T / (4 N mass), Q = mass_R / (2 N mass) per bin.  Bins holding
-    less than 1e-4 of the modes are NaN (a ratio of two noisy small numbers).
+    With K and Q the per-component means of ``modes`` (D translations, r = 1 (2D) or 3 (3D)
+    rotation components), mode q carries w_T = sum over translational DOF of e_q^2 = 2 D N K_q
+    (2D: 4 N K_q, 3D: 6 N K_q) and w_R = 2 r N Q_q (2D: 2 N Q_q, 3D: 6 N Q_q), and w_T + w_R = 1;
+    so the two restricted densities add up to the vDOS (used as such: g costs nothing extra), and
+    K = mass_T / (2 D N mass), Q = mass_R / (2 r N mass) per bin.  Bins holding less than 1e-4 of
+    the modes are NaN (a ratio of two noisy small numbers).
     """
     masses = []
     for index, channel in enumerate(("translation", "rotation")):
@@ -125,9 +132,10 @@ def energies(dm, edges: np.ndarray, lam_max: float, n_moments: int, probes: int,
         masses.append(bin_masses(mu, c, h, edges))
     total = np.clip(masses[0] + masses[1], 0.0, None)
     n_disks = int(dm.active.sum())
+    k_weight, q_weight = 2 * dm.dim * n_disks, 2 * modes.rotation_components(dm.dim) * n_disks
     with np.errstate(invalid="ignore", divide="ignore"):
-        k = np.where(total > 1e-4 * total.sum(), masses[0] / (4 * n_disks * total), np.nan)
-        q = np.where(total > 1e-4 * total.sum(), masses[1] / (2 * n_disks * total), np.nan)
+        k = np.where(total > 1e-4 * total.sum(), masses[0] / (k_weight * total), np.nan)
+        q = np.where(total > 1e-4 * total.sum(), masses[1] / (q_weight * total), np.nan)
     return total / np.diff(edges) / total.sum(), k, q
 
 
@@ -137,11 +145,6 @@ def auto_moments(lam_max: float, bin_width: float, omega_ref: float = 1.0) -> in
     return int(np.ceil(2 * np.pi * h / (2 * omega_ref * bin_width)))
 
 
-N_ZERO_MODES = 2
-"""Modes a KPM density leaves out: the two uniform translations, projected out of every probe
-(the only zero modes of a jammed packing with its rattlers removed)."""
-
-
 def solve(dm, *, bin_width: float, moments: int | None, probes: int, with_energies: bool, seed: int
           ) -> tuple[dict, dict]:
     """The KPM counterpart of ``slicing.solve``: the vDOS of ``dm`` as (datasets, attrs). Collective.
@@ -149,23 +152,26 @@ def solve(dm, *, bin_width: float, moments: int | None, probes: int, with_energi
     Bins [0, w), [w, 2w), ... of width ``bin_width`` up to 1.1 omega_max (omega_max from the
     Lanczos solve, ``model.operators.largest_omega``); ``moments`` (None: :func:`auto_moments`).
     datasets: edges (B+1,), density (B,) and, ``with_energies``, K and Q (B,): from channel-restricted
-    probes (:func:`energies`) when the matrix has rotations; at rho = 0 it has none, every mode has
-    K = 1/4N and Q = 0, and those are filled in without probes (NaN where the density is 0).
-    attrs: omega_max (1/t0), moments, probes, n_zero_modes (N_ZERO_MODES), dof, n_disks.
+    probes (:func:`energies`) when the matrix has rotations; without (frictionless) every mode
+    has K = 1/(2 D N) (2D: 1/4N) and Q = 0, and those are filled in without probes (NaN where the
+    density is 0).
+    attrs: omega_max (1/t0), moments, probes, n_zero_modes (the modes left out: those of
+    ``dm.rigid_modes()``, projected out of every probe; the only zero modes of a jammed packing
+    with its rattlers removed), dof, n_disks.
     """
     omega_max = largest_omega(dm)
     edges = np.arange(0.0, bin_width * (np.ceil(1.1 * omega_max / bin_width) + 1), bin_width)
     n_moments = moments or auto_moments(omega_max**2, bin_width)
     n_disks = int(dm.active.sum())
     datasets = {"edges": edges}
-    if with_energies and dm.dof == 3:  # K and Q from channel-restricted probes (same cost x 2)
+    if with_energies and dm.rotations:  # K and Q from channel-restricted probes (same cost x 2)
         datasets["density"], datasets["K"], datasets["Q"] = energies(dm, edges, omega_max**2, n_moments,
                                                                      probes, seed)
     else:
         datasets["density"] = vdos(dm, edges, omega_max**2, n_moments, probes, seed)
         if with_energies:
             populated = datasets["density"] > 0
-            datasets["K"] = np.where(populated, 1.0 / (4 * n_disks), np.nan)
+            datasets["K"] = np.where(populated, 1.0 / (2 * dm.dim * n_disks), np.nan)
             datasets["Q"] = np.where(populated, 0.0, np.nan)
     return datasets, {"omega_max": omega_max, "moments": n_moments, "probes": probes,
-                      "n_zero_modes": N_ZERO_MODES, "dof": dm.size, "n_disks": n_disks}
+                      "n_zero_modes": len(dm.rigid_modes()), "dof": dm.size, "n_disks": n_disks}

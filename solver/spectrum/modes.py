@@ -1,12 +1,16 @@
 """Per-mode diagnostics and the vDOS (numpy only; no PETSc).
 
 For an orthonormal eigenvector e of A = M^-1/2 D M^-1/2 the physical mode is u = M^-1/2 e and,
-with du/dt = u / t0 (PHYSICS.md section 3, N = disks in the matrix),
-    K_nu = (1/2N) sum_i m u_i,nu^2 = (1/2N) sum_i e_i,nu^2   (nu = x, y),
-    Q    = (1/2N) sum_i I_i th_i^2 = (1/2N) sum_i e_i,th^2,
-so K_x + K_y + Q = 1/(2N) for every mode; K = (K_x + K_y)/2.  The participation ratio is
-P = (sum_i |e_i|^2)^2 / (N sum_i |e_i|^4), |e_i|^2 summed over the disk's DOF (1 for a mode
-spread evenly over all disks, 1/N for a mode on one disk).
+with du/dt = u / t0 (PHYSICS.md section 3, N = particles in the matrix, D = 2 or 3 dimensions),
+    K_nu = (1/2N) sum_i m u_i,nu^2   = (1/2N) sum_i e_i,nu^2    (nu = x, y[, z]),
+    Q_nu = (1/2N) sum_i I_i th_i,nu^2 = (1/2N) sum_i e_i,th_nu^2  (2D: the one rotation, about z),
+and K, Q are the per-component means: 2D K = (K_x + K_y)/2, Q = Q_z (the paper's); 3D
+K = (K_x + K_y + K_z)/3, Q = (Q_x + Q_y + Q_z)/3 (issue 18).  Since |e| = 1, every mode has
+    2D: K_x + K_y + Q = 1/(2N), i.e. 2 K + Q = 1/(2N);   3D: 3 K + 3 Q = 1/(2N),
+so in both K = Q at equipartition (each DOF carrying the same share).  Without rotational DOF
+(frictionless) Q = 0.  The participation ratio is P = (sum_i |e_i|^2)^2 / (N sum_i |e_i|^4),
+|e_i|^2 summed over the particle's DOF (1 for a mode spread evenly over all particles, 1/N for a
+mode on one particle).
 """
 
 from __future__ import annotations
@@ -15,24 +19,49 @@ import numpy as np
 from scipy import stats
 
 
-def local_sums(vectors: np.ndarray, dof: int) -> np.ndarray:
-    """Rank-local partial sums (modes, 4): sum e_x^2, sum e_y^2, sum e_th^2, sum |e_i|^4.
+def rotation_components(dim: int) -> int:
+    """Rotational components of a particle in ``dim`` dimensions: 1 (2D, about z) or 3 (3D)."""
+    return dim * (dim - 1) // 2
 
-    ``vectors`` is (modes, local DOF) with whole disks per rank.  Not collective.
+
+def sums_width(dim: int) -> int:
+    """Columns of :func:`local_sums`: one per translation, one per rotation component, |e_i|^4."""
+    return dim + rotation_components(dim) + 1
+
+
+def local_sums(vectors: np.ndarray, dof: int, dim: int) -> np.ndarray:
+    """Rank-local partial sums (modes, :func:`sums_width`): sum e_nu^2 per DOF slot (the
+    translations x, y[, z], then the rotation components; zero columns where the matrix has no
+    rotations, ``dof`` = ``dim``), and sum |e_i|^4 last.  2D: (modes, 4) = e_x^2, e_y^2, e_th^2,
+    |e_i|^4.
+
+    ``vectors`` is (modes, local DOF) with whole particles per rank.  Not collective.
     """
-    per_disk = vectors.reshape(vectors.shape[0], -1, dof) ** 2
-    sums = np.zeros((vectors.shape[0], 4))
-    sums[:, :dof] = per_disk.sum(axis=1)
-    sums[:, 3] = (per_disk.sum(axis=2) ** 2).sum(axis=1)
+    per_particle = vectors.reshape(vectors.shape[0], -1, dof) ** 2
+    sums = np.zeros((vectors.shape[0], sums_width(dim)))
+    sums[:, :dof] = per_particle.sum(axis=1)
+    sums[:, -1] = (per_particle.sum(axis=2) ** 2).sum(axis=1)
     return sums
 
 
-def energies(sums: np.ndarray, n_disks: int) -> dict[str, np.ndarray]:
-    """K_x, K_y, Q, K and participation (each (modes,)) from reduced :func:`local_sums`."""
-    norm = sums[:, :3].sum(axis=1)
-    return {"Kx": sums[:, 0] / (2 * n_disks), "Ky": sums[:, 1] / (2 * n_disks),
-            "Q": sums[:, 2] / (2 * n_disks), "K": (sums[:, 0] + sums[:, 1]) / (4 * n_disks),
-            "participation": norm**2 / (n_disks * sums[:, 3])}
+def energies(sums: np.ndarray, n_disks: int, dim: int) -> dict[str, np.ndarray]:
+    """Per-mode energies (each (modes,)) from reduced :func:`local_sums` of ``n_disks`` particles.
+
+    2D: K_x, K_y, Q, K, participation; 3D: K_x, K_y, K_z, Q_x, Q_y, Q_z, K, Q, participation
+    (K, Q the per-component means, see the module docstring).
+    """
+    rot = rotation_components(dim)
+    names = "xyz"[:dim]
+    out = {f"K{nu}": sums[:, a] / (2 * n_disks) for a, nu in enumerate(names)}
+    if dim == 2:
+        out["Q"] = sums[:, 2] / (2 * n_disks)
+    else:
+        out.update({f"Q{nu}": sums[:, dim + a] / (2 * n_disks) for a, nu in enumerate(names)})
+        out["Q"] = sums[:, dim:dim + rot].sum(axis=1) / (2 * rot * n_disks)
+    out["K"] = sums[:, :dim].sum(axis=1) / (2 * dim * n_disks)
+    norm = sums[:, :dim + rot].sum(axis=1)
+    out["participation"] = norm**2 / (n_disks * sums[:, -1])
+    return out
 
 
 def vdos(omegas: list[np.ndarray], bin_width: float) -> tuple[np.ndarray, np.ndarray]:

@@ -32,7 +32,7 @@ from .. import profiling
 from ..errors import InputError, NumericalFailure
 from ..model.operators import first_order_matrix
 from ..options import ts_adapt_type, ts_settings
-from .excitation import EXCITATIONS, start_velocity
+from .excitation import runs as mode_runs, start_velocity
 from .sampling import FourierSampler, Recorder, WaveSeries
 
 PREFIX = "waves_"
@@ -262,7 +262,8 @@ def _blown(recorder: Recorder, what: str, schedule: Schedule) -> StabilityError:
 
 def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, amplitude: float,
                     schedule: Schedule) -> list[WaveSeries]:
-    """Integrate several (mode, direction, k) waves together with block velocity Verlet.
+    """Integrate several (mode, run, k) waves together with block velocity Verlet; ``run`` indexes
+    ``excitation.runs(mode, dm.dim)``.
 
     Same samples as :func:`integrate` for each wave with ``schedule.integrator == 'verlet'``
     (tested), one MatMatMult per step for all of them.  Raises StabilityError on every rank on
@@ -274,7 +275,7 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     mpi = comm.tompi4py()
     nloc, runs = dm.D.getLocalSize()[0], len(waves_)
     mass = dm.M.getArray().copy()
-    excited = [(*EXCITATIONS[m][d], k) for m, d, k in waves_]
+    excited = [(*mode_runs(m, dm.dim)[r], k) for m, r, k in waves_]
     v0 = np.stack([start_velocity(dm, positions, c, a, k, amplitude, mpi) for c, a, k in excited], axis=1)
     context = BlockVerlet(dm.D, 1.0 / mass, nloc, dm.size, runs, comm)
     X = PETSc.Vec().createMPI((2 * nloc * runs, 2 * dm.size * runs), comm=comm)
@@ -302,10 +303,10 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     return recorder.series(taken, used)
 
 
-def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: float,
+def integrate(dm, positions, mode: str, run: int, k: float, *, amplitude: float,
               schedule: Schedule) -> WaveSeries:
-    """Integrate one standing wave with ``schedule`` (see :func:`resolve_schedule`); return its
-    samples. Collective.
+    """Integrate one standing wave, run ``run`` of ``excitation.runs(mode, dm.dim)``, with
+    ``schedule`` (see :func:`resolve_schedule`); return its samples. Collective.
 
     Raises StabilityError on every rank if the energy stops being finite or grows 10x.
     Verlet runs go through :func:`integrate_block` with a block of one.
@@ -313,10 +314,10 @@ def integrate(dm, positions, mode: str, direction: int, k: float, *, amplitude: 
     from petsc4py import PETSc
 
     if schedule.integrator == "verlet":
-        return integrate_block(dm, positions, [(mode, direction, k)], amplitude=amplitude, schedule=schedule)[0]
+        return integrate_block(dm, positions, [(mode, run, k)], amplitude=amplitude, schedule=schedule)[0]
     comm = dm.D.getComm()
     mpi = comm.tompi4py()
-    component, axis = EXCITATIONS[mode][direction]
+    component, axis = mode_runs(mode, dm.dim)[run]
     minv = dm.M.copy()
     minv.reciprocal()
     v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)

@@ -9,14 +9,15 @@ import numpy as np
 
 from .. import profiling
 from ..model.operators import largest_omega, scaled_operator
-from .excitation import EXCITATIONS, channel, start_velocity
+from .excitation import channel, runs, start_velocity
 from .sampling import WaveSeries
 
 
 @profiling.logged("rsLanczosWave")
-def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: float, times: np.ndarray,
+def spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: float, times: np.ndarray,
              tol: float = 1e-8, omega_max: float | None = None) -> WaveSeries:
-    """A standing wave without time stepping: z(t) = b^H cos(sqrt(A) t) a by Lanczos. Collective.
+    """A standing wave without time stepping: z(t) = b^H cos(sqrt(A) t) a by Lanczos, for run
+    ``run`` of ``excitation.runs(mode, dm.dim)``. Collective.
 
     With r_i(0) in the phase the dynamics is exactly linear (PHYSICS.md section 4):
     a = M^1/2 v0, b = M^-1/2 (exp(i k r_i(0)) in the channel), A = M^-1/2 D M^-1/2.  m Lanczos
@@ -44,7 +45,7 @@ def spectral(dm, positions, mode: str, direction: int, k: float, *, amplitude: f
     from .. import parallel
 
     mpi = dm.D.getComm().tompi4py()
-    component, axis = EXCITATIONS[mode][direction]
+    component, axis = runs(mode, dm.dim)[run]
     s = 1.0 / np.sqrt(dm.M.getArray())
     v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)
     a = v0 / s
