@@ -171,3 +171,47 @@ def small_packing():
     from solver.packing import jammed as packing
 
     return packing.generate(64, 0.9, np.random.SeedSequence([7, 0]))
+
+
+def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:
+    """(lam, vec): the full eigendecomposition of A = M^-1/2 D M^-1/2, dense on every rank. Collective."""
+    import scipy.linalg as sl
+
+    from solver.model import dynmat, operators
+
+    A = operators.scaled_operator(dm)
+    dense = dynmat.gather_csr(A).toarray()
+    A.destroy()
+    return sl.eigh(dense)
+
+
+def exact_z_fixed(p, dm, eig, run, k, t, amplitude):
+    """The exact z(t) (r_i(0) in the phase) of one standing-wave run (component, axis) from the full
+    eigendecomposition ``eig`` = :func:`dense_eigen` (PHYSICS.md section 4), 2D or 3D.  The start
+    is the raw amplitude sin(k r_a) in the component with its part in A's whole null space removed
+    -- found from the eigenvalues, not from ``dm.rigid_modes()``, and in A's (mass-weighted)
+    metric, so the reference does not share the code's projection.  Collective (gathers M)."""
+    from solver.model import dynmat
+
+    lam, vec = eig
+    zero = np.abs(lam) < 1e-10 * lam.max()
+    assert_all(zero.sum() == len(dm.rigid_modes()), f"{zero.sum()} zero modes, rigid modes {dm.rigid_modes()}")
+    omega = np.sqrt(np.where(zero, 0.0, lam))
+    mass = dynmat.gather_vec(dm.M)
+    component, axis = run
+    r0 = p.positions[~p.rattler]
+    v0 = np.zeros((len(r0), dm.dof))
+    v0[:, component] = amplitude * np.sin(k * r0[:, axis])
+    a = vec.T @ (np.sqrt(mass) * v0.ravel())
+    a[zero] = 0.0
+    b = np.zeros((len(r0), dm.dof), complex)
+    b[:, component] = np.exp(-1j * k * r0[:, axis])
+    bt = (b.ravel() / np.sqrt(mass)) @ vec
+    return (bt * a) @ np.cos(np.outer(omega, t))
+
+
+def schedule(integrator, dt, t_end, every):
+    """The scene's values as a TS schedule (no -waves_ts_* options are set in the tests)."""
+    from solver.waves import integrators
+
+    return integrators.resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)

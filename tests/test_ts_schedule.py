@@ -10,13 +10,13 @@ import json
 import numpy as np
 import pytest
 import yaml
-from conftest import COMM, assert_all, assert_close, run_cli
-from test_waves import exact_z_fixed
+from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, run_cli, schedule
 
 from solver import options as petscopts
 from solver.errors import InputError
 from solver.model import dynmat, operators
 from solver.packing import jammed as packing
+from solver.waves import excitation
 from solver.waves import integrators as waves
 
 
@@ -41,7 +41,7 @@ def user_options(**values):
 
 
 def resolve(integrator="verlet", dt=0.05, t_end=2.0, every=5):
-    return waves.resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)
+    return schedule(integrator, dt, t_end, every)
 
 
 def test_schedule_comes_from_the_scene_or_the_waves_ts_options():
@@ -198,7 +198,7 @@ def test_theta_beuler_ssp_converge_at_their_order(comm, packing64, integrator, o
         series = waves.integrate(dm, packing64.positions, "L", 0, k, amplitude=1e-3,
                                  schedule=resolve(integrator, dt=dt, t_end=10.0, every=int(round(0.32 / dt))))
         assert_all(series.settings["ts_type"] == integrator and series.settings["dt"] == dt, f"{series.settings}")
-        exact = exact_z_fixed(packing64, dm, "L", 0, k, 1e-3, series.t)
+        exact = exact_z_fixed(packing64, dm, dense_eigen(dm), excitation.runs("L", 2)[0], k, series.t, 1e-3)
         errors.append(np.abs(series.z_fixed - exact).max() / np.abs(exact).max())
     dm.destroy()
     observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))

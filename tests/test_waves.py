@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-import scipy.linalg as sl
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, schedule
 from mpi4py import MPI
 
 from solver.analysis import correlations
@@ -19,31 +18,6 @@ def packing64():
     return packing.generate(64, 0.9, np.random.SeedSequence([31, 0]))
 
 
-def exact_z_fixed(p, dm, mode, direction, k, amplitude, t):
-    """z(t) with r_i(0) in the phase from the full eigendecomposition (PHYSICS.md section 4)."""
-    A = operators.scaled_operator(dm)
-    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
-    A.destroy()
-    omega = np.sqrt(np.clip(lam, 0, None))
-    mass = dynmat.gather_vec(dm.M)
-    component, axis = excitation.runs(mode, 2)[direction]
-    r0 = p.positions[~p.rattler]
-    v0 = np.zeros((len(r0), dm.dof))
-    v0[:, component] = amplitude * np.sin(k * r0[:, axis])
-    if component < 2:
-        v0[:, component] -= v0[:, component].mean()
-    a = vec.T @ (np.sqrt(mass) * v0.ravel())
-    b = np.zeros((len(r0), dm.dof), complex)
-    b[:, component] = np.exp(-1j * k * r0[:, axis])
-    bt = (b.ravel() / np.sqrt(mass)) @ vec
-    return (bt * a) @ np.cos(np.outer(omega, t))
-
-
-def schedule(integrator, dt, t_end, every):
-    """The scene's values as a schedule (no -waves_ts_* options are set in these tests)."""
-    return waves.resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)
-
-
 def run(dm, p, mode, k, dt, integrator="verlet", t_end=20.0, every=None, amplitude=1e-3, direction=0):
     return waves.integrate(dm, p.positions, mode, direction, k, amplitude=amplitude,
                            schedule=schedule(integrator, dt, t_end, every or int(round(0.5 / dt))))
@@ -56,7 +30,7 @@ def test_verlet_matches_exact_reference_at_second_order(comm, packing64, mode):
     errors = []
     for dt in (0.02, 0.01, 0.005):  # asymptotic regime: omega_max dt <= 0.1
         series = run(dm, packing64, mode, k, dt, t_end=10.0)
-        exact = exact_z_fixed(packing64, dm, mode, 0, k, 1e-3, series.t)
+        exact = exact_z_fixed(packing64, dm, dense_eigen(dm), excitation.runs(mode, 2)[0], k, series.t, 1e-3)
         errors.append(np.abs(series.z_fixed - exact).max() / np.abs(exact).max())
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert_all(errors[-1] < 1e-3, f"error {errors}")
@@ -72,7 +46,7 @@ def test_other_integrators_converge(comm, packing64, integrator, order):
     # RK4 reaches the reference's round-off floor early: compare it at larger (stable) steps
     for dt in ((0.04, 0.02) if order == 2 else (0.16, 0.08)):
         series = run(dm, packing64, "L", k, dt, integrator, t_end=10.0, every=int(round(0.32 / dt)))
-        exact = exact_z_fixed(packing64, dm, "L", 0, k, 1e-3, series.t)
+        exact = exact_z_fixed(packing64, dm, dense_eigen(dm), excitation.runs("L", 2)[0], k, series.t, 1e-3)
         errors.append(np.abs(series.z_fixed - exact).max() / np.abs(exact).max())
     observed = np.log2(errors[0] / errors[1])
     assert_all(abs(observed - order) < 0.3, f"{integrator}: errors {errors}, order {observed}")
@@ -186,7 +160,7 @@ def test_spectral_path_matches_exact_reference(comm, packing64, mode):
     k = 2 * np.pi * 2 / packing64.box_length
     times = np.arange(0, 80.0 + 1e-9, 0.25)  # same sample times as the TS run below
     s = spectral(dm, packing64.positions, mode, 1, k, amplitude=1e-3, times=times, tol=1e-10)
-    exact = exact_z_fixed(packing64, dm, mode, 1, k, 1e-3, times)
+    exact = exact_z_fixed(packing64, dm, dense_eigen(dm), excitation.runs(mode, 2)[1], k, times, 1e-3)
     error = np.abs(s.z_fixed - exact).max() / np.abs(exact).max()
     assert_all(error < 1e-8 and s.error_estimate < 1e-10, f"spectral error {error}, estimate {s.error_estimate}")
     # and it agrees with the TS path within the TS error (Verlet, dt = 0.005: ~1e-4 here)

@@ -8,8 +8,7 @@ import json
 
 import numpy as np
 import pytest
-import scipy.linalg as sl
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, schedule
 from mpi4py import MPI
 
 from solver.analysis import dispersion
@@ -42,45 +41,15 @@ def matrix(request, spheres):
 
     rho, rho_roll, rho_twist = SPRINGS[request.param]
     dm = dynmat.assemble(spheres, rho, PETSc.COMM_WORLD, rho_roll, rho_twist)
-    A = operators.scaled_operator(dm)
-    lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
-    A.destroy()
-    yield request.param, dm, (lam, vec)
+    yield request.param, dm, dense_eigen(dm)
     dm.destroy()
-
-
-def exact_z_fixed(p, dm, eig, run, k, t):
-    """z(t) with r_i(0) in the phase from the full eigendecomposition (PHYSICS.md section 4) for
-    the run (component, axis).  The start vector is the raw A sin(k r_a) in the component with its
-    part in A's whole null space removed -- found from the eigenvalues, not from
-    ``dm.rigid_modes()``, and in A's (mass-weighted) metric, so the reference does not share the
-    code's projection."""
-    lam, vec = eig
-    zero = np.abs(lam) < 1e-10 * lam.max()
-    assert_all(zero.sum() == len(dm.rigid_modes()), f"{zero.sum()} zero modes, rigid modes {dm.rigid_modes()}")
-    omega = np.sqrt(np.where(zero, 0.0, lam))
-    mass = dynmat.gather_vec(dm.M)
-    component, axis = run
-    r0 = p.positions[~p.rattler]
-    v0 = np.zeros((len(r0), dm.dof))
-    v0[:, component] = AMPLITUDE * np.sin(k * r0[:, axis])
-    a = vec.T @ (np.sqrt(mass) * v0.ravel())
-    a[zero] = 0.0
-    b = np.zeros((len(r0), dm.dof), complex)
-    b[:, component] = np.exp(-1j * k * r0[:, axis])
-    bt = (b.ravel() / np.sqrt(mass)) @ vec
-    return (bt * a) @ np.cos(np.outer(omega, t))
-
-
-def schedule(integrator, dt, t_end, every):
-    return waves.resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)
 
 
 def relative_errors(p, dm, eig, mode, k, series):
     """max |z_fixed - exact| / max |exact| of each run of ``mode`` (R,)."""
     errors = []
     for run, s in zip(excitation.runs(mode, 3), series):
-        exact = exact_z_fixed(p, dm, eig, run, k, s.t)
+        exact = exact_z_fixed(p, dm, eig, run, k, s.t, AMPLITUDE)
         errors.append(np.abs(s.z_fixed - exact).max() / np.abs(exact).max())
     return np.array(errors)
 

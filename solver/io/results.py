@@ -47,7 +47,7 @@ class Waves(NamedTuple):
 
     k: np.ndarray           # (K,) of the first configuration
     t: np.ndarray           # (S,) t0, evenly spaced
-    z: np.ndarray           # (R, K, S) complex: R = 2 directions x configurations
+    z: np.ndarray           # (R, K, S) complex: R = the runs of the mode (2 in 2D; 3 or 6 in 3D) x configurations
     omega_max: float        # largest matrix frequency over the configurations (1/t0)
 
 
