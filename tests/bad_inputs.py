@@ -25,6 +25,11 @@ def _valid(path, dim=2, **changes):
             f.attrs["box_length"] = data["box_length"]
 
 
+def _mixed(path):
+    _valid(path)
+    _valid(f"{path}.3d.h5", dim=3)
+
+
 def _truncated(path):
     _valid(path)
     with open(path, "r+b") as f:
@@ -139,6 +144,8 @@ CASES = [
      "must be finite and > 2 max(diameters)", lambda p: _valid(p, 3, box_length=2.0)),
     ("3D file: no contacts (not jammed)", "packing: {file: '{file}'}\n", [],
      "no sphere has 4 or more contacts (not a jammed packing: all spheres are rattlers)", lambda p: _spread(p, 3)),
+    ("files mixing 2D and 3D packings", "packing: {file: ['{file}', '{file}.3d.h5']}\n", [],
+     "the files mix disks (2D) and spheres (3D)", _mixed),
     ("not in mechanical equilibrium", "packing: {file: '{file}'}\n", [], "not in mechanical equilibrium",
      lambda p: _valid(p, box_length=100.0)),
     ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],

@@ -107,6 +107,11 @@ def read_packings(paths: str | list[str], count: int | None = None) -> list[Pack
             else:
                 raise InputError(f"packing file {path}: no 'positions' dataset at the top level "
                                  f"and no '/packings/<i>' groups")
+    other = next((i for i, p in enumerate(packings) if p.dim != packings[0].dim), None)
+    if other is not None:  # one scene is one dimension: its matrices, waves and analysis assume it
+        raise InputError(f"packing.file: the files mix disks (2D) and spheres (3D): configuration 0 has "
+                         f"positions (N, {packings[0].dim}), configuration {other} (N, {packings[other].dim}); "
+                         f"give the files of one dimension per scene")
     if count is not None:
         if count > len(packings):
             raise InputError(f"packing.count = {count}: the file(s) hold only {len(packings)} configurations")
