@@ -24,7 +24,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import PY, REPO, load_packing, mpirun, peak_rss_gib, run_json, save
+from benchlib import PY, REPO, l1_error, load_packing, mpirun, peak_rss_gib, run_json, save
 
 PHI = 0.7
 BIN = 0.05
@@ -151,15 +151,6 @@ def wave_case(n: int) -> dict:
     return out
 
 
-def l1_error(run: dict, ref: dict) -> float:
-    size = max(len(run["density"]), len(ref["density"]))
-    m = min(len(run["edges"]), len(ref["edges"]))
-    if not np.allclose(run["edges"][:m], ref["edges"][:m], rtol=0.0, atol=1e-9 * BIN):
-        raise RuntimeError("KPM and counting bins differ")
-    g, g_ref = (np.pad(np.asarray(x["density"], float), (0, size - len(x["density"]))) for x in (run, ref))
-    return float(np.sum(np.abs(g - g_ref)) * BIN)
-
-
 def case_main(argv: list[str]) -> None:
     name, n = argv[0], int(argv[1])
     if name == "packing":
@@ -221,7 +212,7 @@ def main() -> None:
                 exact[n] = r
                 result = f"{r['factorisations']} inertias, exact, {r['zero_modes']} zero modes"
             else:
-                result = f"{r['moments']} moments, " + (f"L1 {l1_error(r, exact[n]):.4f} vs counting"
+                result = f"{r['moments']} moments, " + (f"L1 {l1_error(r['edges'], r['density'], exact[n]['edges'], exact[n]['density'], BIN):.4f} vs counting"
                                                        if n in exact else "no exact reference at this N")
             add({"row": f"vDOS, {method}{', 16 probes' if method == 'kpm' else ''}, 2 ranks", "N": n,
                  "DOF": r["dof"], "wall s": f"{r['seconds']:.2f}", "peak RSS GiB": f"{r['rss']:.2f}",

@@ -34,7 +34,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import PY, REPO, load_packing, mpirun, peak_rss_gib, run_json, save
+from benchlib import PY, REPO, l1_error, load_packing, mpirun, peak_rss_gib, run_json, save
 
 BIN = 0.05  # bin width, 1/t0
 ZERO_TOL = 1e-4  # omega below it is a zero mode (slicing's default), 1/t0
@@ -135,16 +135,6 @@ def histogram_check(omega, edges, counts) -> str:
     return f"exact; histogram != counts (NO: {int(np.sum(hist != counts))} bins, {len(omega) - hist.sum()} outside)"
 
 
-def l1_error(edges, density, ref_edges, ref_density) -> float:
-    """sum |g - g_ref| w over the union of the two grids (both [0, w), [w, 2w), ...)."""
-    m = min(len(edges), len(ref_edges))
-    if not np.allclose(edges[:m], ref_edges[:m], rtol=0.0, atol=1e-9 * BIN):  # same grid up to rounding
-        raise RuntimeError("KPM and counting bins differ")
-    size = max(len(density), len(ref_density))
-    g, g_ref = (np.pad(np.asarray(x, float), (0, size - len(x))) for x in (density, ref_density))
-    return float(np.sum(np.abs(g - g_ref)) * BIN)
-
-
 def parse_skips(values: list[str]) -> set:
     skips = set()
     for value in values:
@@ -194,7 +184,7 @@ def measure(n: int, skips: set, eigh_max_gib: float) -> list[dict]:
             error = histogram_check(r["omega"], ref["edges"], ref["counts"])
         else:
             row["method"] = f"{label}, {r['moments']} moments"
-            error = f"L1 {l1_error(r['edges'], r['density'], ref['edges'], ref_density):.4f}"
+            error = f"L1 {l1_error(r['edges'], r['density'], ref['edges'], ref_density, BIN):.4f}"
         if method == "eigh":
             row["method"] = f"{label}, dense A {eigh_gib(r['dof']):.2f} GiB"
         rows.append({**row, "wall s": f"{r['seconds']:.2f}", "peak RSS GiB": f"{r['rss']:.2f}", "error": error,

@@ -202,3 +202,14 @@ def scipy_verlet_l_wave(p, k, dt, t_end, sample):
         if step % every == 0:
             z.append(np.dot(v[0::3], phase))
     return time.perf_counter() - t0, np.array(z)
+
+
+def l1_error(edges, density, ref_edges, ref_density, bin_width: float) -> float:
+    """sum |g - g_ref| w of two unit-area densities on the grids [0, w), [w, 2w), ... (the shorter
+    padded with empty bins); raises if the grids differ beyond rounding."""
+    m = min(len(edges), len(ref_edges))
+    if not np.allclose(edges[:m], ref_edges[:m], rtol=0.0, atol=1e-9 * bin_width):
+        raise RuntimeError("the two densities' bins differ")
+    size = max(len(density), len(ref_density))
+    g, g_ref = (np.pad(np.asarray(x, float), (0, size - len(x))) for x in (density, ref_density))
+    return float(np.sum(np.abs(g - g_ref)) * bin_width)

@@ -215,3 +215,16 @@ def schedule(integrator, dt, t_end, every):
     from solver.waves import integrators
 
     return integrators.resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)
+
+
+def star_cluster(p) -> tuple[np.ndarray, int, int]:
+    """(mask (N,), particles, contacts among them) of particle 0 and its contact neighbours: a
+    star whose arms share few contacts, floppy in 2D and 3D (the rigidity-count tests)."""
+    from solver.packing import geometry
+
+    found = geometry.find_contacts(p.positions, p.diameters, p.box_length)
+    cluster = np.zeros(p.n, dtype=bool)
+    cluster[0] = True
+    cluster[found.j[found.i == 0]] = True
+    cluster[found.i[found.j == 0]] = True
+    return cluster, int(cluster.sum()), int(np.sum(cluster[found.i] & cluster[found.j]))

@@ -5,14 +5,13 @@ from the cache (the command line on 2 ranks: tests/bad_inputs.py, rows 'packing 
 import numpy as np
 import pytest
 import yaml
-from conftest import COMM, assert_all
+from conftest import COMM, assert_all, star_cluster
 
 from solver import pipeline
 from solver.errors import InputError
 from solver.io import schema
 from solver.model import dynmat
 from solver.packing import jammed as packing
-from solver.packing import geometry as contacts
 
 UNJAMMED = ("output: {out}\ncache: {cache}\nseed: 0\npacking: {{n: 256, phi: 0.8}}\nmodel: {{rho: 1}}\n"
             "spectrum: {{}}\nwaves: {{n: [1], method: spectral, t_end: 10}}\n")
@@ -55,13 +54,7 @@ def test_a_floppy_cluster_is_refused_and_a_jammed_packing_is_not(small_packing):
     rattler; each message says what was found."""
     assert_all(packing.jamming_failure(small_packing) is None, "a jammed packing is accepted")
     p = small_packing
-    found = contacts.find_contacts(p.positions, p.diameters, p.box_length)
-    cluster = np.zeros(p.n, dtype=bool)
-    cluster[0] = True
-    cluster[found.j[found.i == 0]] = True
-    cluster[found.i[found.j == 0]] = True
-    inside = int(np.sum(cluster[found.i] & cluster[found.j]))
-    n_cluster = int(cluster.sum())
+    cluster, n_cluster, inside = star_cluster(p)
     assert_all(inside < 2 * n_cluster - 1, f"the test's cluster: {n_cluster} disks, {inside} contacts")
     floppy = packing.Packing(p.positions, p.diameters, p.box_length, ~cluster, p.info)
     why = packing.jamming_failure(floppy)

@@ -8,7 +8,7 @@ import pathlib
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, star_cluster
 
 from solver.errors import InputError
 from solver.io import hdf5 as h5io
@@ -101,12 +101,7 @@ def test_rigidity_count_in_3d(spheres):
     contacts between them, fewer than 3k + 1) fail with the 3D count in the message, as does a
     packing of rattlers; require_jammed names packing.phi and the 3D jamming point."""
     p = spheres
-    found = contacts.find_contacts(p.positions, p.diameters, p.box_length)
-    cluster = np.zeros(p.n, dtype=bool)
-    cluster[0] = True
-    cluster[found.j[found.i == 0]] = True
-    cluster[found.i[found.j == 0]] = True
-    inside, n_cluster = int(np.sum(cluster[found.i] & cluster[found.j])), int(cluster.sum())
+    cluster, n_cluster, inside = star_cluster(p)
     assert inside < 3 * n_cluster - 2, (n_cluster, inside)  # the test's cluster is floppy in 3D
     floppy = packing.Packing(p.positions, p.diameters, p.box_length, ~cluster, p.info)
     why = packing.jamming_failure(floppy)
