@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PKGS=(python3-petsc4py python3-slepc4py python3-mpi4py python3-h5py-mpi python3-scipy
-      python3-matplotlib python3-yaml python3-pytest python3-pytest-timeout openmpi-bin
+      python3-matplotlib python3-yaml python3-numba python3-pytest python3-pytest-timeout openmpi-bin
       python3-venv)
 
 missing=()

@@ -141,6 +141,30 @@ def test_fire_forces_are_minus_the_gradient_of_fire_energy():
     assert_close(f, -grad, rtol=0.0, atol=1e-7 * np.abs(f).max(), what="FIRE force vs -grad E")
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_compiled_fire_forces_equal_a_brute_force_sum_over_all_pairs(dim):
+    """packing/pair_forces.py (numba, on FIRE's Verlet list) against every pair of the periodic box
+    by minimum image, through contact_law.normal_pair and np.add.at: a pair missing from the list,
+    a wrong image shift or a wrong sign or axis in the compiled loop breaks it."""
+    rng = np.random.default_rng(11 + dim)
+    n = 40
+    diameters = rng.permutation(jammed.bidisperse_diameters(n))
+    box = jammed.box_length_for(diameters, 0.9 if dim == 2 else 0.75, dim)
+    x = rng.uniform(-box, 2 * box, size=(n, dim))  # unwrapped, as during FIRE
+    f, energy = jammed._FrictionlessForces(diameters, box)(x)
+    i, j = np.triu_indices(n, 1)
+    delta = x[i] - x[j]
+    separation = delta - box * np.rint(delta / box)
+    pair_force, pair_energy = contact_law.normal_pair(separation, 0.5 * (diameters[i] + diameters[j]))
+    expected = np.zeros_like(x)
+    np.add.at(expected, i, pair_force)
+    np.add.at(expected, j, -pair_force)
+    assert np.count_nonzero(pair_energy) > n, "too few overlaps for the check to mean much"
+    # the same formula summed in another order: round-off only (~1e-16 relative per term)
+    assert_close(f, expected, rtol=0.0, atol=1e-13 * np.abs(expected).max(), what=f"{dim}D forces")
+    assert_close(energy, pair_energy.sum(), rtol=1e-13, what=f"{dim}D energy")
+
+
 # --- 3D spheres and rolling / twisting springs (PHYSICS.md section 8) ---------------------------
 
 def random_contacts_nd(dim, count=16, seed=0):

@@ -20,7 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import sparse
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
@@ -110,13 +109,10 @@ class _FrictionlessForces:
     its reference after) and the re-listed one s/2, so an unlisted pair cannot touch.  (Late in
     FIRE a few particles, about 1 %, trip the list while the median has moved s/30: measured at
     N = 2048 in 3D.)  The skin is at most (L/2 - max d)/1.25, so that a listed pair touches
-    through its listed image only (tiny 3D boxes).  Per step two sparse products remain: the
-    separations x_i - x_j + shift (one CSR product with +1, -1 per row) and the net forces (two
-    CSR products with the pairs sorted by (i, j): the same sums, bit for bit, as ``np.bincount``
-    over the pairs, so 2D packings are what they were).  Measured at N = 32768 in 3D: 11 ms per
-    step against 25 ms for fancy-index gathers and bincounts over all pairs within max d + s;
-    a refresh of 1 % of the particles 30 ms against 150 ms for a rebuild; at N = 8192 the
-    refreshes cut the packing's time by a fifth.
+    through its listed image only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
+    particle's forces are summed in a fixed order; the pass over them is compiled
+    (``pair_forces.net_forces``).  Measured at N = 32768 in 3D: a refresh of 1 % of the particles
+    30 ms against 150 ms for a rebuild; at N = 8192 the refreshes cut the packing's time by a fifth.
     """
 
     REACH = 1.25  # reach of a partial refresh, in skins (see above)
@@ -127,6 +123,8 @@ class _FrictionlessForces:
         self.skin = min(skin, (0.5 * box_length - self.largest) / self.REACH)
         self.reference: np.ndarray | None = None
         self.rebuilds = self.refreshes = 0
+        from .pair_forces import net_forces  # here, not at the top: importing numba takes 0.5 s
+        self.net_forces = net_forces
 
     def _near(self, x: np.ndarray, i: np.ndarray, j: np.ndarray, reach: float):
         """The pairs among (i, j) closer than their contact distance plus ``reach``, as
@@ -138,20 +136,14 @@ class _FrictionlessForces:
         near = np.einsum("pd,pd->p", separation, separation) < (contact + reach) ** 2
         return i[near], j[near], shift[near], contact[near]
 
-    def _use(self, n: int, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray) -> None:
-        """Make the list (pairs sorted by (i, j)) and its three CSR matrices current."""
+    def _use(self, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray) -> None:
+        """Make the list (pairs sorted by (i, j)) current."""
         self.i, self.j, self.shift, self.contact = i, j, shift, contact
-        count, listed = i.size, np.arange(i.size)
-        self.difference = sparse.csr_matrix(  # row p: +1 at i_p, -1 at j_p (i_p < j_p)
-            (np.tile([1.0, -1.0], count), np.stack((i, j), axis=1).ravel(), 2 * np.arange(count + 1)),
-            shape=(count, n))
-        self.on_i, self.on_j = (sparse.coo_matrix((np.ones(count), (k, listed)), shape=(n, count)).tocsr()
-                                for k in (i, j))  # within a row, the pairs in list order
 
     def _rebuild(self, x: np.ndarray) -> None:
         pairs = contacts.candidate_pairs(x, self.box_length, self.largest + self.skin)  # sorted by (i, j)
-        self._use(x.shape[0], *self._near(x, pairs[:, 0], pairs[:, 1], self.skin))
-        self.reference = x.copy()
+        self._use(*self._near(x, pairs[:, 0], pairs[:, 1], self.skin))
+        self.reference, self.scratch = x.copy(), np.empty_like(x)
         self.relisted = np.zeros(x.shape[0], dtype=bool)
         self.rebuilds += 1
 
@@ -169,7 +161,7 @@ class _FrictionlessForces:
         order = np.argsort(fresh[0] * n + fresh[1])
         stay = ~(movers[self.i] | movers[self.j])
         at = np.searchsorted(self.i[stay] * n + self.j[stay], fresh[0][order] * n + fresh[1][order])
-        self._use(n, *(np.insert(old[stay], at, new[order], axis=0) for old, new in
+        self._use(*(np.insert(old[stay], at, new[order], axis=0) for old, new in
                        zip((self.i, self.j, self.shift, self.contact), fresh)))  # still sorted by (i, j)
         self.reference[movers] = x[movers]
         self.relisted |= movers
@@ -187,9 +179,9 @@ class _FrictionlessForces:
                     self._rebuild(x)
                 else:
                     self._refresh(x, movers)
-        separation = self.difference @ x + self.shift
-        pair_force, energy = contact_law.normal_pair(separation, self.contact)  # eq:eij, rho = 0
-        return self.on_i @ pair_force - self.on_j @ pair_force, float(energy.sum())
+        force = np.empty_like(x)
+        energy = self.net_forces(x, self.i, self.j, self.shift, self.contact, force, self.scratch)
+        return force, energy  # eq:eij at rho = 0
 
 
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box_length: float) -> np.ndarray:
