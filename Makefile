@@ -11,7 +11,7 @@ endif
 MPIRUN  := mpirun -n $(RANKS)
 PYTEST  := -m pytest --color=no -q
 
-.PHONY: setup demo test test-serial test-mpi bench clean
+.PHONY: setup demo test test-serial test-mpi bench dem-data clean
 setup:
 	@bash scripts/setup.sh
 
@@ -30,6 +30,18 @@ test-mpi:
 
 bench: setup
 	$(PY) scripts/bench_all.py
+
+# Remake the DEM packings in tests/data/dem/ with LAMMPS, LIGGGHTS and YADE themselves (see its
+# README.md). Not part of `make test`: the tests read the committed files.
+DEM := cd tests/data/dem &&
+dem-data:
+	@bash scripts/setup_dem.sh
+	$(DEM) lmp -in lammps_2d.in -log none -screen none
+	$(DEM) lmp -in lammps_3d.in -log none -screen none
+	$(DEM) lmp -in lammps_3d_friction.in -log none -screen none
+	$(DEM) lmp -in lammps_triclinic.in -log none -screen none
+	$(DEM) liggghts -in liggghts_3d.in -log none > /dev/null
+	$(DEM) yade -n -x yade_3d.py > /dev/null
 
 clean:
 	rm -rf results .venv *.egg-info

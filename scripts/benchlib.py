@@ -185,7 +185,7 @@ def scipy_verlet_l_wave(p, k, dt, t_end, sample):
     from solver.model import dynmat
 
     D, _, _ = dynmat.local_csr(p, 1.0, (0, int((~p.rattler).sum())))
-    minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], 2, 3)
+    minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], dynmat.particle_masses(p)[~p.rattler], 2, 3)
     r0, v = _l_wave(p, k)
     v = v.ravel()
     u = np.zeros_like(v)

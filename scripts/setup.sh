@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Install what rotsound needs on Debian 12, idempotently; silent when nothing is missing.
-#   - Debian's PETSc/SLEPc stack (ABI-matched with Debian's numpy) via apt, only if absent;
+#   - Debian's PETSc/SLEPc stack (ABI-matched with Debian's numpy) and LAMMPS (packing.engine:
+#     lammps; its Python module finds the library only with liblammps-dev) via apt, only if absent;
 #   - .venv made from /usr/bin/python3 with --system-site-packages;
 #   - the project installed editable into .venv without touching numpy/petsc4py.
 set -euo pipefail
@@ -8,7 +9,7 @@ cd "$(dirname "$0")/.."
 
 PKGS=(python3-petsc4py python3-slepc4py python3-mpi4py python3-h5py-mpi python3-scipy
       python3-matplotlib python3-yaml python3-numba python3-pytest python3-pytest-timeout openmpi-bin
-      python3-venv)
+      python3-venv lammps python3-lammps liblammps-dev)  # LAMMPS: packing.engine, its tests
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -67,19 +67,39 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     """Read ``packing.file`` or generate ``packing.count`` configurations. Collective.
 
     Generation is spread over ranks (configuration i on rank i % size, seeded by
-    SeedSequence([seed, i])), so the result does not depend on the number of ranks.  Generated
-    packings already in ``store`` are loaded; new ones are committed to it.
+    SeedSequence([seed, i])), so the result does not depend on the number of ranks; with
+    ``packing.engine: lammps`` each configuration is minimised by LAMMPS on all ranks in turn
+    (its round-off, hence possibly its minimum, depends on the number of ranks: see
+    ``lammps_engine``).  Generated packings already in ``store`` are loaded; new ones are
+    committed to it.
     """
     spec = scene.packing
     if spec.file is not None:
-        return parallel.owner_compute(comm, [0], lambda _: h5io.read_packings(spec.file, spec.count))[0]
+        def load(_):
+            read = h5io.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law)
+            if not spec.relax:
+                return read
+            relaxed = [packing.relax(p, spec.force_tol, spec.max_steps, scene.model.law) for p in read]
+            for index, p in enumerate(relaxed):
+                if why := packing.jamming_failure(p):
+                    raise InputError(f"packing.relax: configuration {index} of {spec.file} did not stay jammed "
+                                     f"without friction: {why}; a packing made with friction can be looser than "
+                                     f"the frictionless jamming point (phi = {p.phi:.4f} here), and then has no "
+                                     f"frictionless rigid state to build the matrix on")
+            return relaxed
+
+        return parallel.owner_compute(comm, [0], load)[0]
     count = spec.count or 1
     recipe = [unitstore.packing_key(scene, i) for i in range(count)]
     found = [store.load(f"packings/{i:04d}", recipe[i]) if store else None for i in range(count)]
     missing = [i for i in range(count) if found[i] is None]
-    made = parallel.owner_compute(
-        comm, [parallel.seed_sequence(scene.seed, i) for i in missing],
-        lambda s: packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim))
+    seeds = [parallel.seed_sequence(scene.seed, i) for i in missing]
+    if spec.engine == "lammps":  # each configuration on all ranks, one after another
+        made = [packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim,
+                                 engine="lammps", comm=comm, law=scene.model.law) for s in seeds]
+    else:
+        made = parallel.owner_compute(comm, seeds, lambda s: packing.generate(
+            spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law))
     for i, p in zip(missing, made):
         if store:
             store.save(f"packings/{i:04d}", *packing_unit(p), key=recipe[i])
@@ -160,7 +180,8 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoi
 
     t = time.perf_counter()
     with profiling.stage("assembly"):
-        dm = dynmat.assemble(p, rho, PETSc.Comm(comm), scene.model.rho_roll, scene.model.rho_twist)
+        dm = dynmat.assemble(p, rho, PETSc.Comm(comm), scene.model.rho_roll, scene.model.rho_twist,
+                             scene.model.masses, scene.model.law)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     nnz = int(dm.D.getInfo()["nz_used"])  # PETSc's default is the global sum
     say(comm, f"matrix rho = {rho:g}, packing {p_index}: {dm.size} DOF "
@@ -181,7 +202,8 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoi
         if found[f"matrices/{tag}"] is None:
             commit(f"matrices/{tag}", {}, {
                 "rho": rho, "rho_roll": dm.rho_roll, "rho_twist": dm.rho_twist, "dim": dm.dim,
-                "packing": p_index, "size": dm.size, "dof_per_disk": dm.dof,
+                "masses": scene.model.masses, "law": scene.model.law, "packing": p_index,
+                "size": dm.size, "dof_per_disk": dm.dof,
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
         if scene.spectrum is not None and found[f"spectra/{tag}"] is None:
             check_interrupt(comm)
@@ -280,11 +302,11 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
     ``stability``: (schedule or None for the spectral path, omega_max, stability limit or None).
     Collective."""
     spec = scene.waves
-    ns, ks = excitation.wave_numbers(spec, p.box_length)
+    ns, ks = excitation.wave_numbers(spec, p.box)
     schedule, omega_max, limit = stability
     if spec.kd0 is not None:
         say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks)} (n = {', '.join(map(str, ns))}, "
-                  f"L = {p.box_length:.3f})")
+                  f"L = {p.box[0]:.3f})")
     for mode in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
@@ -331,6 +353,9 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.packing.file is not None:  # generated packings were checked with the scene
             check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
                                                     f"(positions (N, 2))")
+        if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
+            for p in packings:
+                excitation.wave_numbers(scene.waves, p.box)
         keys = unitstore.unit_keys(scene, packings, petsc_argv)
         for index, p in enumerate(packings):
             i = p.info

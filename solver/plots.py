@@ -43,23 +43,23 @@ def _save(fig, stem: str) -> list[str]:
 
 def plot_packing(packing: dict, stem: str) -> list[str]:
     """Disks of one configuration (``results.first_packing``), rattlers in red; units of d0.
-    Spheres (positions (N, 3)): their sections by the plane z = L/2, as disks of diameter
+    Spheres (positions (N, 3)): their sections by the plane z = L_z/2, as disks of diameter
     2 sqrt(R^2 - dz^2) (dz the periodic distance of the centre from the plane)."""
     pos, diam = packing["positions"], packing["diameters"]
-    rattler, box = packing["rattler"], packing["box_length"]
+    rattler, box = packing["rattler"], packing["box"]
     colors, section = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8")), ""
     if pos.shape[1] == 3:
-        dz = pos[:, 2] - 0.5 * box
-        dz -= box * np.rint(dz / box)
+        dz = pos[:, 2] - 0.5 * box[2]
+        dz -= box[2] * np.rint(dz / box[2])
         cut = np.abs(dz) < 0.5 * diam
         pos, rattler, colors = pos[cut, :2], rattler[cut], colors[cut]
         diam = 2.0 * np.sqrt(0.25 * diam[cut] ** 2 - dz[cut] ** 2)
-        section = ", section z = L/2"
+        section = ", section z = L_z/2"
     fig, ax = plt.subplots(figsize=(6, 6))
     ax.add_collection(EllipseCollection(diam, diam, np.zeros_like(diam), offsets=pos,
                                         units="xy", offset_transform=ax.transData,
                                         facecolors=colors, edgecolors="k", linewidths=0.2))
-    ax.set(xlim=(0, box), ylim=(0, box), aspect="equal", xlabel="x / d0", ylabel="y / d0",
+    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
            title=f"N = {packing['diameters'].size}, phi = {packing['phi']:.3f}, z = {packing['z']:.2f}, "
                  f"rattlers in red ({int(packing['rattler'].sum())}){section}")
     return _save(fig, stem)

@@ -48,6 +48,23 @@ def _spread(path, dim=2):
     _valid(path, dim, positions=3 * p.positions, box_length=3 * p.box_length)
 
 
+def _with_masses(path, scale):
+    _valid(path)
+    with h5py.File(path, "r+") as f:
+        f["masses"] = scale * np.ones(64)
+
+
+def _rectangular(path):
+    """The 64-disk packing and its copy side by side: a valid packing in a (2L, L) box."""
+    from solver.packing import jammed as packing
+
+    p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
+    with h5py.File(path, "w") as f:
+        f["positions"] = np.concatenate([p.positions, p.positions + [p.box_length, 0.0]])
+        f["diameters"] = np.tile(p.diameters, 2)
+        f.attrs["box"] = [2 * p.box_length, p.box_length]
+
+
 def _nan(path):
     _valid(path)
     with h5py.File(path, "r+") as f:
@@ -129,7 +146,8 @@ CASES = [
     ("packing file truncated", "packing: {file: '{file}'}\n", [], "not a readable HDF5 file", _truncated),
     ("positions missing", "packing: {file: '{file}'}\n", [], "no 'positions' dataset",
      lambda p: _valid(p, positions=None)),
-    ("box_length missing", "packing: {file: '{file}'}\n", [], "attribute 'box_length' is missing",
+    ("box missing", "packing: {file: '{file}'}\n", [],
+     "attribute 'box' (the (D,) side lengths) or 'box_length' (one side of a square or cubic box) is missing",
      lambda p: _valid(p, box_length=None)),
     ("positions of the wrong shape (N, 4)", "packing: {file: '{file}'}\n", [],
      "'positions' has shape (64, 4); need (64, 2) (disks) or (64, 3) (spheres)",
@@ -146,8 +164,21 @@ CASES = [
      "no sphere has 4 or more contacts (not a jammed packing: all spheres are rattlers)", lambda p: _spread(p, 3)),
     ("files mixing 2D and 3D packings", "packing: {file: ['{file}', '{file}.3d.h5']}\n", [],
      "the files mix disks (2D) and spheres (3D)", _mixed),
-    ("not in mechanical equilibrium", "packing: {file: '{file}'}\n", [], "not in mechanical equilibrium",
+    ("not in mechanical equilibrium (e.g. made with friction)", "packing: {file: '{file}'}\n", [],
+     "not in mechanical equilibrium under the harmonic normal contact forces alone",
      lambda p: _valid(p, box_length=100.0)),
+    ("unknown contact law", GOOD + "model: {law: hooke}\n", [], "model.law = 'hooke': must be one of harmonic, hertz",
+     None),
+    ("unknown packing engine", GOOD.replace("}", ", engine: gromacs}"), [],
+     "packing.engine = 'gromacs': must be one of fire, lammps", None),
+    ("unknown mass rule", GOOD + "model: {masses: heavy}\n", [], "model.masses = 'heavy': must be one of equal, density",
+     None),
+    ("packing file with non-positive masses", "packing: {file: '{file}'}\n", [],
+     "'masses' (shape (64,)) must be (64,), finite and > 0", lambda p: _with_masses(p, -1.0)),
+    ("waves on a rectangular box", "packing: {file: '{file}'}\nwaves: {n: [1]}\n", [],
+     "standing waves are pooled over the axes and need a square or cubic box", _rectangular),
+    ("relax without a file", "packing: {n: 64, phi: 0.9, relax: true}\n", [],
+     "packing.relax = true re-minimises the packings of packing.file", None),
     ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],
      "the file(s) hold only 1 configurations", _valid),
     # --- command line

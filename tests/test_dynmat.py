@@ -9,7 +9,7 @@ from solver.model import contact_law, dynmat
 from solver.packing import jammed as packing
 
 
-def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, w):
+def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, law, w):
     """Energy of every contact (C,) for relative coordinates w (C, 2m) = (u_i, th_i, u_j, th_j),
     m = D + r (r = 1 rotation in 2D, 3 in 3D); ``springs`` = (rho, rho_roll, rho_twist).
 
@@ -24,17 +24,17 @@ def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, w):
         theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
     return contact_law.pair_energy(ref_delta, contact, normal, radius_i, radius_j, rho,
                                    du=w[:, :dim] - w[:, m:m + dim], theta_i=theta_i, theta_j=theta_j,
-                                   rho_roll=rho_roll, rho_twist=rho_twist)
+                                   rho_roll=rho_roll, rho_twist=rho_twist, law=law)
 
 
-def finite_difference_matrix(p, springs, h=1e-5):  # 2 h below the smallest overlap
+def finite_difference_matrix(p, springs, h=1e-5, law="harmonic"):  # 2 h below the smallest overlap
     """Dense Hessian from central differences of each contact's energy, assembled by hand."""
     active = ~p.rattler
     pos, diam = p.positions[active], p.diameters[active]
     found = contacts.find_contacts(pos, diam, p.box_length)
     ref = contacts.minimum_image(pos[found.i] - pos[found.j], p.box_length)
     args = (ref, 0.5 * (diam[found.i] + diam[found.j]), found.normal,
-            0.5 * diam[found.i], 0.5 * diam[found.j], springs)
+            0.5 * diam[found.i], 0.5 * diam[found.j], springs, law)
     count, dim = found.normal.shape
     m = dim + (1 if dim == 2 else 3)
     local = central_hessian(lambda w: pair_energies(*args, w), count, 2 * m, h)
@@ -67,16 +67,26 @@ SPRINGS = [(0.0, 0.0, 0.0), (0.2, 0.0, 0.0), (1.0, 0.0, 0.0), (0.7, 0.3, 0.0)]
 SPRINGS_3D = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.7, 0.3, 0.4), (0.0, 0.5, 0.2)]
 
 
-@pytest.mark.parametrize("dim, springs", [(2, s) for s in SPRINGS] + [(3, s) for s in SPRINGS_3D])
-def test_hessian_matches_finite_differences(comm, small_packing, dim, springs):
+@pytest.mark.parametrize("dim, springs, law", [(2, s, "harmonic") for s in SPRINGS]
+                         + [(3, s, "harmonic") for s in SPRINGS_3D]
+                         + [(2, (0.7, 0.3, 0.0), "hertz"), (3, (0.7, 0.3, 0.4), "hertz")])
+def test_hessian_matches_finite_differences(comm, small_packing, dim, springs, law):
+    """The assembled D against central differences of every contact's energy (contact_law), with
+    every spring, harmonic and Hertz (whose normal stiffness (3/2) sqrt(a' xi), force
+    sqrt(a' xi) xi and spring scale sqrt(a' xi) all enter)."""
     p = small_packing if dim == 2 else spheres()
     found = contacts.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
     assert found.overlap.min() > 5e-5, "h = 1e-5 steps must not open a contact"
-    dm = dynmat.assemble(p, springs[0], comm, rho_roll=springs[1], rho_twist=springs[2])
+    dm = dynmat.assemble(p, springs[0], comm, rho_roll=springs[1], rho_twist=springs[2], law=law)
     dense = dynmat.gather_csr(dm.D).toarray()
     assert dm.dim == dim and dm.dof == dynmat.dof_per_particle(dim, *springs)
     dm.destroy()
-    fd = finite_difference_matrix(p, springs)
+    fd = finite_difference_matrix(p, springs, law=law)
+    if law == "hertz":
+        # xi^(5/2) has a fourth derivative ~ xi^(-3/2): at the smallest overlaps (~1e-4) h = 1e-5
+        # leaves ~6e-6 of O(h^2) truncation, and a smaller h meets the round-off of |r| ~ 1
+        # (f_n eps / h^2); Richardson's (4 FD(h/2) - FD(h)) / 3 cancels the h^2 term
+        fd = (4 * finite_difference_matrix(p, springs, h=5e-6, law=law) - fd) / 3
     error = np.abs(dense - fd).max()
     assert_all(error < TOL["fd_hessian"] * np.abs(dense).max(), f"D differs from FD Hessian: {error}")
     # the check resolves the geometric term f_n/r (~0.02): dropping it would fail the test
@@ -93,6 +103,33 @@ def test_sphere_mass_matrix(comm):
                  rtol=2 * np.finfo(float).eps, what="sphere inertia")
     assert_close(mass[:, :3], np.ones((p.n, 3)), rtol=0, what="unit masses")
     dm.destroy()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_density_masses_follow_the_diameters_or_the_file(comm, small_packing, dim):
+    """model.masses: density gives m_i = d_i^D / mean(d^D) over all N and I_i = m_i d_i^2 / 8 (disk)
+    or / 10 (sphere) on the matrix's (non-rattler) rows; a file's own masses are used instead
+    (here c d^(D+1), so not the diameters' rule) and scaled the same way; D itself does not
+    change.  A mass rule applied to the rattler-free subset, or an inertia from the unit mass,
+    breaks it."""
+    p = small_packing if dim == 2 else spheres()
+    active = ~p.rattler
+    for raw in (None, 7.0 * p.diameters ** (dim + 1)):
+        q = packing.Packing(p.positions, p.diameters, p.box, p.rattler, p.info, raw)
+        dm = dynmat.assemble(q, 1.0, comm, mass_rule="density")
+        dm_equal = dynmat.assemble(q, 1.0, comm)
+        m = (p.diameters ** dim if raw is None else raw)
+        m = (m / m.mean())[active]
+        mass = dynmat.gather_vec(dm.M).reshape(-1, dm.dof)
+        inertia = m * p.diameters[active] ** 2 / (8.0 if dim == 2 else 10.0)
+        assert_close(mass[:, :dim], np.repeat(m[:, None], dim, axis=1), rtol=4 * np.finfo(float).eps,
+                     what="masses")
+        assert_close(mass[:, dim:], np.repeat(inertia[:, None], dm.dof - dim, axis=1),
+                     rtol=8 * np.finfo(float).eps, what="inertia")
+        assert_all((dynmat.gather_csr(dm.D) != dynmat.gather_csr(dm_equal.D)).nnz == 0, "D changed with the masses")
+        assert_all(np.ptp(m) > 0.05, "masses too alike for the check to mean much")  # >> the rtol
+        dm.destroy()
+        dm_equal.destroy()
 
 
 @pytest.mark.parametrize("rho", [0.0, 0.5, 2.0])

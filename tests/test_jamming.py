@@ -56,12 +56,12 @@ def test_a_floppy_cluster_is_refused_and_a_jammed_packing_is_not(small_packing):
     p = small_packing
     cluster, n_cluster, inside = star_cluster(p)
     assert_all(inside < 2 * n_cluster - 1, f"the test's cluster: {n_cluster} disks, {inside} contacts")
-    floppy = packing.Packing(p.positions, p.diameters, p.box_length, ~cluster, p.info)
+    floppy = packing.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
     why = packing.jamming_failure(floppy)
     assert_all(why is not None and why.startswith(f"only {n_cluster} of 64 disks are not rattlers and they "
                                                   f"share {inside} contacts, fewer than the 2N' - 1 = "
                                                   f"{2 * n_cluster - 1}"), why)
-    loose = packing.Packing(p.positions, p.diameters, p.box_length, np.ones(p.n, dtype=bool), p.info)
+    loose = packing.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
     why = packing.jamming_failure(loose)
     assert_all(why is not None and why.startswith("all 64 disks are rattlers"), why)
     with pytest.raises(InputError, match=r"packing.phi = 0.9: configurations 1, 2 of 3 did not jam "

@@ -121,7 +121,7 @@ def test_external_packing_single_group(shared_tmp, small_packing):
     ("missing", "not found"),
     ("garbage", "not a readable HDF5"),
     ("no_positions", "no 'positions' dataset"),
-    ("no_box", "'box_length' is missing"),
+    ("no_box", "attribute 'box' .* or 'box_length' .* is missing"),
     ("shape", "'positions' has shape"),
     ("nan", "NaN"),
     ("negative", "> 0"),
@@ -146,3 +146,91 @@ def test_bad_packing_files(tmp_path, small_packing, case, message):
     with pytest.raises(InputError, match=message) as info:
         h5io.read_packings(str(path))
     assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_packing_tiled_along_x_is_the_same_packing_in_a_rectangular_box(dim, small_packing, tmp_path, comm):
+    """Two copies side by side in a (2L, L[, L]) box: the same contacts per particle, phi, z and
+    pressure, still in equilibrium, the box round-trips through a packing file as 'box' (no
+    'box_length': the sides differ), and every eigenvalue of the original's dynamical matrix is
+    one of the tiled one's (its Bloch k = 0 sector).  A minimum image or a fold that used one side
+    for every axis breaks all of these."""
+    from conftest import dense_eigen
+    from solver.model import dynmat
+
+    p = small_packing if dim == 2 else packing.generate(64, 0.7, np.random.SeedSequence([3, 0]), dim=3)
+    shift = np.zeros(dim)
+    shift[0] = p.box_length
+    box = np.full(dim, p.box_length)
+    box[0] *= 2
+    tiled = packing.from_arrays(np.concatenate([p.positions, p.positions + shift]), np.tile(p.diameters, 2), box)
+    assert_all(np.array_equal(tiled.rattler, np.tile(p.rattler, 2)), "rattlers differ from the copies'")
+    for name in ("z", "pressure", "energy"):
+        expected = 2 * p.info[name] if name == "energy" else p.info[name]
+        assert_close(tiled.info[name], expected, rtol=1e-12, what=name)
+    assert_close(tiled.phi, p.phi, rtol=1e-15, what="phi")
+    path = tmp_path / f"tiled{dim}.h5"  # each rank its own file
+    h5io.save_packings(str(path), [tiled])
+    with h5py.File(path, "r") as f:
+        assert_all("box_length" not in f["packings/0000"].attrs, "box_length written for a non-cubic box")
+    back = h5io.read_packings(str(path))[0]  # also checks equilibrium (net force <= 1e-4)
+    assert_all(np.array_equal(back.box, box) and np.array_equal(back.positions, tiled.positions), "round trip")
+    with pytest.raises(ValueError, match="not one side length"):
+        tiled.box_length
+    lam = dense_eigen(dynmat.assemble(p, 0.5, comm))[0]
+    lam_tiled = dense_eigen(dynmat.assemble(tiled, 0.5, comm))[0]
+    nearest = np.abs(lam[:, None] - lam_tiled[None, :]).min(axis=1)
+    # eigh on 192- and 384-DOF matrices of norm ~10: each eigenvalue to ~1e-13
+    assert_close(nearest, np.zeros_like(nearest), rtol=0.0, atol=1e-11 * lam.max(),
+                 what="original eigenvalues among the tiled ones")
+
+
+def test_a_files_masses_round_trip(small_packing, tmp_path):
+    """A packing file's optional 'masses' dataset is read, kept on the Packing and written back."""
+    masses = np.linspace(0.5, 2.0, small_packing.n)
+    path, again = tmp_path / "with_masses.h5", tmp_path / "again.h5"
+    with h5py.File(path, "w") as f:
+        f["positions"], f["diameters"] = small_packing.positions, small_packing.diameters
+        f.attrs["box_length"] = small_packing.box_length
+        f["masses"] = masses
+    p = h5io.read_packings(str(path))[0]
+    h5io.save_packings(str(again), [p])
+    back = h5io.read_packings(str(again))[0]
+    assert_all(np.array_equal(p.masses, masses) and np.array_equal(back.masses, masses), "masses lost")
+
+
+def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, tmp_path):
+    """A packing whose normal forces do not balance (here: a jammed one shaken by up to 0.02 d0, as
+    a frictional DEM packing would look to the normal forces) is refused with the message that
+    offers packing.relax; with relax: true, FIRE takes it back to a jammed minimum of the normal
+    energy, in equilibrium to force_tol under the FIRE forces and to the file check."""
+    from solver import pipeline
+    from solver.io import schema
+
+    rng = np.random.default_rng(4)
+    path = str(tmp_path / "shaken.h5")  # each rank its own copy
+    with h5py.File(path, "w") as f:
+        f["positions"] = small_packing.positions + rng.uniform(-0.02, 0.02, small_packing.positions.shape)
+        f["diameters"] = small_packing.diameters
+        f.attrs["box_length"] = small_packing.box_length
+    scene = {"packing": {"file": path}, "output": str(tmp_path / "out.h5")}
+    with pytest.raises(InputError, match="packing.relax: true"):
+        pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
+    scene["packing"]["relax"] = True
+    relaxed, = pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
+    f, _ = packing._FrictionlessForces(relaxed.diameters, relaxed.box)(relaxed.positions)
+    assert_all(np.sqrt((f ** 2).sum(axis=1)).max() < 1e-6 and h5io.net_force(relaxed) < 1e-6,
+               "relaxed packing not in equilibrium")
+    assert_all(relaxed.info["relaxed"] and packing.jamming_failure(relaxed) is None, "not a jammed packing")
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_hertz_packings_balance_under_hertz_forces_only(dim):
+    """model.law: hertz makes FIRE minimise the Hertz normal energy: the packing is jammed and in
+    equilibrium under Hertz forces, and not under harmonic ones (the two laws weigh
+    overlaps differently, so one law's minimum is off balance under the other)."""
+    p = packing.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([2, 0]), dim=dim, law="hertz")
+    assert_all(p.info["law"] == "hertz" and packing.jamming_failure(p) is None, "not a jammed Hertz packing")
+    hertz, harmonic = h5io.net_force(p, "hertz"), h5io.net_force(p, "harmonic")
+    # FIRE's criterion holds with the rattlers in; without their contacts ~1e-6 remain on others
+    assert_all(hertz < 1e-5 and harmonic > h5io.EQUILIBRIUM_TOL, f"Hertz {hertz}, harmonic {harmonic}")

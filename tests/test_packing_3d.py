@@ -103,12 +103,12 @@ def test_rigidity_count_in_3d(spheres):
     p = spheres
     cluster, n_cluster, inside = star_cluster(p)
     assert inside < 3 * n_cluster - 2, (n_cluster, inside)  # the test's cluster is floppy in 3D
-    floppy = packing.Packing(p.positions, p.diameters, p.box_length, ~cluster, p.info)
+    floppy = packing.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
     why = packing.jamming_failure(floppy)
     assert why is not None and why.startswith(f"only {n_cluster} of 128 spheres are not rattlers and they "
                                               f"share {inside} contacts, fewer than the 3N' - 2 = "
                                               f"{3 * n_cluster - 2}"), why
-    loose = packing.Packing(p.positions, p.diameters, p.box_length, np.ones(p.n, dtype=bool), p.info)
+    loose = packing.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
     assert packing.jamming_failure(loose).startswith("all 128 spheres are rattlers")
     with pytest.raises(InputError, match=r"packing.phi = 0.7: configuration 1 did not jam: all 128 spheres "
                                          r"are rattlers .*this 3D mixture jams near phi = 0.648"):
@@ -171,7 +171,7 @@ def test_net_force_of_a_sphere_file_counts_z(spheres):
     p = spheres
     moved = p.positions.copy()
     moved[5, 2] += 0.01
-    shaken = packing.Packing(moved, p.diameters, p.box_length, p.rattler, p.info)
+    shaken = packing.Packing(moved, p.diameters, p.box, p.rattler, p.info)
     overlap, delta, distance = all_pairs(shaken)
     net = np.sum((overlap / distance)[..., None] * delta, axis=1)
     expected = np.sqrt(np.sum(net[~p.rattler] ** 2, axis=1)).max()
@@ -196,7 +196,7 @@ def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypat
 
     monkeypatch.setattr(EllipseCollection, "__init__", spy)
     paths = plots.plot_packing({"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler,
-                                "box_length": p.box_length, "phi": p.phi, "z": p.info["z"]}, str(tmp_path / "spheres"))
+                                "box": p.box, "phi": p.phi, "z": p.info["z"]}, str(tmp_path / "spheres"))
     (widths, offsets), = drawn
     dz = np.abs(p.positions[:, 2] - p.box_length / 2)
     crossing = dz < p.diameters / 2  # the box centre is far from its faces: no periodic image needed

@@ -7,8 +7,12 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
                                  (folded into [0, L)); the dimension is read from this shape
     diameters   (N,)   float64   > 0, units of the mean diameter d0
     rattler     (N,)   bool      optional; computed (iterative < D + 1 contacts rule) if absent
-    attribute box_length  float  side L of the periodic square or cubic box, L > 2 max(diameters)
-                                 (in 2D and 3D alike: a pair then touches through one image only)
+    masses      (N,)   float64   optional, > 0; used with model.masses: density (scaled to mean 1)
+    attribute box   (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box
+                                 (origin at 0), each > 2 max(diameters) (a pair then touches
+                                 through one image only)
+    or attribute box_length float  the side L of a square or cubic box (files written before
+                                 rectangular boxes; rotsound writes it too when the box is one)
 """
 
 from __future__ import annotations
@@ -36,20 +40,22 @@ def _open(path: str):
         raise InputError(f"packing file {path}: not a readable HDF5 file ({exc})") from None
 
 
-def _read_one(group, where: str) -> Packing:
+def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "harmonic") -> Packing:
     def fail(msg):
         raise InputError(f"packing file {where}: {msg}")
 
     for name in ("positions", "diameters"):
         if name not in group or not isinstance(group[name], h5py.Dataset):
             fail(f"dataset '{name}' is missing")
-    if "box_length" not in group.attrs:
-        fail("attribute 'box_length' is missing")
+    if "box" not in group.attrs and "box_length" not in group.attrs:
+        fail("attribute 'box' (the (D,) side lengths) or 'box_length' (one side of a square or cubic box) "
+             "is missing")
     try:
         positions = np.asarray(group["positions"][()], dtype=float)
         diameters = np.asarray(group["diameters"][()], dtype=float)
-        box_length = float(np.asarray(group.attrs["box_length"]).reshape(()))
+        box = np.asarray(group.attrs["box"] if "box" in group.attrs else group.attrs["box_length"], dtype=float)
         rattler = np.asarray(group["rattler"][()], dtype=bool) if "rattler" in group else None
+        masses = np.asarray(group["masses"][()], dtype=float) if "masses" in group else None
     except (OSError, ValueError, TypeError) as exc:
         fail(f"cannot read data ({exc})")
     n = diameters.shape[0] if diameters.ndim == 1 else -1
@@ -60,33 +66,56 @@ def _read_one(group, where: str) -> Packing:
              f"match 'diameters'")
     if rattler is not None and rattler.shape != (n,):
         fail(f"'rattler' has shape {rattler.shape}; need ({n},)")
+    if masses is not None and (masses.shape != (n,) or not np.all(np.isfinite(masses)) or np.any(masses <= 0)):
+        fail(f"'masses' (shape {masses.shape}) must be ({n},), finite and > 0")
     if not np.all(np.isfinite(positions)):
         fail("'positions' contains NaN or inf")
     if not np.all(np.isfinite(diameters)) or np.any(diameters <= 0):
         fail("'diameters' must be finite and > 0")
-    if not np.isfinite(box_length) or box_length <= 2 * diameters.max():
-        fail(f"box_length = {box_length}: must be finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
-    packing = from_arrays(positions, diameters, box_length, rattler, {"source": where})
+    dim = positions.shape[1]
+    name = "box" if "box" in group.attrs else "box_length"
+    if box.shape not in ((dim,), ()) or (name == "box_length" and box.shape != ()):
+        fail(f"'{name}' has shape {box.shape}; need ({dim},) for 'box' or one number for 'box_length'")
+    if "box" in group.attrs and "box_length" in group.attrs and np.any(box != group.attrs["box_length"]):
+        fail(f"'box' = {box.tolist()} and 'box_length' = {group.attrs['box_length']} disagree")
+    if not np.all(np.isfinite(box)) or np.any(box <= 2 * diameters.max()):
+        fail(f"{name} = {box.tolist()}: every side must be finite and > 2 max(diameters) = "
+             f"{2 * diameters.max():.4g}")
+    packing = from_arrays(positions, diameters, box, rattler, {"source": where}, masses, law)
     if packing.rattler.all():
         name = NAMES[packing.dim]
         fail(f"no {name[:-1]} has {min_contacts(packing.dim)} or more contacts (not a jammed packing: all "
              f"{name} are rattlers)")
-    residual = net_force(packing)
-    if residual > EQUILIBRIUM_TOL:
-        fail(f"not in mechanical equilibrium: the largest net contact force on a non-rattler is "
-             f"{residual:.3e} kn d0 > {EQUILIBRIUM_TOL:g} (the dynamical matrix needs an energy "
-             f"minimum; minimise the packing first)")
+    if check_equilibrium:
+        require_equilibrium(packing, where, law)
     return packing
 
 
-def net_force(packing: Packing) -> float:
-    """Largest net normal contact force on a non-rattler particle (units kn d0)."""
+def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> None:
+    """Raise InputError unless the normal contact forces alone balance on every non-rattler to
+    EQUILIBRIUM_TOL: the unstressed tangential springs of the dynamical matrix need an energy
+    minimum of the normal energy.  A packing made with friction in a DEM code fails this (it
+    balances only with its tangential forces): the message offers ``packing.relax: true``."""
+    residual = net_force(packing, law)
+    if residual > EQUILIBRIUM_TOL:
+        raise InputError(
+            f"packing file {where}: not in mechanical equilibrium under the {law} normal contact forces alone: the "
+            f"largest net normal force on a non-rattler is {residual:.3e} kn d0 > {EQUILIBRIUM_TOL:g}. The "
+            f"dynamical matrix needs a minimum of the normal energy; a packing made with friction balances "
+            f"only with its tangential forces, and building unstressed springs on it would be wrong. Set "
+            f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles)")
+
+
+def net_force(packing: Packing, law: str = "harmonic") -> float:
+    """Largest net normal contact force of ``law`` on a non-rattler particle (units kn d0)."""
     from ..model import contact_law
     from ..packing import geometry as contacts
 
     active = ~packing.rattler
-    found = contacts.find_contacts(packing.positions, packing.diameters, packing.box_length, active)
-    f = contact_law.normal_force(found.overlap)[:, None] * found.normal  # eq:eij, on i
+    found = contacts.find_contacts(packing.positions, packing.diameters, packing.box, active)
+    d_i, d_j = packing.diameters[found.i], packing.diameters[found.j]
+    reduced = 0.5 * d_i * d_j / (d_i + d_j)  # R_i R_j / (R_i + R_j)
+    f = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal  # eq:eij, on i
     net = np.zeros((packing.n, packing.dim))
     for axis in range(packing.dim):
         net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
@@ -94,16 +123,20 @@ def net_force(packing: Packing) -> float:
     return float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
 
 
-def read_packings(paths: str | list[str], count: int | None = None) -> list[Packing]:
-    """Read configurations from one or more packing files (first ``count``). Not collective."""
+def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,
+                  law: str = "harmonic") -> list[Packing]:
+    """Read configurations from one or more packing files (first ``count``); each must be in
+    equilibrium under its normal forces unless ``check_equilibrium`` is False (``packing.relax``
+    re-minimises it), under the normal ``law``. Not collective."""
     packings: list[Packing] = []
     for path in [paths] if isinstance(paths, str) else paths:
         with _open(path) as f:
             if "positions" in f:
-                packings.append(_read_one(f, path))
+                packings.append(_read_one(f, path, check_equilibrium, law))
             elif "packings" in f and len(f["packings"]):
                 for name in sorted(f["packings"]):
-                    packings.append(_read_one(f["packings"][name], f"{path}:/packings/{name}"))
+                    packings.append(_read_one(f["packings"][name], f"{path}:/packings/{name}", check_equilibrium,
+                                              law))
             else:
                 raise InputError(f"packing file {path}: no 'positions' dataset at the top level "
                                  f"and no '/packings/<i>' groups")
@@ -124,10 +157,21 @@ def write_packing(group, packing: Packing) -> None:
     group.create_dataset("positions", data=packing.positions)
     group.create_dataset("diameters", data=packing.diameters)
     group.create_dataset("rattler", data=packing.rattler)
-    group.attrs["box_length"] = packing.box_length
+    if packing.masses is not None:
+        group.create_dataset("masses", data=packing.masses)
+    group.attrs["box"] = packing.box
+    if np.all(packing.box == packing.box[0]):
+        group.attrs["box_length"] = packing.box[0]  # square or cubic: readers of the older layout go on
     group.attrs["phi"] = packing.phi
     for key, value in packing.info.items():
         group.attrs[key] = value
+
+
+def box_of(group, dim: int) -> np.ndarray:
+    """The (``dim``,) box sides of a packing group written by rotsound (``box``, or ``box_length``
+    in files written before rectangular boxes)."""
+    return np.broadcast_to(group.attrs["box"] if "box" in group.attrs else group.attrs["box_length"],
+                           (dim,)).astype(float)
 
 
 def save_packings(path: str, packings: list[Packing]) -> None:

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..analysis.claims import PHI_MAIN, Data
 from ..errors import InputError
+from . import hdf5
 from .hdf5 import FORMAT_VERSION
 
 
@@ -99,13 +100,13 @@ def packing_summary(f) -> tuple[float, int]:
 
 def first_packing(f) -> dict | None:
     """The first configuration: positions (N, D) (D = 2 or 3), diameters (N,), rattler (N,) bool and the
-    attributes box_length, phi, z (mean contact number; NaN if absent); None without packings."""
+    attributes box (D,) side lengths, phi, z (mean contact number; NaN if absent); None without packings."""
     groups = _groups(f, "packings")
     if not groups:
         return None
     g = groups[0]
     return {"positions": g["positions"][()], "diameters": g["diameters"][()], "rattler": g["rattler"][()],
-            "box_length": float(g.attrs["box_length"]), "phi": float(g.attrs["phi"]),
+            "box": hdf5.box_of(g, g["positions"].shape[1]), "phi": float(g.attrs["phi"]),
             "z": float(g.attrs.get("z", np.nan))}  # a loaded packing has no z attribute
 
 

@@ -67,6 +67,14 @@ class PackingSpec:
                                 "force_tol (kn d0/m)",
                           _range(0.0, 1e-2, True), float)
     max_steps: int = _f(2_000_000, "FIRE step limit per configuration", _range(1), int)
+    engine: str = _f("fire", "minimiser of generated packings: fire (rotsound's, one configuration per rank) or "
+                             "lammps (LAMMPS's FIRE on all ranks, one configuration after another: the same start "
+                             "and criterion, a different but equally valid minimum; needs scripts/setup_dem.sh)",
+                     lambda v: None if v in ("fire", "lammps") else "must be one of fire, lammps", str)
+    relax: bool = _f(False, "with `file`: re-minimise each configuration frictionlessly with FIRE (to force_tol) "
+                            "before the matrix is built, for packings made with friction, which balance only "
+                            "with their tangential forces (they are refused otherwise); this moves the particles",
+                     None, bool)
 
 
 @dataclass(frozen=True)
@@ -79,6 +87,15 @@ class ModelSpec:
                          _range(0.0, 1e6), float)
     rho_twist: float = _f(0.0, "twisting stiffness ratio ko/kn, the same for every rho; >= 0; 3D only",
                           _range(0.0, 1e6), float)
+    law: str = _f("harmonic", "contact law: harmonic (kn xi, the paper's) or hertz (kn sqrt(a' xi) xi, a' = "
+                              "R_i R_j/(R_i + R_j), with every spring scaled by sqrt(a' xi) at the reference, as "
+                              "LAMMPS's gran/hertz/history); generated packings are minimised under the same normal "
+                              "law, and a file must be in equilibrium under it",
+                  lambda v: None if v in ("harmonic", "hertz") else "must be one of harmonic, hertz", str)
+    masses: str = _f("equal", "equal: m = 1 for every particle (the paper's); density: the masses the packing "
+                              "file holds, else m proportional to d^D; both scaled to a mean of 1. The inertia "
+                              "is m d^2/8 (disk) or m d^2/10 (sphere)",
+                     lambda v: None if v in ("equal", "density") else "must be one of equal, density", str)
 
 
 def _window(v):
@@ -333,6 +350,9 @@ def _cross_check(obj, where):
             if getattr(obj, name) is None:
                 raise InputError(f"{where}{name} is missing: give packing.n and packing.phi, "
                                  f"or packing.file")
+        if obj.relax:
+            raise InputError(f"{where}relax = true re-minimises the packings of packing.file; generated "
+                             f"packings are minimised already: give packing.file or drop packing.relax")
     if isinstance(obj, SpectrumSpec) and obj.method != "slicing" and obj.window:
         raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
                          f"'slicing'")

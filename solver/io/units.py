@@ -134,15 +134,20 @@ def _option_changes(old: dict, new: dict) -> str:
 def packing_key(scene, index: int) -> UnitKey:
     """Key of generated packing ``index`` of ``scene``: its recipe.
 
-    ``dim`` joins the settings only in 3D: a 2D recipe hashes as it did before ``packing.dim``
-    existed, so 2D packings already in a units folder or the cache are found again (and a 3D
-    recipe never matches a 2D one).
+    ``dim`` joins the settings only in 3D, ``engine`` only when it is lammps, ``law`` only when
+    it is hertz: a 2D harmonic FIRE recipe
+    hashes as it did before these keys existed, so 2D packings already in a units folder or the
+    cache are found again (and a 3D or LAMMPS recipe never matches one).
     """
     spec = scene.packing
     settings = {"n": spec.n, "phi": spec.phi, "seed": scene.seed, "index": index, "force_tol": spec.force_tol,
                 "max_steps": spec.max_steps}
     if spec.dim == 3:
         settings["dim"] = 3
+    if spec.engine != "fire":  # likewise: rotsound's FIRE keeps the keys of before
+        settings["engine"] = spec.engine
+    if scene.model.law != "harmonic":  # the normal law FIRE minimises
+        settings["law"] = scene.model.law
     return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
 
 
@@ -159,8 +164,13 @@ def unit_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     keys = {}
     springs = {name: value for name in ("rho_roll", "rho_twist")
                if (value := getattr(scene.model, name))}  # only when on: 2D keys stay as before
+    for name, default in (("masses", "equal"), ("law", "harmonic")):
+        if getattr(scene.model, name) != default:
+            springs[name] = getattr(scene.model, name)
     for p_index, p in enumerate(packings):
-        base = {"packing": content_key(p.positions, p.diameters, np.float64(p.box_length), p.rattler),
+        box = np.float64(p.box[0]) if np.all(p.box == p.box[0]) else p.box  # cubic: the keys of before
+        masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
+        base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses),
                 "version": __version__, **springs}
         for r_index, rho in enumerate(scene.model.rho):
             tag = f"r{r_index:02d}_p{p_index:04d}"
@@ -398,9 +408,9 @@ class WindowCheckpoint:
 
 
 def packing_unit(p) -> tuple[dict, dict]:
-    """A packing as (datasets, attrs) for the store."""
+    """A packing as (datasets, attrs) for the store (the box as attribute ``box`` (D,))."""
     return ({"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler},
-            {"box_length": p.box_length, **p.info})
+            {"box": p.box, **p.info})  # generated packings only: no masses
 
 
 def packing_from_unit(unit):
@@ -409,6 +419,7 @@ def packing_from_unit(unit):
 
     datasets, attrs = unit
     attrs = dict(attrs)
-    box = float(attrs.pop("box_length"))
+    box = np.broadcast_to(attrs.pop("box") if "box" in attrs else attrs.pop("box_length"),  # older units
+                          datasets["positions"].shape[1:]).astype(float)
     info = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in attrs.items()}
     return Packing(datasets["positions"], datasets["diameters"], box, datasets["rattler"].astype(bool), info)

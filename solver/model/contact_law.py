@@ -34,32 +34,53 @@ from __future__ import annotations
 import numpy as np
 
 KN = 1.0  # normal stiffness, the unit of stiffness
+LAWS = ("harmonic", "hertz")
 
 
-def normal_force(overlap: np.ndarray) -> np.ndarray:
-    """Magnitude f_n = kn xi (C,) of the repulsive normal force of each contact (xi > 0)."""
-    return KN * overlap
+def normal_force(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray | None = None) -> np.ndarray:
+    """Magnitude f_n (C,) of the repulsive normal force of each contact (xi > 0): kn xi (harmonic)
+    or kn sqrt(a' xi) xi (hertz: LAMMPS's gran/hertz/history, a' = ``reduced`` = R_i R_j/(R_i + R_j))."""
+    return KN * overlap if law == "harmonic" else KN * np.sqrt(reduced * overlap) * overlap
 
 
-def normal_energy(overlap: np.ndarray) -> np.ndarray:
-    """Normal part kn xi^2 / 2 (C,) of eq:eij for overlaps xi > 0."""
-    return 0.5 * KN * overlap**2
+def normal_energy(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray | None = None) -> np.ndarray:
+    """Normal part of eq:eij (C,) for overlaps xi > 0: kn xi^2 / 2 (harmonic) or
+    (2/5) kn sqrt(a') xi^(5/2) (hertz), whose derivative is :func:`normal_force`."""
+    if law == "harmonic":
+        return 0.5 * KN * overlap**2
+    return 0.4 * KN * np.sqrt(reduced * overlap) * overlap**2
 
 
-def normal_pair(separation: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def spring_scale(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray | None = None) -> np.ndarray:
+    """Factor (C,) on every spring of a contact at its reference overlap: 1 (harmonic), or
+    sqrt(a' xi) (hertz), the contact radius' growth that makes the Hertz normal force kn sqrt(a' xi) xi
+    and, as in LAMMPS's gran/hertz/history (Mindlin), the tangential stiffness kt sqrt(a' xi);
+    the rolling and twisting springs scale the same way [choice], so that rho, rho_roll and
+    rho_twist stay ratios to kn for both laws.  The normal tangent stiffness is
+    df_n/dxi = (3/2) kn sqrt(a' xi) (:func:`normal_stiffness`)."""
+    return np.ones_like(overlap) if law == "harmonic" else np.sqrt(reduced * overlap)
+
+
+def normal_stiffness(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray | None = None) -> np.ndarray:
+    """df_n / dxi (C,): kn (harmonic) or (3/2) kn sqrt(a' xi) (hertz)."""
+    return KN * np.ones_like(overlap) if law == "harmonic" else 1.5 * KN * np.sqrt(reduced * overlap)
+
+
+def normal_pair(separation: np.ndarray, contact: np.ndarray, law: str = "harmonic",
+                reduced: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Exact-geometry normal force and energy of pairs at ``separation`` r_i - r_j (C, D), D = 2 or 3.
 
-    ``contact`` (C,) is (d_i + d_j)/2.  Returns (force on i (C, D), energy (C,)); the force on
-    j is minus that on i.  Pairs with xi <= 0 give zero.  This is eq:eij at rho = 0, the
-    frictionless energy FIRE minimises.
+    ``contact`` (C,) is (d_i + d_j)/2, ``reduced`` (C,) a' (hertz only).  Returns (force on i
+    (C, D), energy (C,)); the force on j is minus that on i.  Pairs with xi <= 0 give zero.  This
+    is eq:eij at rho = 0, the frictionless energy FIRE minimises.
     """
     squared = separation[:, 0] * separation[:, 0]
     for axis in range(1, separation.shape[1]):  # column sums: faster than einsum in FIRE's loop
         squared += separation[:, axis] * separation[:, axis]
     distance = np.sqrt(squared)
     overlap = np.maximum(contact - distance, 0.0)
-    force = (normal_force(overlap) / distance)[:, None] * separation
-    return force, normal_energy(overlap)
+    force = (normal_force(overlap, law, reduced) / distance)[:, None] * separation
+    return force, normal_energy(overlap, law, reduced)
 
 
 def tangent(normal: np.ndarray) -> np.ndarray:
@@ -110,19 +131,27 @@ def stretches(normal: np.ndarray, radius_i: np.ndarray, radius_j: np.ndarray, du
 def pair_energy(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
                 radius_i: np.ndarray, radius_j: np.ndarray, rho: float, du: np.ndarray,
                 theta_i: np.ndarray, theta_j: np.ndarray, rho_roll: float = 0.0,
-                rho_twist: float = 0.0) -> np.ndarray:
+                rho_twist: float = 0.0, law: str = "harmonic") -> np.ndarray:
     """Energy e_ij (C,) after displacements from the reference contacts (eq:eij; in 3D and with
     rolling and twisting springs PHYSICS.md section 8).
 
     separation : (C, D) reference r_i - r_j (minimum image);  contact : (C,) (d_i + d_j)/2;
     normal : (C, D) reference n;  radius_i, radius_j : (C,);  rho = kt / kn, rho_roll = kr / kn,
-    rho_twist = ko / kn (3D only);  du : (C, D) u_i - u_j;  theta_i, theta_j : (C,) in 2D, (C, 3) in 3D.
+    rho_twist = ko / kn (3D only);  du : (C, D) u_i - u_j;  theta_i, theta_j : (C,) in 2D, (C, 3) in 3D;
+    law : "harmonic" or "hertz" (the springs then carry :func:`spring_scale` of the reference overlap).
     """
     _refuse_twist_in_2d(normal, rho_twist)
-    _, normal_part = normal_pair(separation + du, contact)
+    reduced = radius_i * radius_j / (radius_i + radius_j)
+    _, normal_part = normal_pair(separation + du, contact, law, reduced)
+    scale = spring_scale(_reference_overlap(separation, contact), law, reduced)
     s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
-    return normal_part + 0.5 * KN * (rho * np.einsum("cd,cd->c", s_t, s_t)
-                                     + rho_roll * np.einsum("cd,cd->c", s_r, s_r) + rho_twist * s_o**2)
+    return normal_part + 0.5 * KN * scale * (rho * np.einsum("cd,cd->c", s_t, s_t)
+                                             + rho_roll * np.einsum("cd,cd->c", s_r, s_r) + rho_twist * s_o**2)
+
+
+def _reference_overlap(separation: np.ndarray, contact: np.ndarray) -> np.ndarray:
+    """xi (C,) at the reference separation (C, D)."""
+    return contact - np.sqrt(np.einsum("cd,cd->c", separation, separation))
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -133,26 +162,28 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
                 radius_i: np.ndarray, radius_j: np.ndarray, rho: float, du: np.ndarray,
                 theta_i: np.ndarray, theta_j: np.ndarray, rho_roll: float = 0.0,
-                rho_twist: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                rho_twist: float = 0.0, law: str = "harmonic") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Minus the gradient of ``pair_energy`` (same arguments): (F_i (C, D), tau_i, tau_j), the
     torques (C,) in 2D and (C, 3) in 3D.
 
     F_i = f_n n' - kt s_t (n' the current normal), F_j = -F_i;
     tau_i = -kt R_i s_t x n - kr a' n x s_r - ko a' s_o n,
     tau_j = -kt R_j s_t x n + kr a' n x s_r + ko a' s_o n (torques about each centre).
-    In 2D (s_t = delta_t t): tau_i = kt delta_t R_i - kr a'^2 (theta_i - theta_j).
+    In 2D (s_t = delta_t t): tau_i = kt delta_t R_i - kr a'^2 (theta_i - theta_j).  Under hertz,
+    kt, kr and ko carry :func:`spring_scale` of the reference overlap.
     """
     _refuse_twist_in_2d(normal, rho_twist)
-    force, _ = normal_pair(separation + du, contact)
-    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
     reduced = radius_i * radius_j / (radius_i + radius_j)
+    force, _ = normal_pair(separation + du, contact, law, reduced)
+    k = KN * spring_scale(_reference_overlap(separation, contact), law, reduced)
+    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
     slide = _cross(s_t, normal)
     roll = _cross(normal, s_r)
-    tau_common = -KN * rho_roll * _expand(reduced, roll)
-    twist = -KN * rho_twist * _expand(reduced * s_o, normal) if normal.shape[1] == 3 else 0.0
-    tau_i = -KN * rho * _expand(radius_i, slide) + tau_common + twist
-    tau_j = -KN * rho * _expand(radius_j, slide) - tau_common - twist
-    return force - KN * rho * s_t, tau_i, tau_j
+    tau_common = -rho_roll * _expand(k * reduced, roll)
+    twist = -rho_twist * _expand(k * reduced * s_o, normal) if normal.shape[1] == 3 else 0.0
+    tau_i = -rho * _expand(k * radius_i, slide) + tau_common + twist
+    tau_j = -rho * _expand(k * radius_j, slide) - tau_common - twist
+    return force - rho * k[:, None] * s_t, tau_i, tau_j
 
 
 def _expand(scale: np.ndarray, value: np.ndarray) -> np.ndarray:
@@ -163,14 +194,15 @@ def _expand(scale: np.ndarray, value: np.ndarray) -> np.ndarray:
 def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
                 radius_i: np.ndarray, radius_j: np.ndarray, rho: float,
                 with_rotation: bool = True, rho_roll: float = 0.0,
-                rho_twist: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                rho_twist: float = 0.0, law: str = "harmonic") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return the Hessian blocks (H_ii, H_ij, H_jj) of every contact, each (C, k, k).
 
     ``k`` is D + r with rotations ((x, y, theta) in 2D, (x, y, z, theta_x, theta_y, theta_z) in
     3D) and D without (translations only, for a model with no rotational stiffness, where the
     rotations would be free).  H_ji is H_ij transposed.  Each spring adds k B^T B, B the linear
     map of its stretch on (u_i, theta_i, u_j, theta_j) (PHYSICS.md section 8); the normal spring
-    adds [[K, -K], [-K, K]] on the translations, K = kn n n^T - (f_n / r_ij) P (geometric term kept).
+    adds [[K, -K], [-K, K]] on the translations, K = k_n n n^T - (f_n / r_ij) P (geometric term
+    kept), k_n = df_n/dxi; under hertz every spring carries :func:`spring_scale` (``law``).
     """
     _refuse_twist_in_2d(normal, rho_twist)
     count, dim = normal.shape
@@ -179,7 +211,9 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
     m = dim + rot
     reduced = radius_i * radius_j / (radius_i + radius_j)
     proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
-    stiff = KN * normal[:, :, None] * normal[:, None, :] - (normal_force(overlap) / distance)[:, None, None] * proj
+    stiff = (normal_stiffness(overlap, law, reduced)[:, None, None] * normal[:, :, None] * normal[:, None, :]
+             - (normal_force(overlap, law, reduced) / distance)[:, None, None] * proj)
+    scale = spring_scale(overlap, law, reduced)
     full = np.zeros((count, 2 * m, 2 * m))
     for a, sa in ((0, 1), (m, -1)):
         for b, sb in ((0, 1), (m, -1)):
@@ -196,6 +230,6 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
         springs.append((rho_twist, b_o))
     for ratio, b in springs:
         if ratio:
-            full += KN * ratio * np.einsum("cki,ckj->cij", b, b)
+            full += KN * ratio * scale[:, None, None] * np.einsum("cki,ckj->cij", b, b)
     k = m if with_rotation else dim
     return full[:, :k, :k], full[:, :k, m:m + k], full[:, m:m + k, m:m + k]

@@ -96,18 +96,35 @@ def dof_per_particle(dim: int, rho: float, rho_roll: float = 0.0, rho_twist: flo
     return dim + (dim * (dim - 1) // 2 if has_rotations(rho, rho_roll, rho_twist) else 0)
 
 
-def mass_diagonal(diameters: np.ndarray, dim: int, dof: int) -> np.ndarray:
-    """Diagonal of M (len(diameters) * dof,): m on translations, I = m d^2 / 8 (disk) or
-    m d^2 / 10 (sphere) on rotations."""
+MASS_RULES = ("equal", "density")
+
+
+def particle_masses(packing: Packing, rule: str = "equal") -> np.ndarray:
+    """Masses (N,) of every particle under ``model.masses`` = ``rule``. Not collective.
+
+    equal: m = 1 for all (the paper's).  density: the masses the packing's file holds, else
+    m proportional to d^D (one density for all), in both cases scaled so that the mean over all
+    N particles (rattlers included) is 1: the unit of mass stays the mean mass, so t0 = sqrt(m0/kn)
+    keeps its meaning and an equal-size packing gives the same matrix under both rules.
+    """
+    if rule == "equal":
+        return np.full(packing.n, MASS)
+    raw = packing.masses if packing.masses is not None else packing.diameters ** packing.dim
+    return MASS * raw / raw.mean()
+
+
+def mass_diagonal(diameters: np.ndarray, masses: np.ndarray, dim: int, dof: int) -> np.ndarray:
+    """Diagonal of M (len(diameters) * dof,): m_i on translations, I_i = m_i d_i^2 / 8 (disk) or
+    m_i d_i^2 / 10 (sphere) on rotations (eq:mm)."""
     diag = np.empty((diameters.size, dof))
-    diag[:, :dim] = MASS
+    diag[:, :dim] = masses[:, None]
     if dof > dim:
-        diag[:, dim:] = (MASS * diameters**2 / (8.0 if dim == 2 else 10.0))[:, None]
+        diag[:, dim:] = (masses * diameters**2 / (8.0 if dim == 2 else 10.0))[:, None]
     return diag.ravel()
 
 
 def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_roll: float = 0.0,
-              rho_twist: float = 0.0) -> tuple[sp.csr_matrix, int, int]:
+              rho_twist: float = 0.0, law: str = "harmonic") -> tuple[sp.csr_matrix, int, int]:
     """Rows of D owned by ``disk_range`` as a CSR (local rows x global columns).
 
     Returns (csr, dof, global number of contacts).  Not collective.
@@ -115,7 +132,7 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_rol
     active = ~packing.rattler
     dof = dof_per_particle(packing.dim, rho, rho_roll, rho_twist)
     index = np.cumsum(active) - 1  # particle -> position among active particles
-    found = contacts.find_contacts(packing.positions, packing.diameters, packing.box_length, active)
+    found = contacts.find_contacts(packing.positions, packing.diameters, packing.box, active)
     a, b = index[found.i], index[found.j]
     start, stop = disk_range
     touch = ((a >= start) & (a < stop)) | ((b >= start) & (b < stop))
@@ -124,7 +141,7 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_rol
     h_ii, h_ij, h_jj = contact_law.pair_blocks(
         found.normal[touch], found.distance[touch], found.overlap[touch],
         radius[found.i[touch]], radius[found.j[touch]], rho, with_rotation=dof > packing.dim,
-        rho_roll=rho_roll, rho_twist=rho_twist)
+        rho_roll=rho_roll, rho_twist=rho_twist, law=law)
     block_rows = np.concatenate((a, a, b, b))
     block_cols = np.concatenate((a, b, b, a))
     blocks = np.concatenate((h_ii, h_ij, h_jj, np.transpose(h_ij, (0, 2, 1))))
@@ -143,9 +160,10 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_rol
 
 @profiling.logged("rsAssemble")
 def assemble(packing: Packing, rho: float, comm, rho_roll: float = 0.0,
-             rho_twist: float = 0.0) -> DynamicalMatrix:
+             rho_twist: float = 0.0, mass_rule: str = "equal", law: str = "harmonic") -> DynamicalMatrix:
     """Assemble D and M of ``packing`` (2D or 3D) with kt = rho kn, kr = rho_roll kn and
-    ko = rho_twist kn (3D only) on ``comm`` (PETSc communicator). Collective.
+    ko = rho_twist kn (3D only), the contact ``law`` (harmonic or hertz: contact_law), masses by
+    ``mass_rule`` (:func:`particle_masses`), on ``comm`` (PETSc communicator). Collective.
 
     D is flagged symmetric (needed by Cholesky-based inertia in the spectrum stage).
     """
@@ -153,7 +171,7 @@ def assemble(packing: Packing, rho: float, comm, rho_roll: float = 0.0,
 
     active = ~packing.rattler
     disk_range = parallel.block_range(int(active.sum()), comm.tompi4py())
-    csr, dof, n_contacts = local_csr(packing, rho, disk_range, rho_roll, rho_twist)
+    csr, dof, n_contacts = local_csr(packing, rho, disk_range, rho_roll, rho_twist, law)
     n_global = int(active.sum()) * dof
     n_local = csr.shape[0]
     D = PETSc.Mat().createAIJ(size=((n_local, n_global), (n_local, n_global)), bsize=dof,
@@ -164,7 +182,8 @@ def assemble(packing: Packing, rho: float, comm, rho_roll: float = 0.0,
     D.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     M = D.createVecLeft()
     start, stop = disk_range
-    M.setArray(mass_diagonal(packing.diameters[active][start:stop], packing.dim, dof))
+    masses = particle_masses(packing, mass_rule)[active][start:stop]
+    M.setArray(mass_diagonal(packing.diameters[active][start:stop], masses, packing.dim, dof))
     return DynamicalMatrix(D, M, active, dof, rho, disk_range, n_contacts, packing.dim, rho_roll, rho_twist)
 
 

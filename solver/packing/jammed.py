@@ -48,15 +48,19 @@ def solid_volume(diameters: np.ndarray, dim: int) -> float:
 class Packing:
     """One configuration (units d0 = m = kn = 1).
 
-    positions : (N, D) float64 in [0, L), D = 2 or 3;  diameters : (N,) float64;  box_length : L;
-    rattler : (N,) bool;  info : provenance and statistics (energy, pressure, z, ...).
+    positions : (N, D) float64 in the box, D = 2 or 3;  diameters : (N,) float64;
+    box : (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box, origin at 0;
+    rattler : (N,) bool;  info : provenance and statistics (energy, pressure, z, ...);
+    masses : (N,) float64 the masses a file gave (its own units), or None (generated packings, and
+    files without them); ``model.masses`` decides what the matrix uses (``dynmat.particle_masses``).
     """
 
     positions: np.ndarray
     diameters: np.ndarray
-    box_length: float
+    box: np.ndarray
     rattler: np.ndarray
     info: dict = field(default_factory=dict)
+    masses: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -68,9 +72,16 @@ class Packing:
         return int(self.positions.shape[1])
 
     @property
+    def box_length(self) -> float:
+        """Side L of a square or cubic box; ValueError when the sides differ."""
+        if np.any(self.box != self.box[0]):
+            raise ValueError(f"the box has sides {self.box.tolist()}, not one side length")
+        return float(self.box[0])
+
+    @property
     def phi(self) -> float:
         """Area (2D) or volume (3D) fraction."""
-        return solid_volume(self.diameters, self.dim) / self.box_length**self.dim
+        return solid_volume(self.diameters, self.dim) / float(np.prod(self.box))
 
 
 def bidisperse_diameters(n: int) -> np.ndarray:
@@ -97,7 +108,7 @@ def smallest_n(phi: float, dim: int) -> int:
 
 
 class _FrictionlessForces:
-    """Harmonic normal forces on a Verlet list (skin s), kept valid by cheap partial refreshes.
+    """Harmonic or Hertz normal forces on a Verlet list (skin s), kept valid by cheap partial refreshes.
 
     Positions are not wrapped during minimisation, so each listed pair keeps the periodic
     image shift found when it was listed.  Every particle has a reference position, and none
@@ -108,7 +119,7 @@ class _FrictionlessForces:
     its particles is (re-)listed; from then on the other moves at most 3s/4 (s/4 then, s/2 from
     its reference after) and the re-listed one s/2, so an unlisted pair cannot touch.  (Late in
     FIRE a few particles, about 1 %, trip the list while the median has moved s/30: measured at
-    N = 2048 in 3D.)  The skin is at most (L/2 - max d)/1.25, so that a listed pair touches
+    N = 2048 in 3D.)  The skin is at most (min L_a/2 - max d)/1.25, so that a listed pair touches
     through its listed image only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
     particle's forces are summed in a fixed order; the pass over them is compiled
     (``pair_forces.net_forces``).  Measured at N = 32768 in 3D: a refresh of 1 % of the particles
@@ -117,10 +128,11 @@ class _FrictionlessForces:
 
     REACH = 1.25  # reach of a partial refresh, in skins (see above)
 
-    def __init__(self, diameters: np.ndarray, box_length: float, skin: float = 0.3):
-        self.diameters, self.box_length = diameters, box_length
+    def __init__(self, diameters: np.ndarray, box, skin: float = 0.3, law: str = "harmonic"):
+        self.diameters, self.box = diameters, box  # box: (D,) sides, or one for a square or cube
+        self.hertz = law == "hertz"  # else harmonic (contact_law.LAWS)
         self.largest = float(diameters.max())
-        self.skin = min(skin, (0.5 * box_length - self.largest) / self.REACH)
+        self.skin = min(skin, (0.5 * float(np.min(box)) - self.largest) / self.REACH)
         self.reference: np.ndarray | None = None
         self.rebuilds = self.refreshes = 0
         from .pair_forces import net_forces  # here, not at the top: importing numba takes 0.5 s
@@ -128,20 +140,23 @@ class _FrictionlessForces:
 
     def _near(self, x: np.ndarray, i: np.ndarray, j: np.ndarray, reach: float):
         """The pairs among (i, j) closer than their contact distance plus ``reach``, as
-        (i, j, shift (P, D), contact (P,))."""
+        (i, j, shift (P, D), contact (P,), reduced radius a' (P,))."""
         delta = x[i] - x[j]
-        shift = contacts.minimum_image(delta, self.box_length) - delta
+        shift = contacts.minimum_image(delta, self.box) - delta
         contact = 0.5 * (self.diameters[i] + self.diameters[j])
         separation = delta + shift
         near = np.einsum("pd,pd->p", separation, separation) < (contact + reach) ** 2
-        return i[near], j[near], shift[near], contact[near]
+        i, j = i[near], j[near]
+        reduced = 0.25 * self.diameters[i] * self.diameters[j] / contact[near]
+        return i, j, shift[near], contact[near], reduced
 
-    def _use(self, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray) -> None:
+    def _use(self, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray,
+             reduced: np.ndarray) -> None:
         """Make the list (pairs sorted by (i, j)) current."""
-        self.i, self.j, self.shift, self.contact = i, j, shift, contact
+        self.i, self.j, self.shift, self.contact, self.reduced = i, j, shift, contact, reduced
 
     def _rebuild(self, x: np.ndarray) -> None:
-        pairs = contacts.candidate_pairs(x, self.box_length, self.largest + self.skin)  # sorted by (i, j)
+        pairs = contacts.candidate_pairs(x, self.box, self.largest + self.skin)  # sorted by (i, j)
         self._use(*self._near(x, pairs[:, 0], pairs[:, 1], self.skin))
         self.reference, self.scratch = x.copy(), np.empty_like(x)
         self.relisted = np.zeros(x.shape[0], dtype=bool)
@@ -151,8 +166,8 @@ class _FrictionlessForces:
         """Re-list the pairs of ``movers`` (N,) bool from the current positions."""
         n, index = x.shape[0], np.flatnonzero(movers)
         reach = self.REACH * self.skin
-        wrapped = contacts.wrap(x, self.box_length)
-        trees = [cKDTree(points, boxsize=self.box_length, balanced_tree=False, compact_nodes=False)
+        wrapped = contacts.wrap(x, self.box)
+        trees = [cKDTree(points, boxsize=self.box, balanced_tree=False, compact_nodes=False)
                  for points in (wrapped, wrapped[index])]
         found = trees[0].sparse_distance_matrix(trees[1], self.largest + reach, output_type="ndarray")
         other, mover = found["i"], index[found["j"]]
@@ -162,7 +177,7 @@ class _FrictionlessForces:
         stay = ~(movers[self.i] | movers[self.j])
         at = np.searchsorted(self.i[stay] * n + self.j[stay], fresh[0][order] * n + fresh[1][order])
         self._use(*(np.insert(old[stay], at, new[order], axis=0) for old, new in
-                       zip((self.i, self.j, self.shift, self.contact), fresh)))  # still sorted by (i, j)
+                       zip((self.i, self.j, self.shift, self.contact, self.reduced), fresh)))  # still sorted by (i, j)
         self.reference[movers] = x[movers]
         self.relisted |= movers
         self.refreshes += 1
@@ -180,13 +195,14 @@ class _FrictionlessForces:
                 else:
                     self._refresh(x, movers)
         force = np.empty_like(x)
-        energy = self.net_forces(x, self.i, self.j, self.shift, self.contact, force, self.scratch)
+        energy = self.net_forces(x, self.i, self.j, self.shift, self.contact, self.reduced, self.hertz,
+                                 force, self.scratch)
         return force, energy  # eq:eij at rho = 0
 
 
-def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box_length: float) -> np.ndarray:
+def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box) -> np.ndarray:
     """Rattler mask (N,): iteratively, particles with fewer than D + 1 contacts among non-rattlers."""
-    found = contacts.find_contacts(positions, diameters, box_length)
+    found = contacts.find_contacts(positions, diameters, box)
     rattler = np.zeros(diameters.size, dtype=bool)
     needed = min_contacts(positions.shape[1])
     while True:
@@ -199,19 +215,20 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box_length: floa
         rattler |= new
 
 
-def describe(positions: np.ndarray, diameters: np.ndarray, box_length: float,
-             rattler: np.ndarray) -> dict:
-    """Energy, pressure (virial sum_c f_c r_c / (D L^D)), mean contact number z and rattler
-    fraction of a packing (units kn = d0 = 1)."""
+def describe(positions: np.ndarray, diameters: np.ndarray, box,
+             rattler: np.ndarray, law: str = "harmonic") -> dict:
+    """Energy, pressure (virial sum_c f_c r_c / (D V), V the box volume), mean contact number z
+    and rattler fraction of a packing under the normal ``law`` (units kn = d0 = 1)."""
     dim = positions.shape[1]
-    found = contacts.find_contacts(positions, diameters, box_length)
-    fn = contact_law.normal_force(found.overlap)
+    found = contacts.find_contacts(positions, diameters, box)
+    reduced = 0.25 * diameters[found.i] * diameters[found.j] / (0.5 * (diameters[found.i] + diameters[found.j]))
+    fn = contact_law.normal_force(found.overlap, law, reduced)
     active = ~rattler
     keep = active[found.i] & active[found.j]
     n_active = int(active.sum())
     return {
-        "energy": float(np.sum(contact_law.normal_energy(found.overlap))),
-        "pressure": float(np.sum(fn * found.distance) / (dim * box_length**dim)),
+        "energy": float(np.sum(contact_law.normal_energy(found.overlap, law, reduced))),
+        "pressure": float(np.sum(fn * found.distance) / (dim * np.prod(np.broadcast_to(box, (dim,))))),
         "z": float(2.0 * keep.sum() / n_active) if n_active else 0.0,
         "rattler_fraction": float(rattler.mean()),
         "n_contacts": int(keep.sum()),
@@ -219,20 +236,23 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box_length: float,
     }
 
 
-def spatial_order(positions: np.ndarray, box_length: float) -> np.ndarray:
+def spatial_order(positions: np.ndarray, box: np.ndarray) -> np.ndarray:
     """Permutation sorting particles into ~n^(1/D) slices along the last axis (2D: strips by y;
     3D: slabs by z, then ~n^(1/3) strips by y inside a slab), by x inside a strip."""
     n, dim = positions.shape
     slices = max(1, int(np.sqrt(n) if dim == 2 else np.cbrt(n)))
-    cell = np.minimum((positions[:, 1:] / box_length * slices).astype(int), slices - 1)
+    cell = np.minimum((positions[:, 1:] / box[1:] * slices).astype(int), slices - 1)
     return np.lexsort((positions[:, 0], *cell.T))  # the last key (y in 2D, z in 3D) sorts first
 
 
 @profiling.logged("rsPackingFIRE")
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
-             max_steps: int = 2_000_000, dim: int = 2) -> Packing:
+             max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
+             law: str = "harmonic") -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
-    fraction ``phi``. Not collective.
+    fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``: rotsound's FIRE (not collective) or LAMMPS's
+    (``lammps_engine.minimize``: the same start and criterion, an equally valid but different
+    minimum; collective on ``comm``, an mpi4py communicator).
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the box would not exceed
     two large diameters (a pair could touch through two periodic images: tiny N at high phi in
@@ -241,41 +261,74 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     rng = np.random.default_rng(seed)
     diameters = rng.permutation(bidisperse_diameters(n))  # mixed, so the sort below is safe
     box_length = box_length_for(diameters, phi, dim)
+    box = np.full(dim, box_length)
     if box_length <= 2.0 * D_LARGE:
         raise InputError(f"packing.n = {n}, packing.phi = {phi}: the {dim}D box would have side L = "
                          f"{box_length:.4g}, not more than two large diameters (2 d_L = {2 * D_LARGE:.4g}), so a "
                          f"pair could touch through two periodic images: choose packing.n >= "
                          f"{smallest_n(phi, dim)} at this phi, or a smaller packing.phi")
-    forces = _FrictionlessForces(diameters, box_length)
     start = rng.uniform(0.0, box_length, size=(n, dim))
-    start = start[spatial_order(start, box_length)]  # spatial order: cache-friendly gathers
-    result = fire.minimize(start, forces, force_tol, max_steps)
-    if not result.converged:
-        raise RuntimeError(f"FIRE did not converge: max |F| = {result.max_force:.3e} > "
-                           f"{force_tol:.1e} after {result.steps} steps (n={n}, phi={phi}, dim={dim})")
-    positions = contacts.wrap(result.x, box_length)
-    order = spatial_order(positions, box_length)
+    start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
+    if engine == "lammps":
+        from . import lammps_engine
+
+        x, steps, max_force = lammps_engine.minimize(start, diameters, box, force_tol, max_steps, comm, law=law)
+        stats = {"engine": "lammps"}
+    else:
+        forces = _FrictionlessForces(diameters, box, law=law)
+        result = fire.minimize(start, forces, force_tol, max_steps)
+        if not result.converged:
+            raise RuntimeError(f"FIRE did not converge: max |F| = {result.max_force:.3e} > "
+                               f"{force_tol:.1e} after {result.steps} steps (n={n}, phi={phi}, dim={dim})")
+        x, steps, max_force = result.x, result.steps, result.max_force
+        stats = {"neighbour_rebuilds": forces.rebuilds, "neighbour_refreshes": forces.refreshes}
+    positions = contacts.wrap(x, box)
+    order = spatial_order(positions, box)
     positions, diameters = positions[order], diameters[order]
-    rattler = find_rattlers(positions, diameters, box_length)
-    info = describe(positions, diameters, box_length, rattler)
-    info.update(fire_steps=result.steps, max_force=result.max_force, force_tol=force_tol,
-                neighbour_rebuilds=forces.rebuilds, neighbour_refreshes=forces.refreshes)
-    return Packing(positions, diameters, box_length, rattler, info)
+    rattler = find_rattlers(positions, diameters, box)
+    info = describe(positions, diameters, box, rattler, law)
+    info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
+    return Packing(positions, diameters, box, rattler, info)
 
 
-def from_arrays(positions: np.ndarray, diameters: np.ndarray, box_length: float,
-                rattler: np.ndarray | None = None, info: dict | None = None) -> Packing:
-    """Build a :class:`Packing` from user arrays (e.g. another code's packing), positions (N, D).
+@profiling.logged("rsPackingFIRE")
+def relax(packing: Packing, force_tol: float = 1e-6, max_steps: int = 2_000_000,
+          law: str = "harmonic") -> Packing:
+    """``packing.relax``: re-minimise a loaded packing frictionlessly with FIRE from its own
+    positions, in its own box, under the normal ``law``, to ``force_tol`` (kn d0), keeping
+    diameters and masses.  For
+    packings made with friction in a DEM code, which balance only with their tangential forces:
+    the result is the nearest frictionless energy minimum, not the file's packing.  Rattlers and
+    statistics are recomputed.  Not collective.  Raises RuntimeError if FIRE does not converge.
+    """
+    forces = _FrictionlessForces(packing.diameters, packing.box, law=law)
+    result = fire.minimize(packing.positions, forces, force_tol, max_steps)
+    if not result.converged:
+        raise RuntimeError(f"packing.relax: FIRE did not converge: max |F| = {result.max_force:.3e} > "
+                           f"{force_tol:.1e} after {result.steps} steps ({packing.info.get('source', 'packing')})")
+    info = {key: packing.info[key] for key in ("source",) if key in packing.info}
+    info.update(relaxed=True, fire_steps=result.steps, max_force=result.max_force, force_tol=force_tol, law=law)
+    return from_arrays(result.x, packing.diameters, packing.box, None, info, packing.masses, law)
+
+
+def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.ndarray | None = None,
+                info: dict | None = None, masses: np.ndarray | None = None, law: str = "harmonic") -> Packing:
+    """Build a :class:`Packing` from user arrays (e.g. another code's packing), positions (N, D),
+    ``box`` the (D,) sides or one side for a square or cubic box, ``masses`` (N,) or None; the
+    statistics (energy, pressure) under the normal ``law``.
 
     Rattlers are computed with the iterative rule when ``rattler`` is None.
     """
-    positions = contacts.wrap(np.asarray(positions, dtype=float), box_length)
+    positions = np.asarray(positions, dtype=float)
+    box = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],)).copy()
+    positions = contacts.wrap(positions, box)
     diameters = np.asarray(diameters, dtype=float)
     if rattler is None:
-        rattler = find_rattlers(positions, diameters, box_length)
-    stats = describe(positions, diameters, box_length, rattler)
+        rattler = find_rattlers(positions, diameters, box)
+    stats = describe(positions, diameters, box, rattler, law)
     stats.update(info or {})
-    return Packing(positions, diameters, float(box_length), np.asarray(rattler, dtype=bool), stats)
+    return Packing(positions, diameters, box, np.asarray(rattler, dtype=bool), stats,
+                   None if masses is None else np.asarray(masses, dtype=float))
 
 
 PHI_JAMMING = {2: 0.84, 3: 0.648}
@@ -300,7 +353,8 @@ def jamming_failure(packing: Packing) -> str | None:
     spheres (6 make at most 15 < 16), and every 2D packing measured that jammed passes it (N = 16
     to 1024, phi = 0.83 to 0.9, 90 seeds; the smallest margin was 1 contact).
     """
-    stats = describe(packing.positions, packing.diameters, packing.box_length, packing.rattler)
+    stats = describe(packing.positions, packing.diameters, packing.box, packing.rattler,
+                     packing.info.get("law", "harmonic"))
     dim, name = packing.dim, NAMES[packing.dim]
     n_active = packing.n - int(packing.rattler.sum())
     if n_active == 0:

@@ -1,8 +1,10 @@
 """FIRE's inner loop compiled: net frictionless normal forces over a pair list (numba).
 
 eq:eij at rho = 0 (kn = 1): a pair (i, j) at separation s = x_i - x_j + shift with contact
-distance c = (d_i + d_j)/2 and overlap xi = max(c - |s|, 0) pushes i by xi s / |s| and j by
-minus that; its energy is xi^2 / 2 (``contact_law.normal_pair``, vectorised, is the same formula).
+distance c = (d_i + d_j)/2 and overlap xi = max(c - |s|, 0) pushes i by f_n s / |s| and j by
+minus that, f_n = xi and energy xi^2 / 2 (harmonic), or f_n = sqrt(a' xi) xi and energy
+(2/5) sqrt(a' xi) xi^2 (hertz, a' = R_i R_j / (R_i + R_j)); ``contact_law.normal_pair``,
+vectorised, is the same formula.
 
 Compiled, because a step of FIRE is one pass over ~6 pairs per sphere (~200,000 at N = 32768 in
 3D) and numpy's version of that pass is a chain of temporaries and gathers: measured at
@@ -24,11 +26,12 @@ import numpy as np
 
 @numba.njit(cache=True, boundscheck=False)
 def net_forces(x: np.ndarray, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray,
-               out: np.ndarray, on_j: np.ndarray) -> float:
+               reduced: np.ndarray, hertz: bool, out: np.ndarray, on_j: np.ndarray) -> float:
     """Write the net force on each particle into ``out`` (N, D) and return the energy.
 
     x : (N, D) positions, D = 2 or 3;  i, j : (P,) int listed pairs;  shift : (P, D) periodic
-    image shifts;  contact : (P,) contact distances;  on_j : (N, D) scratch.
+    image shifts;  contact : (P,) contact distances;  reduced : (P,) a' (used by hertz only);
+    hertz : the Hertz law instead of the harmonic one;  on_j : (N, D) scratch.
     """
     three = x.shape[1] == 3
     out[:] = 0.0
@@ -45,7 +48,13 @@ def net_forces(x: np.ndarray, i: np.ndarray, j: np.ndarray, shift: np.ndarray, c
             squared += s2 * s2
         distance = np.sqrt(squared)
         overlap = max(contact[p] - distance, 0.0)
-        scale = overlap / distance
+        if hertz:  # the same for every pair, like ``three``
+            growth = np.sqrt(reduced[p] * overlap)
+            scale = growth * overlap / distance
+            energy += 0.4 * growth * overlap * overlap
+        else:
+            scale = overlap / distance
+            energy += 0.5 * overlap * overlap
         out[a, 0] += scale * s0
         out[a, 1] += scale * s1
         on_j[b, 0] += scale * s0
@@ -53,6 +62,5 @@ def net_forces(x: np.ndarray, i: np.ndarray, j: np.ndarray, shift: np.ndarray, c
         if three:
             out[a, 2] += scale * s2
             on_j[b, 2] += scale * s2
-        energy += 0.5 * overlap * overlap
     out -= on_j
     return energy

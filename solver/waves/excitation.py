@@ -55,10 +55,17 @@ def run_label(component: int, axis: int, dim: int) -> str:
     return f"{COMPONENT_NAMES[dim][component]}, k || {'xyz'[axis]}"
 
 
-def wave_numbers(spec, box_length: float) -> tuple[np.ndarray, np.ndarray]:
-    """(n (K,), k (K,)) allowed by the box along any of its axes: k = 2 pi n / L, from waves.n or
-    nearest to waves.kd0 (n >= 1, duplicates merged, ascending).  Raises InputError above
-    k d0 = 2 pi. Not collective."""
+def wave_numbers(spec, box) -> tuple[np.ndarray, np.ndarray]:
+    """(n (K,), k (K,)) allowed by the square or cubic box ``box`` ((D,) sides, or one) along any of its axes:
+    k = 2 pi n / L, from waves.n or nearest to waves.kd0 (n >= 1, duplicates merged, ascending).
+    Raises InputError above k d0 = 2 pi, and for a box whose sides differ: the runs along the
+    axes are pooled, so they need one set of allowed k. Not collective."""
+    box = np.atleast_1d(np.asarray(box, dtype=float))
+    if np.any(box != box[0]):
+        raise InputError(f"waves: the packing's box has sides {', '.join(f'{side:.4g}' for side in box)}; standing "
+                         f"waves are pooled over the axes and need a square or cubic box (one k for "
+                         f"every axis)")
+    box_length = float(box[0])
     if spec.n is not None:
         ns = np.array(sorted(set(spec.n)))
     else:
