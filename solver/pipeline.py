@@ -76,7 +76,8 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     spec = scene.packing
     if spec.file is not None:
         def load(_):
-            read = h5io.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law)
+            read = h5io.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law,
+                                      fmt=spec.format)
             if not spec.relax:
                 return read
             relaxed = [packing.relax(p, spec.force_tol, spec.max_steps, scene.model.law) for p in read]

@@ -5,10 +5,24 @@ A case is (what, scene text or None, extra command-line words, expected message 
 file maker or None).  ``{out}`` in a scene is the output path, ``{file}`` the made packing file.
 """
 
+import pathlib
+import shutil
+
 import h5py
 import numpy as np
 
 GOOD = "packing: {n: 64, phi: 0.9}\n"
+DEM = pathlib.Path(__file__).parent / "data" / "dem"  # files made by LAMMPS, LIGGGHTS and YADE
+
+
+def _dem(name, keep=lambda text: text):
+    """A maker: the committed DEM file ``name``, its text passed through ``keep``."""
+    def make(path):
+        if keep is None:
+            shutil.copyfile(DEM / name, path)
+        else:
+            pathlib.Path(path).write_text(keep((DEM / name).read_text()))
+    return make
 
 
 def _valid(path, dim=2, **changes):
@@ -142,7 +156,8 @@ CASES = [
      "packing.n = 16, packing.phi = 0.9: the 3D box would have side L = 2.16", None),
     # --- HDF5 packing files
     ("packing file missing", "packing: {file: nowhere.h5}\n", [], "packing file nowhere.h5: not found", None),
-    ("packing file not HDF5", "packing: {file: '{file}'}\n", [], "not a readable HDF5 file", _garbage),
+    ("packing file of no known format", "packing: {file: '{file}'}\n", [], "unknown format; the formats read are",
+     _garbage),
     ("packing file truncated", "packing: {file: '{file}'}\n", [], "not a readable HDF5 file", _truncated),
     ("positions missing", "packing: {file: '{file}'}\n", [], "no 'positions' dataset",
      lambda p: _valid(p, positions=None)),
@@ -177,6 +192,22 @@ CASES = [
      "'masses' (shape (64,)) must be (64,), finite and > 0", lambda p: _with_masses(p, -1.0)),
     ("waves on a rectangular box", "packing: {file: '{file}'}\nwaves: {n: [1]}\n", [],
      "standing waves are pooled over the axes and need a square or cubic box", _rectangular),
+    # --- packing files of LAMMPS, LIGGGHTS and YADE (tests/data/dem)
+    ("unknown packing.format", GOOD.replace("}", ", format: xyz}"), [],
+     "packing.format = 'xyz': must be one of rotsound, lammps-data, lammps-dump, yade, or null", None),
+    ("LAMMPS data file with a triclinic box", "packing: {file: '{file}'}\n", [],
+     "the box is triclinic", _dem("lammps_triclinic.data", None)),
+    ("LAMMPS data file cut short", "packing: {file: '{file}'}\n", [],
+     "the Atoms section has 117 atom lines where the header says 128 atoms",
+     _dem("lammps_3d.data", lambda text: text[:len(text) // 2])),
+    ("LAMMPS dump without the packing's columns", "packing: {file: '{file}'}\n", [],
+     "lack diameter or radius, x y z", _dem("lammps_3d_friction.forces", None)),
+    ("LAMMPS packing made with friction", "packing: {file: '{file}'}\n", [],
+     "normal contact forces alone: the largest net normal force on a non-rattler is 5.062e-02",
+     _dem("lammps_3d_friction.data", None)),
+    ("YADE export without its periodic cell", "packing: {file: '{file}'}\n", [],
+     "the yade file records no periodic box",
+     _dem("yade_3d.txt", lambda text: "".join(l for l in text.splitlines(True) if "PERIODIC" not in l))),
     ("relax without a file", "packing: {n: 64, phi: 0.9, relax: true}\n", [],
      "packing.relax = true re-minimises the packings of packing.file", None),
     ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],

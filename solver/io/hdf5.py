@@ -1,4 +1,5 @@
-"""HDF5 files: packing files (input and output) and the results file. Rank 0 writes.
+"""HDF5 files: packing files (input and output) and the results file. Rank 0 writes.  Packing
+files of LAMMPS, LIGGGHTS and YADE are read through ``dem_formats`` into the same checks.
 
 Packing file format (input from any code, and what rotsound writes under ``/packings``):
   one configuration at the top level, or several as groups ``/packings/<i>`` (sorted by
@@ -25,6 +26,7 @@ import numpy as np
 
 from ..errors import InputError
 from .. import profiling
+from . import dem_formats
 from ..packing.jammed import NAMES, Packing, from_arrays, min_contacts
 
 FORMAT_VERSION = 1
@@ -78,17 +80,40 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
         fail(f"'{name}' has shape {box.shape}; need ({dim},) for 'box' or one number for 'box_length'")
     if "box" in group.attrs and "box_length" in group.attrs and np.any(box != group.attrs["box_length"]):
         fail(f"'box' = {box.tolist()} and 'box_length' = {group.attrs['box_length']} disagree")
+    return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
+                   check_equilibrium, law)
+
+
+def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
+            check_equilibrium: bool, law: str) -> Packing:
+    """The checks every format shares (box > 2 max d, not all rattlers, equilibrium under
+    ``law``), then the Packing."""
     if not np.all(np.isfinite(box)) or np.any(box <= 2 * diameters.max()):
-        fail(f"{name} = {box.tolist()}: every side must be finite and > 2 max(diameters) = "
-             f"{2 * diameters.max():.4g}")
-    packing = from_arrays(positions, diameters, box, rattler, {"source": where}, masses, law)
+        raise InputError(f"packing file {where}: {box_name} = {np.asarray(box).tolist()}: every side must be "
+                         f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
+    packing = from_arrays(positions, diameters, box, rattler, info, masses, law)
     if packing.rattler.all():
         name = NAMES[packing.dim]
-        fail(f"no {name[:-1]} has {min_contacts(packing.dim)} or more contacts (not a jammed packing: all "
-             f"{name} are rattlers)")
+        raise InputError(f"packing file {where}: no {name[:-1]} has {min_contacts(packing.dim)} or more contacts "
+                         f"(not a jammed packing: all {name} are rattlers)")
     if check_equilibrium:
         require_equilibrium(packing, where, law)
     return packing
+
+
+def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str) -> Packing:
+    """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
+    file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
+    masses kept as they are (``model.masses: density`` scales them to a mean of 1)."""
+    raw = dem_formats.read(path, fmt)
+    if raw.box_lo is None:
+        raise InputError(f"packing file {path}: the {raw.source} file records no periodic box; rotsound needs "
+                         f"one (YADE: write it with SpherePack.save, or put its '##PERIODIC:: Lx Ly Lz' line "
+                         f"in textExt's comment)")
+    unit = float(raw.diameters.mean())
+    info = {"source": f"{path} ({raw.source})", "length_unit": unit}
+    return _finish((raw.positions - raw.box_lo) / unit, raw.diameters / unit, (raw.box_hi - raw.box_lo) / unit,
+                   None, raw.masses, info, path, "box", check_equilibrium, law)
 
 
 def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> None:
@@ -102,7 +127,8 @@ def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> 
             f"packing file {where}: not in mechanical equilibrium under the {law} normal contact forces alone: the "
             f"largest net normal force on a non-rattler is {residual:.3e} kn d0 > {EQUILIBRIUM_TOL:g}. The "
             f"dynamical matrix needs a minimum of the normal energy; a packing made with friction balances "
-            f"only with its tangential forces, and building unstressed springs on it would be wrong. Set "
+            f"only with its tangential forces, and building unstressed springs on it would be wrong (one written "
+            f"with few digits, as YADE's 6, is off balance by its rounding). Set "
             f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles)")
 
 
@@ -113,8 +139,7 @@ def net_force(packing: Packing, law: str = "harmonic") -> float:
 
     active = ~packing.rattler
     found = contacts.find_contacts(packing.positions, packing.diameters, packing.box, active)
-    d_i, d_j = packing.diameters[found.i], packing.diameters[found.j]
-    reduced = 0.5 * d_i * d_j / (d_i + d_j)  # R_i R_j / (R_i + R_j)
+    reduced = contact_law.reduced_radius(packing.diameters[found.i], packing.diameters[found.j])
     f = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal  # eq:eij, on i
     net = np.zeros((packing.n, packing.dim))
     for axis in range(packing.dim):
@@ -124,12 +149,17 @@ def net_force(packing: Packing, law: str = "harmonic") -> float:
 
 
 def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,
-                  law: str = "harmonic") -> list[Packing]:
+                  law: str = "harmonic", fmt: str | None = None) -> list[Packing]:
     """Read configurations from one or more packing files (first ``count``); each must be in
     equilibrium under its normal forces unless ``check_equilibrium`` is False (``packing.relax``
-    re-minimises it), under the normal ``law``. Not collective."""
+    re-minimises it), under the normal ``law``; ``fmt`` is ``packing.format`` (None: each
+    file's format is detected from its content). Not collective."""
     packings: list[Packing] = []
     for path in [paths] if isinstance(paths, str) else paths:
+        kind = fmt or dem_formats.detect_format(path)
+        if kind != "rotsound":
+            packings.append(_from_dem(path, kind, check_equilibrium, law))
+            continue
         with _open(path) as f:
             if "positions" in f:
                 packings.append(_read_one(f, path, check_equilibrium, law))

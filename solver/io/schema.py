@@ -61,8 +61,13 @@ class PackingSpec:
                   int)
     count: int | None = _f(None, "number of independent configurations; default 1 when "
                                  "generating, all of the file's with `file`", _range(1, 100000), int)
-    file: str | list[str] | None = _f(None, "HDF5 packing file, or a list of files (see README format)",
-                                      None, "paths")
+    file: str | list[str] | None = _f(None, "packing file, or a list of files: rotsound's HDF5 layout, a LAMMPS or "
+                                            "LIGGGHTS data file or text dump (atom_style sphere), or a YADE text "
+                                            "export (see README)", None, "paths")
+    format: str | None = _f(None, "format of packing.file: rotsound, lammps-data, lammps-dump or yade; null: "
+                                  "detected from each file's content",
+                            lambda v: None if v in ("rotsound", "lammps-data", "lammps-dump", "yade") else
+                            "must be one of rotsound, lammps-data, lammps-dump, yade, or null", str)
     force_tol: float = _f(1e-6, "FIRE stops when the largest net force per particle, divided by m, is below "
                                 "force_tol (kn d0/m)",
                           _range(0.0, 1e-2, True), float)

@@ -37,6 +37,11 @@ KN = 1.0  # normal stiffness, the unit of stiffness
 LAWS = ("harmonic", "hertz")
 
 
+def reduced_radius(d_i: np.ndarray, d_j: np.ndarray) -> np.ndarray:
+    """a' = R_i R_j / (R_i + R_j) (C,) of contacts between diameters d_i and d_j."""
+    return d_i * d_j / (2.0 * (d_i + d_j))
+
+
 def normal_force(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray | None = None) -> np.ndarray:
     """Magnitude f_n (C,) of the repulsive normal force of each contact (xi > 0): kn xi (harmonic)
     or kn sqrt(a' xi) xi (hertz: LAMMPS's gran/hertz/history, a' = ``reduced`` = R_i R_j/(R_i + R_j))."""

@@ -147,8 +147,7 @@ class _FrictionlessForces:
         separation = delta + shift
         near = np.einsum("pd,pd->p", separation, separation) < (contact + reach) ** 2
         i, j = i[near], j[near]
-        reduced = 0.25 * self.diameters[i] * self.diameters[j] / contact[near]
-        return i, j, shift[near], contact[near], reduced
+        return i, j, shift[near], contact[near], contact_law.reduced_radius(self.diameters[i], self.diameters[j])
 
     def _use(self, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray,
              reduced: np.ndarray) -> None:
@@ -221,7 +220,7 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
     and rattler fraction of a packing under the normal ``law`` (units kn = d0 = 1)."""
     dim = positions.shape[1]
     found = contacts.find_contacts(positions, diameters, box)
-    reduced = 0.25 * diameters[found.i] * diameters[found.j] / (0.5 * (diameters[found.i] + diameters[found.j]))
+    reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
     fn = contact_law.normal_force(found.overlap, law, reduced)
     active = ~rattler
     keep = active[found.i] & active[found.j]
