@@ -303,15 +303,18 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
     ``stability``: (schedule or None for the spectral path, omega_max, stability limit or None).
     Collective."""
     spec = scene.waves
-    ns, ks = excitation.wave_numbers(spec, p.box)
+    axes = excitation.wave_axes(spec, dm.dim)
+    ns, ks = excitation.wave_vectors(spec, p.box, axes)
     schedule, omega_max, limit = stability
     if spec.kd0 is not None:
-        say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks)} (n = {', '.join(map(str, ns))}, "
-                  f"L = {p.box[0]:.3f})")
+        for column, axis in enumerate(axes if np.any(ks != ks[:, :1]) else axes[:1]):
+            say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks[:, column])} "
+                      f"(n = {', '.join(map(str, ns[:, column]))}, L = {p.box[axis]:.3f}"
+                      + (f", along {'xyz'[axis]})" if len(set(p.box[axes])) > 1 else ")"))
     for mode in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
-        datasets, attrs, summary = mode_unit(dm, p.positions, spec, mode, ns, ks, omega_max=omega_max,
+        datasets, attrs, summary = mode_unit(dm, p.positions, spec, mode, ns, ks, axes, omega_max=omega_max,
                                              schedule=schedule, limit=limit)
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
         commit(f"waves/r{r_index:02d}_{mode}_p{p_index:04d}", datasets,
@@ -356,7 +359,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                                                     f"(positions (N, 2))")
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
-                excitation.wave_numbers(scene.waves, p.box)
+                excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
         keys = unitstore.unit_keys(scene, packings, petsc_argv)
         for index, p in enumerate(packings):
             i = p.info

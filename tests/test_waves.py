@@ -191,3 +191,73 @@ def test_spectral_path_matches_exact_reference(comm, packing64, mode):
     ts_error = np.abs(ts.z_fixed - exact).max() / np.abs(exact).max()
     assert_all(np.abs(ts.z_fixed - s.z_fixed).max() / np.abs(exact).max() <= 1.01 * ts_error + 1e-8, "vs TS")
     dm.destroy()
+
+
+@pytest.mark.parametrize("mode", ["L", "RT"])
+def test_a_packing_tiled_along_x_has_the_same_standing_waves_in_its_rectangular_box(comm, small_packing, mode):
+    """Two copies side by side in a (2L, L) box: k d0 = 2 pi / L is allowed along x (n = 2 on 2L)
+    and along y (n = 1), the two runs are pooled, and each run's z is twice the original's (two
+    copies in phase), so C(k, t) is the original's.  A run given the other axis' n or side, or
+    pooled with another k, differs at O(1)."""
+    from solver.io import schema
+    from solver.waves.unit import mode_unit
+
+    p = small_packing
+    tiled = packing.from_arrays(np.concatenate([p.positions, p.positions + [p.box_length, 0.0]]),
+                                np.tile(p.diameters, 2), [2 * p.box_length, p.box_length])
+    spec = schema.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
+                                           "sample_every": 25})
+    every = schedule("verlet", 0.02, 5.0, 25)
+    got = {}
+    for name, q in (("original", p), ("tiled", tiled)):
+        dm = dynmat.assemble(q, 1.0, comm)
+        ns, ks = excitation.wave_vectors(spec, q.box, [0, 1])
+        got[name] = mode_unit(dm, q.positions, spec, mode, ns, ks, [0, 1], omega_max=operators.largest_omega(dm),
+                              schedule=every)[0]
+        dm.destroy()
+    assert_all(got["tiled"]["n_axes"].tolist() == [[2, 1]] and "n_axes" not in got["original"], "allowed n")
+    # the same sums over twice the particles: round-off only
+    assert_close(got["tiled"]["z"], 2 * got["original"]["z"], rtol=0.0,
+                 atol=1e-12 * np.abs(got["original"]["z"]).max(), what=f"{mode} z")
+    assert_close(got["tiled"]["C"], got["original"]["C"], rtol=0.0, atol=1e-12, what=f"{mode} C")
+
+
+def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
+    """A box stretched 0.4 % along x: k d0 = 2 pi / L gives n = 1 on both sides, k_x = 2 pi / 1.004 L
+    and k_y = 2 pi / L (0.4 % apart: pooled), and each run's z is that run integrated alone at
+    its own axis' k; 'k' is their mean, 'k_axes' each."""
+    from solver.io import schema
+    from solver.waves.unit import mode_unit
+
+    p = small_packing
+    stretched = packing.from_arrays(p.positions * [1.004, 1.0], p.diameters, [1.004 * p.box_length, p.box_length])
+    spec = schema.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
+                                           "sample_every": 25})
+    every = schedule("verlet", 0.02, 5.0, 25)
+    dm = dynmat.assemble(stretched, 1.0, comm)
+    ns, ks = excitation.wave_vectors(spec, stretched.box, [0, 1])
+    data = mode_unit(dm, stretched.positions, spec, "TR", ns, ks, [0, 1], omega_max=operators.largest_omega(dm),
+                     schedule=every)[0]
+    assert_close(data["k_axes"][0], 2 * np.pi / stretched.box, rtol=1e-15, what="k per axis")
+    for r, (_, axis) in enumerate(excitation.runs("TR", 2)):
+        alone = waves.integrate(dm, stretched.positions, "TR", r, 2 * np.pi / stretched.box[axis],
+                                amplitude=spec.amplitude, schedule=every)
+        # block (MatMatMult) against one run (MatMult): round-off
+        assert_close(data["z"][r, 0], alone.z, rtol=0.0, atol=1e-12 * np.abs(alone.z).max(), what=f"run {r}")
+    dm.destroy()
+
+
+def test_waves_axes_keeps_the_runs_along_those_axes(comm, small_packing):
+    """waves.axes: [y] keeps only the runs with k along y (TR: v_x with k || y) and the k of y."""
+    from solver.io import schema
+    from solver.waves.unit import mode_unit
+
+    spec = schema.build(schema.WavesSpec, {"n": [1], "axes": ["y"], "t_end": 5.0, "dt": 0.02, "sample_every": 25})
+    dm = dynmat.assemble(small_packing, 1.0, comm)
+    axes = excitation.wave_axes(spec, 2)
+    ns, ks = excitation.wave_vectors(spec, small_packing.box, axes)
+    data, attrs, _ = mode_unit(dm, small_packing.positions, spec, "TR", ns, ks, axes,
+                               omega_max=operators.largest_omega(dm), schedule=schedule("verlet", 0.02, 5.0, 25))
+    dm.destroy()
+    assert_all(axes == [1] and data["runs"].tolist() == [[0, 1]] and data["z"].shape[0] == 1
+               and attrs["run_labels"] == '["v_x, k || y"]', f"{data['runs']}, {attrs['run_labels']}")

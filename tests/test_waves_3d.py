@@ -167,11 +167,10 @@ def test_unit_stores_every_run_in_order(spheres, mode):
 
     dm = dynmat.assemble(spheres, 1.0, PETSc.COMM_WORLD, 0.2, 0.3)
     spec = WavesSpec(n=[1, 2], t_end=5.0, dt=0.02, sample_every=25)
-    ns = np.array([1, 2])
-    ks = 2 * np.pi * ns / spheres.box_length
+    ns, ks = excitation.wave_vectors(spec, spheres.box, [0, 1, 2])  # the cube: one column three times
     every = schedule("verlet", 0.02, 5.0, 25)
-    data, attrs, _ = mode_unit(dm, spheres.positions, spec, mode, ns, ks, omega_max=operators.largest_omega(dm),
-                               schedule=every)
+    data, attrs, _ = mode_unit(dm, spheres.positions, spec, mode, ns, ks, [0, 1, 2],
+                               omega_max=operators.largest_omega(dm), schedule=every)
     count = len(excitation.runs(mode, 3))
     assert_all(data["z"].shape == (count, 2, 11) and data["z_fixed"].shape == (count, 2, 11)
                and data["energy_drift"].shape == (count, 2), f"shapes {data['z'].shape}")
@@ -179,7 +178,7 @@ def test_unit_stores_every_run_in_order(spheres, mode):
     labels = json.loads(attrs["run_labels"])
     assert_all(labels[0] == ("v_y, k || x" if mode == "TR" else "w_x, k || x") and len(labels) == count, str(labels))
     for r, i in [(0, 0)] + [(r, 1) for r in range(count)]:
-        alone = waves.integrate(dm, spheres.positions, mode, r, ks[i], amplitude=spec.amplitude, schedule=every)
+        alone = waves.integrate(dm, spheres.positions, mode, r, ks[i, 0], amplitude=spec.amplitude, schedule=every)
         # the same arithmetic in a block of R K columns or of one: MatMatMult vs MatMult round-off
         assert_close(data["z"][r, i], alone.z, rtol=0.0, atol=1e-12 * np.abs(alone.z).max(),
                      what=f"{mode} run {r} k {i}")
@@ -192,11 +191,11 @@ def test_analysis_fits_every_mode_including_r(spheres, matrix):
     its fitted frequencies lie inside the band of non-zero eigenfrequencies."""
     name, dm, (lam, _) = matrix
     spec = WavesSpec(n=[1, 2], t_end=60.0, dt=0.05, sample_every=5, method="spectral", tol=1e-8)
-    ns = np.array([1, 2])
-    ks = 2 * np.pi * ns / spheres.box_length
+    ns, ks = excitation.wave_vectors(spec, spheres.box, [0, 1, 2])
     units = {}
     for mode in MODES:
-        data, attrs, _ = mode_unit(dm, spheres.positions, spec, mode, ns, ks, omega_max=operators.largest_omega(dm))
+        data, attrs, _ = mode_unit(dm, spheres.positions, spec, mode, ns, ks, [0, 1, 2],
+                                   omega_max=operators.largest_omega(dm))
         units[f"waves/r00_{mode}_p0000"] = (data, {**attrs, "packing": 0})
     out = dispersion.analyse(units, AnalysisSpec(power_law_kd0_max=2 * np.pi))  # every k: L and TR count points
     groups = sorted(g for g in out if g.startswith("analysis/rho"))

@@ -143,6 +143,12 @@ INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
 WAVE_MODES = ("L", "TR", "RT", "R")
 
 
+def _axes(v):
+    if not v or len(set(v)) != len(v) or any(a not in ("x", "y", "z") for a in v):
+        return "must be a non-empty list of distinct axes from x, y, z, or null"
+    return None
+
+
 def _modes(v):
     bad = [m for m in v if m not in WAVE_MODES]
     if not v or bad or len(set(v)) != len(v):
@@ -177,6 +183,9 @@ class WavesSpec:
                              _positive_ints, "ints")
     kd0: list[float] | None = _f(None, "wave numbers as k d0; each is moved to the nearest allowed "
                                        "2 pi n / L (reported)", _kd0, "floats_list")
+    axes: list[str] | None = _f(None, "axes along which k runs, from x, y, z (z in 3D only); null: every axis. The "
+                                      "runs along them are pooled, so in a box whose sides differ their allowed k "
+                                      "must agree to 1 %", _axes, "strs")
     amplitude: float = _f(1e-3, "initial velocity amplitude A (d0/t0, or 1/t0 for RT)",
                           _range(0.0, 1.0, True), float)
     dt: float = _f(0.02, "time step (t0); refused at or above the scheme's stability limit (-waves_ts_dt wins)", _range(0.0, 10.0, True),
@@ -385,6 +394,8 @@ def check_dimension(scene: Scene, dim: int, source: str) -> None:
         raise InputError(f"model.rho_twist = {scene.model.rho_twist}: twisting resistance needs spheres in 3D, "
                          f"but {source} (in 2D a contact has no twist: set model.rho_twist to 0, or "
                          f"use spheres)")
+    if scene.waves is not None and scene.waves.axes is not None and "z" in scene.waves.axes:
+        raise InputError(f"waves.axes = {scene.waves.axes}: axis z needs 3D, but {source}")
     if scene.waves is not None and "R" in scene.waves.modes:
         raise InputError(f"waves.modes = {scene.waves.modes}: mode R (angular velocity along k) needs 3D, but "
                          f"{source}: in 2D the only rotation is about z (use RT, or spheres)")

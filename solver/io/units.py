@@ -182,7 +182,8 @@ def unit_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
                     seed=scene.seed + p_index if method == "kpm" else None,
                     options=petscopts.acting_on(petsc_argv, "spectra", method), **base)
             if scene.waves is not None:  # one mode's unit does not depend on the others asked
-                settings = {k: v for k, v in dataclasses.asdict(scene.waves).items() if k != "modes"}
+                settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()
+                            if k != "modes" and not (k == "axes" and v is None)}  # keys of before axes
                 options = petscopts.acting_on(petsc_argv, "waves", scene.waves.method)
                 for mode in scene.waves.modes:
                     keys[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = UnitKey.of(

@@ -21,7 +21,8 @@ is projected out, M-orthogonally (PHYSICS.md section 4): in a disordered packing
 sum_i sin(k . r_i) != 0, and that momentum (or spin angular momentum) would drift (spin) forever.
 Channel: z(t) = sum_i v_i,c(t) exp(-i k r_i,a) (the paper's Fourier transform of the velocities)
 = b^H v with b_i,c = exp(i k r_i,a(0)) for the r_i(0) phase (``channel``).
-Wave numbers: k = 2 pi n / L along each axis (``waves.n``, or ``waves.kd0`` moved to the nearest n).
+Wave numbers: k = 2 pi n / L_a along each axis a used (``waves.axes``; ``waves.n``, or
+``waves.kd0`` moved to the nearest n on each side), the same k on every axis pooled.
 numpy and one mpi4py reduction; no PETSc solves.  Units: d0 = m = kn = 1.
 """
 
@@ -55,25 +56,65 @@ def run_label(component: int, axis: int, dim: int) -> str:
     return f"{COMPONENT_NAMES[dim][component]}, k || {'xyz'[axis]}"
 
 
-def wave_numbers(spec, box) -> tuple[np.ndarray, np.ndarray]:
-    """(n (K,), k (K,)) allowed by the square or cubic box ``box`` ((D,) sides, or one) along any of its axes:
-    k = 2 pi n / L, from waves.n or nearest to waves.kd0 (n >= 1, duplicates merged, ascending).
-    Raises InputError above k d0 = 2 pi, and for a box whose sides differ: the runs along the
-    axes are pooled, so they need one set of allowed k. Not collective."""
-    box = np.atleast_1d(np.asarray(box, dtype=float))
-    if np.any(box != box[0]):
-        raise InputError(f"waves: the packing's box has sides {', '.join(f'{side:.4g}' for side in box)}; standing "
-                         f"waves are pooled over the axes and need a square or cubic box (one k for "
-                         f"every axis)")
-    box_length = float(box[0])
-    if spec.n is not None:
-        ns = np.array(sorted(set(spec.n)))
-    else:
-        ns = np.array(sorted({max(1, int(round(kd * box_length / (2 * np.pi)))) for kd in spec.kd0}))
-    ks = 2 * np.pi * ns / box_length
-    if ks.max() > 2 * np.pi:
-        raise InputError(f"waves.n = {int(ns.max())}: k d0 = {ks.max():.3f} exceeds 2 pi for box length "
-                         f"L = {box_length:.3f} (allowed n <= {int(box_length)})")
+def _nearest_n(kd: float, side: float) -> int:
+    """The n >= 1 whose k = 2 pi n / ``side`` is nearest to ``kd`` (ties to the even n)."""
+    return max(1, int(round(kd * side / (2 * np.pi))))
+
+
+def _refuse_above_two_pi(n: int, side: float) -> None:
+    if 2 * np.pi * n / side > 2 * np.pi:
+        raise InputError(f"waves.n = {n}: k d0 = {2 * np.pi * n / side:.3f} exceeds 2 pi for box length "
+                         f"L = {side:.3f} (allowed n <= {int(side)})")
+
+
+def wave_numbers(spec, box_length: float) -> tuple[np.ndarray, np.ndarray]:
+    """(n (K,), k (K,)) allowed along one side ``box_length`` L: k = 2 pi n / L, from waves.n or
+    nearest to waves.kd0 (n >= 1, duplicates merged, ascending).  Raises InputError above
+    k d0 = 2 pi. Not collective."""
+    ns = np.array(sorted(set(spec.n) if spec.n is not None else {_nearest_n(kd, box_length) for kd in spec.kd0}))
+    for n in ns[-1:]:
+        _refuse_above_two_pi(int(n), box_length)
+    return ns, 2 * np.pi * ns / box_length
+
+
+SPREAD = 0.01
+"""Largest relative spread of one wave number's k over the axes whose runs are pooled [choice]:
+the runs' C(k, t) are averaged as one k, so their k must agree; 1 % is below the scatter of a
+fitted dispersion."""
+
+
+def wave_axes(spec, dim: int) -> list[int]:
+    """Axes (0, 1[, 2]) along which k runs: ``waves.axes``, or every axis. Not collective."""
+    return list(range(dim)) if spec.axes is None else sorted("xyz".index(a) for a in spec.axes)
+
+
+def wave_vectors(spec, box: np.ndarray, axes: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(n (K, A), k (K, A)): for each asked wave number, the allowed n and k = 2 pi n / L_a along
+    each of the A ``axes`` of the box ``box`` (D,).  A square or cubic box gives the same column
+    A times (``wave_numbers``); in a box whose sides differ, waves.kd0 is moved to the nearest
+    allowed k along each axis, and the axes' k of one wave number must agree to ``SPREAD``
+    (waves.n, the same n on sides that differ, cannot).  Rows sorted by k, duplicates merged.
+    Raises InputError naming waves.axes otherwise, or above k d0 = 2 pi. Not collective."""
+    sides = np.asarray(box, dtype=float)[axes]
+    if np.all(sides == sides[0]):
+        ns, ks = wave_numbers(spec, float(sides[0]))
+        return np.repeat(ns[:, None], len(axes), axis=1), np.repeat(ks[:, None], len(axes), axis=1)
+    asked = spec.n if spec.n is not None else spec.kd0
+    rows = {tuple(int(v) for v in [value] * len(axes)) if spec.n is not None else
+            tuple(_nearest_n(value, side) for side in sides) for value in asked}
+    ns = np.array(sorted(rows, key=lambda row: np.mean(2 * np.pi * np.array(row) / sides)))
+    for column, side in enumerate(sides):
+        _refuse_above_two_pi(int(ns[:, column].max()), float(side))
+    ks = 2 * np.pi * ns / sides
+    spread = np.ptp(ks, axis=1) / ks.mean(axis=1)
+    if spread.max() > SPREAD:
+        row = int(spread.argmax())
+        names = ", ".join(f"k_{'xyz'[a]} = {k:.4f} (n = {n}, L = {side:.4g})"
+                          for a, k, n, side in zip(axes, ks[row], ns[row], sides))
+        raise InputError(f"waves: the box's sides differ, and the wave number asked has {names}: "
+                         f"{100 * spread[row]:.1f} % apart, more than the {100 * SPREAD:g} % over which runs are "
+                         f"pooled; set waves.axes to the axes whose allowed k agree (e.g. [{'xyz'[axes[0]]}])"
+                         + ("" if spec.n is None else ", or give waves.kd0 instead of waves.n"))
     return ns, ks
 
 

@@ -18,39 +18,47 @@ from ..analysis import correlations
 from . import excitation, integrators, spectral
 
 
-def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, *, omega_max: float,
-              schedule: integrators.Schedule | None = None, limit: float | None = None
+def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, axes: list[int], *,
+              omega_max: float, schedule: integrators.Schedule | None = None, limit: float | None = None
               ) -> tuple[dict, dict, str]:
-    """(datasets, attrs, summary) of one mode on ``dm`` for the wave numbers ``ks`` (``ns``), every
-    run of the mode in ``dm.dim`` dimensions (R runs: the first axis of z, z_fixed, energy_drift,
+    """(datasets, attrs, summary) of one mode on ``dm`` for the wave numbers ``ks`` (``ns``), both
+    (K, A) over the A ``axes`` used (``excitation.wave_vectors``), every run of the mode in
+    ``dm.dim`` dimensions along those axes (R runs: the first axis of z, z_fixed, energy_drift,
     error_estimate; which run is which: datasets ``runs`` (R, 2) and attribute ``run_labels``).
+    A run along axis a uses the k of that axis.
 
     ``spec``: the scene's waves section; ``schedule``: the resolved TS schedule (``method: ts``;
     None for ``spectral``, which samples every ``dt * sample_every`` to ``t_end``);
     ``limit``: its stability limit (None: none tabulated).  ``summary``: one line for the log.
     Raises StabilityError on every rank if a run blows up (nothing is returned then).
     """
-    excited = excitation.runs(mode, dm.dim)
-    count = len(excited)
+    chosen = [r for r, (_, axis) in enumerate(excitation.runs(mode, dm.dim)) if axis in axes]
+    excited = [excitation.runs(mode, dm.dim)[r] for r in chosen]
+    column = {r: axes.index(axis) for r, (_, axis) in zip(chosen, excited)}  # the k of the run's axis
+    count = len(ks)
     if schedule is None:
         times = np.arange(0.0, spec.t_end * (1 + 1e-12), spec.dt * spec.sample_every)
         series = [[spectral.spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times,
-                                     tol=spec.tol, omega_max=omega_max) for k in ks] for r in range(count)]
+                                     tol=spec.tol, omega_max=omega_max) for k in ks[:, column[r]]] for r in chosen]
     elif schedule.integrator == "verlet":  # all runs and k at once: one MatMatMult per step
-        flat = integrators.integrate_block(dm, positions, [(mode, r, k) for r in range(count) for k in ks],
+        flat = integrators.integrate_block(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
                                            amplitude=spec.amplitude, schedule=schedule)
-        series = [flat[r * len(ks):(r + 1) * len(ks)] for r in range(count)]
+        series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
     else:
         series = [[integrators.integrate(dm, positions, mode, r, k, amplitude=spec.amplitude, schedule=schedule)
-                   for k in ks] for r in range(count)]
+                   for k in ks[:, column[r]]] for r in chosen]
     z = np.array([[r.z for r in row] for row in series])  # (R, K, S)
     z_fixed = np.array([[r.z_fixed for r in row] for row in series])
     energy = np.array([[r.energy for r in row] for row in series])
     t = series[0][0].t
     vaf, omega, power = correlations.pooled(z, t[1] - t[0])
     drift = np.abs(energy - energy[..., :1]).max(axis=2) / energy[..., 0]
-    datasets = {"k": ks, "n": ns, "t": t, "C": vaf, "omega": omega, "S": power, "z": z, "z_fixed": z_fixed,
-                "energy_drift": drift, "runs": np.array(excited, dtype=np.int64)}
+    same = bool(np.all(ks == ks[:, :1]))  # one k for every axis (a square or cubic box, or sides n L)
+    datasets = {"k": ks[:, 0] if same else ks.mean(axis=1), "n": ns[:, 0], "t": t, "C": vaf, "omega": omega,
+                "S": power, "z": z, "z_fixed": z_fixed, "energy_drift": drift,
+                "runs": np.array(excited, dtype=np.int64)}
+    if not (same and np.all(ns == ns[:, :1])):  # sides that differ: each axis' own n and k (k: their mean)
+        datasets.update(n_axes=ns, k_axes=ks)
     settings = {"wmax": dm.wmax_settings}
     if schedule is None:
         datasets["error_estimate"] = np.array([[r.error_estimate for r in row] for row in series])
