@@ -1,4 +1,5 @@
-"""Run every scripts/bench_*.py in turn (alone: the machine has 2 cores) and write BENCHMARKS.md.
+"""Run every scripts/bench_*.py (and crosscheck_lammps.py) in turn (alone: the machine has 2 cores)
+and write BENCHMARKS.md.
 
     make bench          # or: python scripts/bench_all.py [--render-only]
 Each benchmark leaves a JSON record in results/bench/; this script renders them all, then appends
@@ -11,10 +12,16 @@ import sys
 
 from benchlib import OUT, PY, REPO, machine
 
-ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py",
-         "bench_spectral.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py"]
+ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_engines.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py",
+         "bench_spectral.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py", "crosscheck_lammps.py"]
 ARGS = {"bench_vdos.py": ["--skip", "slicing:32768"]}  # over an hour; the spectrum section has it with K/Q
 HAND_WRITTEN = ["bench_paper_programme.md"]  # configs/paper.yaml, timed from its own log
+RECORDS = {"crosscheck_lammps.py": "crosscheck"}  # record names of scripts not called bench_<name>.py
+
+
+def _record(script: str) -> str:
+    """Name of ``script``'s record: results/bench/<name>.json and BENCHMARKS.md's '## name'."""
+    return RECORDS.get(script, script[6:-3])
 
 
 def _sections(text: str) -> dict[str, str]:
@@ -33,10 +40,11 @@ def render() -> None:
              "same run, on the same machine, with the machine otherwise idle.", "",
              f"Machine: {machine()}", ""]
     for script in ORDER:
-        path = OUT / f"{script[6:-3]}.json"
+        path = OUT / f"{_record(script)}.json"
         if not path.exists():
-            kept = old.get(script[6:-3])
-            lines += [kept, ""] if kept else [f"## {script[6:-3]}", "", f"not run yet (`python scripts/{script}`)", ""]
+            kept = old.get(_record(script))
+            missing = [f"## {_record(script)}", "", f"not run yet (`python scripts/{script}`)", ""]
+            lines += [kept, ""] if kept else missing
             continue
         record = json.loads(path.read_text())
         lines += [f"## {record['name']}", "", f"Command: `{record['command']}`  ", f"Date: {record['date']}  ",

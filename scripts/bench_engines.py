@@ -109,12 +109,12 @@ def main() -> None:
                         table.append({"D": dim, "N": n, "phi": PHI[dim], "seed": seed, "engine": engine,
                                       "ranks": ranks, "time [s]": round(r["seconds"], 2), "steps": r["steps"],
                                       "ms/step": round(1e3 * r["seconds"] / r["steps"], 3),
-                                      "max|F| (engine)": f"{r['max_force']:.3e}",
-                                      "max|F| (rotsound's forces)": f"{r['rotsound_max_force']:.3e}",
+                                      "max force (engine)": f"{r['max_force']:.3e}",
+                                      "max force (rotsound's forces)": f"{r['rotsound_max_force']:.3e}",
                                       "z": round(r["z"], 4), "pressure": f"{r['pressure']:.4e}",
                                       "rattlers": round(r["rattler_fraction"], 4),
-                                      "max|dr| vs rotsound": f"{displacement(positions, first['rotsound FIRE'], box):.2e}",
-                                      f"max|dr| vs LAMMPS on {args.ranks[0]} rank(s)":
+                                      "max dr vs rotsound": f"{displacement(positions, first['rotsound FIRE'], box):.2e}",
+                                      f"max dr vs LAMMPS on {args.ranks[0]} rank(s)":
                                           f"{displacement(positions, first[engine], box):.2e}" if kind == "lammps" else ""})
                         print(json.dumps(table[-1]), flush=True)
     save("engines", "python scripts/bench_engines.py " + " ".join(sys.argv[1:]), table,

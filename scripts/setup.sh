@@ -11,20 +11,7 @@ PKGS=(python3-petsc4py python3-slepc4py python3-mpi4py python3-h5py-mpi python3-
       python3-matplotlib python3-yaml python3-numba python3-pytest python3-pytest-timeout openmpi-bin
       python3-venv lammps python3-lammps liblammps-dev)  # LAMMPS: packing.engine, its tests
 
-missing=()
-for p in "${PKGS[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  if [ "$(id -u)" -ne 0 ]; then
-    echo "rotsound setup: missing Debian packages. Run, then retry:" >&2
-    echo "  sudo apt-get update && sudo apt-get install -y --no-install-recommends ${missing[*]}" >&2
-    exit 1
-  fi
-  echo "rotsound setup: installing ${missing[*]}" >&2
-  apt-get update -qq >/dev/null
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+bash scripts/apt_install.sh "${PKGS[@]}"
 
 if [ ! -x .venv/bin/python ]; then
   /usr/bin/python3 -m venv --system-site-packages .venv

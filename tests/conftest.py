@@ -166,6 +166,18 @@ def run_stopped_after_windows(monkeypatch, scene, windows: int = 2) -> list:
 
 
 @pytest.fixture(scope="session")
+def lammps_present():
+    """Skip when LAMMPS's Python module or library is missing (the same verdict on every rank)."""
+    from solver.errors import InputError
+    from solver.packing import lammps_engine
+
+    try:
+        lammps_engine._open(COMM, screen=False).close()
+    except InputError as exc:
+        pytest.skip(f"LAMMPS is not installed ({exc})")
+
+
+@pytest.fixture(scope="session")
 def small_packing():
     """A jammed 64-disk packing at phi = 0.9 (same on every rank)."""
     from solver.packing import jammed as packing

@@ -14,15 +14,6 @@ from solver.packing import jammed as packing
 from solver.packing import lammps_engine
 
 
-@pytest.fixture(scope="module")
-def lammps_present():
-    """Skip when LAMMPS's Python module or library is missing (the same verdict on every rank)."""
-    try:
-        lammps_engine._open(COMM, screen=False).close()
-    except InputError as exc:
-        pytest.skip(f"LAMMPS is not installed ({exc})")
-
-
 def recipe_start(n: int, phi: float, dim: int, seed: int):
     """The recipe's start: (positions (n, dim) uniform in the box, bidisperse diameters, box (dim,))."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))

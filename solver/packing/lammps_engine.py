@@ -89,10 +89,10 @@ def _open(comm, screen: bool):
 PAIR_STYLES = {"harmonic": "gran/hooke", "hertz": "gran/hertz/history"}  # per contact_law.LAWS
 
 
-def _build(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, law: str = "harmonic") -> None:
-    """Box, particles (ids 1..N in input order, radius d/2, mass 1) and the normal contact of
-    ``law``: ``gran/hooke`` (kn xi) or ``gran/hertz/history`` (kn sqrt(a' xi) xi), kn = 1, no
-    damping, no friction.  Collective."""
+def create_particles(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray):
+    """LAMMPS units lj, the periodic box (D,) from the origin (2D: z in [-0.5, 0.5]), and the
+    particles: ids 1..N in input order, ``atom_style sphere`` with radius d/2 and mass 1.
+    Returns the ids this rank owns (None if none).  Collective (also for scripts/crosscheck_lammps.py)."""
     n, dim = positions.shape
     sides = " ".join(f"0 {float(side)!r}" for side in box) + (" -0.5 0.5" if dim == 2 else "")
     lmp.commands_string(f"""
@@ -114,6 +114,14 @@ def _build(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, l
     if ids is not None:  # None on a rank that owns no particle
         lmp.numpy.extract_atom("radius")[:] = 0.5 * diameters[ids - 1]
         lmp.numpy.extract_atom("rmass")[:] = 1.0
+    return ids
+
+
+def _build(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, law: str = "harmonic") -> None:
+    """The particles (:func:`create_particles`) and the normal contact of ``law``:
+    ``gran/hooke`` (kn xi) or ``gran/hertz/history`` (kn sqrt(a' xi) xi), kn = 1, no damping, no
+    friction.  Collective."""
+    create_particles(lmp, positions, diameters, box)
     lmp.commands_string(f"""
         pair_style {PAIR_STYLES[law]} {KN!r} NULL 0.0 NULL 0.0 0
         pair_coeff * *
@@ -122,7 +130,7 @@ def _build(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, l
     """)
 
 
-def _gather(lmp, name: str, n: int, dim: int) -> np.ndarray:
+def gather(lmp, name: str, n: int, dim: int) -> np.ndarray:
     """Per-particle vector ``name`` (N, dim) in id order, on every rank.  Collective."""
     return np.ctypeslib.as_array(lmp.gather_atoms(name, 1, 3)).reshape(n, 3)[:, :dim].copy()
 
@@ -157,7 +165,7 @@ def forces(positions: np.ndarray, diameters: np.ndarray, box, comm,
             thermo_style custom step c_virial
             run 0
         """)  # the virial is tallied on steps where a compute asks for it
-        return (_gather(lmp, "f", *positions.shape), float(lmp.extract_compute("virial", 0, 0)))
+        return (gather(lmp, "f", *positions.shape), float(lmp.extract_compute("virial", 0, 0)))
     finally:
         lmp.close()
 
@@ -191,8 +199,8 @@ def minimize(start: np.ndarray, diameters: np.ndarray, box, force_tol: float, ma
             minimize 0.0 {float(force_tol)!r} {int(max_steps)} {2 * int(max_steps) + 1}
         """)
         steps = int(lmp.extract_global("ntimestep"))
-        positions = contacts.wrap(_gather(lmp, "x", n, dim), box)
-        force = _gather(lmp, "f", n, dim)
+        positions = contacts.wrap(gather(lmp, "x", n, dim), box)
+        force = gather(lmp, "f", n, dim)
     finally:
         lmp.close()
     max_force = float(np.sqrt(np.max(np.einsum("nd,nd->n", force, force))))
