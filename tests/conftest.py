@@ -197,12 +197,13 @@ def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:
     return sl.eigh(dense)
 
 
-def exact_z_fixed(p, dm, eig, run, k, t, amplitude):
-    """The exact z(t) (r_i(0) in the phase) of one standing-wave run (component, axis) from the full
-    eigendecomposition ``eig`` = :func:`dense_eigen` (PHYSICS.md section 4), 2D or 3D.  The start
-    is the raw amplitude sin(k r_a) in the component with its part in A's whole null space removed
-    -- found from the eigenvalues, not from ``dm.rigid_modes()``, and in A's (mass-weighted)
-    metric, so the reference does not share the code's projection.  Collective (gathers M)."""
+def modal_weights(p, dm, eig, run, k, amplitude):
+    """(omega (n,), w (n,)): one standing-wave run's z(t) (r_i(0) in the phase) is exactly
+    sum_j w_j cos(omega_j t), from the full eigendecomposition ``eig`` = :func:`dense_eigen`
+    (PHYSICS.md section 4), 2D or 3D.  The start is the raw amplitude sin(k r_a) in the component
+    with its part in A's whole null space removed -- found from the eigenvalues, not from
+    ``dm.rigid_modes()``, and in A's (mass-weighted) metric, so the reference does not share the
+    code's projection.  Collective (gathers M)."""
     from solver.model import dynmat
 
     lam, vec = eig
@@ -218,8 +219,14 @@ def exact_z_fixed(p, dm, eig, run, k, t, amplitude):
     a[zero] = 0.0
     b = np.zeros((len(r0), dm.dof), complex)
     b[:, component] = np.exp(-1j * k * r0[:, axis])
-    bt = (b.ravel() / np.sqrt(mass)) @ vec
-    return (bt * a) @ np.cos(np.outer(omega, t))
+    return omega, ((b.ravel() / np.sqrt(mass)) @ vec) * a
+
+
+def exact_z_fixed(p, dm, eig, run, k, t, amplitude):
+    """The exact z(t) (S,) of one standing-wave run (component, axis) at times ``t`` (S,)
+    (:func:`modal_weights`). Collective."""
+    omega, w = modal_weights(p, dm, eig, run, k, amplitude)
+    return w @ np.cos(np.outer(omega, t))
 
 
 def schedule(integrator, dt, t_end, every):

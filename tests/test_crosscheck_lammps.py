@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import COMM, REPO, assert_all, assert_close, dense_eigen, exact_z_fixed
+from conftest import COMM, REPO, assert_all, assert_close, dense_eigen, exact_z_fixed, modal_weights
 
 from solver.model import dynmat
 from solver.packing import jammed
@@ -31,22 +31,12 @@ def verlet_bound(p, dm, eig, runs, k, t, dt) -> np.ndarray:
     sum_j w_rj cos(omega~_j t) with omega~ = 2/dt arcsin(omega dt/2) (crosscheck.verlet_eigen), so
     |C_Verlet - C_exact| <= sum_r |z_r(0)| sum_j |w_rj| min(2, |omega~_j - omega_j| t) / sum_r |z_r(0)|^2,
     with |omega~ - omega| t = omega^3 dt^2 t / 24 + O(dt^4): the dt^2 error, mode by mode.  The
-    weights w_rj are exact_z_fixed's (same start, null space removed, same channel).  Collective."""
-    lam, vec = eig
-    zero = np.abs(lam) < 1e-10 * lam.max()
-    omega = np.sqrt(np.where(zero, 0.0, lam))
-    drift = np.minimum(2.0, np.outer(np.abs(np.sqrt(crosscheck.verlet_eigen(eig, dt)[0]) - omega), t))
-    mass = dynmat.gather_vec(dm.M)
-    r0 = p.positions[dm.active]
+    weights w_rj are conftest.modal_weights' (exact_z_fixed's).  Collective."""
+    verlet = np.sqrt(crosscheck.verlet_eigen(eig, dt)[0])
     num, den = np.zeros(len(t)), 0.0
-    for component, axis in runs:
-        v0 = np.zeros((len(r0), dm.dof))
-        v0[:, component] = AMPLITUDE * np.sin(k * r0[:, axis])
-        a = vec.T @ (np.sqrt(mass) * v0.ravel())
-        a[zero] = 0.0
-        b = np.zeros((len(r0), dm.dof), complex)
-        b[:, component] = np.exp(-1j * k * r0[:, axis])
-        w = ((b.ravel() / np.sqrt(mass)) @ vec) * a
+    for run in runs:
+        omega, w = modal_weights(p, dm, eig, run, k, AMPLITUDE)
+        drift = np.minimum(2.0, np.outer(np.abs(verlet - omega), t))
         num += abs(w.sum()) * (np.abs(w) @ drift)
         den += abs(w.sum()) ** 2
     return num / den
