@@ -78,16 +78,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
         def load(_):
             read = h5io.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law,
                                       fmt=spec.format)
-            if not spec.relax:
-                return read
-            relaxed = [packing.relax(p, spec.force_tol, spec.max_steps, scene.model.law) for p in read]
-            for index, p in enumerate(relaxed):
-                if why := packing.jamming_failure(p):
-                    raise InputError(f"packing.relax: configuration {index} of {spec.file} did not stay jammed "
-                                     f"without friction: {why}; a packing made with friction can be looser than "
-                                     f"the frictionless jamming point (phi = {p.phi:.4f} here), and then has no "
-                                     f"frictionless rigid state to build the matrix on")
-            return relaxed
+            return [_relaxed(p, index, scene) for index, p in enumerate(read)] if spec.relax else read
 
         return parallel.owner_compute(comm, [0], load)[0]
     count = spec.count or 1
@@ -108,6 +99,19 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     packings = [by_index[i] if found[i] is None else packing_from_unit(found[i]) for i in range(count)]
     packing.require_jammed(packings, spec.phi)  # made, resumed or cached alike, before any solver
     return packings
+
+
+def _relaxed(p: packing.Packing, index: int, scene: Scene) -> packing.Packing:
+    """``packing.relax``: configuration ``index`` of the file re-minimised frictionlessly; InputError
+    if it does not stay jammed. Not collective."""
+    spec = scene.packing
+    relaxed = packing.relax(p, spec.force_tol, spec.max_steps, scene.model.law)
+    if why := packing.jamming_failure(relaxed):
+        raise InputError(f"packing.relax: configuration {index} of {spec.file} did not stay jammed without "
+                         f"friction: {why}; a packing made with friction can be looser than the frictionless "
+                         f"jamming point (phi = {relaxed.phi:.4f} here), and then has no frictionless rigid "
+                         f"state to build the matrix on")
+    return relaxed
 
 
 def _unit_names(scene: Scene, r_index: int, p_index: int) -> list[str]:
@@ -307,10 +311,11 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
     ns, ks = excitation.wave_vectors(spec, p.box, axes)
     schedule, omega_max, limit = stability
     if spec.kd0 is not None:
-        for column, axis in enumerate(axes if np.any(ks != ks[:, :1]) else axes[:1]):
+        several = len(set(p.box[axes])) > 1  # sides that differ: one line per axis
+        for column, axis in enumerate(axes if several else axes[:1]):
+            along = f", along {'xyz'[axis]}" if several else ""
             say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks[:, column])} "
-                      f"(n = {', '.join(map(str, ns[:, column]))}, L = {p.box[axis]:.3f}"
-                      + (f", along {'xyz'[axis]})" if len(set(p.box[axes])) > 1 else ")"))
+                      f"(n = {', '.join(map(str, ns[:, column]))}, L = {p.box[axis]:.3f}{along})")
     for mode in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()

@@ -102,6 +102,14 @@ def test_start_velocity_excites_only_its_channel_without_zero_modes(spheres, mat
                 assert_all(np.array_equal(v0[:, component], raw), f"{label}: the start was changed")
 
 
+def assert_converges(errors, bound, order, slack, what):
+    """errors = [per-run errors at dt, at dt / 2]: the finer ones below ``bound`` and the observed
+    orders log2(e(dt) / e(dt/2)) within ``slack`` of ``order``, on every rank."""
+    orders = np.log2(errors[0] / errors[1])
+    assert_all(errors[1].max() < bound, f"{what}: errors {errors[1]} above {bound:.2e}")
+    assert_all(np.all(np.abs(orders - order) < slack), f"{what}: observed orders {orders}")
+
+
 @pytest.mark.parametrize("mode", MODES)
 def test_block_verlet_matches_exact_reference_at_second_order(spheres, matrix, mode):
     """Every run of the mode in one block, at dt and dt / 2: each within Verlet's phase-error bound
@@ -118,9 +126,7 @@ def test_block_verlet_matches_exact_reference_at_second_order(spheres, matrix, m
         errors.append(relative_errors(spheres, dm, eig, mode, k, block))
     omega_max = operators.largest_omega(dm)
     bound = (omega_max * 0.01) ** 2 / 24 * omega_max * 5.0  # measured: at most 0.35 of it (all, R)
-    orders = np.log2(errors[0] / errors[1])
-    assert_all(errors[1].max() < bound, f"{name} {mode}: errors {errors[1]} above {bound:.2e}")
-    assert_all(np.all(np.abs(orders - 2) < 0.15), f"{name} {mode}: observed orders {orders}")
+    assert_converges(errors, bound, 2, 0.15, f"{name} {mode}")
 
 
 @pytest.mark.parametrize("mode", MODES)
@@ -138,9 +144,7 @@ def test_petsc_rk4_matches_exact_reference_at_fourth_order(spheres, matrix, mode
         errors.append(relative_errors(spheres, dm, eig, mode, k, series))
     omega_max = operators.largest_omega(dm)
     bound = (omega_max * 0.06) ** 4 / 120 * omega_max * 5.0  # measured: at most 0.26 of it (all, R)
-    orders = np.log2(errors[0] / errors[1])
-    assert_all(errors[1].max() < bound, f"{name} {mode}: errors {errors[1]} above {bound:.2e}")
-    assert_all(np.all(np.abs(orders - 4) < 0.3), f"{name} {mode}: observed orders {orders}")
+    assert_converges(errors, bound, 4, 0.3, f"{name} {mode}")
 
 
 @pytest.mark.parametrize("mode", MODES)
