@@ -17,11 +17,11 @@ FILE = str(REPO / "cache" / "bench_32768.h5")
 def case() -> None:
     from solver import petscenv
     from solver.model import dynmat
-    from solver.io import hdf5 as h5io
+    from solver.io import hdf5
 
     PETSc = petscenv.init([])
     comm = PETSc.COMM_WORLD
-    (p,) = h5io.read_packings(FILE)
+    (p,) = hdf5.read_packings(FILE)
     times, scipy_times = [], []
     for _ in range(REPEATS):
         comm.tompi4py().Barrier()

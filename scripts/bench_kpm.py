@@ -23,14 +23,14 @@ SETTINGS = [(0, 16), (0, 64), (2000, 16), (2000, 64)]  # (moments, 0 = auto; pro
 def case(n: int, exact: bool) -> None:
     from solver import petscenv
     from solver.model import dynmat, operators
-    from solver.io import hdf5 as h5io
+    from solver.io import hdf5
     from solver.spectrum import kpm
-    from solver.spectrum import slicing as spectrum
+    from solver.spectrum import slicing
     from solver.spectrum.modes import bin_average
 
     PETSc = petscenv.init([])
     mpi = PETSc.COMM_WORLD.tompi4py()
-    (p,) = h5io.read_packings(str(FILES[n]))
+    (p,) = hdf5.read_packings(str(FILES[n]))
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
     out = {"n": n, "kpm": []}
     t0 = time.perf_counter()
@@ -41,7 +41,7 @@ def case(n: int, exact: bool) -> None:
         cached = load_exact_spectrum(FILES[n])
         if cached is None:  # solve now (every rank) and keep it; rank 0 holds the energies
             t0 = time.perf_counter()
-            result = spectrum.solve(dm, window=None, vectors=True)
+            result = slicing.solve(dm, window=None, vectors=True)
             seconds = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
             if PETSc.COMM_WORLD.rank == 0:
                 save_exact_spectrum(FILES[n], result, seconds)

@@ -15,14 +15,14 @@ CASES = [(2048, [1, 2, 3]), (32768, [1])]
 
 
 def case(n: int, seed: int) -> None:
-    from solver.io import hdf5 as h5io
-    from solver.packing import jammed as packing
+    from solver.io import hdf5
+    from solver.packing import jammed
 
     with Timer() as t:
-        p = packing.generate(n, 0.9, np.random.SeedSequence([seed, 0]))
+        p = jammed.generate(n, 0.9, np.random.SeedSequence([seed, 0]))
     if n == 32768 and seed == 1:
         (REPO / "cache").mkdir(exist_ok=True)
-        h5io.save_packings(str(REPO / "cache" / "bench_32768.h5"), [p])
+        hdf5.save_packings(str(REPO / "cache" / "bench_32768.h5"), [p])
     print(json.dumps({"n": n, "seed": seed, "seconds": t.seconds, "steps": p.info["fire_steps"],
                       "max_force": p.info["max_force"], "z": p.info["z"], "peak_gib": peak_rss_gib()}))
 

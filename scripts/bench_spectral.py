@@ -61,7 +61,7 @@ def _report(PETSc, seconds, z, extra=None):
 
 def case(n: int, method: str, setting: float) -> None:
     """One timed run on the communicator mpirun gives: spectral (setting = tol) or TS (setting = dt)."""
-    from solver.waves import integrators as waves
+    from solver.waves import integrators
     from solver.waves.spectral import spectral
 
     PETSc, p, dm, omega_max, k = _setup(n)
@@ -71,8 +71,8 @@ def case(n: int, method: str, setting: float) -> None:
         s = spectral(dm, p.positions, "L", 0, k, amplitude=1e-3, times=times(), tol=setting,
                      omega_max=omega_max)
     else:
-        s = waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
-                            schedule=waves.resolve_schedule(integrator=method, dt=setting, t_end=T_END,
+        s = integrators.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
+                            schedule=integrators.resolve_schedule(integrator=method, dt=setting, t_end=T_END,
                                                             sample_every=int(round(SAMPLE / setting))))
     _report(PETSc, time.perf_counter() - t0, s.z_fixed, {"steps": s.steps, "estimate": s.error_estimate})
 
@@ -86,18 +86,18 @@ def scipy_case(n: int, dt: float) -> None:
 
 def scaling_case() -> None:
     """N = 32768 on this communicator: 200 MatMults, 500 Verlet steps, one spectral wave."""
-    from solver.waves import integrators as waves
+    from solver.waves import integrators
     from solver.waves.spectral import spectral
 
     PETSc, p, dm, omega_max, k = _setup(32768)
-    verlet = waves.resolve_schedule(integrator="verlet", dt=0.02, t_end=10.0, sample_every=5)
+    verlet = integrators.resolve_schedule(integrator="verlet", dt=0.02, t_end=10.0, sample_every=5)
     mpi = PETSc.COMM_WORLD.tompi4py()
     x, y = dm.D.createVecs()
     x.setRandom()
     out = {}
     for name, run in (
             ("matmult", lambda: [dm.D.mult(x, y) for _ in range(200)]),
-            ("verlet", lambda: waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3, schedule=verlet)),
+            ("verlet", lambda: integrators.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3, schedule=verlet)),
             ("spectral", lambda: spectral(dm, p.positions, "L", 0, k, amplitude=1e-3, times=times(),
                                           tol=1e-8, omega_max=omega_max))):
         mpi.Barrier()

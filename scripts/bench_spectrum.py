@@ -22,23 +22,23 @@ COMMAND = ["python scripts/bench_spectrum.py " + " ".join(sys.argv[1:])]
 def packing_file(n: int) -> str:
     path = REPO / "cache" / f"bench_{n}.h5"
     if not path.exists():
-        from solver.io import hdf5 as h5io
-        from solver.packing import jammed as packing
+        from solver.io import hdf5
+        from solver.packing import jammed
 
         path.parent.mkdir(exist_ok=True)
-        h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
+        hdf5.save_packings(str(path), [jammed.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
     return str(path)
 
 
 def slepc_case(path: str, vectors: bool, window: str) -> None:
     from solver import petscenv
     from solver.model import dynmat
-    from solver.io import hdf5 as h5io
-    from solver.spectrum import slicing as spectrum
+    from solver.io import hdf5
+    from solver.spectrum import slicing
 
     PETSc = petscenv.init([])
     comm = PETSc.COMM_WORLD
-    (p,) = h5io.read_packings(path)
+    (p,) = hdf5.read_packings(path)
     dm = dynmat.assemble(p, 1.0, comm)
     win = None if window == "full" else tuple(map(float, window.split(",")))
     mpi = comm.tompi4py()
@@ -55,7 +55,7 @@ def slepc_case(path: str, vectors: bool, window: str) -> None:
                 f.write(f"DOF={dm.size} {window}: window {done}/{total}, {modes} modes, "
                         f"{time.perf_counter() - t:.0f} s, rank-0 peak RSS {peak_rss_gib():.2f} GiB\n")
 
-    result = spectrum.solve(dm, window=win, vectors=vectors, progress=progress, checkpoint=checkpoint)
+    result = slicing.solve(dm, window=win, vectors=vectors, progress=progress, checkpoint=checkpoint)
     seconds = mpi.allreduce(time.perf_counter() - t, op=__import__("mpi4py").MPI.MAX) + checkpoint.credited
     mpi.Barrier()
     checkpoint.clear()
@@ -74,11 +74,11 @@ def eigh_case(path: str, vectors: bool) -> None:
 
     from solver import petscenv
     from solver.model import dynmat
-    from solver.io import hdf5 as h5io
+    from solver.io import hdf5
     from solver.model import operators
 
     PETSc = petscenv.init([])
-    (p,) = h5io.read_packings(path)
+    (p,) = hdf5.read_packings(path)
     dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
     A = operators.scaled_operator(dm)
     dense = dynmat.gather_csr(A).toarray()
@@ -93,11 +93,11 @@ def omega_max_case(path: str) -> None:
     """The top of the band, by the cheap largest-eigenvalue solve (slicing [4.5, 100] took 7 min)."""
     from solver import petscenv
     from solver.model import dynmat
-    from solver.io import hdf5 as h5io
+    from solver.io import hdf5
     from solver.model import operators
 
     PETSc = petscenv.init([])
-    (p,) = h5io.read_packings(path)
+    (p,) = hdf5.read_packings(path)
     omega_max = operators.largest_omega(dynmat.assemble(p, 1.0, PETSc.COMM_WORLD))
     if PETSc.COMM_WORLD.rank == 0:
         print(json.dumps({"omega_max": omega_max}))
@@ -116,8 +116,8 @@ def main() -> None:
                         help="keep the rows of the last record that this run does not re-measure")
     args = parser.parse_args()
     table = []
-    if args.merge and (OUT / "spectrum.json").exists():
-        last = json.loads((OUT / "spectrum.json").read_text())
+    if args.merge and (OUT / "slicing.json").exists():
+        last = json.loads((OUT / "slicing.json").read_text())
         COMMAND[0] = f"{last['command']} (rows of {last['date']}) + {COMMAND[0]}"
         table = last["table"]
     env_eigh = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "2"}

@@ -38,21 +38,21 @@ def spheres_path(n: int):
 
 def load_spheres(n: int):
     """The 3D benchmark packing of n spheres (made by the ``packing`` case if absent)."""
-    from solver.io import hdf5 as h5io
+    from solver.io import hdf5
 
     path = spheres_path(n)
     if not path.exists():
         run_json([PY, ME, "--case", "packing", str(n)], timeout=4 * 3600)
-    return h5io.read_packings(str(path))[0]
+    return hdf5.read_packings(str(path))[0]
 
 
 def packing_case(n: int) -> dict:
-    from solver.io import hdf5 as h5io
+    from solver.io import hdf5
     from solver.packing import jammed
 
     p = jammed.generate(n, PHI, np.random.SeedSequence([1, 0]), dim=3)
     spheres_path(n).parent.mkdir(exist_ok=True)
-    h5io.save_packings(str(spheres_path(n)), [p])
+    hdf5.save_packings(str(spheres_path(n)), [p])
     return {"z": p.info["z"]}
 
 

@@ -36,7 +36,7 @@ def ts_case(integrator: str, dt: float) -> None:
     assert abs(SAMPLE / dt - round(SAMPLE / dt)) < 1e-9, "dt must divide the sampling interval"
     from solver import petscenv
     from solver.model import dynmat
-    from solver.waves import integrators as waves
+    from solver.waves import integrators
 
     PETSc = petscenv.init([])
     p = load_packing(2048)
@@ -45,8 +45,8 @@ def ts_case(integrator: str, dt: float) -> None:
     mpi = PETSc.COMM_WORLD.tompi4py()
     mpi.Barrier()
     t0 = time.perf_counter()
-    s = waves.integrate(dm, p.positions, "L", 0, float(ref["k"]), amplitude=1e-3,
-                        schedule=waves.resolve_schedule(integrator=integrator, dt=dt, t_end=T_END,
+    s = integrators.integrate(dm, p.positions, "L", 0, float(ref["k"]), amplitude=1e-3,
+                        schedule=integrators.resolve_schedule(integrator=integrator, dt=dt, t_end=T_END,
                                                         sample_every=int(round(SAMPLE / dt))))
     seconds = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     error = float(np.abs(s.z_fixed - ref["z"]).max() / np.abs(ref["z"]).max())
@@ -66,7 +66,7 @@ def step_cost_case() -> None:
     """N = 32768: time per Verlet TS step vs per bare MatMult; and one run to t = 200."""
     from solver import petscenv
     from solver.model import dynmat
-    from solver.waves import integrators as waves
+    from solver.waves import integrators
 
     PETSc = petscenv.init([])
     p = load_packing(32768)
@@ -83,25 +83,25 @@ def step_cost_case() -> None:
     k = 2 * np.pi * 32 / p.box_length
     mpi.Barrier()
     t0 = time.perf_counter()
-    s = waves.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
-                        schedule=waves.resolve_schedule(integrator="verlet", dt=0.02, t_end=reps * 0.02,
+    s = integrators.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
+                        schedule=integrators.resolve_schedule(integrator="verlet", dt=0.02, t_end=reps * 0.02,
                                                         sample_every=reps))
     step = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX) / s.steps
     mpi.Barrier()
     t0 = time.perf_counter()
-    full = waves.integrate(dm, p.positions, "RT", 0, k, amplitude=1e-3,
-                           schedule=waves.resolve_schedule(integrator="verlet", dt=0.02, t_end=200.0, sample_every=5))
+    full = integrators.integrate(dm, p.positions, "RT", 0, k, amplitude=1e-3,
+                           schedule=integrators.resolve_schedule(integrator="verlet", dt=0.02, t_end=200.0, sample_every=5))
     run200 = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     batch = [("RT", d, 2 * np.pi * n / p.box_length) for d in (0, 1) for n in (8, 16, 24, 32)]
     mpi.Barrier()
     t0 = time.perf_counter()
-    short = waves.resolve_schedule(integrator="verlet", dt=0.02, t_end=20.0, sample_every=5)
+    short = integrators.resolve_schedule(integrator="verlet", dt=0.02, t_end=20.0, sample_every=5)
     for mode, d, kk in batch:
-        waves.integrate(dm, p.positions, mode, d, kk, amplitude=1e-3, schedule=short)
+        integrators.integrate(dm, p.positions, mode, d, kk, amplitude=1e-3, schedule=short)
     singles = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     mpi.Barrier()
     t0 = time.perf_counter()
-    waves.integrate_block(dm, p.positions, batch, amplitude=1e-3, schedule=short)
+    integrators.integrate_block(dm, p.positions, batch, amplitude=1e-3, schedule=short)
     block = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     if PETSc.COMM_WORLD.rank == 0:
         print(json.dumps({"matmult": matmult, "step": step, "run200": run200, "steps200": full.steps,

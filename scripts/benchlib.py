@@ -141,14 +141,14 @@ class Timer:
 
 def load_packing(n: int):
     """A jammed packing of n disks at phi = 0.9 (seed [1, 0]), generated once into cache/."""
-    from solver.io import hdf5 as h5io
-    from solver.packing import jammed as packing
+    from solver.io import hdf5
+    from solver.packing import jammed
 
     path = REPO / "cache" / f"bench_{n}.h5"
     if not path.exists():
         path.parent.mkdir(exist_ok=True)
-        h5io.save_packings(str(path), [packing.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
-    return h5io.read_packings(str(path))[0]
+        hdf5.save_packings(str(path), [jammed.generate(n, 0.9, np.random.SeedSequence([1, 0]))])
+    return hdf5.read_packings(str(path))[0]
 
 
 def _l_wave(p, k):

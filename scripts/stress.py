@@ -19,9 +19,9 @@ sys.path.insert(0, str(REPO / "tests"))
 from benchlib import machine  # noqa: E402
 from solver import petscenv  # noqa: E402
 from solver.model import dynmat, operators
-from solver.packing import jammed as packing
-from solver.spectrum import slicing as spectrum
-from solver.waves import integrators as waves
+from solver.packing import jammed
+from solver.spectrum import slicing
+from solver.waves import integrators
 from solver.errors import InputError  # noqa: E402
 
 PETSc = petscenv.init([])
@@ -45,10 +45,10 @@ def dense_check(dm, result):
 
 
 def stiffness_ratios():
-    p = packing.generate(256, 0.9, np.random.SeedSequence([1, 0]))
+    p = jammed.generate(256, 0.9, np.random.SeedSequence([1, 0]))
     for rho in (0.0, 1e-6, 100.0):
         dm = dynmat.assemble(p, rho, COMM)
-        r = spectrum.solve(dm, window=None, vectors=True)
+        r = slicing.solve(dm, window=None, vectors=True)
         err = dense_check(dm, r)
         row(f"rho = {rho:g} (N = 256)", f"{r.omega.size} modes of {dm.size} DOF, {r.n_zero_modes} zero, "
             f"{r.n_negative} negative; omega in [{r.omega.min():.3g}, {r.omega.max():.4g}]; max relative "
@@ -64,10 +64,10 @@ def stiffness_ratios():
 def area_fractions():
     for phi in (0.85, 0.95):
         t = time.perf_counter()
-        p = packing.generate(1024, phi, np.random.SeedSequence([2, 0]))
+        p = jammed.generate(1024, phi, np.random.SeedSequence([2, 0]))
         sec = time.perf_counter() - t
         dm = dynmat.assemble(p, 1.0, COMM)
-        r = spectrum.solve(dm, window=None, vectors=False)
+        r = slicing.solve(dm, window=None, vectors=False)
         row(f"phi = {phi} (N = 1024)", f"FIRE {p.info['fire_steps']} steps in {sec:.1f} s to max|F| "
             f"{p.info['max_force']:.1e}; z = {p.info['z']:.2f}, rattlers {100 * p.info['rattler_fraction']:.1f} %, "
             f"pressure {p.info['pressure']:.2e}; {r.omega.size} modes, {r.n_negative} negative",
@@ -79,11 +79,11 @@ def area_fractions():
 def sizes():
     for n in (16, 64, 2048, 32768):
         t = time.perf_counter()
-        p = packing.generate(n, 0.9, np.random.SeedSequence([3, 0]))
+        p = jammed.generate(n, 0.9, np.random.SeedSequence([3, 0]))
         sec = time.perf_counter() - t
         dm = dynmat.assemble(p, 1.0, COMM)
         if n <= 2048:
-            r = spectrum.solve(dm, window=None, vectors=False)
+            r = slicing.solve(dm, window=None, vectors=False)
             what = f"{r.omega.size} modes, {r.n_zero_modes} zero, {r.n_negative} negative, residual {r.max_residual:.0e}"
         else:
             from solver.spectrum import kpm
@@ -99,15 +99,15 @@ def sizes():
 
 
 def stability_edge():
-    p = packing.generate(64, 0.9, np.random.SeedSequence([4, 0]))
+    p = jammed.generate(64, 0.9, np.random.SeedSequence([4, 0]))
     dm = dynmat.assemble(p, 1.0, COMM)
-    limit = waves.stability_limit("verlet", operators.largest_omega(dm))
+    limit = integrators.stability_limit("verlet", operators.largest_omega(dm))
     for factor in (0.99, 1.01):
-        schedule = waves.resolve_schedule(integrator="verlet", dt=factor * limit, t_end=2000 * factor * limit,
+        schedule = integrators.resolve_schedule(integrator="verlet", dt=factor * limit, t_end=2000 * factor * limit,
                                           sample_every=10)
         try:
-            waves.check_schedule(schedule, operators.largest_omega(dm), 1.0)
-            s = waves.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
+            integrators.check_schedule(schedule, operators.largest_omega(dm), 1.0)
+            s = integrators.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
                                 schedule=schedule)
             drift = np.abs(s.energy / s.energy[0] - 1).max()
             row(f"dt = {factor} x limit ({factor * limit:.4f})", f"ran 2000 steps; energy oscillates by up to "
@@ -120,11 +120,11 @@ def stability_edge():
 
 
 def million_steps():
-    p = packing.generate(64, 0.9, np.random.SeedSequence([5, 0]))
+    p = jammed.generate(64, 0.9, np.random.SeedSequence([5, 0]))
     dm = dynmat.assemble(p, 1.0, COMM)
     t = time.perf_counter()
-    s = waves.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
-                        schedule=waves.resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
+    s = integrators.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
+                        schedule=integrators.resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
                                                         sample_every=1000))
     sec = time.perf_counter() - t
     dev = np.abs(s.energy / s.energy[0] - 1)
@@ -141,9 +141,9 @@ def square_lattice():
     spacing = 0.98
     x, y = np.meshgrid(np.arange(side), np.arange(side))
     pos = np.stack([x.ravel(), y.ravel()], axis=1) * spacing + 0.5
-    p = packing.from_arrays(pos, np.ones(side * side), side * spacing)
+    p = jammed.from_arrays(pos, np.ones(side * side), side * spacing)
     dm = dynmat.assemble(p, 1.0, COMM)
-    r = spectrum.solve(dm, window=None, vectors=True, max_window_modes=40)
+    r = slicing.solve(dm, window=None, vectors=True, max_window_modes=40)
     A = operators.scaled_operator(dm)
     lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)
     A.destroy()

@@ -13,7 +13,7 @@ import sys
 import traceback
 
 from . import __version__
-from . import options as petscopts
+from . import options
 from .errors import InputError, Interrupted, NumericalFailure
 from .io import scenes, schema
 
@@ -128,9 +128,9 @@ def _run(args, petsc_words, comm) -> None:
 
     group_size = _group_size(args.group_size, comm.size)
     todo = scenes.load(args.scene, args.set, comm)
-    yaml_words = petscopts.to_argv(petscopts.flatten(todo[0].petsc))
+    yaml_words = options.to_argv(options.flatten(todo[0].petsc))
     argv = yaml_words + petsc_words  # later words win: the command line beats the scene
-    petscopts.refuse_bare_solver_options(petscopts.option_names(argv))
+    options.refuse_bare_solver_options(options.option_names(argv))
     petscenv.init(argv)
     from . import pipeline
 
@@ -184,7 +184,7 @@ def _launcher_rank() -> int:
 
 def main(argv: list[str] | None = None) -> int:
     words = sys.argv[1:] if argv is None else argv
-    ours, petsc_words = petscopts.split_argv(words)
+    ours, petsc_words = options.split_argv(words)
     parser = _parser()
     comm = None
     try:

@@ -21,23 +21,23 @@ import time
 import numpy as np
 
 from . import __version__, parallel
-from .analysis import dispersion as analysis
+from .analysis import dispersion
 from .model import dynmat
-from .io import hdf5 as h5io
+from .io import hdf5
 from .spectrum import counting, kpm
 from .spectrum import modes
-from .packing import jammed as packing
-from . import options as petscopts
-from .spectrum import slicing as spectrum
+from .packing import jammed
+from . import options
+from .spectrum import slicing
 from .model import operators
 from .waves import excitation
-from .waves import integrators as waves
+from .waves import integrators
 from .waves.unit import mode_unit
 from .io.schema import Scene, check_dimension
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
-from .io import units as unitstore
-from .io.units import UnitStore, WindowCheckpoint, packing_from_unit, packing_unit
+from .io import unit_keys
+from .io.unit_store import UnitStore, WindowCheckpoint, cache_folder, packing_from_unit, packing_unit
 
 _TERMINATE = [False]
 
@@ -63,7 +63,7 @@ def say(comm, message: str) -> None:
         sys.stdout.flush()
 
 
-def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[packing.Packing]:
+def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[jammed.Packing]:
     """Read ``packing.file`` or generate ``packing.count`` configurations. Collective.
 
     Generation is spread over ranks (configuration i on rank i % size, seeded by
@@ -76,38 +76,38 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[pa
     spec = scene.packing
     if spec.file is not None:
         def load(_):
-            read = h5io.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law,
+            read = hdf5.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law,
                                       fmt=spec.format)
             return [_relaxed(p, index, scene) for index, p in enumerate(read)] if spec.relax else read
 
         return parallel.owner_compute(comm, [0], load)[0]
     count = spec.count or 1
-    recipe = [unitstore.packing_key(scene, i) for i in range(count)]
+    recipe = [unit_keys.packing_key(scene, i) for i in range(count)]
     found = [store.load(f"packings/{i:04d}", recipe[i]) if store else None for i in range(count)]
     missing = [i for i in range(count) if found[i] is None]
     seeds = [parallel.seed_sequence(scene.seed, i) for i in missing]
     if spec.engine == "lammps":  # each configuration on all ranks, one after another
-        made = [packing.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim,
+        made = [jammed.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim,
                                  engine="lammps", comm=comm, law=scene.model.law) for s in seeds]
     else:
-        made = parallel.owner_compute(comm, seeds, lambda s: packing.generate(
+        made = parallel.owner_compute(comm, seeds, lambda s: jammed.generate(
             spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law))
     for i, p in zip(missing, made):
         if store:
             store.save(f"packings/{i:04d}", *packing_unit(p), key=recipe[i])
     by_index = dict(zip(missing, made))
     packings = [by_index[i] if found[i] is None else packing_from_unit(found[i]) for i in range(count)]
-    packing.require_jammed(packings, spec.phi)  # made, resumed or cached alike, before any solver
+    jammed.require_jammed(packings, spec.phi)  # made, resumed or cached alike, before any solver
     return packings
 
 
-def _relaxed(p: packing.Packing, index: int, scene: Scene) -> packing.Packing:
-    """``packing.relax``: configuration ``index`` of the file re-minimised frictionlessly; InputError
+def _relaxed(p: jammed.Packing, index: int, scene: Scene) -> jammed.Packing:
+    """``jammed.relax``: configuration ``index`` of the file re-minimised frictionlessly; InputError
     if it does not stay jammed. Not collective."""
     spec = scene.packing
-    relaxed = packing.relax(p, spec.force_tol, spec.max_steps, scene.model.law)
-    if why := packing.jamming_failure(relaxed):
-        raise InputError(f"packing.relax: configuration {index} of {spec.file} did not stay jammed without "
+    relaxed = jammed.relax(p, spec.force_tol, spec.max_steps, scene.model.law)
+    if why := jammed.jamming_failure(relaxed):
+        raise InputError(f"jammed.relax: configuration {index} of {spec.file} did not stay jammed without "
                          f"friction: {why}; a packing made with friction can be looser than the frictionless "
                          f"jamming point (phi = {relaxed.phi:.4f} here), and then has no frictionless rigid "
                          f"state to build the matrix on")
@@ -200,10 +200,10 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoi
                 stability = (None, operators.largest_omega(dm), None)
             elif wave_todo:  # the schedule the TS will follow, refused here if it cannot work
                 spec = scene.waves
-                schedule = waves.resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
+                schedule = integrators.resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
                                                   sample_every=spec.sample_every)
                 omega_max = operators.largest_omega(dm)
-                stability = (schedule, omega_max, waves.check_schedule(schedule, omega_max, rho))
+                stability = (schedule, omega_max, integrators.check_schedule(schedule, omega_max, rho))
         if found[f"matrices/{tag}"] is None:
             commit(f"matrices/{tag}", {}, {
                 "rho": rho, "rho_roll": dm.rho_roll, "rho_twist": dm.rho_twist, "dim": dm.dim,
@@ -276,7 +276,7 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=No
                       f"{time.perf_counter() - t:.0f} s")
         check_interrupt(comm)
 
-    result = spectrum.solve(dm, window=tuple(spec.window) if spec.window else None,
+    result = slicing.solve(dm, window=tuple(spec.window) if spec.window else None,
                             vectors=spec.energies, tol=spec.tol, zero_tol=spec.zero_tol,
                             max_window_modes=spec.max_window_modes, progress=progress,
                             checkpoint=checkpoint)
@@ -356,7 +356,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,
-                          cache=unitstore.cache_folder(scene))
+                          cache=cache_folder(scene))
         with profiling.stage("packings"):
             packings = make_packings(scene, comm, store)
         if scene.packing.file is not None:  # generated packings were checked with the scene
@@ -365,7 +365,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
                 excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
-        keys = unitstore.unit_keys(scene, packings, petsc_argv)
+        keys = unit_keys.scene_keys(scene, packings, petsc_argv)
         for index, p in enumerate(packings):
             i = p.info
             say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
@@ -391,7 +391,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.waves is not None:
             t = time.perf_counter()
             with profiling.stage("analysis"), profiling.event("rsAnalyse"):
-                derived = parallel.owner_compute(comm, [0], lambda _: analysis.analyse(units, scene.analysis))[0]
+                derived = parallel.owner_compute(comm, [0], lambda _: dispersion.analyse(units, scene.analysis))[0]
             units.update(derived)
             lattice = derived.get("analysis/lattice", ({}, {}))[1]
             say(comm, f"analysis: {len(derived)} groups in {time.perf_counter() - t:.1f} s"
@@ -400,19 +400,19 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                          if lattice else ""))
         stages = ([("spectra", scene.spectrum.method)] if scene.spectrum else []) + (
             [("waves", scene.waves.method)] if scene.waves else [])
-        unused = petscopts.unused(petscopts.option_names(petsc_argv), stages)  # same on every rank
+        unused = options.unused(options.option_names(petsc_argv), stages)  # same on every rank
         for name in unused:
             say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
                       f"stage this scene does not run)")
         provenance = {
             "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
             "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
-            "ranks": comm.size, "group_size": groups.size, "petsc_options": petscopts.snapshot(),
+            "ranks": comm.size, "group_size": groups.size, "petsc_options": options.snapshot(),
             "petsc_options_unused": unused,
         }
         try:  # rank 0 writes; any error it meets is raised on every rank (owner_compute)
             with profiling.stage("output"):
-                parallel.owner_compute(comm, [0], lambda _: h5io.write_results(scene.output, provenance,
+                parallel.owner_compute(comm, [0], lambda _: hdf5.write_results(scene.output, provenance,
                                                                                 packings, units))
         except OSError as exc:
             raise InputError(f"output = {scene.output}: cannot write the results file ({exc}); the "

@@ -20,7 +20,7 @@ from matplotlib.collections import EllipseCollection  # noqa: E402
 
 from .analysis import correlations  # noqa: E402
 from .errors import InputError  # noqa: E402
-from .analysis import lattice as lattice_model  # noqa: E402
+from .analysis import lattice  # noqa: E402
 from .io import results  # noqa: E402
 from .spectrum.modes import bin_average  # noqa: E402
 
@@ -189,11 +189,11 @@ def _of_mode(fits: dict, mode: str) -> list[tuple[float, dict]]:
     return sorted(((rho, fit) for (rho, m), fit in fits.items() if m == mode), key=lambda item: item[0])
 
 
-def lattice_curve(k, rho, lattice: dict, edge: bool = False):
+def lattice_curve(k, rho, lattice_fit: dict, edge: bool = False):
     """(omega_t, omega_r) of the lattice model (eq:omega_t(k), eq:omega_r(k)) with the fitted
-    parameters ``lattice`` (``results.lattice``); with ``edge``, omega_t uses ``analysis.lattice.edge_a_t``."""
-    a_t = lattice_model.edge_a_t(lattice) if edge else lattice["a_t"]
-    return lattice_model.lattice_omega(k, rho, lattice["l"], a_t, lattice["a_r"])
+    parameters ``lattice_fit`` (``results.lattice``); with ``edge``, omega_t uses ``analysis.lattice.edge_a_t``."""
+    a_t = lattice.edge_a_t(lattice_fit) if edge else lattice_fit["a_t"]
+    return lattice.lattice_omega(k, rho, lattice_fit["l"], a_t, lattice_fit["a_r"])
 
 
 def plot_dispersion(fits: dict, stem: str) -> list[str]:
@@ -215,33 +215,33 @@ def plot_dispersion(fits: dict, stem: str) -> list[str]:
     return _save(fig, stem)
 
 
-def plot_dispersion_rt(fits: dict, lattice: dict | None, stem: str) -> list[str]:
+def plot_dispersion_rt(fits: dict, lattice_fit: dict | None, stem: str) -> list[str]:
     """Fig. 4: fitted omega_r(k) (symbols) for every rho > 0 with the lattice model (lines).
     ``fits``: {(rho, mode): fit} (``results.fits``)."""
     rt = [(rho, fit) for rho, fit in _of_mode(fits, "RT") if rho > 0]
-    if not rt or lattice is None:
+    if not rt or lattice_fit is None:
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     cmap = plt.get_cmap("viridis")
-    k_line = np.linspace(0, lattice["k_max"], 200)
+    k_line = np.linspace(0, lattice_fit["k_max"], 200)
     for index, (rho, fit) in enumerate(rt):
         color = cmap(0.9 * index / max(1, len(rt) - 1))
         ax.plot(fit["k"], fit["omega"], "o", ms=3.5, mfc="none", color=color, label=f"rho = {rho:g}")
-        ax.plot(k_line, lattice_curve(k_line, rho, lattice)[1], "-", lw=0.9, color=color)
-    ax.axvline(lattice["kd0_max_used"], color="0.6", ls=":", lw=0.8)
+        ax.plot(k_line, lattice_curve(k_line, rho, lattice_fit)[1], "-", lw=0.9, color=color)
+    ax.axvline(lattice_fit["kd0_max_used"], color="0.6", ls=":", lw=0.8)
     ax.set(xlabel="k d0", ylabel="omega_r t0", title=f"RT dispersion; lines: lattice model, a_r = "
-           f"{lattice['a_r']:.3f}/t0, l = {lattice['l']:.3f} d0 (fit left of the dotted line)")
+           f"{lattice_fit['a_r']:.3f}/t0, l = {lattice_fit['l']:.3f} d0 (fit left of the dotted line)")
     ax.title.set_fontsize(8)
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
     return _save(fig, stem)
 
 
-def plot_transition(fits: dict, lattice: dict | None, waves: dict, stem: str, rho: float = 0.2) -> list[str]:
+def plot_transition(fits: dict, lattice_fit: dict | None, waves: dict, stem: str, rho: float = 0.2) -> list[str]:
     """Fig. 5: (a) log10 S_r(k, omega) with k_c, (b) fitted omega_t and omega_r with both model
     branches, at the analysed rho nearest ``rho``.  ``waves``: {(rho, mode): results.Waves}."""
     rt = dict(_of_mode(fits, "RT"))
-    if not rt or lattice is None:
+    if not rt or lattice_fit is None:
         return []
     rho = min(rt, key=lambda r: abs(r - rho))
     if (rho, "RT") not in waves:
@@ -260,15 +260,15 @@ def plot_transition(fits: dict, lattice: dict | None, waves: dict, stem: str, rh
         ax.annotate("k_c", xy=(k_c, 0.02 * top), xytext=(k_c, 0.25 * top), color="tab:red",
                     arrowprops={"arrowstyle": "->", "color": "tab:red"}, ha="center")
     ax.set(xlabel="k d0", ylabel="omega t0", title=f"(a) log10 S_r(k, omega), rho = {rho:g}")
-    k_line = np.linspace(0, lattice["k_max"], 200)
-    w_t, w_r = lattice_curve(k_line, rho, lattice)
-    if np.isfinite(lattice.get("a_t_edge", np.nan)):
-        bx.plot(k_line, lattice_curve(k_line, rho, lattice, edge=True)[0], ":", color="tab:purple",
-                label=f"model omega_t, a_t = {lattice['a_t_edge']:.2f} (fit beyond k_c)")
+    k_line = np.linspace(0, lattice_fit["k_max"], 200)
+    w_t, w_r = lattice_curve(k_line, rho, lattice_fit)
+    if np.isfinite(lattice_fit.get("a_t_edge", np.nan)):
+        bx.plot(k_line, lattice_curve(k_line, rho, lattice_fit, edge=True)[0], ":", color="tab:purple",
+                label=f"model omega_t, a_t = {lattice_fit['a_t_edge']:.2f} (fit beyond k_c)")
     if fit_tr is not None:
         bx.plot(fit_tr["k"], fit_tr["omega"], "+", color="tab:blue", label="omega_t (TR fit)")
     bx.plot(fit_rt["k"], fit_rt["omega"], "s", mfc="none", color="tab:red", label="omega_r (RT fit)")
-    bx.plot(k_line, w_t, ":", color="tab:blue", label=f"model omega_t, a_t = {lattice['a_t']:.2f} (TR fit)")
+    bx.plot(k_line, w_t, ":", color="tab:blue", label=f"model omega_t, a_t = {lattice_fit['a_t']:.2f} (TR fit)")
     bx.plot(k_line, w_r, "-", color="tab:red", label="model omega_r")
     if np.isfinite(k_c):
         bx.axvline(k_c, color="0.5", lw=0.8, ls="--")
@@ -279,18 +279,18 @@ def plot_transition(fits: dict, lattice: dict | None, waves: dict, stem: str, rh
     return _save(fig, stem)
 
 
-def plot_bands(lattice: dict | None, bands: dict | None, stem: str, omega_c: dict | None = None) -> list[str]:
+def plot_bands(lattice_fit: dict | None, bands: dict | None, stem: str, omega_c: dict | None = None) -> list[str]:
     """Fig. 7: RT band limits against rho (data symbols; model lines omega_r(0), omega_r(k_max),
     omega_t(k_max) of ``analysis.lattice`` and the shaded band), omega_c (crosses; ``omega_c`` maps rho ->
     value, else the bands' own), log-log inset.  ``bands``: ``results.bands``."""
-    if lattice is None or bands is None:
+    if lattice_fit is None or bands is None:
         return []
     b = bands
     rho_line = np.linspace(1e-3, max(2.0, b["rho"].max()), 300)
-    a_t = lattice_model.edge_a_t(lattice)
-    r0 = lattice_model.omega_r_zero(rho_line, lattice["a_r"])
-    rk = lattice_model.omega_r_kmax(rho_line, lattice["a_r"])
-    tk = lattice_model.omega_t_kmax(rho_line, a_t)
+    a_t = lattice.edge_a_t(lattice_fit)
+    r0 = lattice.omega_r_zero(rho_line, lattice_fit["a_r"])
+    rk = lattice.omega_r_kmax(rho_line, lattice_fit["a_r"])
+    tk = lattice.omega_t_kmax(rho_line, a_t)
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     inset = ax.inset_axes([0.62, 0.1, 0.35, 0.35])
     cross = omega_c if omega_c is not None else dict(zip(b["rho"], b["omega_c"]))
@@ -358,17 +358,17 @@ def report_figures(data, folder: str) -> list[tuple[str, str]]:
                  plot_energies(results.vdos(f), results.mode_energies(f), results.binned_energies(f), f"{folder}/fig6_energies",
                                rhos=(1.0, 0.4)))
     if data.waves_file:
-        fits, lattice = data.fits, data.lattice
+        fits, lattice_fit = data.fits, data.lattice
         rt = [rho for rho, mode in fits if mode == "RT"]
         transition = [min(rt, key=lambda r: abs(r - 0.2))] if rt else []
         with results.open_results(data.waves_file) as f:  # only the rho drawn: the runs are the bulk of a file
             waves = results.waves(f, rhos={0.0, 1.0, *transition})
         keep("Fig. 2: VAFs at k d0 nearest 0.38 pi", plot_vafs(waves, f"{folder}/fig2_vaf", rhos=(0.0, 1.0)))
         keep("Fig. 3: log10 S(k, omega), rho = 1", plot_spectra(waves, f"{folder}/fig3_spectrum", rhos=(1.0,)))
-        keep("Fig. 4: RT dispersion with the lattice model", plot_dispersion_rt(fits, lattice, f"{folder}/fig4_dispersion_rt"))
-        keep("Fig. 5: the RT transition at rho = 0.2", plot_transition(fits, lattice, waves, f"{folder}/fig5_transition"))
+        keep("Fig. 4: RT dispersion with the lattice model", plot_dispersion_rt(fits, lattice_fit, f"{folder}/fig4_dispersion_rt"))
+        keep("Fig. 5: the RT transition at rho = 0.2", plot_transition(fits, lattice_fit, waves, f"{folder}/fig5_transition"))
         omega_c = {rho: v[2] for rho, v in data.vdos.items()}
-        keep("Fig. 7: RT band limits against rho", plot_bands(lattice, data.bands, f"{folder}/fig7_bands", omega_c or None))
+        keep("Fig. 7: RT band limits against rho", plot_bands(lattice_fit, data.bands, f"{folder}/fig7_bands", omega_c or None))
         keep("Figs. S2, S3: phase speeds and attenuation of L and TR", plot_speeds_attenuation(fits, f"{folder}/figS2_S3"))
     with_vdos = [(path, phi) for path, phi, _, what in data.sources if "vdos" in what]
     if len({round(phi, 4) for _, phi in with_vdos}) >= 2:
@@ -390,10 +390,10 @@ def plot_results(path: str) -> list[str]:
         waves = results.waves(f)
         written += plot_vafs(waves, f"{stem}_vaf")
         written += plot_spectra(waves, f"{stem}_spectrum")
-        fits, lattice = results.fits(f), results.lattice(f)
+        fits, lattice_fit = results.fits(f), results.lattice(f)
         written += plot_dispersion(fits, f"{stem}_dispersion")
-        written += plot_dispersion_rt(fits, lattice, f"{stem}_dispersion_rt")
-        written += plot_transition(fits, lattice, waves, f"{stem}_transition")
-        written += plot_bands(lattice, results.bands(f), f"{stem}_bands")
+        written += plot_dispersion_rt(fits, lattice_fit, f"{stem}_dispersion_rt")
+        written += plot_transition(fits, lattice_fit, waves, f"{stem}_transition")
+        written += plot_bands(lattice_fit, results.bands(f), f"{stem}_bands")
         written += plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
     return written

@@ -26,9 +26,9 @@ def _dem(name, keep=lambda text: text):
 
 
 def _valid(path, dim=2, **changes):
-    from solver.packing import jammed as packing
+    from solver.packing import jammed
 
-    p = packing.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([1, 0]), dim=dim)
+    p = jammed.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([1, 0]), dim=dim)
     data = {"positions": p.positions, "diameters": p.diameters, "box_length": p.box_length}
     data.update(changes)
     with h5py.File(path, "w") as f:
@@ -56,9 +56,9 @@ def _garbage(path):
 
 
 def _spread(path, dim=2):
-    from solver.packing import jammed as packing
+    from solver.packing import jammed
 
-    p = packing.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([1, 0]), dim=dim)
+    p = jammed.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([1, 0]), dim=dim)
     _valid(path, dim, positions=3 * p.positions, box_length=3 * p.box_length)
 
 
@@ -70,9 +70,9 @@ def _with_masses(path, scale):
 
 def _rectangular(path):
     """The 64-disk packing and its copy side by side: a valid packing in a (2L, L) box."""
-    from solver.packing import jammed as packing
+    from solver.packing import jammed
 
-    p = packing.generate(64, 0.9, np.random.SeedSequence([1, 0]))
+    p = jammed.generate(64, 0.9, np.random.SeedSequence([1, 0]))
     with h5py.File(path, "w") as f:
         f["positions"] = np.concatenate([p.positions, p.positions + [p.box_length, 0.0]])
         f["diameters"] = np.tile(p.diameters, 2)
@@ -213,7 +213,7 @@ CASES = [
      "the yade file records no periodic box",
      _dem("yade_3d.txt", lambda text: "".join(l for l in text.splitlines(True) if "PERIODIC" not in l))),
     ("relax without a file", "packing: {n: 64, phi: 0.9, relax: true}\n", [],
-     "packing.relax = true re-minimises the packings of packing.file", None),
+     "jammed.relax = true re-minimises the packings of packing.file", None),
     ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],
      "the file(s) hold only 1 configurations", _valid),
     # --- command line

@@ -180,9 +180,9 @@ def lammps_present():
 @pytest.fixture(scope="session")
 def small_packing():
     """A jammed 64-disk packing at phi = 0.9 (same on every rank)."""
-    from solver.packing import jammed as packing
+    from solver.packing import jammed
 
-    return packing.generate(64, 0.9, np.random.SeedSequence([7, 0]))
+    return jammed.generate(64, 0.9, np.random.SeedSequence([7, 0]))
 
 
 def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:

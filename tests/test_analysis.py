@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from solver.analysis import claims
-from solver.analysis import dispersion as analysis
+from solver.analysis import dispersion
 from solver.analysis import lattice
 from solver.io.schema import AnalysisSpec
 from conftest import assert_close, run_cli
@@ -53,7 +53,7 @@ def _units(rng):
 @pytest.fixture(scope="module")
 def analysed():
     units = _units(np.random.default_rng(5))
-    return analysis.analyse(units, AnalysisSpec())
+    return dispersion.analyse(units, AnalysisSpec())
 
 
 def test_fits_recover_frequencies_and_attenuation(analysed):
@@ -96,7 +96,7 @@ def test_lattice_fit_and_bands(analysed):
 
 
 def test_no_waves_no_analysis():
-    assert analysis.analyse({"vdos/r00": ({}, {"rho": 1.0, "omega_c": 4.0})}, AnalysisSpec()) == {}
+    assert dispersion.analyse({"vdos/r00": ({}, {"rho": 1.0, "omega_c": 4.0})}, AnalysisSpec()) == {}
 
 
 def _data(**vdos_omega_c):

@@ -17,7 +17,7 @@ from conftest import COMM, assert_all, assert_close, run_cli
 
 from solver import parallel, pipeline
 from solver.errors import InputError
-from solver.io import hdf5 as h5io
+from solver.io import hdf5
 from solver.io import schema
 
 # Scene A: slicing spectrum with per-mode energies (several windows, checkpointed) and TS waves
@@ -149,14 +149,14 @@ def test_results_file_failure_on_rank_0_raises_on_every_rank(shared_tmp, monkeyp
     else as itself -- and nothing is left behind.  Before the fix only an OSError reached rank 1:
     a ValueError left it waiting in the broadcast for ever."""
     out = shared_tmp / f"full_{type(failure).__name__}.h5"
-    write_packing = h5io.write_packing
+    write_packing = hdf5.write_packing
 
     def failing(group, packing):
         if COMM.rank == 0:
             raise failure
         write_packing(group, packing)
 
-    monkeypatch.setattr(h5io, "write_packing", failing)
+    monkeypatch.setattr(hdf5, "write_packing", failing)
     with pytest.raises(Exception) as caught:
         pipeline.run(matrices_only(out), COMM, [])
     if isinstance(failure, OSError):

@@ -5,7 +5,7 @@ import pytest
 
 from solver.io import scenes
 from solver.io import schema
-from solver import options as petscopts
+from solver import options
 from solver.errors import InputError
 
 GOOD = {"output": "out.h5", "seed": 3, "packing": {"n": 64, "phi": 0.9, "count": 2},
@@ -119,7 +119,7 @@ def test_set_overrides_and_errors():
 
 
 def test_digest_ignores_output_and_petsc_block_only():
-    """The petsc block keys units through the options acting on them (io/units.py), not the scene."""
+    """The petsc block keys units through the options acting on them (io/unit_keys.py), not the scene."""
     a = build(GOOD)
     b = build({**GOOD, "output": "elsewhere.h5"})
     p = build({**GOOD, "petsc": {"spectrum_eps_tol": 1e-10}})
@@ -161,12 +161,12 @@ def test_multi_document_scenes(tmp_path):
 
 
 def test_petsc_flattening_and_argv_split():
-    flat = petscopts.flatten({"eps": {"tol": 1e-9, "type": "krylovschur"}, "log_view": None,
+    flat = options.flatten({"eps": {"tol": 1e-9, "type": "krylovschur"}, "log_view": None,
                               "st": {"mat_mumps_icntl_13": 1}, "flag": True})
     assert flat == {"eps_tol": "1e-09", "eps_type": "krylovschur", "log_view": None,
                     "st_mat_mumps_icntl_13": "1", "flag": "true"}
-    assert petscopts.to_argv({"eps_tol": "1e-09", "log_view": None}) == ["-eps_tol", "1e-09", "-log_view"]
-    ours, theirs = petscopts.split_argv(["run", "s.yaml", "--set", "a=1", "-st_shift", "-0.5", "-log_view"])
+    assert options.to_argv({"eps_tol": "1e-09", "log_view": None}) == ["-eps_tol", "1e-09", "-log_view"]
+    ours, theirs = options.split_argv(["run", "s.yaml", "--set", "a=1", "-st_shift", "-0.5", "-log_view"])
     assert ours == ["run", "s.yaml", "--set", "a=1"]
     assert theirs == ["-st_shift", "-0.5", "-log_view"]
 

@@ -19,7 +19,7 @@ from solver.packing import jammed
 from solver.waves import excitation
 
 sys.path.append(str(REPO / "scripts"))  # the script holds the LAMMPS runner; appended: shadows nothing
-import crosscheck_lammps as crosscheck  # noqa: E402
+import crosscheck_lammps  # noqa: E402
 
 AMPLITUDE = 1e-6
 DT, T_END, EVERY = 0.05, 20.0, 10  # 400 steps, a sample every 0.5 t0
@@ -28,11 +28,11 @@ DT, T_END, EVERY = 0.05, 20.0, 10  # 400 steps, a sample every 0.5 t0
 def verlet_bound(p, dm, eig, runs, k, t, dt) -> np.ndarray:
     """B(t) (S,) >= |C_Verlet(t) - C_exact(t)| of the pooled runs: per mode j of A = M^-1/2 D M^-1/2,
     z_r(t) = sum_j w_rj cos(omega_j t) exactly, and velocity Verlet's velocities at the steps are
-    sum_j w_rj cos(omega~_j t) with omega~ = 2/dt arcsin(omega dt/2) (crosscheck.verlet_eigen), so
+    sum_j w_rj cos(omega~_j t) with omega~ = 2/dt arcsin(omega dt/2) (crosscheck_lammps.verlet_eigen), so
     |C_Verlet - C_exact| <= sum_r |z_r(0)| sum_j |w_rj| min(2, |omega~_j - omega_j| t) / sum_r |z_r(0)|^2,
     with |omega~ - omega| t = omega^3 dt^2 t / 24 + O(dt^4): the dt^2 error, mode by mode.  The
     weights w_rj are conftest.modal_weights' (exact_z_fixed's).  Collective."""
-    verlet = np.sqrt(crosscheck.verlet_eigen(eig, dt)[0])
+    verlet = np.sqrt(crosscheck_lammps.verlet_eigen(eig, dt)[0])
     num, den = np.zeros(len(t)), 0.0
     for run in runs:
         omega, w = modal_weights(p, dm, eig, run, k, AMPLITUDE)
@@ -49,7 +49,7 @@ def verlet_bound(p, dm, eig, runs, k, t, dt) -> np.ndarray:
 def test_lammps_standing_wave_is_rotsounds_within_verlet_error(lammps_present, comm, dim, phi, law, mode, n, seed):
     """One mode per dimension, every run of it (2D RT: w_z with k || x, y; 3D R: w_a with k || a),
     k = 2 pi / L, 400 LAMMPS steps of dt = 0.05 at +-A with the residual forces held
-    (crosscheck.lammps_velocities: without the hold the packing creeps under them, and the Hertz
+    (crosscheck_lammps.lammps_velocities: without the hold the packing creeps under them, and the Hertz
     case's C moves by 1.7e-5, beyond check (2)).  Two checks, each able to fail:
 
     (1) |C_LAMMPS - C_exact| <= B(t) + 1e-6, B the dt^2 bound of velocity Verlet
@@ -58,7 +58,7 @@ def test_lammps_standing_wave_is_rotsounds_within_verlet_error(lammps_present, c
         the +-A difference leaves (they grow as A^2: 1.3e-6 in the script's 2D Hertz L wave at
         A = 1e-6, 1e-4 at A = 1e-5) and round-off; measured here 7e-8 (2D) and 1e-9 (3D).
     (2) |C_LAMMPS - C_Verlet| <= 1e-6 pointwise, C_Verlet the closed form of velocity Verlet on
-        rotsound's D at the same dt (crosscheck.verlet_eigen): LAMMPS integrates rotsound's linear
+        rotsound's D at the same dt (crosscheck_lammps.verlet_eigen): LAMMPS integrates rotsound's linear
         model itself, not something near it.  The same 1e-6, for the same reason.
     Checked to fail: a disc's inertia taken as a sphere's (no ``disc``: check (1), error / bound
     590), ``gran/hooke/history`` in place of ``gran/hertz/history`` (1.2e4), kt = 0.9 kn (260 in
@@ -71,10 +71,10 @@ def test_lammps_standing_wave_is_rotsounds_within_verlet_error(lammps_present, c
     runs = excitation.runs(mode, dim)
     t = np.arange(0.0, T_END + 1e-9, EVERY * DT)
     steps = int(round(T_END / DT))
-    lmp = crosscheck.pooled_c([crosscheck.lammps_z(p, dm, law, run, k, AMPLITUDE, DT, steps, EVERY, mpi, hold=True)
+    lmp = crosscheck_lammps.pooled_c([crosscheck_lammps.lammps_z(p, dm, law, run, k, AMPLITUDE, DT, steps, EVERY, mpi, hold=True)
                                for run in runs], EVERY * DT)
-    exact = crosscheck.pooled_c([exact_z_fixed(p, dm, eig, run, k, t, AMPLITUDE) for run in runs], EVERY * DT)
-    verlet = crosscheck.pooled_c([exact_z_fixed(p, dm, crosscheck.verlet_eigen(eig, DT), run, k, t, AMPLITUDE)
+    exact = crosscheck_lammps.pooled_c([exact_z_fixed(p, dm, eig, run, k, t, AMPLITUDE) for run in runs], EVERY * DT)
+    verlet = crosscheck_lammps.pooled_c([exact_z_fixed(p, dm, crosscheck_lammps.verlet_eigen(eig, DT), run, k, t, AMPLITUDE)
                                   for run in runs], EVERY * DT)
     bound = verlet_bound(p, dm, eig, runs, k, t, DT)
     assert_all(np.abs(verlet - exact).max() > 1e-4, "the test's dt should make Verlet's error visible")

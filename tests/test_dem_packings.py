@@ -12,7 +12,7 @@ from conftest import COMM, assert_all, assert_close
 from solver import pipeline
 from solver.errors import InputError
 from solver.io import dem_formats, schema
-from solver.io import hdf5 as h5io
+from solver.io import hdf5
 from solver.model import dynmat
 from solver.packing import jammed
 
@@ -26,20 +26,20 @@ def test_balanced_dem_packings_load_in_rotsounds_units(name):
     the equilibrium the program reached (normal residual ~1e-13 of its contact forces), survive
     the rescaling; phi is the file's.  A box or positions not rescaled alike break both."""
     raw = dem_formats.read(DATA / name)
-    p = h5io.read_packings(str(DATA / name))[0]
+    p = hdf5.read_packings(str(DATA / name))[0]
     unit = raw.diameters.mean()
     assert_close(p.box, (raw.box_hi - raw.box_lo) / unit, rtol=1e-15, what="box")
     assert_close(p.diameters.mean(), 1.0, rtol=1e-15, what="mean diameter")
     volume = np.prod(raw.box_hi - raw.box_lo)
     solid = jammed.solid_volume(raw.diameters, raw.dim)
     assert_close(p.phi, solid / volume, rtol=1e-12, what="phi")
-    assert_all(p.dim == raw.dim and h5io.net_force(p) < 1e-10 and jammed.jamming_failure(p) is None,
-               f"{name}: dim {p.dim}, net force {h5io.net_force(p)}")
+    assert_all(p.dim == raw.dim and hdf5.net_force(p) < 1e-10 and jammed.jamming_failure(p) is None,
+               f"{name}: dim {p.dim}, net force {hdf5.net_force(p)}")
 
 
 def test_data_file_and_dump_of_one_packing_are_one_packing():
     for dim in (2, 3):
-        a, b = (h5io.read_packings(str(DATA / f"lammps_{dim}d.{kind}"))[0] for kind in ("data", "dump"))
+        a, b = (hdf5.read_packings(str(DATA / f"lammps_{dim}d.{kind}"))[0] for kind in ("data", "dump"))
         assert_all(np.array_equal(a.positions, b.positions) and np.array_equal(a.box, b.box), f"{dim}D differ")
         # the data file's masses are density x pi d^3 / 6 worked out by the reader, the dump's LAMMPS's
         assert_close(a.masses, b.masses, rtol=4 * np.finfo(float).eps, what=f"{dim}D masses")
@@ -56,14 +56,14 @@ def test_unbalanced_dem_packings_are_refused_and_relax_re_minimises_them(name, w
         pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
     scene["packing"]["relax"] = True
     p, = pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
-    assert_all(h5io.net_force(p) < 1e-5 and jammed.jamming_failure(p) is None and p.info["relaxed"],
-               f"{name} ({why}): net force {h5io.net_force(p)}")
+    assert_all(hdf5.net_force(p) < 1e-5 and jammed.jamming_failure(p) is None and p.info["relaxed"],
+               f"{name} ({why}): net force {hdf5.net_force(p)}")
 
 
 def test_a_files_masses_reach_the_matrix_under_density(comm):
     """LAMMPS's masses (density x pi d^3 / 6, two densities) scaled to a mean of 1 are the
     matrix's translational masses; equal masses ignore them."""
-    p = h5io.read_packings(str(DATA / "lammps_3d.data"))[0]
+    p = hdf5.read_packings(str(DATA / "lammps_3d.data"))[0]
     raw = dem_formats.read(DATA / "lammps_3d.data")
     for rule, expected in (("density", raw.masses / raw.masses.mean()), ("equal", np.ones(p.n))):
         dm = dynmat.assemble(p, 0.5, comm, mass_rule=rule)
@@ -82,7 +82,7 @@ def test_scene_on_a_rectangular_lammps_packing_counts_its_spectrum(shared_tmp):
             "model: {rho: 0.5, masses: density}\nspectrum: {method: counting}\n")
     units = pipeline.run(schema.build(schema.Scene, yaml.safe_load(text)), COMM, [])["units"]
     datasets, attrs = units["spectra/r00_p0000"]
-    p = h5io.read_packings(str(DATA / "lammps_2d.data"))[0]
+    p = hdf5.read_packings(str(DATA / "lammps_2d.data"))[0]
     active = int((~p.rattler).sum())
     assert_all(int(datasets["counts"].sum()) + attrs["n_zero_modes"] == 3 * active and attrs["n_zero_modes"] == 2,
                f"{datasets['counts'].sum()} + {attrs['n_zero_modes']} modes for {active} disks")
@@ -100,7 +100,7 @@ def test_standing_waves_on_a_polydisperse_lammps_packing_match_the_exact_referen
     from solver.waves import excitation
     from solver.waves.spectral import spectral
 
-    p = h5io.read_packings(str(DATA / "lammps_3d.data"))[0]
+    p = hdf5.read_packings(str(DATA / "lammps_3d.data"))[0]
     dm = dynmat.assemble(p, 1.0, comm, rho_roll=0.2, mass_rule="density")
     eig = dense_eigen(dm)
     k = 2 * np.pi / p.box[0]

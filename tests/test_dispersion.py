@@ -5,7 +5,7 @@ import pytest
 from conftest import assert_close
 from scipy import optimize
 
-from solver.analysis import fits as dp
+from solver.analysis import fits
 from solver.analysis import lattice
 
 L_PAPER, A_R, A_T = 0.446, 0.73, 0.55
@@ -70,7 +70,7 @@ def test_damped_cosine_fit_recovers_parameters(omega, gamma):
     rng = np.random.default_rng(1)
     t = np.arange(0, 200, 0.05)
     c = np.exp(-gamma * t) * np.cos(omega * t) + 0.01 * rng.normal(size=t.size)
-    fit = dp.fit_damped_cosine(t, c)
+    fit = fits.fit_damped_cosine(t, c)
     assert abs(fit.omega - omega) < max(5 * fit.omega_err, 1e-3)
     assert abs(fit.gamma - gamma) < max(5 * fit.gamma_err, 0.02 * gamma)
     assert fit.omega_err < 0.01 and 0.005 < fit.rms < 0.02
@@ -83,7 +83,7 @@ def test_lorentzian_agrees_with_time_fit():
     t = np.arange(0, 400, 0.1)
     c = np.exp(-0.05 * t) * np.cos(2.0 * t)
     omega, power = correlations.power_spectrum(c[None], 0.1)
-    w0, gamma = dp.fit_lorentzian(omega, power)
+    w0, gamma = fits.fit_lorentzian(omega, power)
     assert_close(w0, 2.0, rtol=1e-3, what="Lorentzian peak")  # half the grid spacing 2 pi / (4 T) = 0.004
     assert_close(gamma, 0.05, rtol=0.05, what="Lorentzian half width")
 
@@ -92,7 +92,7 @@ def test_power_law_exponent():
     k = np.linspace(0.05, 0.4, 8)
     rng = np.random.default_rng(2)
     g = 0.7 * k**3 * np.exp(0.03 * rng.normal(size=k.size))
-    p, err = dp.power_law(k, g)
+    p, err = fits.power_law(k, g)
     assert abs(p - 3) < 4 * err + 0.02 and err < 0.1
 
 
@@ -133,7 +133,7 @@ def test_k_c_is_the_branch_exchange_on_any_k_grid():
     truth = true_exchange()
     found = {}
     for name, k in (("coarse", K_COARSE), ("paper", K_PAPER), ("fine", K_FINE)):
-        found[name] = dp.exchange_k(k, exchanging_branches(k)[0], k, exchanging_branches(k)[1])
+        found[name] = fits.exchange_k(k, exchanging_branches(k)[0], k, exchanging_branches(k)[1])
         # linear interpolation of the difference across the crossing: measured 3.3e-3, 2.7e-3 and
         # 4.9e-4 off; 0.01 is 1/15 of the coarse grid's spacing (0.15) there
         assert_close(found[name], truth, rtol=0, atol=0.01, what=f"k_c on the {name} grid")
@@ -151,10 +151,10 @@ def test_k_c_ignores_a_noisy_dip_before_the_exchange_and_failed_fits():
     d = rt - tr
     assert np.count_nonzero((d[:-1] >= 0) & (d[1:] < 0)) == 2  # the data do cross twice
     # noise 0.005 on each branch moves the zero of d (slope -3.3 /t0 per 1/d0) by ~2e-3 (measured 1.5e-3)
-    assert_close(dp.exchange_k(K_PAPER, rt, K_PAPER, tr), truth, rtol=0, atol=0.01, what="k_c with a dip")
+    assert_close(fits.exchange_k(K_PAPER, rt, K_PAPER, tr), truth, rtol=0, atol=0.01, what="k_c with a dip")
     rt[below + 2:below + 4] = np.nan  # failed fits at the two k just beyond the crossing
     # the zero of the chord across 0.3 / d0 (instead of 0.1) of a switch 0.4 / d0 wide: measured 0.033 off
-    assert_close(dp.exchange_k(K_PAPER, rt, K_PAPER, tr), truth, rtol=0, atol=0.05, what="k_c across NaN")
+    assert_close(fits.exchange_k(K_PAPER, rt, K_PAPER, tr), truth, rtol=0, atol=0.05, what="k_c across NaN")
 
 
 @pytest.mark.parametrize("k", [K_COARSE, K_PAPER, K_FINE], ids=["coarse", "paper", "fine"])
@@ -162,21 +162,21 @@ def test_no_exchange_no_k_c(k):
     for rho in (1.0, 2.0):  # RT above TR at every k: the model branches, with noise
         w_t, w_r = lattice.lattice_omega(k, rho, L_PAPER, A_T, A_R)
         rng = np.random.default_rng(int(10 * rho))
-        assert np.isnan(dp.exchange_k(k, w_r + 0.01 * rng.normal(size=k.size), k, w_t))
+        assert np.isnan(fits.exchange_k(k, w_r + 0.01 * rng.normal(size=k.size), k, w_t))
     rt, tr = exchanging_branches(k)
-    assert np.isnan(dp.exchange_k(k, tr, k, rt))  # RT below TR from the first k: no exchange seen
+    assert np.isnan(fits.exchange_k(k, tr, k, rt))  # RT below TR from the first k: no exchange seen
     short = k < 2.0  # a run that stops before the exchange: RT still above TR at its largest k
-    assert np.isnan(dp.exchange_k(k[short], rt[short], k[short], tr[short]))
+    assert np.isnan(fits.exchange_k(k[short], rt[short], k[short], tr[short]))
     back = k > 3.0  # RT back above TR at the largest k: not below it for good, so no k_c
-    assert np.isnan(dp.exchange_k(k, np.where(back, tr + 0.05, rt), k, tr))
+    assert np.isnan(fits.exchange_k(k, np.where(back, tr + 0.05, rt), k, tr))
 
 
 def test_k_c_needs_one_k_grid_for_rt_and_tr():
     rt, tr = exchanging_branches(K_PAPER)
     with pytest.raises(ValueError, match="different k"):
-        dp.exchange_k(K_PAPER, rt, K_PAPER * 1.001, tr)
+        fits.exchange_k(K_PAPER, rt, K_PAPER * 1.001, tr)
     with pytest.raises(ValueError, match="different k"):
-        dp.exchange_k(K_PAPER, rt, K_PAPER[:-1], tr[:-1])
+        fits.exchange_k(K_PAPER, rt, K_PAPER[:-1], tr[:-1])
 
 
 def test_joint_lattice_fit_recovers_parameters():
@@ -185,5 +185,5 @@ def test_joint_lattice_fit_recovers_parameters():
     for rho in (0.4, 1.0, 2.0):
         k = np.linspace(0.1, np.pi / 2, 10)
         data.append((rho, k, lattice.lattice_omega(k, rho, 0.45, 1.0, 0.72)[1] + 0.005 * rng.normal(size=k.size)))
-    a_r, a_err, l, l_err = dp.fit_lattice(data)
+    a_r, a_err, l, l_err = fits.fit_lattice(data)
     assert abs(a_r - 0.72) < 5 * a_err + 1e-3 and abs(l - 0.45) < 5 * l_err + 1e-3

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from conftest import COMM, TOL, assert_all, assert_close, central_hessian
 
-from solver.packing import geometry as contacts
+from solver.packing import geometry
 from solver.model import contact_law, dynmat
-from solver.packing import jammed as packing
+from solver.packing import jammed
 
 
 def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, law, w):
@@ -31,8 +31,8 @@ def finite_difference_matrix(p, springs, h=1e-5, law="harmonic"):  # 2 h below t
     """Dense Hessian from central differences of each contact's energy, assembled by hand."""
     active = ~p.rattler
     pos, diam = p.positions[active], p.diameters[active]
-    found = contacts.find_contacts(pos, diam, p.box_length)
-    ref = contacts.minimum_image(pos[found.i] - pos[found.j], p.box_length)
+    found = geometry.find_contacts(pos, diam, p.box_length)
+    ref = geometry.minimum_image(pos[found.i] - pos[found.j], p.box_length)
     args = (ref, 0.5 * (diam[found.i] + diam[found.j]), found.normal,
             0.5 * diam[found.i], 0.5 * diam[found.j], springs, law)
     count, dim = found.normal.shape
@@ -59,7 +59,7 @@ def spheres(seed=5, cells=2, spacing=0.985):
     lattice = spacing * np.sqrt(2.0)
     positions = ((grid + basis) * lattice).reshape(-1, 3) + rng.uniform(-0.02, 0.02, (4 * cells**3, 3))
     diameters = rng.uniform(0.97, 1.03, 4 * cells**3)
-    return packing.from_arrays(positions, diameters, cells * lattice,
+    return jammed.from_arrays(positions, diameters, cells * lattice,
                                rattler=np.zeros(4 * cells**3, dtype=bool))
 
 
@@ -75,7 +75,7 @@ def test_hessian_matches_finite_differences(comm, small_packing, dim, springs, l
     every spring, harmonic and Hertz (whose normal stiffness (3/2) sqrt(a' xi), force
     sqrt(a' xi) xi and spring scale sqrt(a' xi) all enter)."""
     p = small_packing if dim == 2 else spheres()
-    found = contacts.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
+    found = geometry.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
     assert found.overlap.min() > 5e-5, "h = 1e-5 steps must not open a contact"
     dm = dynmat.assemble(p, springs[0], comm, rho_roll=springs[1], rho_twist=springs[2], law=law)
     dense = dynmat.gather_csr(dm.D).toarray()
@@ -115,7 +115,7 @@ def test_density_masses_follow_the_diameters_or_the_file(comm, small_packing, di
     p = small_packing if dim == 2 else spheres()
     active = ~p.rattler
     for raw in (None, 7.0 * p.diameters ** (dim + 1)):
-        q = packing.Packing(p.positions, p.diameters, p.box, p.rattler, p.info, raw)
+        q = jammed.Packing(p.positions, p.diameters, p.box, p.rattler, p.info, raw)
         dm = dynmat.assemble(q, 1.0, comm, mass_rule="density")
         dm_equal = dynmat.assemble(q, 1.0, comm)
         m = (p.diameters ** dim if raw is None else raw)
@@ -151,7 +151,7 @@ def test_symmetric_with_translation_zero_modes(comm, small_packing, rho):
 
 
 def test_block_size_mass_and_rattlers_excluded(comm):
-    p = packing.generate(256, 0.86, np.random.SeedSequence([3, 1]))
+    p = jammed.generate(256, 0.86, np.random.SeedSequence([3, 1]))
     dm = dynmat.assemble(p, 1.0, comm)
     assert dm.D.getBlockSize() == 3
     n_active = int((~p.rattler).sum())

@@ -11,7 +11,7 @@ from solver import pipeline
 from solver.errors import InputError
 from solver.io import schema
 from solver.model import dynmat
-from solver.packing import jammed as packing
+from solver.packing import jammed
 
 UNJAMMED = ("output: {out}\ncache: {cache}\nseed: 0\npacking: {{n: 256, phi: 0.8}}\nmodel: {{rho: 1}}\n"
             "spectrum: {{}}\nwaves: {{n: [1], method: spectral, t_end: 10}}\n")
@@ -40,7 +40,7 @@ def test_unjammed_packing_is_refused_before_any_solver_from_any_source(shared_tm
     message = refused("first.h5")
     assert_all(message.startswith("packing.phi = 0.8: configuration 0 did not jam: all 256 disks are "
                                   "rattlers (pressure ") and "jams near phi = 0.84" in message, message)
-    monkeypatch.setattr(packing, "generate", no_solver)  # from here on FIRE must not run either
+    monkeypatch.setattr(jammed, "generate", no_solver)  # from here on FIRE must not run either
     assert_all(refused("first.h5") == message, "resumed from the units folder: the same refusal")
     assert_all(refused("second.h5") == message, "taken from the cache: the same refusal")
     assert_all(not (shared_tmp / "first.h5").exists() and not (shared_tmp / "second.h5").exists(),
@@ -52,18 +52,18 @@ def test_a_floppy_cluster_is_refused_and_a_jammed_packing_is_not(small_packing):
     packing passes; the same packing with all but one disk and its contact neighbours flagged as
     rattlers (a star and the few contacts between its arms) fails, as does one with every disk a
     rattler; each message says what was found."""
-    assert_all(packing.jamming_failure(small_packing) is None, "a jammed packing is accepted")
+    assert_all(jammed.jamming_failure(small_packing) is None, "a jammed packing is accepted")
     p = small_packing
     cluster, n_cluster, inside = star_cluster(p)
     assert_all(inside < 2 * n_cluster - 1, f"the test's cluster: {n_cluster} disks, {inside} contacts")
-    floppy = packing.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
-    why = packing.jamming_failure(floppy)
+    floppy = jammed.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
+    why = jammed.jamming_failure(floppy)
     assert_all(why is not None and why.startswith(f"only {n_cluster} of 64 disks are not rattlers and they "
                                                   f"share {inside} contacts, fewer than the 2N' - 1 = "
                                                   f"{2 * n_cluster - 1}"), why)
-    loose = packing.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
-    why = packing.jamming_failure(loose)
+    loose = jammed.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
+    why = jammed.jamming_failure(loose)
     assert_all(why is not None and why.startswith("all 64 disks are rattlers"), why)
     with pytest.raises(InputError, match=r"packing.phi = 0.9: configurations 1, 2 of 3 did not jam "
                                          r"\(configuration 1: only"):
-        packing.require_jammed([p, floppy, loose], 0.9)
+        jammed.require_jammed([p, floppy, loose], 0.9)

@@ -8,12 +8,12 @@ from conftest import assert_all, assert_close
 
 from solver.model import dynmat, operators
 from solver.spectrum import kpm
-from solver.packing import jammed as packing
+from solver.packing import jammed
 
 
 @pytest.fixture(scope="module")
 def packing256():
-    return packing.generate(256, 0.9, np.random.SeedSequence([41, 0]))
+    return jammed.generate(256, 0.9, np.random.SeedSequence([41, 0]))
 
 
 def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):

@@ -10,20 +10,20 @@ import pytest
 from conftest import COMM, assert_all, assert_close
 
 from solver.errors import InputError
-from solver.packing import jammed as packing
+from solver.packing import jammed
 from solver.packing import lammps_engine
 
 
 def recipe_start(n: int, phi: float, dim: int, seed: int):
     """The recipe's start: (positions (n, dim) uniform in the box, bidisperse diameters, box (dim,))."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
-    diameters = rng.permutation(packing.bidisperse_diameters(n))
-    box = np.full(dim, packing.box_length_for(diameters, phi, dim))
+    diameters = rng.permutation(jammed.bidisperse_diameters(n))
+    box = np.full(dim, jammed.box_length_for(diameters, phi, dim))
     return rng.uniform(0.0, box[0], size=(n, dim)), diameters, box
 
 
 def rotsound_max_force(positions, diameters, box) -> float:
-    force, _ = packing._FrictionlessForces(diameters, box)(positions)
+    force, _ = jammed._FrictionlessForces(diameters, box)(positions)
     return float(np.sqrt(np.max(np.sum(force**2, axis=1))))
 
 
@@ -47,10 +47,10 @@ def test_lammps_forces_and_virial_are_rotsounds(lammps_present, dim, stretch, la
     box = cube * np.array(stretch)
     x = x * np.array(stretch)
     force, pressure = lammps_engine.forces(x, d, box, COMM, law=law)
-    expected, _ = packing._FrictionlessForces(d, box, law=law)(x)
+    expected, _ = jammed._FrictionlessForces(d, box, law=law)(x)
     assert_all(np.abs(expected).max() > 0.1, "the start should be far from force balance")
     assert_close(force, expected, rtol=0.0, atol=1e-13, what=f"{dim}D forces")
-    stats = packing.describe(x, d, box, np.zeros(d.size, dtype=bool), law)
+    stats = jammed.describe(x, d, box, np.zeros(d.size, dtype=bool), law)
     assert_close(pressure, stats["pressure"], rtol=1e-13, what=f"{dim}D virial pressure")
 
 
@@ -116,7 +116,7 @@ def test_lammps_fire_is_rotsounds_with_the_documented_changes(lammps_present, di
     Equal step counts were measured in every case (N = 512 in 2D and 3D, 2048 in 2D)."""
     x, d, box = recipe_start(128, phi, dim, seed=1)
     positions, steps, _ = lammps_engine.minimize(x, d, box, 1e-6, 100_000, COMM)
-    expected, expected_steps = lammps_variant_of_rotsounds_fire(x, packing._FrictionlessForces(d, box), 1e-6, 100_000)
+    expected, expected_steps = lammps_variant_of_rotsounds_fire(x, jammed._FrictionlessForces(d, box), 1e-6, 100_000)
     assert_all(steps == expected_steps, f"{dim}D: LAMMPS took {steps} steps, the variant {expected_steps}")
     delta = positions - expected
     delta -= box * np.rint(delta / box)
@@ -160,16 +160,16 @@ def test_scene_with_engine_lammps_makes_jammed_packings_on_all_ranks(lammps_pres
     ranks, jammed, to force_tol under rotsound's forces, the same on every rank; its unit key
     differs from the FIRE recipe's (a cache never mixes the two)."""
     from solver import pipeline
-    from solver.io import schema, units
+    from solver.io import schema, unit_keys
 
     out = COMM.bcast(str(tmp_path / "out.h5"), root=0)
     spec = {"packing": {"n": 64, "phi": 0.9, "count": 2, "engine": "lammps"}, "output": out}
     scene = schema.build(schema.Scene, spec)
     made = pipeline.make_packings(scene, COMM)
     for p in made:
-        assert_all(p.info["engine"] == "lammps" and packing.jamming_failure(p) is None, "not jammed")
+        assert_all(p.info["engine"] == "lammps" and jammed.jamming_failure(p) is None, "not jammed")
         assert_all(rotsound_max_force(p.positions, p.diameters, p.box) < 1e-6, "force_tol not met")
         assert_all(COMM.allgather(p.positions.tobytes()).count(p.positions.tobytes()) == COMM.size,
                    "ranks differ")
     fire_scene = schema.build(schema.Scene, {**spec, "packing": {**spec["packing"], "engine": "fire"}})
-    assert_all(units.packing_key(scene, 0) != units.packing_key(fire_scene, 0), "same unit key")
+    assert_all(unit_keys.packing_key(scene, 0) != unit_keys.packing_key(fire_scene, 0), "same unit key")

@@ -10,7 +10,7 @@ from test_crystal import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
 
 from solver.model import dynmat
 from solver.packing import jammed
-from solver.waves import spectral as lanczos
+from solver.waves import spectral
 from solver.waves.excitation import runs
 
 AMPLITUDE = 1e-3
@@ -36,7 +36,7 @@ def crystal_wave(comm, packing, mode, p):
     component = runs(mode, 2)[direction][0]
     k = 2 * np.pi * p / L
     dm = dynmat.assemble(packing, 1.0, comm)
-    series = lanczos.spectral(dm, packing.positions, mode, direction, k, amplitude=AMPLITUDE,
+    series = spectral.spectral(dm, packing.positions, mode, direction, k, amplitude=AMPLITUDE,
                               times=TIMES, tol=1e-10)
     dm.destroy()
     block = [0] if mode == "L" else [1, 2]
@@ -76,7 +76,7 @@ def test_dense_fallback_gives_the_same_z_when_mrrr_fails(comm, monkeypatch):
     p = jammed.generate(64, 0.9, np.random.SeedSequence([31, 0]))
     k = 2 * np.pi * 2 / p.box_length
     dm = dynmat.assemble(p, 1.0, comm)
-    reference = lanczos.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
+    reference = spectral.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
     calls = []
 
     def failing(*args, **kwargs):
@@ -84,9 +84,9 @@ def test_dense_fallback_gives_the_same_z_when_mrrr_fails(comm, monkeypatch):
         raise np.linalg.LinAlgError("forced by the test")
 
     monkeypatch.setattr(scipy.linalg, "eigh_tridiagonal", failing)
-    if hasattr(lanczos, "eigh_tridiagonal"):  # imported at module level
-        monkeypatch.setattr(lanczos, "eigh_tridiagonal", failing)
-    fallback = lanczos.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
+    if hasattr(spectral, "eigh_tridiagonal"):  # imported at module level
+        monkeypatch.setattr(spectral, "eigh_tridiagonal", failing)
+    fallback = spectral.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
     dm.destroy()
     # rank 0 evaluates z (and broadcasts it): only there is the solver called
     assert_all(comm.getRank() != 0 or len(calls) >= 2, f"the failing solver was called {len(calls)} times")

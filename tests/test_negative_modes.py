@@ -22,7 +22,7 @@ import yaml
 from conftest import COMM, assert_all, assert_close
 
 from solver import pipeline
-from solver.io import hdf5 as h5io
+from solver.io import hdf5
 from solver.io import schema
 from solver.model import dynmat
 from solver.packing import jammed
@@ -51,7 +51,7 @@ def dense_counts(dm):
 
 def test_compressed_rectangular_lattice_counts_negative_modes_like_dense_eigh(comm):
     p = rectangular_lattice()
-    assert not p.rattler.any() and h5io.net_force(p) < 1e-14, "an equilibrium without rattlers"
+    assert not p.rattler.any() and hdf5.net_force(p) < 1e-14, "an equilibrium without rattlers"
     assert np.hypot(*(BOX / np.array([N_X, N_Y]))) > 1.0 > BOX / N_Y, "4 contacts per disk"
     dm = dynmat.assemble(p, 0.0, comm)
     negative, zero, omega = dense_counts(dm)
@@ -69,7 +69,7 @@ def test_compressed_rectangular_lattice_counts_negative_modes_like_dense_eigh(co
 def test_pipeline_records_and_warns_about_negative_modes(comm, shared_tmp, capsys):
     packing_file = shared_tmp / "lattice.h5"
     if COMM.rank == 0:
-        h5io.save_packings(str(packing_file), [rectangular_lattice()])
+        hdf5.save_packings(str(packing_file), [rectangular_lattice()])
     COMM.Barrier()
     text = (f"output: {shared_tmp / 'lattice_out.h5'}\ncache: off\npacking: {{file: {packing_file}}}\n"
             "model: {rho: [0.0]}\nspectrum: {}\n")

@@ -6,10 +6,10 @@ import pytest
 from conftest import COMM, assert_all, assert_close
 
 from solver import parallel
-from solver.packing import geometry as contacts
+from solver.packing import geometry
 from solver.packing import fire
-from solver.io import hdf5 as h5io
-from solver.packing import jammed as packing
+from solver.io import hdf5
+from solver.packing import jammed
 from solver.errors import InputError
 
 
@@ -68,34 +68,34 @@ def test_force_balance_independently(small_packing):
 
 def test_same_seed_same_packing_on_any_rank_count(comm):
     seeds = [parallel.seed_sequence(5, i) for i in range(3)]
-    made = parallel.owner_compute(COMM, seeds, lambda s: packing.generate(32, 0.88, s))
-    ref = packing.generate(32, 0.88, parallel.seed_sequence(5, 1))
+    made = parallel.owner_compute(COMM, seeds, lambda s: jammed.generate(32, 0.88, s))
+    ref = jammed.generate(32, 0.88, parallel.seed_sequence(5, 1))
     assert_all(np.array_equal(made[1].positions, ref.positions), "rank-dependent packing")
     assert_all(not np.array_equal(made[0].positions, made[1].positions), "configs identical")
 
 
 def test_rattler_rule_is_a_fixed_point():
     """Near jamming rattlers are common; after removal every kept disk has >= 3 kept contacts."""
-    p = packing.generate(256, 0.845, np.random.SeedSequence([11, 0]))
-    found = contacts.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
+    p = jammed.generate(256, 0.845, np.random.SeedSequence([11, 0]))
+    found = geometry.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
     kept = found.count_per_particle(p.n)[~p.rattler]
     assert p.rattler.sum() >= 1
-    assert kept.min() >= packing.min_contacts(2)
+    assert kept.min() >= jammed.min_contacts(2)
     # each rattler really is one under the rule applied to the packing without it
-    everyone = contacts.find_contacts(p.positions, p.diameters, p.box_length).count_per_particle(p.n)
-    one_pass = everyone < packing.min_contacts(2)
+    everyone = geometry.find_contacts(p.positions, p.diameters, p.box_length).count_per_particle(p.n)
+    one_pass = everyone < jammed.min_contacts(2)
     assert np.all(p.rattler[one_pass]), "first-pass rattlers must be rattlers"
 
 
 def test_packing_file_round_trip(shared_tmp, small_packing):
     path = shared_tmp / "round.h5"
     if COMM.rank == 0:
-        h5io.save_packings(str(path), [small_packing, small_packing])
+        hdf5.save_packings(str(path), [small_packing, small_packing])
     COMM.Barrier()
-    back = h5io.read_packings(str(path))
+    back = hdf5.read_packings(str(path))
     assert_all(len(back) == 2 and np.array_equal(back[1].positions, small_packing.positions)
                and np.array_equal(back[0].rattler, small_packing.rattler), "round trip")
-    assert_all(len(h5io.read_packings(str(path), count=1)) == 1, "count")
+    assert_all(len(hdf5.read_packings(str(path), count=1)) == 1, "count")
     COMM.Barrier()
 
 
@@ -108,7 +108,7 @@ def test_external_packing_single_group(shared_tmp, small_packing):
             f["diameters"] = small_packing.diameters
             f.attrs["box_length"] = small_packing.box_length
     COMM.Barrier()
-    (p,) = h5io.read_packings(str(path))
+    (p,) = hdf5.read_packings(str(path))
     # folding subtracts multiples of L: round-off ~ eps 3L absolute (measured 2.7e-15)
     folding = 4 * np.finfo(float).eps * 3 * small_packing.box_length
     assert_close(p.positions, small_packing.positions, rtol=0, atol=folding, what="folding into box")
@@ -144,7 +144,7 @@ def test_bad_packing_files(tmp_path, small_packing, case, message):
             if case not in ("no_box", "empty"):
                 f.attrs["box_length"] = {"small_box": 1.0, "no_contacts": 3 * L}.get(case, L)
     with pytest.raises(InputError, match=message) as info:
-        h5io.read_packings(str(path))
+        hdf5.read_packings(str(path))
     assert str(path) in str(info.value)
 
 
@@ -158,22 +158,22 @@ def test_a_packing_tiled_along_x_is_the_same_packing_in_a_rectangular_box(dim, s
     from conftest import dense_eigen
     from solver.model import dynmat
 
-    p = small_packing if dim == 2 else packing.generate(64, 0.7, np.random.SeedSequence([3, 0]), dim=3)
+    p = small_packing if dim == 2 else jammed.generate(64, 0.7, np.random.SeedSequence([3, 0]), dim=3)
     shift = np.zeros(dim)
     shift[0] = p.box_length
     box = np.full(dim, p.box_length)
     box[0] *= 2
-    tiled = packing.from_arrays(np.concatenate([p.positions, p.positions + shift]), np.tile(p.diameters, 2), box)
+    tiled = jammed.from_arrays(np.concatenate([p.positions, p.positions + shift]), np.tile(p.diameters, 2), box)
     assert_all(np.array_equal(tiled.rattler, np.tile(p.rattler, 2)), "rattlers differ from the copies'")
     for name in ("z", "pressure", "energy"):
         expected = 2 * p.info[name] if name == "energy" else p.info[name]
         assert_close(tiled.info[name], expected, rtol=1e-12, what=name)
     assert_close(tiled.phi, p.phi, rtol=1e-15, what="phi")
     path = tmp_path / f"tiled{dim}.h5"  # each rank its own file
-    h5io.save_packings(str(path), [tiled])
+    hdf5.save_packings(str(path), [tiled])
     with h5py.File(path, "r") as f:
         assert_all("box_length" not in f["packings/0000"].attrs, "box_length written for a non-cubic box")
-    back = h5io.read_packings(str(path))[0]  # also checks equilibrium (net force <= 1e-4)
+    back = hdf5.read_packings(str(path))[0]  # also checks equilibrium (net force <= 1e-4)
     assert_all(np.array_equal(back.box, box) and np.array_equal(back.positions, tiled.positions), "round trip")
     with pytest.raises(ValueError, match="not one side length"):
         tiled.box_length
@@ -193,16 +193,16 @@ def test_a_files_masses_round_trip(small_packing, tmp_path):
         f["positions"], f["diameters"] = small_packing.positions, small_packing.diameters
         f.attrs["box_length"] = small_packing.box_length
         f["masses"] = masses
-    p = h5io.read_packings(str(path))[0]
-    h5io.save_packings(str(again), [p])
-    back = h5io.read_packings(str(again))[0]
+    p = hdf5.read_packings(str(path))[0]
+    hdf5.save_packings(str(again), [p])
+    back = hdf5.read_packings(str(again))[0]
     assert_all(np.array_equal(p.masses, masses) and np.array_equal(back.masses, masses), "masses lost")
 
 
 def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, tmp_path):
     """A packing whose normal forces do not balance (here: a jammed one shaken by up to 0.02 d0, as
     a frictional DEM packing would look to the normal forces) is refused with the message that
-    offers packing.relax; with relax: true, FIRE takes it back to a jammed minimum of the normal
+    offers jammed.relax; with relax: true, FIRE takes it back to a jammed minimum of the normal
     energy, in equilibrium to force_tol under the FIRE forces and to the file check."""
     from solver import pipeline
     from solver.io import schema
@@ -214,14 +214,14 @@ def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, 
         f["diameters"] = small_packing.diameters
         f.attrs["box_length"] = small_packing.box_length
     scene = {"packing": {"file": path}, "output": str(tmp_path / "out.h5")}
-    with pytest.raises(InputError, match="packing.relax: true"):
+    with pytest.raises(InputError, match="jammed.relax: true"):
         pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
     scene["packing"]["relax"] = True
     relaxed, = pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
-    f, _ = packing._FrictionlessForces(relaxed.diameters, relaxed.box)(relaxed.positions)
-    assert_all(np.sqrt((f ** 2).sum(axis=1)).max() < 1e-6 and h5io.net_force(relaxed) < 1e-6,
+    f, _ = jammed._FrictionlessForces(relaxed.diameters, relaxed.box)(relaxed.positions)
+    assert_all(np.sqrt((f ** 2).sum(axis=1)).max() < 1e-6 and hdf5.net_force(relaxed) < 1e-6,
                "relaxed packing not in equilibrium")
-    assert_all(relaxed.info["relaxed"] and packing.jamming_failure(relaxed) is None, "not a jammed packing")
+    assert_all(relaxed.info["relaxed"] and jammed.jamming_failure(relaxed) is None, "not a jammed packing")
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -229,8 +229,8 @@ def test_hertz_packings_balance_under_hertz_forces_only(dim):
     """model.law: hertz makes FIRE minimise the Hertz normal energy: the packing is jammed and in
     equilibrium under Hertz forces, and not under harmonic ones (the two laws weigh
     overlaps differently, so one law's minimum is off balance under the other)."""
-    p = packing.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([2, 0]), dim=dim, law="hertz")
-    assert_all(p.info["law"] == "hertz" and packing.jamming_failure(p) is None, "not a jammed Hertz packing")
-    hertz, harmonic = h5io.net_force(p, "hertz"), h5io.net_force(p, "harmonic")
+    p = jammed.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([2, 0]), dim=dim, law="hertz")
+    assert_all(p.info["law"] == "hertz" and jammed.jamming_failure(p) is None, "not a jammed Hertz packing")
+    hertz, harmonic = hdf5.net_force(p, "hertz"), hdf5.net_force(p, "harmonic")
     # FIRE's criterion holds with the rattlers in; without their contacts ~1e-6 remain on others
-    assert_all(hertz < 1e-5 and harmonic > h5io.EQUILIBRIUM_TOL, f"Hertz {hertz}, harmonic {harmonic}")
+    assert_all(hertz < 1e-5 and harmonic > hdf5.EQUILIBRIUM_TOL, f"Hertz {hertz}, harmonic {harmonic}")

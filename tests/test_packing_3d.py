@@ -11,11 +11,11 @@ import pytest
 from conftest import COMM, assert_all, assert_close, star_cluster
 
 from solver.errors import InputError
-from solver.io import hdf5 as h5io
+from solver.io import hdf5
 from solver.io import results, schema
-from solver.io import units as unitstore
-from solver.packing import geometry as contacts
-from solver.packing import jammed as packing
+from solver.io import unit_keys
+from solver.packing import geometry
+from solver.packing import jammed
 
 PHI = 0.7  # above this mixture's 3D jamming point (~0.648)
 
@@ -23,7 +23,7 @@ PHI = 0.7  # above this mixture's 3D jamming point (~0.648)
 @pytest.fixture(scope="module")
 def spheres():
     """A jammed 128-sphere packing at phi = 0.7 (same on every rank; ~0.2 s)."""
-    return packing.generate(128, PHI, np.random.SeedSequence([3, 0]), dim=3)
+    return jammed.generate(128, PHI, np.random.SeedSequence([3, 0]), dim=3)
 
 
 def all_pairs(p):
@@ -74,7 +74,7 @@ def test_spheres_contacts_pressure_and_rattlers(spheres):
     assert 6.0 < z < 9.0, z
     pressure = np.sum(overlap[touching] * distance[touching]) / 2 / (3 * p.box_length**3)
     assert_close(p.info["pressure"], pressure, rtol=1e-12, what="virial pressure")
-    assert packing.jamming_failure(p) is None
+    assert jammed.jamming_failure(p) is None
 
 
 def test_rattler_rule_in_3d_on_a_hand_made_lattice():
@@ -88,10 +88,10 @@ def test_rattler_rule_in_3d_on_a_hand_made_lattice():
     keep = np.array([tuple(s) not in removed for s in sites])
     sites = sites[keep]
     where = {tuple(s): index for index, s in enumerate(sites)}
-    found = contacts.find_contacts(a * sites.astype(float), np.ones(len(sites)), 4 * a)
+    found = geometry.find_contacts(a * sites.astype(float), np.ones(len(sites)), 4 * a)
     count = found.count_per_particle(len(sites))
     assert count[where[(0, 0, 0)]] == 3 and count[where[(3, 0, 0)]] == 4  # the construction
-    rattler = packing.find_rattlers(a * sites.astype(float), np.ones(len(sites)), 4 * a)
+    rattler = jammed.find_rattlers(a * sites.astype(float), np.ones(len(sites)), 4 * a)
     assert sorted(np.flatnonzero(rattler)) == sorted([where[(0, 0, 0)], where[(3, 0, 0)]])
 
 
@@ -103,16 +103,16 @@ def test_rigidity_count_in_3d(spheres):
     p = spheres
     cluster, n_cluster, inside = star_cluster(p)
     assert inside < 3 * n_cluster - 2, (n_cluster, inside)  # the test's cluster is floppy in 3D
-    floppy = packing.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
-    why = packing.jamming_failure(floppy)
+    floppy = jammed.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
+    why = jammed.jamming_failure(floppy)
     assert why is not None and why.startswith(f"only {n_cluster} of 128 spheres are not rattlers and they "
                                               f"share {inside} contacts, fewer than the 3N' - 2 = "
                                               f"{3 * n_cluster - 2}"), why
-    loose = packing.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
-    assert packing.jamming_failure(loose).startswith("all 128 spheres are rattlers")
+    loose = jammed.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
+    assert jammed.jamming_failure(loose).startswith("all 128 spheres are rattlers")
     with pytest.raises(InputError, match=r"packing.phi = 0.7: configuration 1 did not jam: all 128 spheres "
                                          r"are rattlers .*this 3D mixture jams near phi = 0.648"):
-        packing.require_jammed([p, loose], 0.7)
+        jammed.require_jammed([p, loose], 0.7)
 
 
 def test_box_of_two_large_diameters_is_refused_before_fire():
@@ -121,12 +121,12 @@ def test_box_of_two_large_diameters_is_refused_before_fire():
     (d_S^3 + d_L^3)) = 20.16, even: 22); smallest_n is the smallest even N whose box fits."""
     with pytest.raises(InputError, match=r"packing.n = 16, packing.phi = 0.9: the 3D box would have side "
                                          r"L = 2.16, .*choose packing.n >= 22 at this phi"):
-        packing.generate(16, 0.9, np.random.SeedSequence([0, 0]), dim=3)
+        jammed.generate(16, 0.9, np.random.SeedSequence([0, 0]), dim=3)
     for phi in (0.6, 0.75, 0.9, 0.99):
-        n = packing.smallest_n(phi, 3)
-        box = [packing.box_length_for(packing.bidisperse_diameters(m), phi, 3) for m in (n - 2, n)]
-        assert box[1] > 2 * packing.D_LARGE and (n == 16 or box[0] <= 2 * packing.D_LARGE), (phi, n, box)
-    assert packing.smallest_n(0.99, 2) == 16  # every 2D box of 16 or more disks fits
+        n = jammed.smallest_n(phi, 3)
+        box = [jammed.box_length_for(jammed.bidisperse_diameters(m), phi, 3) for m in (n - 2, n)]
+        assert box[1] > 2 * jammed.D_LARGE and (n == 16 or box[0] <= 2 * jammed.D_LARGE), (phi, n, box)
+    assert jammed.smallest_n(0.99, 2) == 16  # every 2D box of 16 or more disks fits
 
 
 def test_sphere_file_round_trip(shared_tmp, spheres):
@@ -135,17 +135,17 @@ def test_sphere_file_round_trip(shared_tmp, spheres):
     p = spheres
     stored, external, out = (shared_tmp / name for name in ("spheres.h5", "external3d.h5", "results3d.h5"))
     if COMM.rank == 0:
-        h5io.save_packings(str(stored), [p])
+        hdf5.save_packings(str(stored), [p])
         with h5py.File(external, "w") as f:
             f["positions"] = p.positions - 3.0 * p.box_length
             f["diameters"] = p.diameters
             f.attrs["box_length"] = p.box_length
-        h5io.write_results(str(out), {}, [p], {})
+        hdf5.write_results(str(out), {}, [p], {})
     COMM.Barrier()
-    (back,) = h5io.read_packings(str(stored))
+    (back,) = hdf5.read_packings(str(stored))
     assert_all(back.positions.shape == (128, 3) and np.array_equal(back.positions, p.positions)
                and np.array_equal(back.rattler, p.rattler) and back.box_length == p.box_length, "round trip")
-    (other,) = h5io.read_packings(str(external))
+    (other,) = hdf5.read_packings(str(external))
     folding = 4 * np.finfo(float).eps * 3 * p.box_length  # subtracting 3L and folding: round-off
     assert_close(other.positions, p.positions, rtol=0, atol=folding, what="folding into the cube")
     assert_all(np.array_equal(other.rattler, p.rattler), "rattlers recomputed with the 3D rule")
@@ -159,7 +159,7 @@ def test_sphere_file_round_trip(shared_tmp, spheres):
 def test_packing_key_gets_dim_only_in_3d():
     """2D recipes hash as before packing.dim existed (their stored packings are found again);
     3D recipes differ from them."""
-    keys = {dim: unitstore.packing_key(schema.build(schema.Scene, {"packing": {"n": 64, "phi": 0.9, "dim": dim}}), 0)
+    keys = {dim: unit_keys.packing_key(schema.build(schema.Scene, {"packing": {"n": 64, "phi": 0.9, "dim": dim}}), 0)
             for dim in (2, 3)}
     assert set(keys[2].parts["settings"]) == {"n", "phi", "seed", "index", "force_tol", "max_steps"}
     assert keys[3].parts["settings"]["dim"] == 3 and keys[2].digest != keys[3].digest
@@ -171,12 +171,12 @@ def test_net_force_of_a_sphere_file_counts_z(spheres):
     p = spheres
     moved = p.positions.copy()
     moved[5, 2] += 0.01
-    shaken = packing.Packing(moved, p.diameters, p.box, p.rattler, p.info)
+    shaken = jammed.Packing(moved, p.diameters, p.box, p.rattler, p.info)
     overlap, delta, distance = all_pairs(shaken)
     net = np.sum((overlap / distance)[..., None] * delta, axis=1)
     expected = np.sqrt(np.sum(net[~p.rattler] ** 2, axis=1)).max()
     assert expected > 1e-3, expected  # well above EQUILIBRIUM_TOL = 1e-4: the file would be refused
-    assert_close(h5io.net_force(shaken), expected, rtol=1e-12, what="largest net force")
+    assert_close(hdf5.net_force(shaken), expected, rtol=1e-12, what="largest net force")
 
 
 def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypatch, spheres):
@@ -223,7 +223,7 @@ def test_neighbour_list_refresh_keeps_every_pair_that_can_touch(start, moves, ga
     every stage the forces equal the two-sphere formula."""
     far = [[1, 1, 1], [1, 1, 8], [1, 8, 1], [8, 1, 1], [1, 8, 8], [8, 8, 8]]
     x = np.array([[5.0, 5.0, 5.0], [5.0 + start, 5.0, 5.0]] + far, dtype=float)
-    forces = packing._FrictionlessForces(np.ones(len(x)), 10.0)
+    forces = jammed._FrictionlessForces(np.ones(len(x)), 10.0)
     assert forces.skin == 0.3
     for move in [(0.0, 0.0)] + moves:
         x[:2, 0] += move

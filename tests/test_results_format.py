@@ -11,7 +11,7 @@ import pytest
 from conftest import REPO, assert_close
 
 from solver.errors import InputError
-from solver.io import hdf5 as h5io
+from solver.io import hdf5
 from solver.io import results
 from solver.model import dynmat
 from solver.spectrum import slicing
@@ -43,7 +43,7 @@ def test_version_1_file_is_read_as_written(comm):
     # rotsound, is the one stored: positions, diameters and box are read as they were written.
     data = results.gather([str(V1)])
     assert sorted(data.vdos) == [0.0, 1.0] and data.vdos_file == str(V1)
-    (packing,) = h5io.read_packings(str(V1))
+    (packing,) = hdf5.read_packings(str(V1))
     for rho in (0.0, 1.0):
         dm = dynmat.assemble(packing, rho, comm)
         now = slicing.solve(dm, window=None, vectors=False)
@@ -69,11 +69,11 @@ def test_newer_version_is_refused_with_one_clear_message(tmp_path, capsys):
     newer = tmp_path / "newer.h5"
     shutil.copyfile(V1, newer)
     with h5py.File(newer, "r+") as f:
-        f.attrs["format_version"] = h5io.FORMAT_VERSION + 1
+        f.attrs["format_version"] = hdf5.FORMAT_VERSION + 1
     with pytest.raises(InputError) as info:
         results.open_results(str(newer))
     message = str(info.value)
-    assert str(newer) in message and f"format_version {h5io.FORMAT_VERSION + 1} is newer" in message, message
+    assert str(newer) in message and f"format_version {hdf5.FORMAT_VERSION + 1} is newer" in message, message
     for command in (["report", str(newer), "--output", str(tmp_path / "R.md")], ["plot", str(newer)]):
         capsys.readouterr()
         code = main(command)

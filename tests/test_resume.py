@@ -151,11 +151,11 @@ def test_sigterm_mid_spectrum_keeps_finished_windows(tmp_path, monkeypatch, caps
     import yaml
 
     from solver import pipeline
-    from solver.io import schema as config
+    from solver.io import schema
 
     text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9, count: 1}}\n"
             "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 40}}\n")
-    make = lambda name: config.build(config.Scene, yaml.safe_load(text.format(out=tmp_path / name)))  # noqa: E731
+    make = lambda name: schema.build(schema.Scene, yaml.safe_load(text.format(out=tmp_path / name)))  # noqa: E731
     reference = pipeline.run(make("ref.h5"), COMM, [])["units"]["spectra/r00_p0000"][0]
     calls = run_stopped_after_windows(monkeypatch, make("cut.h5"))
     assert len(calls) == 2
@@ -200,12 +200,12 @@ def test_spectrum_stopped_after_one_window_resumes_on_another_rank_count(tmp_pat
     from conftest import assert_close
 
     from solver import pipeline
-    from solver.io import schema as config
+    from solver.io import schema
     import yaml
 
     text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9, count: 1}}\n"
             "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 40}}\n")
-    reference = pipeline.run(config.build(config.Scene, yaml.safe_load(text.format(out=tmp_path / "ref.h5"))),
+    reference = pipeline.run(schema.build(schema.Scene, yaml.safe_load(text.format(out=tmp_path / "ref.h5"))),
                              COMM, [])["units"]["spectra/r00_p0000"]
     path, out, driver = tmp_path / "cut.yaml", tmp_path / "cut.h5", tmp_path / "stop_after_one_window.py"
     path.write_text(text.format(out=out))

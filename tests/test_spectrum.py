@@ -6,15 +6,15 @@ import scipy.linalg as sl
 from conftest import COMM, assert_all, assert_close
 
 from solver.model import dynmat, operators
-from solver.io import hdf5 as h5io
+from solver.io import hdf5
 from solver.spectrum import modes
-from solver.packing import jammed as packing
-from solver.spectrum import slicing as spectrum
+from solver.packing import jammed
+from solver.spectrum import slicing
 
 
 @pytest.fixture(scope="module")
 def packing96():
-    return packing.generate(96, 0.9, np.random.SeedSequence([21, 0]))
+    return jammed.generate(96, 0.9, np.random.SeedSequence([21, 0]))
 
 
 def dense_omegas(dm):
@@ -27,7 +27,7 @@ def dense_omegas(dm):
 @pytest.mark.parametrize("rho", [0.0, 0.2, 1.0, 2.0])
 def test_full_spectrum_equals_dense_eigh(comm, packing96, rho):
     dm = dynmat.assemble(packing96, rho, comm)
-    result = spectrum.solve(dm, window=None, vectors=False, max_window_modes=120)
+    result = slicing.solve(dm, window=None, vectors=False, max_window_modes=120)
     ref = dense_omegas(dm)
     nonzero = ref[ref > 1e-4]
     assert_all(result.omega.size == dm.size - 2 == nonzero.size, "count = DOF - 2 zero modes")
@@ -44,7 +44,7 @@ def test_full_spectrum_survives_a_low_band_top_estimate(comm, packing96):
     dm = dynmat.assemble(packing96, 1.0, comm)
     ref = dense_omegas(dm)
     dm.omega_max = 0.9 * ref.max()  # the top ~10 % of the band is above the estimate
-    result = spectrum.solve(dm, window=None, vectors=False)
+    result = slicing.solve(dm, window=None, vectors=False)
     assert_all(result.omega.size == dm.size - 2, "every mode found despite the low estimate")
     assert_close(result.omega, ref[ref > 1e-4], rtol=1e-11, what="omega vs eigh")  # measured 2e-15
     dm.destroy()
@@ -52,9 +52,9 @@ def test_full_spectrum_survives_a_low_band_top_estimate(comm, packing96):
 
 def test_window_is_subset_of_full(comm, packing96):
     dm = dynmat.assemble(packing96, 1.0, comm)
-    full = spectrum.solve(dm, window=None, vectors=False)
+    full = slicing.solve(dm, window=None, vectors=False)
     lo, hi = 2.5, 4.0
-    part = spectrum.solve(dm, window=(lo, hi), vectors=False)
+    part = slicing.solve(dm, window=(lo, hi), vectors=False)
     expect = full.omega[(full.omega > lo) & (full.omega <= hi)]
     assert_close(part.omega, expect, rtol=1e-11, what="window")  # both within 1e-11 of eigh; measured 4e-16
     assert_all(part.n_zero_modes == 2, "zero modes counted in window mode too")
@@ -64,7 +64,7 @@ def test_window_is_subset_of_full(comm, packing96):
 @pytest.mark.parametrize("rho", [0.4, 1.0])
 def test_energies_identity_and_against_dense_vectors(comm, packing96, rho):
     dm = dynmat.assemble(packing96, rho, comm)
-    result = spectrum.solve(dm, window=None, vectors=True, max_window_modes=100)
+    result = slicing.solve(dm, window=None, vectors=True, max_window_modes=100)
     e = result.energies
     n = int(dm.active.sum())
     # holds when the vectors are unit vectors: round-off of sums of squares (measured 2e-15)
@@ -88,11 +88,11 @@ def test_energies_identity_and_against_dense_vectors(comm, packing96, rho):
 def test_loaded_packing_gives_same_spectrum(comm, packing96, shared_tmp):
     path = shared_tmp / "p.h5"
     if COMM.rank == 0:
-        h5io.save_packings(str(path), [packing96])
+        hdf5.save_packings(str(path), [packing96])
     COMM.Barrier()
-    (loaded,) = h5io.read_packings(str(path))
-    a = spectrum.solve(dynmat.assemble(packing96, 0.5, comm), window=None, vectors=False)
-    b = spectrum.solve(dynmat.assemble(loaded, 0.5, comm), window=None, vectors=False)
+    (loaded,) = hdf5.read_packings(str(path))
+    a = slicing.solve(dynmat.assemble(packing96, 0.5, comm), window=None, vectors=False)
+    b = slicing.solve(dynmat.assemble(loaded, 0.5, comm), window=None, vectors=False)
     assert_close(a.omega, b.omega, rtol=1e-12, what="file vs generated")
 
 
@@ -119,7 +119,7 @@ def test_shift_and_invert_factorises_with_mumps_unless_told(comm, packing96, sha
     eps = SLEPc.EPS().create(comm)
     path = str(shared_tmp / f"eps_{option}.txt")
     try:
-        spectrum._configure(eps, A, [1.0, 4.0], 1e-10)
+        slicing._configure(eps, A, [1.0, 4.0], 1e-10)
         eps.solve()
         settings = eps_settings(eps)
         viewer = PETSc.Viewer().createASCII(path, comm=comm)
@@ -156,7 +156,7 @@ def test_inertia_factorisation_takes_its_prefixed_options(comm, packing96, optio
     dm = dynmat.assemble(packing96, 1.0, comm)
     A = operators.scaled_operator(dm)
     try:
-        count, used = spectrum.inertia(A, 4.0)
+        count, used = slicing.inertia(A, 4.0)
     finally:
         if option:
             options.delValue(f"inertia_{option}")
@@ -194,13 +194,13 @@ def test_checkpointed_windows_resume_to_the_same_spectrum(comm, packing96):
             raise Stop
 
     dm = dynmat.assemble(packing96, 1.0, comm)
-    whole = spectrum.solve(dm, window=None, vectors=True, max_window_modes=60)
+    whole = slicing.solve(dm, window=None, vectors=True, max_window_modes=60)
     checkpoint = DictCheckpoint()
     with pytest.raises(Stop):
-        spectrum.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint,
+        slicing.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint,
                        progress=stop_after_two)
     assert_all(sorted(checkpoint.saved) == ["plan", "window0000", "window0001"], "saved so far")
-    resumed = spectrum.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint)
+    resumed = slicing.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint)
     assert_all(checkpoint.loaded == ["plan", "window0000", "window0001"], "taken from the checkpoint")
     assert_all(resumed.windows == whole.windows >= 4, "same plan, several windows")
     # the same windows solved the same way on the same ranks: bitwise equal (as test_resume's files)
@@ -227,15 +227,15 @@ def test_checkpointed_spectrum_resumes_on_another_rank_count(packing96, first, t
 
     comms = {"world": PETSc.COMM_WORLD, "self": PETSc.COMM_SELF}
     whole_dm = dynmat.assemble(packing96, 1.0, comms[then])
-    whole = spectrum.solve(whole_dm, window=None, vectors=True, max_window_modes=60)
+    whole = slicing.solve(whole_dm, window=None, vectors=True, max_window_modes=60)
     checkpoint = DictCheckpoint()
     dm = dynmat.assemble(packing96, 1.0, comms[first])
     with pytest.raises(Stop):
-        spectrum.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint,
+        slicing.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint,
                        progress=stop_after_one)
     dm.destroy()
     assert_all(sorted(checkpoint.saved) == ["plan", "window0000"], "saved so far")
-    resumed = spectrum.solve(whole_dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint)
+    resumed = slicing.solve(whole_dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint)
     assert_all(checkpoint.loaded == ["plan", "window0000"], "taken from the checkpoint")
     assert_all(resumed.windows == whole.windows >= 4, "same plan, several windows")
     assert_close(resumed.omega, whole.omega, rtol=1e-12, what="omega")
@@ -258,7 +258,7 @@ def test_count_below_is_sylvester_inertia(comm, packing96):
     A = operators.scaled_operator(dm)
     ref = dense_omegas(dm) ** 2 * np.sign(dense_omegas(dm))
     for sigma in (1e-8, 1.0, 7.3, 30.0):
-        assert_all(spectrum.count_below(A, sigma) == int(np.sum(ref < sigma)), f"inertia at {sigma}")
+        assert_all(slicing.count_below(A, sigma) == int(np.sum(ref < sigma)), f"inertia at {sigma}")
     A.destroy()
     dm.destroy()
 
@@ -272,7 +272,7 @@ def test_windows_have_balanced_counts(comm, packing96):
     A = operators.scaled_operator(dm)
     lam = dense_omegas(dm) ** 2
     hi = float(lam.max()) * 1.001
-    edges, counts, known = spectrum.plan_windows(A, 1e-8, hi, 50)
+    edges, counts, known = slicing.plan_windows(A, 1e-8, hi, 50)
     total = int(counts[-1] - counts[0])
     exact = np.array([np.sum(lam < e) for e in edges])
     assert_all(np.array_equal(counts, exact), f"counts at the window edges {counts} vs {exact}")
@@ -281,7 +281,7 @@ def test_windows_have_balanced_counts(comm, packing96):
     assert_all(np.all(np.abs(np.diff(exact) - step) <= step / 2 + 1), f"window counts {np.diff(exact)} vs {step:.1f}")
     for parts in (2, 3):
         for w in range(edges.size - 1):
-            sub = spectrum.split_window(A, known, float(edges[w]), float(edges[w + 1]), parts)
+            sub = slicing.split_window(A, known, float(edges[w]), float(edges[w + 1]), parts)
             pieces = np.diff([np.sum(lam < e) for e in sub])
             share = (exact[w + 1] - exact[w]) / parts
             assert_all(len(sub) == parts + 1 and sub[0] == edges[w] and sub[-1] == edges[w + 1]
@@ -294,17 +294,17 @@ def test_windows_have_balanced_counts(comm, packing96):
 def test_count_below_frees_its_factorisation(comm):
     """Repeated inertias must not accumulate MUMPS factors (a leak of one factor per call once
     ran a 300-shift N = 32768 plan out of memory): 40 calls here leaked ~50 MiB."""
-    p = packing.generate(512, 0.9, np.random.SeedSequence([3, 0]))
+    p = jammed.generate(512, 0.9, np.random.SeedSequence([3, 0]))
     dm = dynmat.assemble(p, 1.0, comm)
     A = operators.scaled_operator(dm)
 
     def resident_mib():
         return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
 
-    spectrum.count_below(A, 3.0)
+    slicing.count_below(A, 3.0)
     before = resident_mib()
     for i in range(40):
-        spectrum.count_below(A, 3.0 + 0.01 * i)
+        slicing.count_below(A, 3.0 + 0.01 * i)
     growth = resident_mib() - before
     A.destroy()
     dm.destroy()
@@ -340,8 +340,8 @@ def test_pooled_vdos_of_kpm_units_of_different_reach():
     assert_all(np.array_equal(edges, b[0]["edges"]), f"edges {edges}")
     assert_close(density, [0.7, 0.9, 0.4], rtol=1e-15, what="pooled KPM density")
     assert_close([omega_c, spread], [1.2, 0.2 * np.sqrt(2)], rtol=1e-15, what="omega_c and its std")
-    slicing = [({"omega": np.array([0.1, 0.3])}, {}), ({"omega": np.array([0.2])}, {})]
-    edges, density, omega_c, spread = modes.pooled_vdos(slicing, 0.25)
+    sliced = [({"omega": np.array([0.1, 0.3])}, {}), ({"omega": np.array([0.2])}, {})]
+    edges, density, omega_c, spread = modes.pooled_vdos(sliced, 0.25)
     assert_close(edges, [0.0, 0.25, 0.5], rtol=0.0, what="slicing edges")
     assert_close(density, [2 / 0.75, 1 / 0.75], rtol=1e-15, what="slicing density (3 modes, w = 0.25)")
     assert_close([omega_c, spread], [0.25, 0.05 * np.sqrt(2)], rtol=1e-15, what="slicing omega_c")

@@ -12,17 +12,17 @@ import pytest
 import yaml
 from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, run_cli, schedule
 
-from solver import options as petscopts
+from solver import options
 from solver.errors import InputError
 from solver.model import dynmat, operators
-from solver.packing import jammed as packing
+from solver.packing import jammed
 from solver.waves import excitation
-from solver.waves import integrators as waves
+from solver.waves import integrators
 
 
 @pytest.fixture(scope="module")
 def packing64():
-    return packing.generate(64, 0.9, np.random.SeedSequence([31, 0]))
+    return jammed.generate(64, 0.9, np.random.SeedSequence([31, 0]))
 
 
 @contextlib.contextmanager
@@ -56,18 +56,18 @@ def test_schedule_comes_from_the_scene_or_the_waves_ts_options():
                                       "t_end": "-waves_ts_max_time 1.5"}, f"{chosen}")
     with user_options(waves_ts_rk_type="3"):
         rk3 = resolve("rk")
-    assert_all(rk3.variant == "3" and waves.stability_limit("rk", 1.0, rk3.variant) == np.sqrt(3.0), f"{rk3}")
+    assert_all(rk3.variant == "3" and integrators.stability_limit("rk", 1.0, rk3.variant) == np.sqrt(3.0), f"{rk3}")
 
 
 def test_a_variable_step_or_too_few_samples_is_refused_naming_the_option():
     with user_options(waves_ts_adapt_type="basic"):
         adaptive = resolve("rk")
     with pytest.raises(InputError, match="TSAdapt basic.*-waves_ts_adapt_type none"):
-        waves.check_schedule(adaptive, 1.0, 1.0)
+        integrators.check_schedule(adaptive, 1.0, 1.0)
     with user_options(waves_ts_max_steps="10"):
         short = resolve()
     with pytest.raises(InputError, match=r"fewer than 4 samples in t_end = 0.5 \(waves.t_end = 2, -waves_ts_max_steps 10\)"):
-        waves.check_schedule(short, 1.0, 1.0)
+        integrators.check_schedule(short, 1.0, 1.0)
 
 
 def test_a_ts_type_petsc_does_not_know_is_bad_input():
@@ -84,11 +84,11 @@ def test_dt_from_the_option_is_checked_like_the_scene_key(comm, packing64):
     dm.destroy()
     limit = 2.0 / omega_max
     with pytest.raises(InputError, match=r"^waves.dt = 0.6: above the stability limit"):
-        waves.check_schedule(resolve(dt=0.6, t_end=20.0), omega_max, 1.0)
+        integrators.check_schedule(resolve(dt=0.6, t_end=20.0), omega_max, 1.0)
     with user_options(waves_ts_dt="0.6"):
         with pytest.raises(InputError, match=rf"^-waves_ts_dt 0.6: above the stability limit {limit:.4f} t0 of verlet"):
-            waves.check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0)
-    assert_all(waves.check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0) == limit, "limit returned")
+            integrators.check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0)
+    assert_all(integrators.check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0) == limit, "limit returned")
 
 
 SCENE = """\
@@ -127,7 +127,7 @@ def test_run_uses_and_records_the_options_and_writes_nothing_into_the_database(s
                == {"prefix": "waves_", "ts_type": "rk", "rk_type": "4", "dt": 0.01, "max_steps": 400,
                    "adapt_type": "none"} and used["wmax"]["prefix"] == "wmax_", f"{used}")
     dm = dynmat.assemble(made, 1.0, PETSc.COMM_WORLD)
-    direct = waves.integrate(dm, made.positions, "L", 0, float(datasets["k"][0]), amplitude=1e-3,
+    direct = integrators.integrate(dm, made.positions, "L", 0, float(datasets["k"][0]), amplitude=1e-3,
                              schedule=resolve("rk", dt=0.01, t_end=4.0))
     dm.destroy()
     assert_close(datasets["z"][0, 0], direct.z, rtol=0, atol=1e-14 * np.abs(direct.z).max(),
@@ -195,7 +195,7 @@ def test_theta_beuler_ssp_converge_at_their_order(comm, packing64, integrator, o
     k = 2 * np.pi / packing64.box_length
     errors = []
     for dt in dts:
-        series = waves.integrate(dm, packing64.positions, "L", 0, k, amplitude=1e-3,
+        series = integrators.integrate(dm, packing64.positions, "L", 0, k, amplitude=1e-3,
                                  schedule=resolve(integrator, dt=dt, t_end=10.0, every=int(round(0.32 / dt))))
         assert_all(series.settings["ts_type"] == integrator and series.settings["dt"] == dt, f"{series.settings}")
         exact = exact_z_fixed(packing64, dm, dense_eigen(dm), excitation.runs("L", 2)[0], k, series.t, 1e-3)
@@ -207,8 +207,8 @@ def test_theta_beuler_ssp_converge_at_their_order(comm, packing64, integrator, o
 
 def test_unused_options_are_judged_by_prefix():
     names = ["spectrum_eps_tol", "log_view", "waves_ts_dt", "inertia_mat_mumps_icntl_14", "not_an_option"]
-    assert petscopts.unused(names, [("spectra", "slicing")]) == ["waves_ts_dt", "not_an_option"]
-    assert petscopts.unused(names, [("waves", "ts")]) == ["spectrum_eps_tol", "inertia_mat_mumps_icntl_14",
+    assert options.unused(names, [("spectra", "slicing")]) == ["waves_ts_dt", "not_an_option"]
+    assert options.unused(names, [("waves", "ts")]) == ["spectrum_eps_tol", "inertia_mat_mumps_icntl_14",
                                                          "not_an_option"]
 
 
@@ -218,5 +218,5 @@ def test_bare_solver_options_are_refused_with_the_prefixed_name():
     for name, hint in (("eps_tol", "-spectrum_eps_tol or -wmax_eps_tol"), ("ts_dt", "-waves_ts_dt"),
                        ("mat_mumps_icntl_14", "-spectrum_st_mat_mumps_icntl_14 or -inertia_mat_mumps_icntl_14")):
         with pytest.raises(InputError, match=f"did you mean {hint}"):
-            petscopts.refuse_bare_solver_options(["log_view", name])
-    petscopts.refuse_bare_solver_options(["log_view", "spectrum_eps_tol", "waves_ts_dt"])
+            options.refuse_bare_solver_options(["log_view", name])
+    options.refuse_bare_solver_options(["log_view", "spectrum_eps_tol", "waves_ts_dt"])

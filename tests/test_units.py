@@ -11,8 +11,8 @@ import yaml
 from conftest import COMM, assert_all, assert_close, run_stopped_after_windows
 
 from solver import pipeline
-from solver.io import schema as config
-from solver.io import units
+from solver.io import schema
+from solver.io import unit_keys, unit_store
 
 SCENE = """\
 output: {out}
@@ -26,7 +26,7 @@ waves: {{modes: [L], n: [1, 2], t_end: 40, dt: 0.05}}
 
 
 def make(folder, name, cache="off"):
-    return config.build(config.Scene, yaml.safe_load(SCENE.format(out=folder / f"{name}.h5", cache=cache)))
+    return schema.build(schema.Scene, yaml.safe_load(SCENE.format(out=folder / f"{name}.h5", cache=cache)))
 
 
 def run(scene, argv, capsys):
@@ -79,9 +79,9 @@ def test_options_acting_on_a_stage_key_its_units(shared_tmp, capsys):
 
 def test_stored_key_parts_say_what_changed():
     """The reason names the part that changed and its old and new values."""
-    old = units.UnitKey.of(unit="spectrum", section="spectrum", rho=1.0, settings={"tol": 1e-12, "window": None},
+    old = unit_keys.UnitKey.of(unit="spectrum", section="spectrum", rho=1.0, settings={"tol": 1e-12, "window": None},
                            options={"spectrum_eps_tol": "1e-6", "spectrum_eps_view": None}, version="0.1.0")
-    new = units.UnitKey.of(unit="spectrum", section="spectrum", rho=1.0, settings={"tol": 1e-10, "window": None},
+    new = unit_keys.UnitKey.of(unit="spectrum", section="spectrum", rho=1.0, settings={"tol": 1e-10, "window": None},
                            options={"spectrum_st_type": "sinvert"}, version="0.2.0")
     assert new.digest != old.digest
     assert new.changes(old.parts_json) == (
@@ -96,8 +96,8 @@ def test_window_checkpoint_of_other_options_is_discarded(shared_tmp, capsys, mon
     saved plan and windows are recomputed (never mixed in), and the log says why once."""
     text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 32, phi: 0.9, count: 1}}\n"
             "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 20}}\n")
-    scene = config.build(config.Scene, yaml.safe_load(text.format(out=shared_tmp / "cut.h5")))
-    reference = pipeline.run(config.build(config.Scene, yaml.safe_load(text.format(out=shared_tmp / "ref.h5"))),
+    scene = schema.build(schema.Scene, yaml.safe_load(text.format(out=shared_tmp / "cut.h5")))
+    reference = pipeline.run(schema.build(schema.Scene, yaml.safe_load(text.format(out=shared_tmp / "ref.h5"))),
                              COMM, [])["units"]["spectra/r00_p0000"][0]
     calls = run_stopped_after_windows(monkeypatch, scene)
     capsys.readouterr()
@@ -142,12 +142,12 @@ def assert_every_rank(got: str, expected: str) -> None:
 
 
 def key(n):
-    return units.UnitKey.of(unit="test", n=n)
+    return unit_keys.UnitKey.of(unit="test", n=n)
 
 
 @pytest.fixture
 def store(shared_tmp):
-    made = units.UnitStore(str(shared_tmp / "out.h5"), "scene: test\n", "d1", COMM, cache=str(shared_tmp / "cache"))
+    made = unit_store.UnitStore(str(shared_tmp / "out.h5"), "scene: test\n", "d1", COMM, cache=str(shared_tmp / "cache"))
     made.save("spectra/r00_p0000", {"omega": np.arange(3.0)}, {"rho": 1.0}, key(1))
     return made
 
@@ -157,8 +157,8 @@ def store(shared_tmp):
 @pytest.mark.parametrize("failure", sorted(FAILURES))
 @pytest.mark.parametrize("attribute", ["replace", "makedirs"])
 def test_scene_claim_error_on_rank0_raises_everywhere(shared_tmp, monkeypatch, attribute, failure):
-    fail_on_rank0(monkeypatch, units.os, attribute, failure)
-    got = outcome(lambda: units.UnitStore(str(shared_tmp / "out.h5"), "scene: test\n", "d1", COMM))
+    fail_on_rank0(monkeypatch, unit_store.os, attribute, failure)
+    got = outcome(lambda: unit_store.UnitStore(str(shared_tmp / "out.h5"), "scene: test\n", "d1", COMM))
     assert_every_rank(got, "InputError" if failure == "ENOSPC" else "RuntimeError")
 
 
@@ -183,9 +183,9 @@ def test_unit_store_error_on_rank0_raises_everywhere(store, shared_tmp, monkeypa
     import os
     import shutil
 
-    checkpoint = units.WindowCheckpoint(store, "r00_p0000", key(1))
+    checkpoint = unit_store.WindowCheckpoint(store, "r00_p0000", key(1))
     checkpoint.save("window0000", {"lam": np.arange(2.0)})
-    other = units.UnitStore(str(shared_tmp / "other.h5"), "scene: other\n", "d2", COMM, cache=store.cache)
+    other = unit_store.UnitStore(str(shared_tmp / "other.h5"), "scene: other\n", "d2", COMM, cache=store.cache)
     if target == "shutil":  # no hard links: the cache entry is a copy
         fail_on_rank0(monkeypatch, os, "link", "ENOSPC")
     fail_on_rank0(monkeypatch, {"h5py": h5py, "os": os, "shutil": shutil}[target], attribute, failure)

@@ -16,7 +16,7 @@ from solver.io.schema import AnalysisSpec, WavesSpec
 from solver.model import dynmat, operators
 from solver.packing import jammed
 from solver.waves import excitation
-from solver.waves import integrators as waves
+from solver.waves import integrators
 from solver.waves.spectral import spectral
 from solver.waves.unit import mode_unit
 
@@ -121,7 +121,7 @@ def test_block_verlet_matches_exact_reference_at_second_order(spheres, matrix, m
     count = len(excitation.runs(mode, 3))
     errors = []
     for dt in (0.02, 0.01):
-        block = waves.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
+        block = integrators.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
                                       amplitude=AMPLITUDE, schedule=schedule("verlet", dt, 5.0, int(round(0.5 / dt))))
         errors.append(relative_errors(spheres, dm, eig, mode, k, block))
     omega_max = operators.largest_omega(dm)
@@ -139,7 +139,7 @@ def test_petsc_rk4_matches_exact_reference_at_fourth_order(spheres, matrix, mode
     count = len(excitation.runs(mode, 3))
     errors = []
     for dt in (0.12, 0.06):
-        series = [waves.integrate(dm, spheres.positions, mode, r, k, amplitude=AMPLITUDE,
+        series = [integrators.integrate(dm, spheres.positions, mode, r, k, amplitude=AMPLITUDE,
                                   schedule=schedule("rk", dt, 5.0, int(round(0.48 / dt)))) for r in range(count)]
         errors.append(relative_errors(spheres, dm, eig, mode, k, series))
     omega_max = operators.largest_omega(dm)
@@ -182,7 +182,7 @@ def test_unit_stores_every_run_in_order(spheres, mode):
     labels = json.loads(attrs["run_labels"])
     assert_all(labels[0] == ("v_y, k || x" if mode == "TR" else "w_x, k || x") and len(labels) == count, str(labels))
     for r, i in [(0, 0)] + [(r, 1) for r in range(count)]:
-        alone = waves.integrate(dm, spheres.positions, mode, r, ks[i, 0], amplitude=spec.amplitude, schedule=every)
+        alone = integrators.integrate(dm, spheres.positions, mode, r, ks[i, 0], amplitude=spec.amplitude, schedule=every)
         # the same arithmetic in a block of R K columns or of one: MatMatMult vs MatMult round-off
         assert_close(data["z"][r, i], alone.z, rtol=0.0, atol=1e-12 * np.abs(alone.z).max(),
                      what=f"{mode} run {r} k {i}")
@@ -226,7 +226,7 @@ def test_two_ranks_equal_one(spheres, mode):
     out = []
     for comm in (PETSc.COMM_WORLD, PETSc.COMM_SELF):
         dm = dynmat.assemble(spheres, 1.0, comm, 0.2, 0.3)
-        ts = waves.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
+        ts = integrators.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
                                    amplitude=AMPLITUDE, schedule=schedule("verlet", 0.02, 10.0, 25))
         lanczos = [spectral(dm, spheres.positions, mode, r, k, amplitude=AMPLITUDE, times=times, tol=1e-10)
                    for r in range(count)]

@@ -1,4 +1,6 @@
 """Files: scene schema and validation (``schema``), scene files, --set and multi-document rules
-(``scenes``), HDF5 packing and results files (``hdf5`` writes, ``results`` reads), and the unit
-store with its content keys and shared cache (``units``).
+(``scenes``), packing and results files in HDF5 (``hdf5`` writes and reads packings, ``results``
+reads results), the packing files of LAMMPS, LIGGGHTS and YADE (``dem_formats``), the content
+keys of units (``unit_keys``), the unit store with its shared cache and window checkpoints
+(``unit_store``), and files written whole or not at all (``atomic``).
 """

@@ -27,6 +27,7 @@ import numpy as np
 from ..errors import InputError
 from .. import profiling
 from . import dem_formats
+from .atomic import atomic_write
 from ..packing.jammed import NAMES, Packing, from_arrays, min_contacts
 
 FORMAT_VERSION = 1
@@ -135,10 +136,10 @@ def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> 
 def net_force(packing: Packing, law: str = "harmonic") -> float:
     """Largest net normal contact force of ``law`` on a non-rattler particle (units kn d0)."""
     from ..model import contact_law
-    from ..packing import geometry as contacts
+    from ..packing import geometry
 
     active = ~packing.rattler
-    found = contacts.find_contacts(packing.positions, packing.diameters, packing.box, active)
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     reduced = contact_law.reduced_radius(packing.diameters[found.i], packing.diameters[found.j])
     f = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal  # eq:eij, on i
     net = np.zeros((packing.n, packing.dim))
@@ -221,22 +222,15 @@ def write_results(path: str, provenance: dict, packings: list[Packing], units: d
     """
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
-    partial = path + ".partial"
-    try:
-        with h5py.File(partial, "w") as f:
-            f.attrs["format_version"] = FORMAT_VERSION
-            for key, value in provenance.items():
-                f.attrs[key] = value if isinstance(value, (str, int, float)) else json.dumps(value)
-            for index, packing in enumerate(packings):
-                write_packing(f.create_group(f"packings/{index:04d}"), packing)
-            for name, (datasets, attrs) in units.items():
-                group = f.create_group(name)
-                for key, value in datasets.items():
-                    group.create_dataset(key, data=value)
-                for key, value in attrs.items():
-                    group.attrs[key] = value
-        os.replace(partial, path)
-    except BaseException:
-        if os.path.isfile(partial):
-            os.remove(partial)
-        raise
+    with atomic_write(path) as partial, h5py.File(partial, "w") as f:
+        f.attrs["format_version"] = FORMAT_VERSION
+        for key, value in provenance.items():
+            f.attrs[key] = value if isinstance(value, (str, int, float)) else json.dumps(value)
+        for index, packing in enumerate(packings):
+            write_packing(f.create_group(f"packings/{index:04d}"), packing)
+        for name, (datasets, attrs) in units.items():
+            group = f.create_group(name)
+            for key, value in datasets.items():
+                group.create_dataset(key, data=value)
+            for key, value in attrs.items():
+                group.attrs[key] = value

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 
 from .. import parallel
 from .. import profiling
-from ..packing import geometry as contacts
+from ..packing import geometry
 from . import contact_law
 from ..packing.jammed import Packing
 
@@ -132,7 +132,7 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_rol
     active = ~packing.rattler
     dof = dof_per_particle(packing.dim, rho, rho_roll, rho_twist)
     index = np.cumsum(active) - 1  # particle -> position among active particles
-    found = contacts.find_contacts(packing.positions, packing.diameters, packing.box, active)
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     a, b = index[found.i], index[found.j]
     start, stop = disk_range
     touch = ((a >= start) & (a < stop)) | ((b >= start) & (b < stop))

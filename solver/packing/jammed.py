@@ -26,7 +26,7 @@ from ..errors import InputError
 from ..model import contact_law
 from .. import profiling
 from . import fire
-from . import geometry as contacts
+from . import geometry
 
 SIZE_RATIO = 1.4
 D_SMALL = 2.0 / (1.0 + SIZE_RATIO)
@@ -142,7 +142,7 @@ class _FrictionlessForces:
         """The pairs among (i, j) closer than their contact distance plus ``reach``, as
         (i, j, shift (P, D), contact (P,), reduced radius a' (P,))."""
         delta = x[i] - x[j]
-        shift = contacts.minimum_image(delta, self.box) - delta
+        shift = geometry.minimum_image(delta, self.box) - delta
         contact = 0.5 * (self.diameters[i] + self.diameters[j])
         separation = delta + shift
         near = np.einsum("pd,pd->p", separation, separation) < (contact + reach) ** 2
@@ -155,7 +155,7 @@ class _FrictionlessForces:
         self.i, self.j, self.shift, self.contact, self.reduced = i, j, shift, contact, reduced
 
     def _rebuild(self, x: np.ndarray) -> None:
-        pairs = contacts.candidate_pairs(x, self.box, self.largest + self.skin)  # sorted by (i, j)
+        pairs = geometry.candidate_pairs(x, self.box, self.largest + self.skin)  # sorted by (i, j)
         self._use(*self._near(x, pairs[:, 0], pairs[:, 1], self.skin))
         self.reference, self.scratch = x.copy(), np.empty_like(x)
         self.relisted = np.zeros(x.shape[0], dtype=bool)
@@ -165,7 +165,7 @@ class _FrictionlessForces:
         """Re-list the pairs of ``movers`` (N,) bool from the current positions."""
         n, index = x.shape[0], np.flatnonzero(movers)
         reach = self.REACH * self.skin
-        wrapped = contacts.wrap(x, self.box)
+        wrapped = geometry.wrap(x, self.box)
         trees = [cKDTree(points, boxsize=self.box, balanced_tree=False, compact_nodes=False)
                  for points in (wrapped, wrapped[index])]
         found = trees[0].sparse_distance_matrix(trees[1], self.largest + reach, output_type="ndarray")
@@ -201,7 +201,7 @@ class _FrictionlessForces:
 
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box) -> np.ndarray:
     """Rattler mask (N,): iteratively, particles with fewer than D + 1 contacts among non-rattlers."""
-    found = contacts.find_contacts(positions, diameters, box)
+    found = geometry.find_contacts(positions, diameters, box)
     rattler = np.zeros(diameters.size, dtype=bool)
     needed = min_contacts(positions.shape[1])
     while True:
@@ -219,7 +219,7 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
     """Energy, pressure (virial sum_c f_c r_c / (D V), V the box volume), mean contact number z
     and rattler fraction of a packing under the normal ``law`` (units kn = d0 = 1)."""
     dim = positions.shape[1]
-    found = contacts.find_contacts(positions, diameters, box)
+    found = geometry.find_contacts(positions, diameters, box)
     reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
     fn = contact_law.normal_force(found.overlap, law, reduced)
     active = ~rattler
@@ -281,7 +281,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
                                f"{force_tol:.1e} after {result.steps} steps (n={n}, phi={phi}, dim={dim})")
         x, steps, max_force = result.x, result.steps, result.max_force
         stats = {"neighbour_rebuilds": forces.rebuilds, "neighbour_refreshes": forces.refreshes}
-    positions = contacts.wrap(x, box)
+    positions = geometry.wrap(x, box)
     order = spatial_order(positions, box)
     positions, diameters = positions[order], diameters[order]
     rattler = find_rattlers(positions, diameters, box)
@@ -320,7 +320,7 @@ def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.n
     """
     positions = np.asarray(positions, dtype=float)
     box = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],)).copy()
-    positions = contacts.wrap(positions, box)
+    positions = geometry.wrap(positions, box)
     diameters = np.asarray(diameters, dtype=float)
     if rattler is None:
         rattler = find_rattlers(positions, diameters, box)

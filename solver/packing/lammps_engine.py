@@ -58,7 +58,7 @@ import numpy as np
 from .. import parallel
 from ..errors import InputError
 from . import fire
-from . import geometry as contacts
+from . import geometry
 
 INSTALL = "run scripts/setup_dem.sh (Debian packages lammps, python3-lammps and liblammps-dev)"
 KN = 1.0  # normal stiffness, units kn = 1
@@ -106,7 +106,7 @@ def create_particles(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.
         create_box 1 box
     """)
     x = np.zeros((n, 3))
-    x[:, :dim] = contacts.wrap(positions, box)
+    x[:, :dim] = geometry.wrap(positions, box)
     lmp.create_atoms(n, np.arange(1, n + 1).tolist(), [1] * n, x.ravel().tolist())
     if lmp.get_natoms() != n:  # the same count on every rank
         raise RuntimeError(f"LAMMPS created {lmp.get_natoms()} of {n} particles")
@@ -199,7 +199,7 @@ def minimize(start: np.ndarray, diameters: np.ndarray, box, force_tol: float, ma
             minimize 0.0 {float(force_tol)!r} {int(max_steps)} {2 * int(max_steps) + 1}
         """)
         steps = int(lmp.extract_global("ntimestep"))
-        positions = contacts.wrap(gather(lmp, "x", n, dim), box)
+        positions = geometry.wrap(gather(lmp, "x", n, dim), box)
         force = gather(lmp, "f", n, dim)
     finally:
         lmp.close()

@@ -32,7 +32,8 @@ from .. import profiling
 from ..errors import InputError, NumericalFailure
 from ..model.operators import first_order_matrix
 from ..options import ts_adapt_type, ts_settings
-from .excitation import runs as mode_runs, start_velocity
+from . import excitation
+from .excitation import start_velocity
 from .sampling import FourierSampler, Recorder, WaveSeries
 
 PREFIX = "waves_"
@@ -275,7 +276,7 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     mpi = comm.tompi4py()
     nloc, runs = dm.D.getLocalSize()[0], len(waves_)
     mass = dm.M.getArray().copy()
-    excited = [(*mode_runs(m, dm.dim)[r], k) for m, r, k in waves_]
+    excited = [(*excitation.runs(m, dm.dim)[r], k) for m, r, k in waves_]
     v0 = np.stack([start_velocity(dm, positions, c, a, k, amplitude, mpi) for c, a, k in excited], axis=1)
     context = BlockVerlet(dm.D, 1.0 / mass, nloc, dm.size, runs, comm)
     X = PETSc.Vec().createMPI((2 * nloc * runs, 2 * dm.size * runs), comm=comm)
@@ -317,7 +318,7 @@ def integrate(dm, positions, mode: str, run: int, k: float, *, amplitude: float,
         return integrate_block(dm, positions, [(mode, run, k)], amplitude=amplitude, schedule=schedule)[0]
     comm = dm.D.getComm()
     mpi = comm.tompi4py()
-    component, axis = mode_runs(mode, dm.dim)[run]
+    component, axis = excitation.runs(mode, dm.dim)[run]
     minv = dm.M.copy()
     minv.reciprocal()
     v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)

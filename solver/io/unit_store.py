@@ -2,18 +2,15 @@
 
 Each unit (a packing, a matrix summary, a spectrum, the waves of one mode, ...) is written by
 rank 0 as its own small HDF5 file in ``<output>.units/`` -- to a temporary name, then renamed
-(atomic on POSIX), because an HDF5 file being written when a process is killed can be left
+(``atomic.atomic_write``), because an HDF5 file being written when a process is killed can be left
 unreadable as a whole.  A rerun of the same scene loads the finished units and computes the
 rest; the final results file is assembled from them atomically.  ``scene.yaml`` in the folder
 records which scene the units belong to: another scene pointed at the same output is refused.
 Delete the folder to recompute everything.
 
-Every unit is keyed by its content (:class:`UnitKey`): what determines it -- the packing's
-arrays (or a packing's recipe), rho, the stage's settings, the PETSc options that act on the
-stage (``options.acting_on``: ``-log_view`` changes nothing), the rotsound version.  The key
-and its parts are stored in the unit file; a unit whose stored key differs from the key now is
-recomputed, and the log says what changed.  The spectrum's window checkpoints carry the key of
-their spectrum unit, so a checkpoint made with other settings is discarded, never mixed in.
+Units are stored under their content keys (``unit_keys``); a unit whose stored key differs
+from the key now is recomputed.  The spectrum's window checkpoints carry the key of their
+spectrum unit, so a checkpoint made with other settings is discarded, never mixed in.
 
 A shared cache (scene key ``cache``, a folder) holds the same unit files under that key, so
 another scene or output that needs the same unit loads it instead of computing it.  Cache
@@ -29,34 +26,19 @@ communicator: the groups write different unit files into the same folder side by
 from __future__ import annotations
 
 import copy
-import dataclasses
-import hashlib
-import json
 import os
 import shutil
 
 import h5py
 import numpy as np
 
-from .. import __version__, parallel
-from .. import options as petscopts
+from .. import parallel
 from ..errors import InputError
+from .atomic import atomic_write
+from .unit_keys import UnitKey
 
 _META = ("complete", "unit_key", "unit_key_parts")
 """Attributes of a unit file that describe the file, not the unit (not in the results file)."""
-
-
-def content_key(*parts) -> str:
-    """Stable hash of JSON-able parts and numpy arrays (a cache key)."""
-    h = hashlib.sha256()
-    for part in parts:
-        if isinstance(part, np.ndarray):
-            h.update(str((part.dtype.str, part.shape)).encode())
-            h.update(np.ascontiguousarray(part).tobytes())
-        else:
-            h.update(json.dumps(part, sort_keys=True, default=str).encode())
-    return h.hexdigest()[:24]
-
 
 def cache_folder(scene) -> str | None:
     """The cache folder ``scene`` uses (scene key ``cache``), or None for ``off``."""
@@ -65,132 +47,6 @@ def cache_folder(scene) -> str | None:
     if scene.cache == "auto":
         return os.path.join(os.path.dirname(scene.output) or ".", "cache")
     return scene.cache
-
-
-@dataclasses.dataclass(frozen=True)
-class UnitKey:
-    """What determines one unit: ``parts`` (JSON-able: unit, packing, rho, section, settings,
-    options, version, ...) and ``digest``, their hash (the cache file name)."""
-
-    parts_json: str
-
-    @classmethod
-    def of(cls, **parts) -> UnitKey:
-        return cls(json.dumps(parts, sort_keys=True, default=str))
-
-    @property
-    def parts(self) -> dict:
-        return json.loads(self.parts_json)
-
-    @property
-    def digest(self) -> str:
-        return hashlib.sha256(self.parts_json.encode()).hexdigest()[:24]
-
-    @property
-    def options(self) -> dict:
-        """The PETSc options acting on the unit (name without '-' -> value, None for a flag)."""
-        return self.parts.get("options", {})
-
-    def changes(self, stored_json: str | None) -> str:
-        """What differs between the key stored with a unit and this key, in words."""
-        if not stored_json:
-            return "no content key stored (written by an older rotsound)"
-        old, new = json.loads(stored_json), self.parts
-        said = []
-        for part in sorted(set(old) | set(new)):
-            a, b = old.get(part), new.get(part)
-            if a == b:
-                continue
-            if part == "options":
-                said.append(f"PETSc options acting on it changed ({_option_changes(a or {}, b or {})})")
-            elif part == "settings":
-                said.append(f"{new.get('section', 'stage')} settings changed ("
-                            + ", ".join(f"{k} {_show(a.get(k))} -> {_show(b.get(k))}"
-                                        for k in sorted(set(a or {}) | set(b or {}))
-                                        if (a or {}).get(k) != (b or {}).get(k)) + ")")
-            elif part == "packing":
-                said.append("packing changed")
-            else:
-                said.append(f"{part} changed ({_show(a)} -> {_show(b)})")
-        return "; ".join(said) or "content key differs"
-
-
-def _show(value) -> str:
-    return "none" if value is None else value if isinstance(value, str) else json.dumps(value)
-
-
-def _option_changes(old: dict, new: dict) -> str:
-    """'-spectrum_eps_tol 1e-3, was none; ...' for the options that differ."""
-    said = []
-    for name in sorted(set(old) | set(new)):
-        if name in old and name in new and old[name] == new[name]:
-            continue
-        now = (f"-{name}" + (f" {new[name]}" if new[name] is not None else "")) if name in new else f"-{name} not set"
-        was = "none" if name not in old else "set" if old[name] is None else old[name]
-        said.append(f"{now}, was {was}")
-    return "; ".join(said)
-
-
-def packing_key(scene, index: int) -> UnitKey:
-    """Key of generated packing ``index`` of ``scene``: its recipe.
-
-    ``dim`` joins the settings only in 3D, ``engine`` only when it is lammps, ``law`` only when
-    it is hertz: a 2D harmonic FIRE recipe
-    hashes as it did before these keys existed, so 2D packings already in a units folder or the
-    cache are found again (and a 3D or LAMMPS recipe never matches one).
-    """
-    spec = scene.packing
-    settings = {"n": spec.n, "phi": spec.phi, "seed": scene.seed, "index": index, "force_tol": spec.force_tol,
-                "max_steps": spec.max_steps}
-    if spec.dim == 3:
-        settings["dim"] = 3
-    if spec.engine != "fire":  # likewise: rotsound's FIRE keeps the keys of before
-        settings["engine"] = spec.engine
-    if scene.model.law != "harmonic":  # the normal law FIRE minimises
-        settings["law"] = scene.model.law
-    return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
-
-
-def unit_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
-    """Content key of every matrix, spectrum and waves unit this scene can compute. Not collective.
-
-    A packing is keyed by its arrays (so a file and a generated packing with equal contents
-    share units, and 2D and 3D never do: the arrays' shapes are hashed); the rolling and twisting
-    ratios join every key when they are not 0 (so units made before they existed keep their keys); spectra and waves also by their section's settings and the PETSc options that
-    act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
-    KPM's probes by their seed.  The rotsound version is part of every key, so a new version
-    never reuses an older one's numbers.
-    """
-    keys = {}
-    springs = {name: value for name in ("rho_roll", "rho_twist")
-               if (value := getattr(scene.model, name))}  # only when on: 2D keys stay as before
-    for name, default in (("masses", "equal"), ("law", "harmonic")):
-        if getattr(scene.model, name) != default:
-            springs[name] = getattr(scene.model, name)
-    for p_index, p in enumerate(packings):
-        box = np.float64(p.box[0]) if np.all(p.box == p.box[0]) else p.box  # cubic: the keys of before
-        masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
-        base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses),
-                "version": __version__, **springs}
-        for r_index, rho in enumerate(scene.model.rho):
-            tag = f"r{r_index:02d}_p{p_index:04d}"
-            keys[f"matrices/{tag}"] = UnitKey.of(unit="matrix", rho=rho, options={}, **base)
-            if scene.spectrum is not None:
-                method = scene.spectrum.method
-                keys[f"spectra/{tag}"] = UnitKey.of(
-                    unit="spectrum", rho=rho, section="spectrum", settings=dataclasses.asdict(scene.spectrum),
-                    seed=scene.seed + p_index if method == "kpm" else None,
-                    options=petscopts.acting_on(petsc_argv, "spectra", method), **base)
-            if scene.waves is not None:  # one mode's unit does not depend on the others asked
-                settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()
-                            if k != "modes" and not (k == "axes" and v is None)}  # keys of before axes
-                options = petscopts.acting_on(petsc_argv, "waves", scene.waves.method)
-                for mode in scene.waves.modes:
-                    keys[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = UnitKey.of(
-                        unit="waves", rho=rho, mode=mode, section="waves", settings=settings,
-                        options=options, **base)
-    return keys
-
 
 def _on_root(comm, work):
     """``work()`` on rank 0; its result on every rank, its error (any type) raised on every rank."""
@@ -258,10 +114,8 @@ class UnitStore:
                 raise InputError(f"output {output}: holds results of a different scene (digest {theirs}, "
                                  f"this scene is {digest}); choose another output, or add --fresh to replace it")
         os.makedirs(self.folder, exist_ok=True)
-        partial = marker + ".partial"
-        with open(partial, "w", encoding="utf-8") as stream:
+        with atomic_write(marker) as partial, open(partial, "w", encoding="utf-8") as stream:
             stream.write(f"# digest {digest}\n{scene_yaml}")
-        os.replace(partial, marker)
 
     def _path(self, name: str) -> str:
         return os.path.join(self.folder, name.replace("/", "__") + ".h5")
@@ -325,14 +179,11 @@ class UnitStore:
     def _link(source: str, target: str) -> None:
         """Hard link (or copy) ``source`` to ``target`` atomically. Rank 0."""
         os.makedirs(os.path.dirname(target), exist_ok=True)
-        partial = target + ".partial"
-        if os.path.exists(partial):
-            os.remove(partial)
-        try:
-            os.link(source, partial)
-        except OSError:  # no hard links on this file system (or across them): copy
-            shutil.copyfile(source, partial)
-        os.replace(partial, target)
+        with atomic_write(target) as partial:
+            try:
+                os.link(source, partial)
+            except OSError:  # no hard links on this file system (or across them): copy
+                shutil.copyfile(source, partial)
 
     def save(self, name: str, datasets: dict, attrs: dict, key: UnitKey | None = None,
              cache: bool = True) -> None:
@@ -340,22 +191,15 @@ class UnitStore:
         the cache under that key."""
         def write():
             path = self._path(name)
-            partial = path + ".partial"
-            try:
-                with h5py.File(partial, "w") as f:
-                    for k, value in datasets.items():
-                        f.create_dataset(k, data=value)
-                    for k, value in attrs.items():
-                        f.attrs[k] = value
-                    if key is not None:
-                        f.attrs["unit_key"] = key.digest
-                        f.attrs["unit_key_parts"] = key.parts_json
-                    f.attrs["complete"] = True
-                os.replace(partial, path)
-            except BaseException:
-                if os.path.exists(partial):
-                    os.remove(partial)
-                raise
+            with atomic_write(path) as partial, h5py.File(partial, "w") as f:
+                for k, value in datasets.items():
+                    f.create_dataset(k, data=value)
+                for k, value in attrs.items():
+                    f.attrs[k] = value
+                if key is not None:
+                    f.attrs["unit_key"] = key.digest
+                    f.attrs["unit_key_parts"] = key.parts_json
+                f.attrs["complete"] = True
             if key is not None and cache and self.cache:
                 self._link(path, self._cached(name, key.digest))
 

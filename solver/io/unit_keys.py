@@ -1,0 +1,156 @@
+"""Content keys of units: what determines each unit of a run, hashed, so that a unit made with
+other settings is never mixed in (``unit_store`` keeps the units under these keys).
+
+Every unit is keyed by its content (:class:`UnitKey`): what determines it -- the packing's
+arrays (or a packing's recipe), rho, the stage's settings, the PETSc options that act on the
+stage (``options.acting_on``: ``-log_view`` changes nothing), the rotsound version.  The key
+and its parts are stored in the unit file; a unit whose stored key differs from the key now is
+recomputed, and the log says what changed (:meth:`UnitKey.changes`).  Not collective.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+
+import numpy as np
+
+from .. import __version__
+from .. import options
+
+
+def content_key(*parts) -> str:
+    """Stable hash of JSON-able parts and numpy arrays (a cache key)."""
+    h = hashlib.sha256()
+    for part in parts:
+        if isinstance(part, np.ndarray):
+            h.update(str((part.dtype.str, part.shape)).encode())
+            h.update(np.ascontiguousarray(part).tobytes())
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=str).encode())
+    return h.hexdigest()[:24]
+
+@dataclasses.dataclass(frozen=True)
+class UnitKey:
+    """What determines one unit: ``parts`` (JSON-able: unit, packing, rho, section, settings,
+    options, version, ...) and ``digest``, their hash (the cache file name)."""
+
+    parts_json: str
+
+    @classmethod
+    def of(cls, **parts) -> UnitKey:
+        return cls(json.dumps(parts, sort_keys=True, default=str))
+
+    @property
+    def parts(self) -> dict:
+        return json.loads(self.parts_json)
+
+    @property
+    def digest(self) -> str:
+        return hashlib.sha256(self.parts_json.encode()).hexdigest()[:24]
+
+    @property
+    def options(self) -> dict:
+        """The PETSc options acting on the unit (name without '-' -> value, None for a flag)."""
+        return self.parts.get("options", {})
+
+    def changes(self, stored_json: str | None) -> str:
+        """What differs between the key stored with a unit and this key, in words."""
+        if not stored_json:
+            return "no content key stored (written by an older rotsound)"
+        old, new = json.loads(stored_json), self.parts
+        said = []
+        for part in sorted(set(old) | set(new)):
+            a, b = old.get(part), new.get(part)
+            if a == b:
+                continue
+            if part == "options":
+                said.append(f"PETSc options acting on it changed ({_option_changes(a or {}, b or {})})")
+            elif part == "settings":
+                said.append(f"{new.get('section', 'stage')} settings changed ("
+                            + ", ".join(f"{k} {_show(a.get(k))} -> {_show(b.get(k))}"
+                                        for k in sorted(set(a or {}) | set(b or {}))
+                                        if (a or {}).get(k) != (b or {}).get(k)) + ")")
+            elif part == "packing":
+                said.append("packing changed")
+            else:
+                said.append(f"{part} changed ({_show(a)} -> {_show(b)})")
+        return "; ".join(said) or "content key differs"
+
+
+def _show(value) -> str:
+    return "none" if value is None else value if isinstance(value, str) else json.dumps(value)
+
+
+def _option_changes(old: dict, new: dict) -> str:
+    """'-spectrum_eps_tol 1e-3, was none; ...' for the options that differ."""
+    said = []
+    for name in sorted(set(old) | set(new)):
+        if name in old and name in new and old[name] == new[name]:
+            continue
+        now = (f"-{name}" + (f" {new[name]}" if new[name] is not None else "")) if name in new else f"-{name} not set"
+        was = "none" if name not in old else "set" if old[name] is None else old[name]
+        said.append(f"{now}, was {was}")
+    return "; ".join(said)
+
+
+def packing_key(scene, index: int) -> UnitKey:
+    """Key of generated packing ``index`` of ``scene``: its recipe.
+
+    ``dim`` joins the settings only in 3D, ``engine`` only when it is lammps, ``law`` only when
+    it is hertz: a 2D harmonic FIRE recipe
+    hashes as it did before these keys existed, so 2D packings already in a units folder or the
+    cache are found again (and a 3D or LAMMPS recipe never matches one).
+    """
+    spec = scene.packing
+    settings = {"n": spec.n, "phi": spec.phi, "seed": scene.seed, "index": index, "force_tol": spec.force_tol,
+                "max_steps": spec.max_steps}
+    if spec.dim == 3:
+        settings["dim"] = 3
+    if spec.engine != "fire":  # likewise: rotsound's FIRE keeps the keys of before
+        settings["engine"] = spec.engine
+    if scene.model.law != "harmonic":  # the normal law FIRE minimises
+        settings["law"] = scene.model.law
+    return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
+
+
+def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
+    """Content key of every matrix, spectrum and waves unit this scene can compute. Not collective.
+
+    A packing is keyed by its arrays (so a file and a generated packing with equal contents
+    share units, and 2D and 3D never do: the arrays' shapes are hashed); the rolling and twisting
+    ratios join every key when they are not 0 (so units made before they existed keep their keys); spectra and waves also by their section's settings and the PETSc options that
+    act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
+    KPM's probes by their seed.  The rotsound version is part of every key, so a new version
+    never reuses an older one's numbers.
+    """
+    keys = {}
+    springs = {name: value for name in ("rho_roll", "rho_twist")
+               if (value := getattr(scene.model, name))}  # only when on: 2D keys stay as before
+    for name, default in (("masses", "equal"), ("law", "harmonic")):
+        if getattr(scene.model, name) != default:
+            springs[name] = getattr(scene.model, name)
+    for p_index, p in enumerate(packings):
+        box = np.float64(p.box[0]) if np.all(p.box == p.box[0]) else p.box  # cubic: the keys of before
+        masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
+        base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses),
+                "version": __version__, **springs}
+        for r_index, rho in enumerate(scene.model.rho):
+            tag = f"r{r_index:02d}_p{p_index:04d}"
+            keys[f"matrices/{tag}"] = UnitKey.of(unit="matrix", rho=rho, options={}, **base)
+            if scene.spectrum is not None:
+                method = scene.spectrum.method
+                keys[f"spectra/{tag}"] = UnitKey.of(
+                    unit="spectrum", rho=rho, section="spectrum", settings=dataclasses.asdict(scene.spectrum),
+                    seed=scene.seed + p_index if method == "kpm" else None,
+                    options=options.acting_on(petsc_argv, "spectra", method), **base)
+            if scene.waves is not None:  # one mode's unit does not depend on the others asked
+                settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()
+                            if k != "modes" and not (k == "axes" and v is None)}  # keys of before axes
+                acting = options.acting_on(petsc_argv, "waves", scene.waves.method)
+                for mode in scene.waves.modes:
+                    keys[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = UnitKey.of(
+                        unit="waves", rho=rho, mode=mode, section="waves", settings=settings,
+                        options=acting, **base)
+    return keys
