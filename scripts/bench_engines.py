@@ -6,7 +6,7 @@
 The start is jammed.generate's: bidisperse diameters permuted by the rng of SeedSequence([seed, 0]),
 the box from phi, a uniform start from the same rng in spatial order.  Each run is a fresh
 process with one BLAS thread: rotsound's FIRE on one core (``fire.minimize`` with
-``jammed._FrictionlessForces``, compiled force loop warmed up first), LAMMPS on 1 rank and under
+``mechanics.FrictionlessForces``, compiled force loop warmed up first), LAMMPS on 1 rank and under
 ``mpirun -n 2`` (its start-up included; it is milliseconds).  Every packing is then judged by
 rotsound's own force evaluation (max |F| (rotsound)), its rattlers and contact number z, and
 compared with rotsound's packing of the same start and with LAMMPS's on the first rank count
@@ -45,15 +45,15 @@ def case(engine: str, n: int, dim: int, seed: int, out: str) -> None:
     """One minimisation; rank 0 saves the positions to ``out`` and prints one JSON line."""
     from mpi4py import MPI
 
-    from solver.packing import fire, jammed, lammps_engine
+    from solver.packing import fire, lammps_engine, mechanics
 
     comm = MPI.COMM_WORLD
     x, diameters, box = start(n, PHI[dim], dim, seed)
     if engine == "fire":
         small = start(64, PHI[dim], dim, 0)
-        jammed._FrictionlessForces(small[1], small[2])(small[0])  # load the compiled loop
+        mechanics.FrictionlessForces(small[1], small[2])(small[0])  # load the compiled loop
         t = time.perf_counter()
-        result = fire.minimize(x, jammed._FrictionlessForces(diameters, box), FORCE_TOL, MAX_STEPS)
+        result = fire.minimize(x, mechanics.FrictionlessForces(diameters, box), FORCE_TOL, MAX_STEPS)
         seconds = time.perf_counter() - t
         if not result.converged:
             raise RuntimeError(f"rotsound's FIRE did not converge: {result.max_force:.3e} after {result.steps}")
@@ -69,9 +69,9 @@ def case(engine: str, n: int, dim: int, seed: int, out: str) -> None:
     from solver.packing import geometry
 
     positions = geometry.wrap(positions, box)
-    force, _ = jammed._FrictionlessForces(diameters, box)(positions)
-    rattler = jammed.find_rattlers(positions, diameters, box)
-    stats = jammed.describe(positions, diameters, box, rattler)
+    force, _ = mechanics.FrictionlessForces(diameters, box)(positions)
+    rattler = mechanics.find_rattlers(positions, diameters, box)
+    stats = mechanics.describe(positions, diameters, box, rattler)
     np.save(out, positions)
     print(json.dumps({"seconds": seconds, "steps": steps, "max_force": max_force,
                       "rotsound_max_force": float(np.sqrt(np.max(np.sum(force**2, axis=1)))),

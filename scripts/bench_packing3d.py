@@ -25,6 +25,7 @@ TARGET_S = 180.0  # issue 18: N = 32768 in under 3 minutes on one core
 def case(n: int, phi: float, seed: int, profile: bool) -> None:
     """One packing; prints one JSON line."""
     from solver.packing import jammed
+    from solver.packing import mechanics
 
     def make():
         return jammed.generate(n, phi, np.random.SeedSequence([seed, 0]), dim=3)
@@ -47,7 +48,7 @@ def case(n: int, phi: float, seed: int, profile: bool) -> None:
                       "rebuilds": i["neighbour_rebuilds"], "refreshes": i["neighbour_refreshes"],
                       "max_force": i["max_force"], "z": i["z"],
                       "rattler_fraction": i["rattler_fraction"], "pressure": i["pressure"],
-                      "jammed": jammed.jamming_failure(p) is None, "peak_gib": peak_rss_gib(), "profile": report}))
+                      "jammed": mechanics.jamming_failure(p) is None, "peak_gib": peak_rss_gib(), "profile": report}))
 
 
 def main() -> None:

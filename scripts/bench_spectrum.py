@@ -116,8 +116,8 @@ def main() -> None:
                         help="keep the rows of the last record that this run does not re-measure")
     args = parser.parse_args()
     table = []
-    if args.merge and (OUT / "slicing.json").exists():
-        last = json.loads((OUT / "slicing.json").read_text())
+    if args.merge and (OUT / "spectrum.json").exists():
+        last = json.loads((OUT / "spectrum.json").read_text())
         COMMAND[0] = f"{last['command']} (rows of {last['date']}) + {COMMAND[0]}"
         table = last["table"]
     env_eigh = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "2"}

@@ -27,6 +27,7 @@ from .io import hdf5
 from .spectrum import counting, kpm
 from .spectrum import modes
 from .packing import jammed
+from .packing import mechanics
 from . import options
 from .spectrum import slicing
 from .model import operators
@@ -102,12 +103,12 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[ja
 
 
 def _relaxed(p: jammed.Packing, index: int, scene: Scene) -> jammed.Packing:
-    """``jammed.relax``: configuration ``index`` of the file re-minimised frictionlessly; InputError
+    """``packing.relax``: configuration ``index`` of the file re-minimised frictionlessly; InputError
     if it does not stay jammed. Not collective."""
     spec = scene.packing
     relaxed = jammed.relax(p, spec.force_tol, spec.max_steps, scene.model.law)
-    if why := jammed.jamming_failure(relaxed):
-        raise InputError(f"jammed.relax: configuration {index} of {spec.file} did not stay jammed without "
+    if why := mechanics.jamming_failure(relaxed):
+        raise InputError(f"packing.relax: configuration {index} of {spec.file} did not stay jammed without "
                          f"friction: {why}; a packing made with friction can be looser than the frictionless "
                          f"jamming point (phi = {relaxed.phi:.4f} here), and then has no frictionless rigid "
                          f"state to build the matrix on")

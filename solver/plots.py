@@ -341,7 +341,7 @@ def plot_speeds_attenuation(fits: dict, stem: str) -> list[str]:
 
 def report_figures(data, folder: str) -> list[tuple[str, str]]:
     """Draw the reproduction report's figures into ``folder`` from the files that ``data``
-    (``analysis.claims.Data``, filled by ``results.gather``) names; return (caption, png path) pairs."""
+    (``analysis.claims.Data``, filled by ``report.gather``) names; return (caption, png path) pairs."""
     os.makedirs(folder, exist_ok=True)
     out: list[tuple[str, str]] = []
 

@@ -2,7 +2,7 @@
 what the results files hold.
 
 ``rotsound report RESULTS.h5 [MORE.h5 ...] [--output REPRODUCTION.md]``: the files are read by
-``io.results.gather`` (vDOS, K/Q and waves/analysis may come from different scenes, e.g. N = 2048
+:func:`gather` (vDOS, K/Q and waves/analysis may come from different scenes, e.g. N = 2048
 for the vDOS and a larger N for the waves; files whose packings have phi != 0.9 only feed the
 phi-insensitivity check, Fig. S1), the claims are evaluated by ``analysis.claims`` (tolerances
 fixed there before any run), the figures drawn by ``plots.report_figures`` into
@@ -16,11 +16,37 @@ from __future__ import annotations
 import os
 
 from . import plots
-from .analysis.claims import Data, Row, claims
+from .analysis.claims import PHI_MAIN, Data, Row, claims
 from .errors import InputError
 from .io import results
 
 STATUSES = ("PASS", "FAIL", "NOT MEASURED")
+
+
+def gather(paths: list[str]) -> Data:
+    """Read every file for the report: the first file with a quantity at phi = PHI_MAIN provides it
+    (the vDOS as a whole; K and Q per rho; the wave analysis as a whole); every file's vDOS feeds
+    the phi comparison (Fig. S1)."""
+    data = Data()
+    for path in paths:
+        with results.open_results(path) as f:
+            phi, n = results.packing_summary(f)
+            data.sources.append((path, phi, n, ", ".join(results.contents(f)) or "nothing usable"))
+            curves = results.vdos(f)
+            if curves:
+                data.s1.setdefault(round(phi, 4), {}).update({rho: v[:3] for rho, v in curves.items()})
+            if abs(phi - PHI_MAIN) > 1e-6:
+                continue
+            if curves and not data.vdos:
+                data.vdos, data.vdos_file = curves, path
+            for rho, energies in results.mode_energies(f).items():
+                if rho in curves and rho not in data.energies:
+                    data.energies[rho] = energies
+                    data.energies_file[rho] = path
+            lat = results.lattice(f)
+            if lat is not None and data.lattice is None:
+                data.waves_file, data.lattice, data.bands, data.fits = path, lat, results.bands(f), results.fits(f)
+    return data
 
 
 def markdown(d: Data, rows: list[Row], figures: list[tuple[str, str]], base: str, notes: str | None = None) -> str:
@@ -64,7 +90,7 @@ def write(paths: list[str], output: str, notes: str | None = None) -> tuple[str,
                 text = stream.read()
         except OSError as exc:
             raise InputError(f"notes file {notes}: cannot read ({exc})") from None
-    d = results.gather(paths)
+    d = gather(paths)
     rows = claims(d)
     base = os.path.dirname(os.path.abspath(output))
     try:

@@ -213,7 +213,7 @@ CASES = [
      "the yade file records no periodic box",
      _dem("yade_3d.txt", lambda text: "".join(l for l in text.splitlines(True) if "PERIODIC" not in l))),
     ("relax without a file", "packing: {n: 64, phi: 0.9, relax: true}\n", [],
-     "jammed.relax = true re-minimises the packings of packing.file", None),
+     "packing.relax = true re-minimises the packings of packing.file", None),
     ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],
      "the file(s) hold only 1 configurations", _valid),
     # --- command line

@@ -1,12 +1,13 @@
-"""The contact law eq:eij (solver/model/contact_law.py): its Hessian blocks and forces against
+"""The contact law eq:eij (solver/contact_law.py): its Hessian blocks and forces against
 central differences of its own energy, with Taylor-convergence checks, and the FIRE force."""
 
 import numpy as np
 import pytest
 from conftest import assert_close, central_gradient, central_hessian
 
-from solver.model import contact_law
+from solver import contact_law
 from solver.packing import jammed
+from solver.packing import mechanics
 
 pytestmark = pytest.mark.serial_only  # pure numpy: nothing to gain from a second rank
 
@@ -127,7 +128,7 @@ def test_fire_forces_are_minus_the_gradient_of_fire_energy():
     n, box = 24, 4.2  # dense enough for ~2-3 overlaps per disk, box > 2 max(d)
     diameters = rng.permutation(jammed.bidisperse_diameters(n))
     x = rng.uniform(0, box, size=(n, 2))
-    forces = jammed._FrictionlessForces(diameters, box)
+    forces = mechanics.FrictionlessForces(diameters, box)
     f, energy = forces(x)
     assert energy > 0.1, "no overlaps: the check would be empty"
     h = 1e-6
@@ -152,7 +153,7 @@ def test_compiled_fire_forces_equal_a_brute_force_sum_over_all_pairs(dim, law):
     diameters = rng.permutation(jammed.bidisperse_diameters(n))
     box = jammed.box_length_for(diameters, 0.9 if dim == 2 else 0.75, dim)
     x = rng.uniform(-box, 2 * box, size=(n, dim))  # unwrapped, as during FIRE
-    f, energy = jammed._FrictionlessForces(diameters, box, law=law)(x)
+    f, energy = mechanics.FrictionlessForces(diameters, box, law=law)(x)
     i, j = np.triu_indices(n, 1)
     delta = x[i] - x[j]
     separation = delta - box * np.rint(delta / box)

@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import COMM, REPO, assert_all, assert_close, dense_eigen, exact_z_fixed, modal_weights
+from conftest import REPO, assert_all, assert_close, dense_eigen, exact_z_fixed, modal_weights
 
 from solver.model import dynmat
 from solver.packing import jammed

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from conftest import assert_all, assert_close
 
-from solver.io import hdf5
 from solver.model import dynmat
 from solver.packing import geometry
 from solver.packing import jammed
+from solver.packing import mechanics
 from solver.spectrum import slicing
 
 N_X, N_Y = 7, 8
@@ -93,7 +93,7 @@ def test_crystal_is_the_intended_one(packing):
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box_length)
     assert np.all(found.count_per_particle(packing.n) == 6), "6 contacts per disk"
     assert not packing.rattler.any(), "no rattlers"
-    assert hdf5.net_force(packing) < 1e-14, "exact equilibrium (inversion symmetry)"
+    assert mechanics.net_force(packing) < 1e-14, "exact equilibrium (inversion symmetry)"
 
 
 @pytest.mark.parametrize("rho", [0.0, 0.5, 2.0])

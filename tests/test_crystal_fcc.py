@@ -44,10 +44,10 @@ import pytest
 from conftest import assert_all, assert_close
 
 from solver.analysis import lattice
-from solver.io import hdf5
 from solver.model import dynmat
 from solver.packing import geometry
 from solver.packing import jammed
+from solver.packing import mechanics
 from solver.spectrum import slicing
 
 DIAMETER = 1.0
@@ -157,7 +157,7 @@ def test_crystal_is_the_intended_one(crystal):
     assert np.all(found.count_per_particle(crystal.n) == 12), "12 contacts per sphere"
     assert_close(found.overlap, np.full(len(found), OVERLAP), rtol=1e-13, what="overlaps")
     assert not crystal.rattler.any(), "no rattlers"
-    assert hdf5.net_force(crystal) < 1e-14, "exact equilibrium (inversion symmetry)"
+    assert mechanics.net_force(crystal) < 1e-14, "exact equilibrium (inversion symmetry)"
     # the k list: distinct modulo the reciprocal lattice (plane waves orthogonal on the sites)
     k = allowed_k(N_CELLS, OVERLAP)
     waves = np.exp(1j * crystal.positions @ k.T)

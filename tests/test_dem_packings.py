@@ -15,6 +15,7 @@ from solver.io import dem_formats, schema
 from solver.io import hdf5
 from solver.model import dynmat
 from solver.packing import jammed
+from solver.packing import mechanics
 
 DATA = pathlib.Path(__file__).parent / "data" / "dem"
 BALANCED = ["lammps_2d.data", "lammps_2d.dump", "lammps_3d.data", "lammps_3d.dump", "liggghts_3d.data"]
@@ -33,8 +34,8 @@ def test_balanced_dem_packings_load_in_rotsounds_units(name):
     volume = np.prod(raw.box_hi - raw.box_lo)
     solid = jammed.solid_volume(raw.diameters, raw.dim)
     assert_close(p.phi, solid / volume, rtol=1e-12, what="phi")
-    assert_all(p.dim == raw.dim and hdf5.net_force(p) < 1e-10 and jammed.jamming_failure(p) is None,
-               f"{name}: dim {p.dim}, net force {hdf5.net_force(p)}")
+    assert_all(p.dim == raw.dim and mechanics.net_force(p) < 1e-10 and mechanics.jamming_failure(p) is None,
+               f"{name}: dim {p.dim}, net force {mechanics.net_force(p)}")
 
 
 def test_data_file_and_dump_of_one_packing_are_one_packing():
@@ -56,8 +57,8 @@ def test_unbalanced_dem_packings_are_refused_and_relax_re_minimises_them(name, w
         pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
     scene["packing"]["relax"] = True
     p, = pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
-    assert_all(hdf5.net_force(p) < 1e-5 and jammed.jamming_failure(p) is None and p.info["relaxed"],
-               f"{name} ({why}): net force {hdf5.net_force(p)}")
+    assert_all(mechanics.net_force(p) < 1e-5 and mechanics.jamming_failure(p) is None and p.info["relaxed"],
+               f"{name} ({why}): net force {mechanics.net_force(p)}")
 
 
 def test_a_files_masses_reach_the_matrix_under_density(comm):

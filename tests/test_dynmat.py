@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
-from conftest import COMM, TOL, assert_all, assert_close, central_hessian
+from conftest import TOL, assert_all, assert_close, central_hessian
 
 from solver.packing import geometry
-from solver.model import contact_law, dynmat
+from solver import contact_law
+from solver.model import dynmat
 from solver.packing import jammed
 
 

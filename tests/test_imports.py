@@ -26,3 +26,23 @@ def test_analysis_modules_do_not_import_petsc_or_mpi():
 @pytest.mark.serial_only
 def test_claims_and_lattice_model_do_not_import_h5py():
     assert _loaded_after_import(NO_FILES, ("h5py", "petsc4py", "mpi4py")) == "[]"
+
+
+LAYERS = {  # module -> solver packages it must not load (imports run downward only)
+    "solver.contact_law": ("solver.packing", "solver.model", "solver.io", "solver.spectrum", "solver.waves"),
+    "solver.packing.jammed": ("solver.model", "solver.spectrum", "solver.waves", "solver.io"),
+    "solver.packing.mechanics": ("solver.model", "solver.spectrum", "solver.waves", "solver.io"),
+    "solver.io.results": ("solver.analysis", "solver.model", "solver.spectrum", "solver.waves"),
+}
+
+
+@pytest.mark.serial_only
+@pytest.mark.parametrize("module", sorted(LAYERS))
+def test_imports_run_downward(module):
+    """The contact law sits below packing and model; packing imports no later stage; the results
+    reader imports no analysis (the report joins them)."""
+    code = (f"import sys, {module}; "
+            f"print(sorted({{m.rsplit('.', 1)[0] if m.count('.') > 1 else m for m in sys.modules}} & "
+            f"set({LAYERS[module]!r})))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert loaded == "[]", f"{module} loads {loaded}"

@@ -12,6 +12,7 @@ from solver.errors import InputError
 from solver.io import schema
 from solver.model import dynmat
 from solver.packing import jammed
+from solver.packing import mechanics
 
 UNJAMMED = ("output: {out}\ncache: {cache}\nseed: 0\npacking: {{n: 256, phi: 0.8}}\nmodel: {{rho: 1}}\n"
             "spectrum: {{}}\nwaves: {{n: [1], method: spectral, t_end: 10}}\n")
@@ -52,17 +53,17 @@ def test_a_floppy_cluster_is_refused_and_a_jammed_packing_is_not(small_packing):
     packing passes; the same packing with all but one disk and its contact neighbours flagged as
     rattlers (a star and the few contacts between its arms) fails, as does one with every disk a
     rattler; each message says what was found."""
-    assert_all(jammed.jamming_failure(small_packing) is None, "a jammed packing is accepted")
+    assert_all(mechanics.jamming_failure(small_packing) is None, "a jammed packing is accepted")
     p = small_packing
     cluster, n_cluster, inside = star_cluster(p)
     assert_all(inside < 2 * n_cluster - 1, f"the test's cluster: {n_cluster} disks, {inside} contacts")
     floppy = jammed.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
-    why = jammed.jamming_failure(floppy)
+    why = mechanics.jamming_failure(floppy)
     assert_all(why is not None and why.startswith(f"only {n_cluster} of 64 disks are not rattlers and they "
                                                   f"share {inside} contacts, fewer than the 2N' - 1 = "
                                                   f"{2 * n_cluster - 1}"), why)
     loose = jammed.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
-    why = jammed.jamming_failure(loose)
+    why = mechanics.jamming_failure(loose)
     assert_all(why is not None and why.startswith("all 64 disks are rattlers"), why)
     with pytest.raises(InputError, match=r"packing.phi = 0.9: configurations 1, 2 of 3 did not jam "
                                          r"\(configuration 1: only"):

@@ -11,6 +11,7 @@ from conftest import COMM, assert_all, assert_close
 
 from solver.errors import InputError
 from solver.packing import jammed
+from solver.packing import mechanics
 from solver.packing import lammps_engine
 
 
@@ -23,7 +24,7 @@ def recipe_start(n: int, phi: float, dim: int, seed: int):
 
 
 def rotsound_max_force(positions, diameters, box) -> float:
-    force, _ = jammed._FrictionlessForces(diameters, box)(positions)
+    force, _ = mechanics.FrictionlessForces(diameters, box)(positions)
     return float(np.sqrt(np.max(np.sum(force**2, axis=1))))
 
 
@@ -32,7 +33,7 @@ def rotsound_max_force(positions, diameters, box) -> float:
 def test_lammps_forces_and_virial_are_rotsounds(lammps_present, dim, stretch, law):
     """At a random start of 64 particles (every particle overlapping several others, overlaps up
     to a diameter) in a rectangular box, LAMMPS's net forces equal
-    jammed._FrictionlessForces's and its virial pressure jammed.describe's.  The virial sums
+    mechanics.FrictionlessForces's and its virial pressure mechanics.describe's.  The virial sums
     f_c r_c over contacts, so it checks each contact force, not only their sums per particle.
     Granular pair styles tally no energy; equal forces everywhere make LAMMPS's energy
     rotsound's E = sum xi^2 / 2 up to a constant.  Tolerances: each pair force (size <= 1) is the
@@ -47,10 +48,10 @@ def test_lammps_forces_and_virial_are_rotsounds(lammps_present, dim, stretch, la
     box = cube * np.array(stretch)
     x = x * np.array(stretch)
     force, pressure = lammps_engine.forces(x, d, box, COMM, law=law)
-    expected, _ = jammed._FrictionlessForces(d, box, law=law)(x)
+    expected, _ = mechanics.FrictionlessForces(d, box, law=law)(x)
     assert_all(np.abs(expected).max() > 0.1, "the start should be far from force balance")
     assert_close(force, expected, rtol=0.0, atol=1e-13, what=f"{dim}D forces")
-    stats = jammed.describe(x, d, box, np.zeros(d.size, dtype=bool), law)
+    stats = mechanics.describe(x, d, box, np.zeros(d.size, dtype=bool), law)
     assert_close(pressure, stats["pressure"], rtol=1e-13, what=f"{dim}D virial pressure")
 
 
@@ -116,7 +117,7 @@ def test_lammps_fire_is_rotsounds_with_the_documented_changes(lammps_present, di
     Equal step counts were measured in every case (N = 512 in 2D and 3D, 2048 in 2D)."""
     x, d, box = recipe_start(128, phi, dim, seed=1)
     positions, steps, _ = lammps_engine.minimize(x, d, box, 1e-6, 100_000, COMM)
-    expected, expected_steps = lammps_variant_of_rotsounds_fire(x, jammed._FrictionlessForces(d, box), 1e-6, 100_000)
+    expected, expected_steps = lammps_variant_of_rotsounds_fire(x, mechanics.FrictionlessForces(d, box), 1e-6, 100_000)
     assert_all(steps == expected_steps, f"{dim}D: LAMMPS took {steps} steps, the variant {expected_steps}")
     delta = positions - expected
     delta -= box * np.rint(delta / box)
@@ -167,7 +168,7 @@ def test_scene_with_engine_lammps_makes_jammed_packings_on_all_ranks(lammps_pres
     scene = schema.build(schema.Scene, spec)
     made = pipeline.make_packings(scene, COMM)
     for p in made:
-        assert_all(p.info["engine"] == "lammps" and jammed.jamming_failure(p) is None, "not jammed")
+        assert_all(p.info["engine"] == "lammps" and mechanics.jamming_failure(p) is None, "not jammed")
         assert_all(rotsound_max_force(p.positions, p.diameters, p.box) < 1e-6, "force_tol not met")
         assert_all(COMM.allgather(p.positions.tobytes()).count(p.positions.tobytes()) == COMM.size,
                    "ranks differ")

@@ -10,6 +10,7 @@ from solver.packing import geometry
 from solver.packing import fire
 from solver.io import hdf5
 from solver.packing import jammed
+from solver.packing import mechanics
 from solver.errors import InputError
 
 
@@ -80,10 +81,10 @@ def test_rattler_rule_is_a_fixed_point():
     found = geometry.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
     kept = found.count_per_particle(p.n)[~p.rattler]
     assert p.rattler.sum() >= 1
-    assert kept.min() >= jammed.min_contacts(2)
+    assert kept.min() >= mechanics.min_contacts(2)
     # each rattler really is one under the rule applied to the packing without it
     everyone = geometry.find_contacts(p.positions, p.diameters, p.box_length).count_per_particle(p.n)
-    one_pass = everyone < jammed.min_contacts(2)
+    one_pass = everyone < mechanics.min_contacts(2)
     assert np.all(p.rattler[one_pass]), "first-pass rattlers must be rattlers"
 
 
@@ -202,7 +203,7 @@ def test_a_files_masses_round_trip(small_packing, tmp_path):
 def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, tmp_path):
     """A packing whose normal forces do not balance (here: a jammed one shaken by up to 0.02 d0, as
     a frictional DEM packing would look to the normal forces) is refused with the message that
-    offers jammed.relax; with relax: true, FIRE takes it back to a jammed minimum of the normal
+    offers packing.relax; with relax: true, FIRE takes it back to a jammed minimum of the normal
     energy, in equilibrium to force_tol under the FIRE forces and to the file check."""
     from solver import pipeline
     from solver.io import schema
@@ -214,14 +215,14 @@ def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, 
         f["diameters"] = small_packing.diameters
         f.attrs["box_length"] = small_packing.box_length
     scene = {"packing": {"file": path}, "output": str(tmp_path / "out.h5")}
-    with pytest.raises(InputError, match="jammed.relax: true"):
+    with pytest.raises(InputError, match="packing.relax: true"):
         pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
     scene["packing"]["relax"] = True
     relaxed, = pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
-    f, _ = jammed._FrictionlessForces(relaxed.diameters, relaxed.box)(relaxed.positions)
-    assert_all(np.sqrt((f ** 2).sum(axis=1)).max() < 1e-6 and hdf5.net_force(relaxed) < 1e-6,
+    f, _ = mechanics.FrictionlessForces(relaxed.diameters, relaxed.box)(relaxed.positions)
+    assert_all(np.sqrt((f ** 2).sum(axis=1)).max() < 1e-6 and mechanics.net_force(relaxed) < 1e-6,
                "relaxed packing not in equilibrium")
-    assert_all(relaxed.info["relaxed"] and jammed.jamming_failure(relaxed) is None, "not a jammed packing")
+    assert_all(relaxed.info["relaxed"] and mechanics.jamming_failure(relaxed) is None, "not a jammed packing")
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -230,7 +231,7 @@ def test_hertz_packings_balance_under_hertz_forces_only(dim):
     equilibrium under Hertz forces, and not under harmonic ones (the two laws weigh
     overlaps differently, so one law's minimum is off balance under the other)."""
     p = jammed.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([2, 0]), dim=dim, law="hertz")
-    assert_all(p.info["law"] == "hertz" and jammed.jamming_failure(p) is None, "not a jammed Hertz packing")
-    hertz, harmonic = hdf5.net_force(p, "hertz"), hdf5.net_force(p, "harmonic")
+    assert_all(p.info["law"] == "hertz" and mechanics.jamming_failure(p) is None, "not a jammed Hertz packing")
+    hertz, harmonic = mechanics.net_force(p, "hertz"), mechanics.net_force(p, "harmonic")
     # FIRE's criterion holds with the rattlers in; without their contacts ~1e-6 remain on others
-    assert_all(hertz < 1e-5 and harmonic > hdf5.EQUILIBRIUM_TOL, f"Hertz {hertz}, harmonic {harmonic}")
+    assert_all(hertz < 1e-5 and harmonic > mechanics.EQUILIBRIUM_TOL, f"Hertz {hertz}, harmonic {harmonic}")

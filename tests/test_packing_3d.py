@@ -16,6 +16,7 @@ from solver.io import results, schema
 from solver.io import unit_keys
 from solver.packing import geometry
 from solver.packing import jammed
+from solver.packing import mechanics
 
 PHI = 0.7  # above this mixture's 3D jamming point (~0.648)
 
@@ -74,7 +75,7 @@ def test_spheres_contacts_pressure_and_rattlers(spheres):
     assert 6.0 < z < 9.0, z
     pressure = np.sum(overlap[touching] * distance[touching]) / 2 / (3 * p.box_length**3)
     assert_close(p.info["pressure"], pressure, rtol=1e-12, what="virial pressure")
-    assert jammed.jamming_failure(p) is None
+    assert mechanics.jamming_failure(p) is None
 
 
 def test_rattler_rule_in_3d_on_a_hand_made_lattice():
@@ -91,7 +92,7 @@ def test_rattler_rule_in_3d_on_a_hand_made_lattice():
     found = geometry.find_contacts(a * sites.astype(float), np.ones(len(sites)), 4 * a)
     count = found.count_per_particle(len(sites))
     assert count[where[(0, 0, 0)]] == 3 and count[where[(3, 0, 0)]] == 4  # the construction
-    rattler = jammed.find_rattlers(a * sites.astype(float), np.ones(len(sites)), 4 * a)
+    rattler = mechanics.find_rattlers(a * sites.astype(float), np.ones(len(sites)), 4 * a)
     assert sorted(np.flatnonzero(rattler)) == sorted([where[(0, 0, 0)], where[(3, 0, 0)]])
 
 
@@ -104,12 +105,12 @@ def test_rigidity_count_in_3d(spheres):
     cluster, n_cluster, inside = star_cluster(p)
     assert inside < 3 * n_cluster - 2, (n_cluster, inside)  # the test's cluster is floppy in 3D
     floppy = jammed.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
-    why = jammed.jamming_failure(floppy)
+    why = mechanics.jamming_failure(floppy)
     assert why is not None and why.startswith(f"only {n_cluster} of 128 spheres are not rattlers and they "
                                               f"share {inside} contacts, fewer than the 3N' - 2 = "
                                               f"{3 * n_cluster - 2}"), why
     loose = jammed.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
-    assert jammed.jamming_failure(loose).startswith("all 128 spheres are rattlers")
+    assert mechanics.jamming_failure(loose).startswith("all 128 spheres are rattlers")
     with pytest.raises(InputError, match=r"packing.phi = 0.7: configuration 1 did not jam: all 128 spheres "
                                          r"are rattlers .*this 3D mixture jams near phi = 0.648"):
         jammed.require_jammed([p, loose], 0.7)
@@ -166,7 +167,7 @@ def test_packing_key_gets_dim_only_in_3d():
 
 
 def test_net_force_of_a_sphere_file_counts_z(spheres):
-    """The equilibrium check of packing files (hdf5.net_force) on spheres: one sphere moved by
+    """The equilibrium check of packing files (mechanics.net_force) on spheres: one sphere moved by
     0.01 d0 along z gives the largest net force of the all-pairs sum, z component included."""
     p = spheres
     moved = p.positions.copy()
@@ -176,7 +177,7 @@ def test_net_force_of_a_sphere_file_counts_z(spheres):
     net = np.sum((overlap / distance)[..., None] * delta, axis=1)
     expected = np.sqrt(np.sum(net[~p.rattler] ** 2, axis=1)).max()
     assert expected > 1e-3, expected  # well above EQUILIBRIUM_TOL = 1e-4: the file would be refused
-    assert_close(hdf5.net_force(shaken), expected, rtol=1e-12, what="largest net force")
+    assert_close(mechanics.net_force(shaken), expected, rtol=1e-12, what="largest net force")
 
 
 def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypatch, spheres):
@@ -223,7 +224,7 @@ def test_neighbour_list_refresh_keeps_every_pair_that_can_touch(start, moves, ga
     every stage the forces equal the two-sphere formula."""
     far = [[1, 1, 1], [1, 1, 8], [1, 8, 1], [8, 1, 1], [1, 8, 8], [8, 8, 8]]
     x = np.array([[5.0, 5.0, 5.0], [5.0 + start, 5.0, 5.0]] + far, dtype=float)
-    forces = jammed._FrictionlessForces(np.ones(len(x)), 10.0)
+    forces = mechanics.FrictionlessForces(np.ones(len(x)), 10.0)
     assert forces.skin == 0.3
     for move in [(0.0, 0.0)] + moves:
         x[:2, 0] += move

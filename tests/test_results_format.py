@@ -12,6 +12,7 @@ from conftest import REPO, assert_close
 
 from solver.errors import InputError
 from solver.io import hdf5
+from solver import report
 from solver.io import results
 from solver.model import dynmat
 from solver.spectrum import slicing
@@ -41,7 +42,7 @@ def test_version_1_file_is_read_as_written(comm):
     assert w.z.shape == (2, w.k.size, w.t.size) and w.k.size == 2
     # The packing stored in the file is a packing input (README) whose spectrum, recomputed by this
     # rotsound, is the one stored: positions, diameters and box are read as they were written.
-    data = results.gather([str(V1)])
+    data = report.gather([str(V1)])
     assert sorted(data.vdos) == [0.0, 1.0] and data.vdos_file == str(V1)
     (packing,) = hdf5.read_packings(str(V1))
     for rho in (0.0, 1.0):
@@ -55,7 +56,7 @@ def test_claims_read_version_1():
     """The report's table from the version-1 file (its figures are drawn from the same readers)."""
     from solver.analysis import claims
 
-    rows = claims.claims(results.gather([str(V1)]))
+    rows = claims.claims(report.gather([str(V1)]))
     status = {r.claim: r.status for r in rows}
     assert len(rows) >= 7 and set(status.values()) <= {"PASS", "FAIL", "NOT MEASURED"}
     # measured from the file: rho = 0 vDOS and K/Q at rho = 1; no lattice fit in so small a file

@@ -1,6 +1,6 @@
 """The paper's quantitative claims, their tolerances and verdicts (the reproduction report's table).
 
-numpy only (no h5py, no PETSc): :func:`claims` takes a :class:`Data` that ``io.results.gather``
+numpy only (no h5py, no PETSc): :func:`claims` takes a :class:`Data` that ``report.gather``
 fills from results files (or a test fills by hand) and returns one :class:`Row` per claim with
 PASS, FAIL or NOT MEASURED (the data needed is not there).  Every tolerance is fixed here, before
 any run, not tuned to the data.  Band edges and branches come from ``lattice`` (eq:omega_t(k),
@@ -22,7 +22,7 @@ PHI_MAIN = 0.9  # the paper's packing fraction; files at other phi only feed the
 @dataclass
 class Data:
     """What the claims (and the report around them) need, gathered from all results files by
-    ``io.results.gather``; the arrays are those of the results file layout (README)."""
+    ``report.gather``; the arrays are those of the results file layout (README)."""
 
     vdos: dict = field(default_factory=dict)        # rho -> (edges, density, omega_c, omega_c_std, configs)
     energies: dict = field(default_factory=dict)    # rho -> (omega, K, Q) per mode, pooled over configurations

@@ -28,10 +28,10 @@ from ..errors import InputError
 from .. import profiling
 from . import dem_formats
 from .atomic import atomic_write
-from ..packing.jammed import NAMES, Packing, from_arrays, min_contacts
+from ..packing import mechanics
+from ..packing.jammed import Packing, from_arrays
 
 FORMAT_VERSION = 1
-EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force accepted on a loaded packing (FIRE reaches 1e-6)
 
 
 def _open(path: str):
@@ -94,11 +94,11 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
     packing = from_arrays(positions, diameters, box, rattler, info, masses, law)
     if packing.rattler.all():
-        name = NAMES[packing.dim]
-        raise InputError(f"packing file {where}: no {name[:-1]} has {min_contacts(packing.dim)} or more contacts "
+        name = mechanics.NAMES[packing.dim]
+        raise InputError(f"packing file {where}: no {name[:-1]} has {mechanics.min_contacts(packing.dim)} or more contacts "
                          f"(not a jammed packing: all {name} are rattlers)")
     if check_equilibrium:
-        require_equilibrium(packing, where, law)
+        mechanics.require_equilibrium(packing, where, law)
     return packing
 
 
@@ -115,38 +115,6 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str) -> Packing
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
     return _finish((raw.positions - raw.box_lo) / unit, raw.diameters / unit, (raw.box_hi - raw.box_lo) / unit,
                    None, raw.masses, info, path, "box", check_equilibrium, law)
-
-
-def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> None:
-    """Raise InputError unless the normal contact forces alone balance on every non-rattler to
-    EQUILIBRIUM_TOL: the unstressed tangential springs of the dynamical matrix need an energy
-    minimum of the normal energy.  A packing made with friction in a DEM code fails this (it
-    balances only with its tangential forces): the message offers ``packing.relax: true``."""
-    residual = net_force(packing, law)
-    if residual > EQUILIBRIUM_TOL:
-        raise InputError(
-            f"packing file {where}: not in mechanical equilibrium under the {law} normal contact forces alone: the "
-            f"largest net normal force on a non-rattler is {residual:.3e} kn d0 > {EQUILIBRIUM_TOL:g}. The "
-            f"dynamical matrix needs a minimum of the normal energy; a packing made with friction balances "
-            f"only with its tangential forces, and building unstressed springs on it would be wrong (one written "
-            f"with few digits, as YADE's 6, is off balance by its rounding). Set "
-            f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles)")
-
-
-def net_force(packing: Packing, law: str = "harmonic") -> float:
-    """Largest net normal contact force of ``law`` on a non-rattler particle (units kn d0)."""
-    from ..model import contact_law
-    from ..packing import geometry
-
-    active = ~packing.rattler
-    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
-    reduced = contact_law.reduced_radius(packing.diameters[found.i], packing.diameters[found.j])
-    f = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal  # eq:eij, on i
-    net = np.zeros((packing.n, packing.dim))
-    for axis in range(packing.dim):
-        net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
-                        - np.bincount(found.j, f[:, axis], minlength=packing.n))
-    return float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
 
 
 def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,

@@ -5,8 +5,7 @@ figures need: plain numpy arrays and dicts, no h5py objects outside this module.
 root attribute ``format_version`` (not a rotsound results file) and a file of a newer
 ``format_version`` than this rotsound reads, each with an :class:`~solver.errors.InputError`
 naming the file.  The readers take the open file and read one quantity each (the waves' sampled
-runs only when asked: they are the largest part).  :func:`gather` reads every file the report is
-given into :class:`~solver.analysis.claims.Data`.  h5py and numpy only (no PETSc, no MPI); not
+runs only when asked: they are the largest part).  h5py and numpy only (no PETSc, no MPI); not
 collective.  Units as in the file layout (README): omega in 1/t0, k in 1/d0, t in t0.
 """
 
@@ -18,7 +17,6 @@ from typing import NamedTuple
 import h5py
 import numpy as np
 
-from ..analysis.claims import PHI_MAIN, Data
 from ..errors import InputError
 from . import hdf5
 from .hdf5 import FORMAT_VERSION
@@ -171,29 +169,3 @@ def lattice(f) -> dict | None:
 def bands(f) -> dict | None:
     """Datasets of ``analysis/bands`` (band limits per rho > 0), None without it."""
     return {key: f["analysis/bands"][key][()] for key in f["analysis/bands"]} if "analysis/bands" in f else None
-
-
-def gather(paths: list[str]) -> Data:
-    """Read every file for the report: the first file with a quantity at phi = PHI_MAIN provides it
-    (the vDOS as a whole; K and Q per rho; the wave analysis as a whole); every file's vDOS feeds
-    the phi comparison (Fig. S1)."""
-    data = Data()
-    for path in paths:
-        with open_results(path) as f:
-            phi, n = packing_summary(f)
-            data.sources.append((path, phi, n, ", ".join(contents(f)) or "nothing usable"))
-            curves = vdos(f)
-            if curves:
-                data.s1.setdefault(round(phi, 4), {}).update({rho: v[:3] for rho, v in curves.items()})
-            if abs(phi - PHI_MAIN) > 1e-6:
-                continue
-            if curves and not data.vdos:
-                data.vdos, data.vdos_file = curves, path
-            for rho, energies in mode_energies(f).items():
-                if rho in curves and rho not in data.energies:
-                    data.energies[rho] = energies
-                    data.energies_file[rho] = path
-            lat = lattice(f)
-            if lat is not None and data.lattice is None:
-                data.waves_file, data.lattice, data.bands, data.fits = path, lat, bands(f), fits(f)
-    return data

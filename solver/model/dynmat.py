@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from .. import parallel
 from .. import profiling
 from ..packing import geometry
-from . import contact_law
+from .. import contact_law
 from ..packing.jammed import Packing
 
 MASS = 1.0
