@@ -3,6 +3,7 @@
     python scripts/bench_assembly.py     # needs cache/bench_32768.h5 from bench_packing.py
 """
 
+from solver.contact_law import ContactModel
 import json
 import sys
 import time
@@ -26,13 +27,13 @@ def case() -> None:
     for _ in range(REPEATS):
         comm.tompi4py().Barrier()
         t = time.perf_counter()
-        dm = dynmat.assemble(p, 1.0, comm)
+        dm = dynmat.assemble(p, ContactModel(1.0), comm)
         times.append(comm.tompi4py().allreduce(time.perf_counter() - t, op=__import__("mpi4py").MPI.MAX))
         size = dm.size
         dm.destroy()
         if comm.size == 1:  # the obvious alternative: the whole matrix with scipy.sparse
             t = time.perf_counter()
-            dynmat.local_csr(p, 1.0, (0, int((~p.rattler).sum())))
+            dynmat.local_csr(p, ContactModel(1.0), (0, int((~p.rattler).sum())))
             scipy_times.append(time.perf_counter() - t)
     if comm.rank == 0:
         print(json.dumps({"ranks": comm.size, "times": times, "scipy": scipy_times, "size": size}))

@@ -9,6 +9,7 @@ averages of K and Q; its error is the mode-weighted mean of |K_kpm / K_exact - 1
 the bins.
 """
 
+from solver.contact_law import ContactModel
 import json
 import sys
 import time
@@ -31,7 +32,7 @@ def case(n: int, exact: bool) -> None:
     PETSc = petscenv.init([])
     mpi = PETSc.COMM_WORLD.tompi4py()
     (p,) = hdf5.read_packings(str(FILES[n]))
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_WORLD)
     out = {"n": n, "kpm": []}
     t0 = time.perf_counter()
     w = operators.largest_omega(dm)

@@ -14,6 +14,7 @@ Writes results/bench/spectral.json and docs/bench_spectral.png.  omega_max (need
 spectral step count and the TS stability check) is computed once per case and not timed.
 """
 
+from solver.contact_law import ContactModel
 import json
 import sys
 import time
@@ -45,7 +46,7 @@ def _setup(n):
 
     PETSc = petscenv.init([])
     p = load_packing(n)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_WORLD)
     omega_max = operators.largest_omega(dm)
     return PETSc, p, dm, omega_max, 2 * np.pi * 4 / p.box_length
 

@@ -5,6 +5,7 @@ Cases run one after another, each in fresh processes: SLEPc under mpirun -n 2 (p
 over ranks), eigh in one process with 2 BLAS threads (both cores, the fair comparison).
 """
 
+from solver.contact_law import ContactModel
 import argparse
 import json
 import os
@@ -39,7 +40,7 @@ def slepc_case(path: str, vectors: bool, window: str) -> None:
     PETSc = petscenv.init([])
     comm = PETSc.COMM_WORLD
     (p,) = hdf5.read_packings(path)
-    dm = dynmat.assemble(p, 1.0, comm)
+    dm = dynmat.assemble(p, ContactModel(1.0), comm)
     win = None if window == "full" else tuple(map(float, window.split(",")))
     mpi = comm.tompi4py()
     # windows of a killed run are resumed from here (a full N = 32768 spectrum outlasts a session)
@@ -79,7 +80,7 @@ def eigh_case(path: str, vectors: bool) -> None:
 
     PETSc = petscenv.init([])
     (p,) = hdf5.read_packings(path)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_SELF)
     A = operators.scaled_operator(dm)
     dense = dynmat.gather_csr(A).toarray()
     t = time.perf_counter()
@@ -98,7 +99,7 @@ def omega_max_case(path: str) -> None:
 
     PETSc = petscenv.init([])
     (p,) = hdf5.read_packings(path)
-    omega_max = operators.largest_omega(dynmat.assemble(p, 1.0, PETSc.COMM_WORLD))
+    omega_max = operators.largest_omega(dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_WORLD))
     if PETSc.COMM_WORLD.rank == 0:
         print(json.dumps({"omega_max": omega_max}))
 

@@ -18,6 +18,7 @@ takes is scripts/bench_packing3d.py's table); 2D comparisons use benchlib.load_p
 Writes results/bench/spheres.json after every row and prints the table.
 """
 
+from solver.contact_law import ContactModel
 import argparse
 import json
 import sys
@@ -72,7 +73,7 @@ def assembly_case(n: int, roll: float) -> dict:
     mpi = PETSc.COMM_WORLD.tompi4py()
     mpi.Barrier()
     t = time.perf_counter()
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD, rho_roll=roll, rho_twist=roll)
+    dm = dynmat.assemble(p, ContactModel(1.0, rho_roll=roll, rho_twist=roll), PETSc.COMM_WORLD)
     seconds = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
     out = {"seconds": seconds, "rss": mpi.allreduce(peak_rss_gib(), op=MPI.SUM), "dof": dm.size,
            "nnz": int(dm.D.getInfo()["nz_used"]), "contacts": dm.n_contacts}
@@ -86,7 +87,7 @@ def fill_case(n: int, dim: int) -> dict:
     from solver.spectrum.slicing import ShiftedInertia
 
     p = load_spheres(n) if dim == 3 else load_packing(n)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_SELF)
     A = operators.scaled_operator(dm)
     counter = ShiftedInertia(A)
     t = time.perf_counter()
@@ -112,7 +113,7 @@ def vdos_case(n: int, method: str) -> dict:
     from solver.model import dynmat
     from solver.spectrum import counting, kpm
 
-    dm = dynmat.assemble(load_spheres(n), 1.0, PETSc.COMM_WORLD)
+    dm = dynmat.assemble(load_spheres(n), ContactModel(1.0), PETSc.COMM_WORLD)
     mpi = PETSc.COMM_WORLD.tompi4py()
     mpi.Barrier()
     t = time.perf_counter()
@@ -137,7 +138,7 @@ def wave_case(n: int) -> dict:
     from solver.waves import spectral
 
     p = load_spheres(n)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_WORLD)
     mpi = PETSc.COMM_WORLD.tompi4py()
     omega_max = operators.largest_omega(dm)
     k = 2 * np.pi / p.box_length

@@ -28,6 +28,7 @@ Time vs counting: this row's wall time over the 2-rank counting time of the same
 Writes results/bench/vdos.json (after every N) and prints the table as Markdown at the end.
 """
 
+from solver.contact_law import ContactModel
 import argparse
 import json
 import sys
@@ -66,7 +67,7 @@ def case(n: int, method: str) -> None:
 
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
-    dm = dynmat.assemble(load_packing(n), 1.0, comm)
+    dm = dynmat.assemble(load_packing(n), ContactModel(1.0), comm)
     mpi.Barrier()
     t = time.perf_counter()
     if method in ("counting", "counting-1"):
@@ -103,7 +104,7 @@ def eigh_case(n: int) -> None:
     PETSc = petscenv.init([])
     from solver.model import dynmat, operators
 
-    dm = dynmat.assemble(load_packing(n), 1.0, PETSc.COMM_SELF)
+    dm = dynmat.assemble(load_packing(n), ContactModel(1.0), PETSc.COMM_SELF)
     A = operators.scaled_operator(dm)
     dense = dynmat.gather_csr(A).toarray().T  # A is symmetric: its Fortran-ordered view, no copy
     A.destroy()

@@ -9,6 +9,7 @@
 Writes results/bench/waves.json and docs/bench_waves.png.
 """
 
+from solver.contact_law import ContactModel
 import json
 import subprocess
 import sys
@@ -40,7 +41,7 @@ def ts_case(integrator: str, dt: float) -> None:
 
     PETSc = petscenv.init([])
     p = load_packing(2048)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_WORLD)
     ref = np.load(EXACT)
     mpi = PETSc.COMM_WORLD.tompi4py()
     mpi.Barrier()
@@ -70,7 +71,7 @@ def step_cost_case() -> None:
 
     PETSc = petscenv.init([])
     p = load_packing(32768)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_WORLD)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_WORLD)
     mpi = PETSc.COMM_WORLD.tompi4py()
     x, y = dm.D.createVecs()
     x.setRandom()

@@ -166,9 +166,10 @@ def exact_l_wave(p, k, times):
 
     from solver import petscenv
     from solver.model import dynmat, operators
+    from solver.contact_law import ContactModel
 
     PETSc = petscenv.init([])
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF)
+    dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_SELF)
     lam, vec = sl.eigh(dynmat.gather_csr(operators.scaled_operator(dm)).toarray())
     omega = np.sqrt(np.clip(lam, 0, None))
     mass = dm.M.getArray()
@@ -183,8 +184,9 @@ def scipy_verlet_l_wave(p, k, dt, t_end, sample):
     Returns (seconds, z sampled every ``sample``)."""
 
     from solver.model import dynmat
+    from solver.contact_law import ContactModel
 
-    D, _, _ = dynmat.local_csr(p, 1.0, (0, int((~p.rattler).sum())))
+    D, _, _ = dynmat.local_csr(p, ContactModel(1.0), (0, int((~p.rattler).sum())))
     minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], dynmat.particle_masses(p)[~p.rattler], 2, 3)
     r0, v = _l_wave(p, k)
     v = v.ravel()

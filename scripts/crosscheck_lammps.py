@@ -132,7 +132,7 @@ def lammps_z(p, dm, law: str, run: tuple[int, int], k: float, amplitude: float, 
     start = np.concatenate(comm.allgather(local)).reshape(-1, dm.dof)
     active = dm.active
     x, d = p.positions[active], p.diameters[active]
-    plus, minus = (lammps_velocities(x, d, p.box, law, sign * start, dt, steps, every, comm, dm.rho, hold)
+    plus, minus = (lammps_velocities(x, d, p.box, law, sign * start, dt, steps, every, comm, dm.model.rho, hold)
                    for sign in (1.0, -1.0))
     return 0.5 * (plus - minus)[:, :, component] @ np.exp(-1j * k * x[:, axis])
 
@@ -167,13 +167,14 @@ def case(dim: int, law: str, n: int, seed: int, args, details: list) -> tuple[li
 
     from solver import petscenv
     from solver.model import dynmat
+    from solver.contact_law import ContactModel
     from solver.packing import geometry, jammed
     from solver.waves import excitation, integrators
 
     PETSc = petscenv.init([])
     comm = PETSc.COMM_SELF.tompi4py()
     p = jammed.generate(n, PACKINGS[dim], np.random.SeedSequence([seed, 0]), dim=dim, law=law)
-    dm = dynmat.assemble(p, 1.0, PETSc.COMM_SELF, law=law)
+    dm = dynmat.assemble(p, ContactModel(1.0, law=law), PETSc.COMM_SELF)
     eig = dense_eigen(dm)
     contacts = geometry.find_contacts(p.positions, p.diameters, p.box, dm.active)
     k = 2 * np.pi * args.wave / float(p.box[0])

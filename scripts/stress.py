@@ -17,6 +17,7 @@ sys.path.insert(0, str(REPO / "scripts"))
 sys.path.insert(0, str(REPO / "tests"))
 
 from benchlib import machine  # noqa: E402
+from solver.contact_law import ContactModel
 from solver import petscenv  # noqa: E402
 from solver.model import dynmat, operators
 from solver.packing import jammed
@@ -47,7 +48,7 @@ def dense_check(dm, result):
 def stiffness_ratios():
     p = jammed.generate(256, 0.9, np.random.SeedSequence([1, 0]))
     for rho in (0.0, 1e-6, 100.0):
-        dm = dynmat.assemble(p, rho, COMM)
+        dm = dynmat.assemble(p, ContactModel(rho), COMM)
         r = slicing.solve(dm, window=None, vectors=True)
         err = dense_check(dm, r)
         row(f"rho = {rho:g} (N = 256)", f"{r.omega.size} modes of {dm.size} DOF, {r.n_zero_modes} zero, "
@@ -66,7 +67,7 @@ def area_fractions():
         t = time.perf_counter()
         p = jammed.generate(1024, phi, np.random.SeedSequence([2, 0]))
         sec = time.perf_counter() - t
-        dm = dynmat.assemble(p, 1.0, COMM)
+        dm = dynmat.assemble(p, ContactModel(1.0), COMM)
         r = slicing.solve(dm, window=None, vectors=False)
         row(f"phi = {phi} (N = 1024)", f"FIRE {p.info['fire_steps']} steps in {sec:.1f} s to max|F| "
             f"{p.info['max_force']:.1e}; z = {p.info['z']:.2f}, rattlers {100 * p.info['rattler_fraction']:.1f} %, "
@@ -81,7 +82,7 @@ def sizes():
         t = time.perf_counter()
         p = jammed.generate(n, 0.9, np.random.SeedSequence([3, 0]))
         sec = time.perf_counter() - t
-        dm = dynmat.assemble(p, 1.0, COMM)
+        dm = dynmat.assemble(p, ContactModel(1.0), COMM)
         if n <= 2048:
             r = slicing.solve(dm, window=None, vectors=False)
             what = f"{r.omega.size} modes, {r.n_zero_modes} zero, {r.n_negative} negative, residual {r.max_residual:.0e}"
@@ -100,7 +101,7 @@ def sizes():
 
 def stability_edge():
     p = jammed.generate(64, 0.9, np.random.SeedSequence([4, 0]))
-    dm = dynmat.assemble(p, 1.0, COMM)
+    dm = dynmat.assemble(p, ContactModel(1.0), COMM)
     limit = integrators.stability_limit("verlet", operators.largest_omega(dm))
     for factor in (0.99, 1.01):
         schedule = integrators.resolve_schedule(integrator="verlet", dt=factor * limit, t_end=2000 * factor * limit,
@@ -121,7 +122,7 @@ def stability_edge():
 
 def million_steps():
     p = jammed.generate(64, 0.9, np.random.SeedSequence([5, 0]))
-    dm = dynmat.assemble(p, 1.0, COMM)
+    dm = dynmat.assemble(p, ContactModel(1.0), COMM)
     t = time.perf_counter()
     s = integrators.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
                         schedule=integrators.resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
@@ -142,7 +143,7 @@ def square_lattice():
     x, y = np.meshgrid(np.arange(side), np.arange(side))
     pos = np.stack([x.ravel(), y.ravel()], axis=1) * spacing + 0.5
     p = jammed.from_arrays(pos, np.ones(side * side), side * spacing)
-    dm = dynmat.assemble(p, 1.0, COMM)
+    dm = dynmat.assemble(p, ContactModel(1.0), COMM)
     r = slicing.solve(dm, window=None, vectors=True, max_window_modes=40)
     A = operators.scaled_operator(dm)
     lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)

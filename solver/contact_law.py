@@ -26,15 +26,40 @@ and kr = 0 this is
 
 The blocks are the exact Hessian of e_ij at the reference (tests/test_contact_law.py checks them,
 and the forces, against central differences of ``pair_energy`` in 2D and 3D with every spring on).
-Every function is vectorised over the C contacts.  Not collective.
+Every function is vectorised over the C contacts.  The springs of a model travel together as
+one :class:`ContactModel`.  Not collective.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 KN = 1.0  # normal stiffness, the unit of stiffness
 LAWS = ("harmonic", "hertz")
+
+
+@dataclass(frozen=True)
+class ContactModel:
+    """What every contact of a matrix is made of (eq:eij; PHYSICS.md sections 1, 2 and 8).
+
+    rho = kt / kn (tangential), rho_roll = kr / kn (rolling), rho_twist = ko / kn (twisting, 3D
+    only): stiffness ratios >= 0;  law : the normal law, ``harmonic`` (kn xi) or ``hertz``
+    (kn sqrt(a' xi) xi, every spring scaled by :func:`spring_scale`).  The scene gives one per
+    rho (``ModelSpec.contact``); the dashpots and stored tangential state of later physics join
+    here.
+    """
+
+    rho: float
+    rho_roll: float = 0.0
+    rho_twist: float = 0.0
+    law: str = "harmonic"
+
+    @property
+    def rotations(self) -> bool:
+        """Whether some rotational spring is on (then the matrix keeps rotational DOF)."""
+        return self.rho > 0.0 or self.rho_roll > 0.0 or self.rho_twist > 0.0
 
 
 def reduced_radius(d_i: np.ndarray, d_j: np.ndarray) -> np.ndarray:
@@ -108,10 +133,10 @@ def _rotations(theta: np.ndarray) -> np.ndarray:
     return theta[:, None] if theta.ndim == 1 else theta
 
 
-def _refuse_twist_in_2d(normal: np.ndarray, rho_twist: float) -> None:
+def _refuse_twist_in_2d(normal: np.ndarray, model: ContactModel) -> None:
     """Refuse a twisting spring in 2D (PHYSICS.md section 8: 3D only)."""
-    if normal.shape[1] == 2 and rho_twist != 0:
-        raise ValueError(f"rho_twist = {rho_twist}: twisting resistance exists in 3D only")
+    if normal.shape[1] == 2 and model.rho_twist != 0:
+        raise ValueError(f"rho_twist = {model.rho_twist}: twisting resistance exists in 3D only")
 
 
 def stretches(normal: np.ndarray, radius_i: np.ndarray, radius_j: np.ndarray, du: np.ndarray,
@@ -134,24 +159,24 @@ def stretches(normal: np.ndarray, radius_i: np.ndarray, radius_j: np.ndarray, du
 
 
 def pair_energy(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
-                radius_i: np.ndarray, radius_j: np.ndarray, rho: float, du: np.ndarray,
-                theta_i: np.ndarray, theta_j: np.ndarray, rho_roll: float = 0.0,
-                rho_twist: float = 0.0, law: str = "harmonic") -> np.ndarray:
+                radius_i: np.ndarray, radius_j: np.ndarray, model: ContactModel, du: np.ndarray,
+                theta_i: np.ndarray, theta_j: np.ndarray) -> np.ndarray:
     """Energy e_ij (C,) after displacements from the reference contacts (eq:eij; in 3D and with
     rolling and twisting springs PHYSICS.md section 8).
 
     separation : (C, D) reference r_i - r_j (minimum image);  contact : (C,) (d_i + d_j)/2;
-    normal : (C, D) reference n;  radius_i, radius_j : (C,);  rho = kt / kn, rho_roll = kr / kn,
-    rho_twist = ko / kn (3D only);  du : (C, D) u_i - u_j;  theta_i, theta_j : (C,) in 2D, (C, 3) in 3D;
-    law : "harmonic" or "hertz" (the springs then carry :func:`spring_scale` of the reference overlap).
+    normal : (C, D) reference n;  radius_i, radius_j : (C,);  model : the springs and the normal
+    law (under hertz the springs carry :func:`spring_scale` of the reference overlap);
+    du : (C, D) u_i - u_j;  theta_i, theta_j : (C,) in 2D, (C, 3) in 3D.
     """
-    _refuse_twist_in_2d(normal, rho_twist)
+    _refuse_twist_in_2d(normal, model)
     reduced = radius_i * radius_j / (radius_i + radius_j)
-    _, normal_part = normal_pair(separation + du, contact, law, reduced)
-    scale = spring_scale(_reference_overlap(separation, contact), law, reduced)
+    _, normal_part = normal_pair(separation + du, contact, model.law, reduced)
+    scale = spring_scale(_reference_overlap(separation, contact), model.law, reduced)
     s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
-    return normal_part + 0.5 * KN * scale * (rho * np.einsum("cd,cd->c", s_t, s_t)
-                                             + rho_roll * np.einsum("cd,cd->c", s_r, s_r) + rho_twist * s_o**2)
+    return normal_part + 0.5 * KN * scale * (model.rho * np.einsum("cd,cd->c", s_t, s_t)
+                                             + model.rho_roll * np.einsum("cd,cd->c", s_r, s_r)
+                                             + model.rho_twist * s_o**2)
 
 
 def _reference_overlap(separation: np.ndarray, contact: np.ndarray) -> np.ndarray:
@@ -165,9 +190,8 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
-                radius_i: np.ndarray, radius_j: np.ndarray, rho: float, du: np.ndarray,
-                theta_i: np.ndarray, theta_j: np.ndarray, rho_roll: float = 0.0,
-                rho_twist: float = 0.0, law: str = "harmonic") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                radius_i: np.ndarray, radius_j: np.ndarray, model: ContactModel, du: np.ndarray,
+                theta_i: np.ndarray, theta_j: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Minus the gradient of ``pair_energy`` (same arguments): (F_i (C, D), tau_i, tau_j), the
     torques (C,) in 2D and (C, 3) in 3D.
 
@@ -177,18 +201,18 @@ def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     In 2D (s_t = delta_t t): tau_i = kt delta_t R_i - kr a'^2 (theta_i - theta_j).  Under hertz,
     kt, kr and ko carry :func:`spring_scale` of the reference overlap.
     """
-    _refuse_twist_in_2d(normal, rho_twist)
+    _refuse_twist_in_2d(normal, model)
     reduced = radius_i * radius_j / (radius_i + radius_j)
-    force, _ = normal_pair(separation + du, contact, law, reduced)
-    k = KN * spring_scale(_reference_overlap(separation, contact), law, reduced)
+    force, _ = normal_pair(separation + du, contact, model.law, reduced)
+    k = KN * spring_scale(_reference_overlap(separation, contact), model.law, reduced)
     s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
     slide = _cross(s_t, normal)
     roll = _cross(normal, s_r)
-    tau_common = -rho_roll * _expand(k * reduced, roll)
-    twist = -rho_twist * _expand(k * reduced * s_o, normal) if normal.shape[1] == 3 else 0.0
-    tau_i = -rho * _expand(k * radius_i, slide) + tau_common + twist
-    tau_j = -rho * _expand(k * radius_j, slide) - tau_common - twist
-    return force - rho * k[:, None] * s_t, tau_i, tau_j
+    tau_common = -model.rho_roll * _expand(k * reduced, roll)
+    twist = -model.rho_twist * _expand(k * reduced * s_o, normal) if normal.shape[1] == 3 else 0.0
+    tau_i = -model.rho * _expand(k * radius_i, slide) + tau_common + twist
+    tau_j = -model.rho * _expand(k * radius_j, slide) - tau_common - twist
+    return force - model.rho * k[:, None] * s_t, tau_i, tau_j
 
 
 def _expand(scale: np.ndarray, value: np.ndarray) -> np.ndarray:
@@ -197,9 +221,8 @@ def _expand(scale: np.ndarray, value: np.ndarray) -> np.ndarray:
 
 
 def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
-                radius_i: np.ndarray, radius_j: np.ndarray, rho: float,
-                with_rotation: bool = True, rho_roll: float = 0.0,
-                rho_twist: float = 0.0, law: str = "harmonic") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                radius_i: np.ndarray, radius_j: np.ndarray, model: ContactModel,
+                with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return the Hessian blocks (H_ii, H_ij, H_jj) of every contact, each (C, k, k).
 
     ``k`` is D + r with rotations ((x, y, theta) in 2D, (x, y, z, theta_x, theta_y, theta_z) in
@@ -207,9 +230,10 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
     rotations would be free).  H_ji is H_ij transposed.  Each spring adds k B^T B, B the linear
     map of its stretch on (u_i, theta_i, u_j, theta_j) (PHYSICS.md section 8); the normal spring
     adds [[K, -K], [-K, K]] on the translations, K = k_n n n^T - (f_n / r_ij) P (geometric term
-    kept), k_n = df_n/dxi; under hertz every spring carries :func:`spring_scale` (``law``).
+    kept), k_n = df_n/dxi; under hertz every spring carries :func:`spring_scale` (``model.law``).
     """
-    _refuse_twist_in_2d(normal, rho_twist)
+    _refuse_twist_in_2d(normal, model)
+    law = model.law
     count, dim = normal.shape
     c_n = _rotation_map(normal)
     rot = c_n.shape[2]
@@ -228,11 +252,11 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
     b_t[:, :, dim:m], b_t[:, :, m + dim:] = -radius_i[:, None, None] * c_n, -radius_j[:, None, None] * c_n
     b_r = np.zeros((count, dim, 2 * m))
     b_r[:, :, dim:m], b_r[:, :, m + dim:] = reduced[:, None, None] * c_n, -reduced[:, None, None] * c_n
-    springs = [(rho, b_t), (rho_roll, b_r)]
+    springs = [(model.rho, b_t), (model.rho_roll, b_r)]
     if dim == 3:
         b_o = np.zeros((count, 1, 2 * m))
         b_o[:, 0, dim:m], b_o[:, 0, m + dim:] = reduced[:, None] * normal, -reduced[:, None] * normal
-        springs.append((rho_twist, b_o))
+        springs.append((model.rho_twist, b_o))
     for ratio, b in springs:
         if ratio:
             full += KN * ratio * scale[:, None, None] * np.einsum("cki,ckj->cij", b, b)

@@ -38,6 +38,7 @@ from .io.schema import Scene, check_dimension
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import unit_keys
+from .io.unit_keys import Unit, task_units
 from .io.unit_store import UnitStore, WindowCheckpoint, cache_folder, packing_from_unit, packing_unit
 
 _TERMINATE = [False]
@@ -115,17 +116,6 @@ def _relaxed(p: jammed.Packing, index: int, scene: Scene) -> jammed.Packing:
     return relaxed
 
 
-def _unit_names(scene: Scene, r_index: int, p_index: int) -> list[str]:
-    """The matrix, spectrum and waves units of (rho index, packing index) (no RT or R without
-    rotational springs)."""
-    tag = f"r{r_index:02d}_p{p_index:04d}"
-    names = [f"matrices/{tag}"] + ([f"spectra/{tag}"] if scene.spectrum else [])
-    if scene.waves:
-        rotations = dynmat.has_rotations(scene.model.rho[r_index], scene.model.rho_roll, scene.model.rho_twist)
-        names += [f"waves/r{r_index:02d}_{m}_p{p_index:04d}" for m in excitation.wave_modes(scene.waves, rotations)]
-    return names
-
-
 def _solve_in_groups(scene: Scene, packings, keys, store: UnitStore, groups: parallel.Groups) -> dict:
     """Every matrix, spectrum and waves unit of the scene, on every rank. Collective on ``groups.comm``.
 
@@ -146,55 +136,57 @@ def _solve_in_groups(scene: Scene, packings, keys, store: UnitStore, groups: par
     error = None
     try:
         for r_index, p_index in groups.mine(tasks):
-            _solve_task(scene, packings[p_index], r_index, p_index, keys, local, units)
+            _solve_task(scene, packings[p_index], task_units(scene, r_index, p_index), keys, local, units)
     except agreed as exc:  # raised on every rank of the group together: on every rank below
         error = exc
     groups.wait()
     parallel.agree(groups.comm, None if isinstance(error, Interrupted) else error)
     parallel.agree(groups.comm, error)  # by now an interruption
     store.absorb(local)
-    return groups.share(units, {name: groups.owner(t) for t, task in enumerate(tasks)
-                                for name in _unit_names(scene, *task)})
+    return groups.share(units, {unit.name: groups.owner(t) for t, task in enumerate(tasks)
+                                for unit in task_units(scene, *task)})
 
 
-def _solve_task(scene: Scene, p, r_index: int, p_index: int, keys, store: UnitStore, units: dict) -> None:
-    """Load the finished units of (rho index, packing ``p``) from ``store`` into ``units``, and
-    compute the others. Collective on ``store.comm`` (one group)."""
+def _solve_task(scene: Scene, p, task: list[Unit], keys, store: UnitStore, units: dict) -> None:
+    """Load the finished units of one (rho, packing ``p``) ``task`` (``task_units``; the matrix
+    first) from ``store`` into ``units``, and compute the others. Collective on ``store.comm``
+    (one group)."""
     comm = store.comm
     check_interrupt(comm)
-    rho, tag = scene.model.rho[r_index], f"r{r_index:02d}_p{p_index:04d}"
 
-    def commit(name, datasets, attrs):  # each unit records the options that produced it
-        attrs = {**attrs, "petsc_options": json.dumps(keys[name].options)}
-        units[name] = (datasets, attrs)
-        store.save(name, datasets, attrs, keys[name])
+    def commit(unit: Unit, datasets, attrs):  # each unit records the options that produced it
+        attrs = {**attrs, "petsc_options": json.dumps(keys[unit.name].options)}
+        units[unit.name] = (datasets, attrs)
+        store.save(unit.name, datasets, attrs, keys[unit.name])
 
-    found = {name: store.load(name, keys.get(name)) for name in _unit_names(scene, r_index, p_index)}
-    for name, unit in found.items():
-        if unit is not None:  # a cached unit may come from another scene's numbering
-            unit[1]["packing"] = p_index
-            units[name] = unit
-    if any(unit is None for unit in found.values()):
-        _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm,
-                 WindowCheckpoint(store, tag, keys.get(f"spectra/{tag}")))
+    todo = []
+    for unit in task:
+        found = store.load(unit.name, keys.get(unit.name))
+        if found is None:
+            todo.append(unit)
+        else:  # a cached unit may come from another scene's numbering
+            found[1]["packing"] = unit.p_index
+            units[unit.name] = found
+    if todo:
+        spectrum = Unit("spectrum", task[0].r_index, task[0].p_index, task[0].rho).name
+        _compute(scene, p, task[0], todo, commit, comm, WindowCheckpoint(store, task[0].tag, keys.get(spectrum)))
 
 
-def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoint=None) -> None:
-    """Assemble the matrix of (rho, p) and compute the units of ``found`` that are None
-    (``checkpoint``: the spectrum's window checkpoint, a :class:`WindowCheckpoint`)."""
+def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=None) -> None:
+    """Assemble the matrix of task ``matrix`` (its matrix unit) on packing ``p`` and compute the
+    units of ``todo`` (``checkpoint``: the spectrum's window checkpoint, a :class:`WindowCheckpoint`)."""
     from petsc4py import PETSc
 
+    rho, p_index = matrix.rho, matrix.p_index
     t = time.perf_counter()
     with profiling.stage("assembly"):
-        dm = dynmat.assemble(p, rho, PETSc.Comm(comm), scene.model.rho_roll, scene.model.rho_twist,
-                             scene.model.masses, scene.model.law)
+        dm = dynmat.assemble(p, scene.model.contact(rho), PETSc.Comm(comm), scene.model.masses)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     nnz = int(dm.D.getInfo()["nz_used"])  # PETSc's default is the global sum
     say(comm, f"matrix rho = {rho:g}, packing {p_index}: {dm.size} DOF "
               f"({dm.dof} per particle), {nnz} non-zeros, assembled in {seconds:.3f} s")
     try:
-        wave_todo = [m for m in (scene.waves.modes if scene.waves else [])
-                     if found.get(f"waves/r{r_index:02d}_{m}_p{p_index:04d}", 0) is None]
+        wave_todo = [unit for unit in todo if unit.kind == "waves"]
         stability = None
         with profiling.stage("waves"):  # the waves' stability check, before any other solve
             if wave_todo and scene.waves.method == "spectral":
@@ -202,55 +194,56 @@ def _compute(scene, p, rho, r_index, p_index, tag, found, commit, comm, checkpoi
             elif wave_todo:  # the schedule the TS will follow, refused here if it cannot work
                 spec = scene.waves
                 schedule = integrators.resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
-                                                  sample_every=spec.sample_every)
+                                                        sample_every=spec.sample_every)
                 omega_max = operators.largest_omega(dm)
                 stability = (schedule, omega_max, integrators.check_schedule(schedule, omega_max, rho))
-        if found[f"matrices/{tag}"] is None:
-            commit(f"matrices/{tag}", {}, {
-                "rho": rho, "rho_roll": dm.rho_roll, "rho_twist": dm.rho_twist, "dim": dm.dim,
-                "masses": scene.model.masses, "law": scene.model.law, "packing": p_index,
+        if matrix in todo:
+            commit(matrix, {}, {
+                "rho": rho, "rho_roll": dm.model.rho_roll, "rho_twist": dm.model.rho_twist, "dim": dm.dim,
+                "masses": scene.model.masses, "law": dm.model.law, "packing": p_index,
                 "size": dm.size, "dof_per_disk": dm.dof,
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
-        if scene.spectrum is not None and found[f"spectra/{tag}"] is None:
+        spectrum = next((unit for unit in todo if unit.kind == "spectrum"), None)
+        if spectrum is not None:
             check_interrupt(comm)
             with profiling.stage("kpm" if scene.spectrum.method == "kpm" else "spectrum"):
                 if scene.spectrum.method == "kpm":
-                    _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm)
+                    _kpm_unit(scene, dm, spectrum, commit, comm)
                 elif scene.spectrum.method == "counting":
-                    _counting_unit(scene, dm, rho, r_index, p_index, commit, comm)
+                    _counting_unit(scene, dm, spectrum, commit, comm)
                 else:
-                    _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint)
+                    _spectrum_unit(scene, dm, spectrum, commit, comm, checkpoint)
         if wave_todo:
             with profiling.stage("waves"):
-                _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, wave_todo)
+                _wave_units(scene, dm, p, wave_todo, commit, comm, stability)
     finally:
         dm.destroy()
 
 
-def _kpm_unit(scene, dm, rho, r_index, p_index, commit, comm) -> None:
+def _kpm_unit(scene, dm, unit: Unit, commit, comm) -> None:
     """Stochastic vDOS of one (rho, packing) (``kpm.solve``) into ``units``. Collective."""
     spec = scene.spectrum
     t = time.perf_counter()
     datasets, attrs = kpm.solve(dm, bin_width=spec.bin_width, moments=spec.moments, probes=spec.probes,
-                                with_energies=spec.energies, seed=scene.seed + p_index)
+                                with_energies=spec.energies, seed=scene.seed + unit.p_index)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
-    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", datasets,
-           {"rho": rho, "packing": p_index, "method": "kpm", **attrs, "seconds": seconds,
+    commit(unit, datasets,
+           {"rho": unit.rho, "packing": unit.p_index, "method": "kpm", **attrs, "seconds": seconds,
             "solver_settings": json.dumps({"wmax": dm.wmax_settings})})
-    say(comm, f"kpm vDOS rho = {rho:g}, packing {p_index}: {attrs['moments']} moments x {spec.probes} probes, "
-              f"omega_max = {attrs['omega_max']:.4f}, {seconds:.1f} s")
+    say(comm, f"kpm vDOS rho = {unit.rho:g}, packing {unit.p_index}: {attrs['moments']} moments x {spec.probes} "
+              f"probes, omega_max = {attrs['omega_max']:.4f}, {seconds:.1f} s")
 
 
-def _counting_unit(scene, dm, rho, r_index, p_index, commit, comm) -> None:
+def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
     """Exact vDOS of one (rho, packing) by counting (``counting.solve``) into ``units``. Collective."""
     spec = scene.spectrum
     t = time.perf_counter()
     datasets, attrs, settings = counting.solve(dm, bin_width=spec.bin_width, zero_tol=spec.zero_tol)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
-    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", datasets,
-           {"rho": rho, "packing": p_index, "method": "counting", **attrs, "seconds": seconds,
+    commit(unit, datasets,
+           {"rho": unit.rho, "packing": unit.p_index, "method": "counting", **attrs, "seconds": seconds,
             "solver_settings": json.dumps(settings)})
-    say(comm, f"counted vDOS rho = {rho:g}, packing {p_index}: {attrs['inertia_count']} modes "
+    say(comm, f"counted vDOS rho = {unit.rho:g}, packing {unit.p_index}: {attrs['inertia_count']} modes "
               f"(+{attrs['n_zero_modes']} zero modes, {attrs['n_negative_modes']} negative) in "
               f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias, omega_max = "
               f"{attrs['omega_max']:.4f}, {seconds:.1f} s")
@@ -264,7 +257,7 @@ def _warn_negative(comm, count: int) -> None:
                   f"stable minimum")
 
 
-def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=None) -> np.ndarray:
+def _spectrum_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> np.ndarray:
     """Solve one (rho, packing) spectrum into ``units``; return its omega. Collective.
 
     Windows are checkpointed, and SIGTERM is honoured after the window in flight."""
@@ -285,15 +278,15 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=No
     datasets = {"omega": result.omega}
     if result.energies is not None:
         datasets.update(result.energies)
-    commit(f"spectra/r{r_index:02d}_p{p_index:04d}", datasets, {
-        "rho": rho, "packing": p_index, "n_zero_modes": result.n_zero_modes,
+    commit(unit, datasets, {
+        "rho": unit.rho, "packing": unit.p_index, "n_zero_modes": result.n_zero_modes,
         "n_negative_modes": result.n_negative, "max_relative_residual": result.max_residual,
         "inertia_count": result.inertia_count, "windows": result.windows, "seconds": seconds,
         "window": window_label(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum()),
         "solver_settings": json.dumps(result.settings)})
     if checkpoint is not None:
         checkpoint.clear()
-    say(comm, f"spectrum rho = {rho:g}, packing {p_index}: {result.omega.size} modes "
+    say(comm, f"spectrum rho = {unit.rho:g}, packing {unit.p_index}: {result.omega.size} modes "
               f"(+{result.n_zero_modes} zero modes, {result.n_negative} negative), omega in "
               f"[{result.omega.min():.4f}, {result.omega.max():.4f}], max relative residual "
               f"{result.max_residual:.1e}, {result.windows} windows, {seconds:.1f} s")
@@ -301,9 +294,9 @@ def _spectrum_unit(scene, dm, rho, r_index, p_index, commit, comm, checkpoint=No
     return result.omega
 
 
-def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, todo) -> None:
-    """Every (mode, run, k) of one (rho, packing) into ``units`` (``waves.unit.mode_unit``; a mode's
-    runs: ``excitation.runs(mode, dm.dim)``).
+def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, stability) -> None:
+    """Every (mode, run, k) of the waves units ``todo`` of one (rho, packing) into ``units``
+    (``waves.unit.mode_unit``; a mode's runs: ``excitation.runs(mode, dm.dim)``).
 
     ``stability``: (schedule or None for the spectral path, omega_max, stability limit or None).
     Collective."""
@@ -317,16 +310,15 @@ def _wave_units(scene, dm, p, rho, r_index, p_index, commit, comm, stability, to
             along = f", along {'xyz'[axis]}" if several else ""
             say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks[:, column])} "
                       f"(n = {', '.join(map(str, ns[:, column]))}, L = {p.box[axis]:.3f}{along})")
-    for mode in todo:
+    for unit in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
-        datasets, attrs, summary = mode_unit(dm, p.positions, spec, mode, ns, ks, axes, omega_max=omega_max,
+        datasets, attrs, summary = mode_unit(dm, p.positions, spec, unit.mode, ns, ks, axes, omega_max=omega_max,
                                              schedule=schedule, limit=limit)
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
-        commit(f"waves/r{r_index:02d}_{mode}_p{p_index:04d}", datasets,
-               {**attrs, "packing": p_index, "seconds": seconds})
-        say(comm, f"waves rho = {rho:g}, {mode}, packing {p_index}: {len(ks)} k x {len(datasets['runs'])} runs, "
-                  f"{summary}, {seconds:.1f} s")
+        commit(unit, datasets, {**attrs, "packing": unit.p_index, "seconds": seconds})
+        say(comm, f"waves rho = {unit.rho:g}, {unit.mode}, packing {unit.p_index}: {len(ks)} k x "
+                  f"{len(datasets['runs'])} runs, {summary}, {seconds:.1f} s")
 
 
 def window_label(window) -> str:
@@ -374,7 +366,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                       f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                       + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
         for rho in scene.model.rho:
-            if scene.waves and not dynmat.has_rotations(rho, scene.model.rho_roll, scene.model.rho_twist):
+            if scene.waves and not scene.model.contact(rho).rotations:
                 skipped = [m for m in scene.waves.modes if m in ("RT", "R")]
                 if skipped:
                     say(comm, f"waves rho = {rho:g}: {', '.join(skipped)} skipped (no rotational stiffness)")
@@ -386,7 +378,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.spectrum is not None:
             for r_index, rho in enumerate(scene.model.rho):
                 with profiling.stage("analysis"):
-                    _vdos_unit(scene, rho, r_index, [units[f"spectra/r{r_index:02d}_p{p_index:04d}"]
+                    _vdos_unit(scene, rho, r_index, [units[Unit("spectrum", r_index, p_index, rho).name]
                                                      for p_index in range(len(packings))], units, comm)
         say(comm, f"units: {store.summary()} (folder {store.folder}; cache {store.cache or 'off'})")
         if scene.waves is not None:

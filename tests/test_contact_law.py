@@ -6,6 +6,7 @@ import pytest
 from conftest import assert_close, central_gradient, central_hessian
 
 from solver import contact_law
+from solver.contact_law import ContactModel
 from solver.packing import jammed
 from solver.packing import mechanics
 
@@ -33,7 +34,7 @@ def random_contacts(count=24, seed=0):
 
 def energy_of(geometry, rho, w):
     """pair_energy for generalised displacements w (C, 6) = (u_i, theta_i, u_j, theta_j)."""
-    return contact_law.pair_energy(**geometry, rho=rho, du=w[:, 0:2] - w[:, 3:5],
+    return contact_law.pair_energy(**geometry, model=ContactModel(rho), du=w[:, 0:2] - w[:, 3:5],
                                    theta_i=w[:, 2], theta_j=w[:, 5])
 
 
@@ -41,7 +42,7 @@ def blocks_as_6x6(geometry, overlap, rho):
     """[[H_ii, H_ij], [H_ji, H_jj]] (C, 6, 6) from contact_law.pair_blocks."""
     distance = geometry["contact"] - overlap
     h_ii, h_ij, h_jj = contact_law.pair_blocks(geometry["normal"], distance, overlap,
-                                               geometry["radius_i"], geometry["radius_j"], rho)
+                                               geometry["radius_i"], geometry["radius_j"], ContactModel(rho))
     top = np.concatenate((h_ii, h_ij), axis=2)
     bottom = np.concatenate((np.transpose(h_ij, (0, 2, 1)), h_jj), axis=2)
     return np.concatenate((top, bottom), axis=1)
@@ -72,9 +73,9 @@ def test_translation_blocks_at_rho_zero_are_the_full_blocks_without_rotation():
     geometry, overlap = random_contacts(seed=1)
     distance = geometry["contact"] - overlap
     full = contact_law.pair_blocks(geometry["normal"], distance, overlap, geometry["radius_i"],
-                                   geometry["radius_j"], 0.0)
+                                   geometry["radius_j"], ContactModel(0.0))
     small = contact_law.pair_blocks(geometry["normal"], distance, overlap, geometry["radius_i"],
-                                    geometry["radius_j"], 0.0, with_rotation=False)
+                                    geometry["radius_j"], ContactModel(0.0), with_rotation=False)
     for f, s in zip(full, small):
         assert_close(s, f[:, :2, :2], rtol=0.0, what="2 x 2 translation block")
         assert np.all(f[:, 2, :] == 0) and np.all(f[:, :, 2] == 0), "rotations carry stiffness at rho = 0"
@@ -86,7 +87,7 @@ def test_forces_and_torques_are_minus_the_energy_gradient(rho):
     count = geometry["contact"].size
     rng = np.random.default_rng(3)
     w = 1e-3 * rng.normal(size=(count, 6))  # a displaced state: forces beyond the linear ones
-    force, tau_i, tau_j = contact_law.pair_forces(**geometry, rho=rho, du=w[:, 0:2] - w[:, 3:5],
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, model=ContactModel(rho), du=w[:, 0:2] - w[:, 3:5],
                                                   theta_i=w[:, 2], theta_j=w[:, 5])
     generalised = np.concatenate((force, tau_i[:, None], -force, tau_j[:, None]), axis=1)
     errors = [np.abs(generalised + central_gradient(lambda x: energy_of(geometry, rho, x), w, h)).max()
@@ -106,17 +107,17 @@ def test_unstressed_tangential_springs_and_rolling_without_slip():
     count = overlap.size
     zero, zero2 = np.zeros(count), np.zeros((count, 2))
     # at the reference only the normal force acts: the packing stays in equilibrium for any rho
-    force, tau_i, tau_j = contact_law.pair_forces(**geometry, rho=1.0, du=zero2, theta_i=zero, theta_j=zero)
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, model=ContactModel(1.0), du=zero2, theta_i=zero, theta_j=zero)
     assert_close(force, contact_law.normal_force(overlap)[:, None] * geometry["normal"], rtol=1e-13,
                  what="reference force")  # rtol: n recomputed from the separation, a few ulp
     assert np.all(tau_i == 0) and np.all(tau_j == 0), "torques at the reference"
     # two disks rolling on each other like gears (R_i theta_i = -R_j theta_j) do not slip
     phi = 1e-3
-    rolling = contact_law.pair_energy(**geometry, rho=1.0, du=zero2, theta_i=phi / geometry["radius_i"],
+    rolling = contact_law.pair_energy(**geometry, model=ContactModel(1.0), du=zero2, theta_i=phi / geometry["radius_i"],
                                       theta_j=-phi / geometry["radius_j"])
     assert_close(rolling, contact_law.normal_energy(overlap), rtol=1e-12, what="rolling without slip")
     # equal spins make the contact points slide by (R_i + R_j) phi
-    sliding = contact_law.pair_energy(**geometry, rho=1.0, du=zero2, theta_i=np.full(count, phi),
+    sliding = contact_law.pair_energy(**geometry, model=ContactModel(1.0), du=zero2, theta_i=np.full(count, phi),
                                       theta_j=np.full(count, phi))
     slip = (geometry["radius_i"] + geometry["radius_j"]) * phi
     assert_close(sliding - contact_law.normal_energy(overlap), 0.5 * slip**2, rtol=1e-9, what="sliding")
@@ -194,7 +195,7 @@ def split(w, dim):
 
 def energy_nd(geometry, springs, w):
     du, theta_i, theta_j = split(w, geometry["normal"].shape[1])
-    return contact_law.pair_energy(**geometry, **springs, du=du, theta_i=theta_i, theta_j=theta_j)
+    return contact_law.pair_energy(**geometry, model=ContactModel(**springs), du=du, theta_i=theta_i, theta_j=theta_j)
 
 
 SPRINGS = [(2, {"rho": 0.5, "rho_roll": 0.3}), (2, {"rho": 0.0, "rho_roll": 0.7}),
@@ -210,7 +211,7 @@ def test_nd_hessian_blocks_match_central_differences_at_second_order(dim, spring
     geometry, overlap = random_contacts_nd(dim)
     count, size = overlap.size, 2 * (dim + (1 if dim == 2 else 3))
     h_ii, h_ij, h_jj = contact_law.pair_blocks(geometry["normal"], geometry["contact"] - overlap, overlap,
-                                               geometry["radius_i"], geometry["radius_j"], **springs)
+                                               geometry["radius_i"], geometry["radius_j"], ContactModel(**springs))
     exact = np.concatenate((np.concatenate((h_ii, h_ij), 2),
                             np.concatenate((np.transpose(h_ij, (0, 2, 1)), h_jj), 2)), 1)
     assert exact.shape == (count, size, size)
@@ -231,7 +232,7 @@ def test_nd_forces_and_torques_are_minus_the_energy_gradient(dim, springs):
     count, size = geometry["contact"].size, 2 * (dim + (1 if dim == 2 else 3))
     w = 1e-3 * np.random.default_rng(3).normal(size=(count, size))
     du, theta_i, theta_j = split(w, dim)
-    force, tau_i, tau_j = contact_law.pair_forces(**geometry, **springs, du=du, theta_i=theta_i, theta_j=theta_j)
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, model=ContactModel(**springs), du=du, theta_i=theta_i, theta_j=theta_j)
     col = (lambda t: t[:, None]) if dim == 2 else (lambda t: t)  # noqa: E731
     generalised = np.concatenate((force, col(tau_i), -force, col(tau_j)), axis=1)
     errors = [np.abs(generalised + central_gradient(lambda x: energy_nd(geometry, springs, x), w, h)).max()
@@ -253,7 +254,7 @@ def test_3d_springs_act_on_the_motions_they_resist():
     phi = 1e-3
 
     def extra(springs, theta_i, theta_j):
-        return contact_law.pair_energy(**geometry, **springs, du=zero3, theta_i=theta_i, theta_j=theta_j) - base
+        return contact_law.pair_energy(**geometry, model=ContactModel(**springs), du=zero3, theta_i=theta_i, theta_j=theta_j) - base
 
     spin = phi * axis
     zero = 1e-12 * base  # round-off of e - e_normal; a spring that acts adds ~(a' phi)^2 ~ 1e-8 >> this
@@ -274,4 +275,4 @@ def test_twisting_spring_is_refused_in_2d():
     geometry, overlap = random_contacts_nd(2)
     with pytest.raises(ValueError, match="rho_twist = 0.1: twisting resistance exists in 3D only"):
         contact_law.pair_blocks(geometry["normal"], geometry["contact"] - overlap, overlap,
-                                geometry["radius_i"], geometry["radius_j"], 0.5, rho_twist=0.1)
+                                geometry["radius_i"], geometry["radius_j"], ContactModel(0.5, rho_twist=0.1))

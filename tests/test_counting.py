@@ -10,6 +10,7 @@ import pytest
 import yaml
 from conftest import COMM, assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver import pipeline
 from solver.io import schema
 from solver.model import dynmat, operators
@@ -29,7 +30,7 @@ def dense_eigenvalues(dm) -> np.ndarray:
 
 @pytest.mark.parametrize("rho", [0.0, 0.5, 2.0])
 def test_counts_equal_dense_eigenvalue_histogram(comm, small_packing, rho):
-    dm = dynmat.assemble(small_packing, rho, comm)
+    dm = dynmat.assemble(small_packing, ContactModel(rho), comm)
     try:
         datasets, attrs, settings = counting.solve(dm, bin_width=BIN, zero_tol=1e-4)
         lam = dense_eigenvalues(dm)
@@ -47,7 +48,7 @@ def test_counts_equal_dense_eigenvalue_histogram(comm, small_packing, rho):
 
 def test_reused_factorisation_counts_like_fresh_ones(comm, small_packing):
     """Shifts out of order, so every refactorisation starts from another shift's values."""
-    dm = dynmat.assemble(small_packing, 1.0, comm)
+    dm = dynmat.assemble(small_packing, ContactModel(1.0), comm)
     A = operators.scaled_operator(dm)
     try:
         top = operators.largest_omega(dm) ** 2
@@ -83,7 +84,7 @@ def test_low_top_estimate_extends_the_bins(comm, small_packing, monkeypatch):
     """A Lanczos omega_max that falls short (forced here to half the true value) must not lose the
     modes above it: more bins are counted up to the Gershgorin bound, and the counts still equal
     eigvalsh's histogram."""
-    dm = dynmat.assemble(small_packing, 1.0, comm)
+    dm = dynmat.assemble(small_packing, ContactModel(1.0), comm)
     try:
         true_top = operators.largest_omega(dm)
         monkeypatch.setattr(counting, "largest_omega", lambda _: 0.5 * true_top)

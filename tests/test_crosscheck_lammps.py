@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from conftest import REPO, assert_all, assert_close, dense_eigen, exact_z_fixed, modal_weights
 
+from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.packing import jammed
 from solver.waves import excitation
@@ -64,7 +65,7 @@ def test_lammps_standing_wave_is_rotsounds_within_verlet_error(lammps_present, c
     590), ``gran/hooke/history`` in place of ``gran/hertz/history`` (1.2e4), kt = 0.9 kn (260 in
     2D, 13 in 3D), and the hold left out (check (2), 17)."""
     p = jammed.generate(n, phi, np.random.SeedSequence([seed, 0]), dim=dim, law=law)
-    dm = dynmat.assemble(p, 1.0, comm, law=law)
+    dm = dynmat.assemble(p, ContactModel(1.0, law=law), comm)
     eig = dense_eigen(dm)
     mpi = comm.tompi4py()
     k = 2 * np.pi / float(p.box[0])

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from conftest import assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.packing import geometry
 from solver.packing import jammed
@@ -98,7 +99,7 @@ def test_crystal_is_the_intended_one(packing):
 
 @pytest.mark.parametrize("rho", [0.0, 0.5, 2.0])
 def test_full_spectrum_equals_bloch_frequencies(comm, packing, rho):
-    dm = dynmat.assemble(packing, rho, comm)
+    dm = dynmat.assemble(packing, ContactModel(rho), comm)
     result = slicing.solve(dm, window=None, vectors=False, zero_tol=ZERO_TOL)
     dm.destroy()
     bloch = bloch_omegas(rho)
@@ -116,7 +117,7 @@ def test_full_spectrum_equals_bloch_frequencies(comm, packing, rho):
 def test_full_spectrum_in_small_windows_equals_bloch_frequencies(comm, packing):
     """Windows of 10 modes on a crystal whose clusters of equal eigenvalues exceed the quarter-window
     slack: cuts must go beside a cluster, never into it (they once did: SLEPc error 77 on one rank)."""
-    dm = dynmat.assemble(packing, 0.5, comm)
+    dm = dynmat.assemble(packing, ContactModel(0.5), comm)
     try:
         result = slicing.solve(dm, window=None, vectors=False, zero_tol=ZERO_TOL, max_window_modes=10)
     finally:

@@ -43,6 +43,7 @@ import numpy as np
 import pytest
 from conftest import assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver.analysis import lattice
 from solver.model import dynmat
 from solver.packing import geometry
@@ -168,7 +169,7 @@ def test_crystal_is_the_intended_one(crystal):
 @pytest.mark.parametrize("rho, rho_roll, rho_twist", [(0.0, 0.0, 0.0), (1 / 7, 0.0, 0.0), (0.5, 0.0, 0.0),
                                                       (2.0, 0.0, 0.0), (0.5, 0.3, 0.2), (0.0, 0.3, 0.2)])
 def test_full_spectrum_equals_bloch_frequencies(comm, crystal, rho, rho_roll, rho_twist):
-    dm = dynmat.assemble(crystal, rho, comm, rho_roll=rho_roll, rho_twist=rho_twist)
+    dm = dynmat.assemble(crystal, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         result = slicing.solve(dm, window=None, vectors=False, zero_tol=ZERO_TOL)
         rigid = len(dm.rigid_modes())
@@ -229,7 +230,7 @@ def test_project_pair_along_100_becomes_the_lattice_model(comm):
         l, r = lattice_constant(overlap) / 4, DIAMETER - overlap
         errors = []
         for rho in rhos:
-            dm = dynmat.assemble(packing, rho, comm)
+            dm = dynmat.assemble(packing, ContactModel(rho), comm)
             try:
                 scale = 1.0 / np.sqrt(dynmat.gather_vec(dm.M))
                 a = dynmat.gather_csr(dm.D).multiply(scale[:, None]).multiply(scale[None, :]).tocsr()

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from conftest import COMM, assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver import pipeline
 from solver.errors import InputError
 from solver.io import dem_formats, schema
@@ -67,7 +68,7 @@ def test_a_files_masses_reach_the_matrix_under_density(comm):
     p = hdf5.read_packings(str(DATA / "lammps_3d.data"))[0]
     raw = dem_formats.read(DATA / "lammps_3d.data")
     for rule, expected in (("density", raw.masses / raw.masses.mean()), ("equal", np.ones(p.n))):
-        dm = dynmat.assemble(p, 0.5, comm, mass_rule=rule)
+        dm = dynmat.assemble(p, ContactModel(0.5), comm, mass_rule=rule)
         mass = dynmat.gather_vec(dm.M).reshape(-1, dm.dof)
         dm.destroy()
         assert_close(mass[:, 0], expected[~p.rattler], rtol=4 * np.finfo(float).eps, what=f"masses ({rule})")
@@ -102,7 +103,7 @@ def test_standing_waves_on_a_polydisperse_lammps_packing_match_the_exact_referen
     from solver.waves.spectral import spectral
 
     p = hdf5.read_packings(str(DATA / "lammps_3d.data"))[0]
-    dm = dynmat.assemble(p, 1.0, comm, rho_roll=0.2, mass_rule="density")
+    dm = dynmat.assemble(p, ContactModel(1.0, rho_roll=0.2), comm, mass_rule="density")
     eig = dense_eigen(dm)
     k = 2 * np.pi / p.box[0]
     times = np.arange(0.0, 30.0 + 1e-9, 0.25)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from conftest import TOL, assert_all, assert_close, central_hessian
 
+from solver.contact_law import ContactModel
 from solver.packing import geometry
 from solver import contact_law
 from solver.model import dynmat
@@ -19,13 +20,11 @@ def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, law, 
     """
     dim = normal.shape[1]
     m = w.shape[1] // 2
-    rho, rho_roll, rho_twist = springs
     theta_i, theta_j = w[:, dim:m], w[:, m + dim:]
     if dim == 2:
         theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
-    return contact_law.pair_energy(ref_delta, contact, normal, radius_i, radius_j, rho,
-                                   du=w[:, :dim] - w[:, m:m + dim], theta_i=theta_i, theta_j=theta_j,
-                                   rho_roll=rho_roll, rho_twist=rho_twist, law=law)
+    return contact_law.pair_energy(ref_delta, contact, normal, radius_i, radius_j, ContactModel(*springs, law=law),
+                                   du=w[:, :dim] - w[:, m:m + dim], theta_i=theta_i, theta_j=theta_j)
 
 
 def finite_difference_matrix(p, springs, h=1e-5, law="harmonic"):  # 2 h below the smallest overlap
@@ -39,7 +38,7 @@ def finite_difference_matrix(p, springs, h=1e-5, law="harmonic"):  # 2 h below t
     count, dim = found.normal.shape
     m = dim + (1 if dim == 2 else 3)
     local = central_hessian(lambda w: pair_energies(*args, w), count, 2 * m, h)
-    dof = dynmat.dof_per_particle(dim, *springs)
+    dof = dynmat.dof_per_particle(dim, ContactModel(*springs))
     n = active.sum() * dof
     dense = np.zeros((n, n))
     keep = np.arange(dof)
@@ -78,9 +77,9 @@ def test_hessian_matches_finite_differences(comm, small_packing, dim, springs, l
     p = small_packing if dim == 2 else spheres()
     found = geometry.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
     assert found.overlap.min() > 5e-5, "h = 1e-5 steps must not open a contact"
-    dm = dynmat.assemble(p, springs[0], comm, rho_roll=springs[1], rho_twist=springs[2], law=law)
+    dm = dynmat.assemble(p, ContactModel(springs[0], rho_roll=springs[1], rho_twist=springs[2], law=law), comm)
     dense = dynmat.gather_csr(dm.D).toarray()
-    assert dm.dim == dim and dm.dof == dynmat.dof_per_particle(dim, *springs)
+    assert dm.dim == dim and dm.dof == dynmat.dof_per_particle(dim, ContactModel(*springs))
     dm.destroy()
     fd = finite_difference_matrix(p, springs, law=law)
     if law == "hertz":
@@ -96,7 +95,7 @@ def test_hessian_matches_finite_differences(comm, small_packing, dim, springs, l
 
 def test_sphere_mass_matrix(comm):
     p = spheres()
-    dm = dynmat.assemble(p, 1.0, comm, rho_roll=0.1)
+    dm = dynmat.assemble(p, ContactModel(1.0, rho_roll=0.1), comm)
     mass = dynmat.gather_vec(dm.M).reshape(-1, 6)
     assert dm.D.getBlockSize() == 6
     # I = m d^2 / 10 of a uniform sphere of unit mass, on each of the three rotations
@@ -117,8 +116,8 @@ def test_density_masses_follow_the_diameters_or_the_file(comm, small_packing, di
     active = ~p.rattler
     for raw in (None, 7.0 * p.diameters ** (dim + 1)):
         q = jammed.Packing(p.positions, p.diameters, p.box, p.rattler, p.info, raw)
-        dm = dynmat.assemble(q, 1.0, comm, mass_rule="density")
-        dm_equal = dynmat.assemble(q, 1.0, comm)
+        dm = dynmat.assemble(q, ContactModel(1.0), comm, mass_rule="density")
+        dm_equal = dynmat.assemble(q, ContactModel(1.0), comm)
         m = (p.diameters ** dim if raw is None else raw)
         m = (m / m.mean())[active]
         mass = dynmat.gather_vec(dm.M).reshape(-1, dm.dof)
@@ -135,7 +134,7 @@ def test_density_masses_follow_the_diameters_or_the_file(comm, small_packing, di
 
 @pytest.mark.parametrize("rho", [0.0, 0.5, 2.0])
 def test_symmetric_with_translation_zero_modes(comm, small_packing, rho):
-    dm = dynmat.assemble(small_packing, rho, comm)
+    dm = dynmat.assemble(small_packing, ContactModel(rho), comm)
     D = dynmat.gather_csr(dm.D)
     n = D.shape[0]
     assert_all(abs(D - D.T).max() <= TOL["roundoff"] * abs(D).max(), "D not symmetric")
@@ -153,7 +152,7 @@ def test_symmetric_with_translation_zero_modes(comm, small_packing, rho):
 
 def test_block_size_mass_and_rattlers_excluded(comm):
     p = jammed.generate(256, 0.86, np.random.SeedSequence([3, 1]))
-    dm = dynmat.assemble(p, 1.0, comm)
+    dm = dynmat.assemble(p, ContactModel(1.0), comm)
     assert dm.D.getBlockSize() == 3
     n_active = int((~p.rattler).sum())
     assert dm.D.getSize() == (3 * n_active, 3 * n_active)
@@ -170,8 +169,8 @@ def test_parallel_matrix_equals_serial(comm, small_packing, dim, springs):
     from petsc4py import PETSc
 
     p = small_packing if dim == 2 else spheres()
-    dm = dynmat.assemble(p, springs[0], comm, rho_roll=springs[1], rho_twist=springs[2])
-    ref = dynmat.assemble(p, springs[0], PETSc.COMM_SELF, rho_roll=springs[1], rho_twist=springs[2])
+    dm = dynmat.assemble(p, ContactModel(springs[0], rho_roll=springs[1], rho_twist=springs[2]), comm)
+    ref = dynmat.assemble(p, ContactModel(springs[0], rho_roll=springs[1], rho_twist=springs[2]), PETSc.COMM_SELF)
     D, R = dynmat.gather_csr(dm.D), dynmat.gather_csr(ref.D)
     assert_all(abs(D - R).max() <= TOL["rank_invariance"] * abs(R).max(), "D differs from serial")
     assert_all(np.array_equal(dynmat.gather_vec(dm.M), dynmat.gather_vec(ref.M)), "M differs")

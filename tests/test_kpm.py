@@ -6,6 +6,7 @@ import scipy.linalg as sl
 from scipy.stats import binned_statistic
 from conftest import assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver.model import dynmat, operators
 from solver.spectrum import kpm
 from solver.packing import jammed
@@ -17,7 +18,7 @@ def packing256():
 
 
 def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
-    dm = dynmat.assemble(packing256, 1.0, comm)
+    dm = dynmat.assemble(packing256, ContactModel(1.0), comm)
     lam_max = operators.largest_omega(dm) ** 2
     mu, c, h = kpm.moments(dm, lam_max, 41, probes=5, seed=3)
     A = operators.scaled_operator(dm)
@@ -44,7 +45,7 @@ def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
 
 
 def test_vdos_against_exact_histogram(comm, packing256):
-    dm = dynmat.assemble(packing256, 1.0, comm)
+    dm = dynmat.assemble(packing256, ContactModel(1.0), comm)
     w = operators.largest_omega(dm)
     A = operators.scaled_operator(dm)
     lam = sl.eigh(dynmat.gather_csr(A).toarray(), eigvals_only=True)[2:]
@@ -61,7 +62,7 @@ def test_vdos_against_exact_histogram(comm, packing256):
 
 def test_channel_moments_weigh_modes_by_their_share(comm, packing256):
     """Translation- plus rotation-restricted moments, dense reference: sum_q |P e_q|^2 T_n(x_q)."""
-    dm = dynmat.assemble(packing256, 1.0, comm)
+    dm = dynmat.assemble(packing256, ContactModel(1.0), comm)
     lam_max = operators.largest_omega(dm) ** 2
     A = operators.scaled_operator(dm)
     lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())
@@ -88,7 +89,7 @@ def test_kpm_energies_against_exact_bin_averages(comm, packing256, rho):
     error <= sigma = sqrt(2 / (R m)) per channel.  Both channels enter the ratio: held to 4 sigma
     (the Jackson smearing adds ~0.01, measured with 256 probes; worst seen 0.8 sigma).
     """
-    dm = dynmat.assemble(packing256, rho, comm)
+    dm = dynmat.assemble(packing256, ContactModel(rho), comm)
     w = operators.largest_omega(dm)
     A = operators.scaled_operator(dm)
     lam, vec = sl.eigh(dynmat.gather_csr(A).toarray())

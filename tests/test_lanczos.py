@@ -8,6 +8,7 @@ import scipy.linalg
 from conftest import assert_all, assert_close
 from test_crystal import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
 
+from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.packing import jammed
 from solver.waves import spectral
@@ -35,7 +36,7 @@ def crystal_wave(comm, packing, mode, p):
     direction = [axis for _, axis in runs(mode, 2)].index(0)  # the direction with k along x
     component = runs(mode, 2)[direction][0]
     k = 2 * np.pi * p / L
-    dm = dynmat.assemble(packing, 1.0, comm)
+    dm = dynmat.assemble(packing, ContactModel(1.0), comm)
     series = spectral.spectral(dm, packing.positions, mode, direction, k, amplitude=AMPLITUDE,
                               times=TIMES, tol=1e-10)
     dm.destroy()
@@ -75,7 +76,7 @@ def test_dense_fallback_gives_the_same_z_when_mrrr_fails(comm, monkeypatch):
     orthogonality makes; the code then diagonalises T densely.  Force the failure everywhere."""
     p = jammed.generate(64, 0.9, np.random.SeedSequence([31, 0]))
     k = 2 * np.pi * 2 / p.box_length
-    dm = dynmat.assemble(p, 1.0, comm)
+    dm = dynmat.assemble(p, ContactModel(1.0), comm)
     reference = spectral.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
     calls = []
 

@@ -7,6 +7,7 @@ import scipy.linalg as sl
 import yaml
 from conftest import COMM, assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver import pipeline
 from solver.packing import mechanics
 from solver.io import schema
@@ -27,7 +28,7 @@ def test_hertz_scene_with_density_masses_has_the_generalised_spectrum(shared_tmp
     assert_all(mechanics.net_force(p, "hertz") < mechanics.EQUILIBRIUM_TOL < mechanics.net_force(p, "harmonic"),
                "packing not made under Hertz")
     omega = summary["units"]["spectra/r00_p0000"][0]["omega"]
-    dm = dynmat.assemble(p, 0.5, comm, law="hertz")
+    dm = dynmat.assemble(p, ContactModel(0.5, law="hertz"), comm)
     D = dynmat.gather_csr(dm.D).toarray()
     dm.destroy()
     d = p.diameters[~p.rattler]

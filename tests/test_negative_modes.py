@@ -20,6 +20,7 @@ import scipy.linalg as sl
 import yaml
 from conftest import COMM, assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver import pipeline
 from solver.io import hdf5
 from solver.io import schema
@@ -53,7 +54,7 @@ def test_compressed_rectangular_lattice_counts_negative_modes_like_dense_eigh(co
     p = rectangular_lattice()
     assert not p.rattler.any() and mechanics.net_force(p) < 1e-14, "an equilibrium without rattlers"
     assert np.hypot(*(BOX / np.array([N_X, N_Y]))) > 1.0 > BOX / N_Y, "4 contacts per disk"
-    dm = dynmat.assemble(p, 0.0, comm)
+    dm = dynmat.assemble(p, ContactModel(0.0), comm)
     negative, zero, omega = dense_counts(dm)
     assert_all(negative == N_NEGATIVE and zero == 2, f"dense eigh: {negative} negative, {zero} zero")
     result = slicing.solve(dm, window=None, vectors=False, zero_tol=ZERO_TOL)

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from conftest import COMM, assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver import parallel
 from solver.packing import geometry
 from solver.packing import fire
@@ -178,8 +179,8 @@ def test_a_packing_tiled_along_x_is_the_same_packing_in_a_rectangular_box(dim, s
     assert_all(np.array_equal(back.box, box) and np.array_equal(back.positions, tiled.positions), "round trip")
     with pytest.raises(ValueError, match="not one side length"):
         tiled.box_length
-    lam = dense_eigen(dynmat.assemble(p, 0.5, comm))[0]
-    lam_tiled = dense_eigen(dynmat.assemble(tiled, 0.5, comm))[0]
+    lam = dense_eigen(dynmat.assemble(p, ContactModel(0.5), comm))[0]
+    lam_tiled = dense_eigen(dynmat.assemble(tiled, ContactModel(0.5), comm))[0]
     nearest = np.abs(lam[:, None] - lam_tiled[None, :]).min(axis=1)
     # eigh on 192- and 384-DOF matrices of norm ~10: each eigenvalue to ~1e-13
     assert_close(nearest, np.zeros_like(nearest), rtol=0.0, atol=1e-11 * lam.max(),

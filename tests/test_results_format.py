@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import REPO, assert_close
 
+from solver.contact_law import ContactModel
 from solver.errors import InputError
 from solver.io import hdf5
 from solver import report
@@ -46,7 +47,7 @@ def test_version_1_file_is_read_as_written(comm):
     assert sorted(data.vdos) == [0.0, 1.0] and data.vdos_file == str(V1)
     (packing,) = hdf5.read_packings(str(V1))
     for rho in (0.0, 1.0):
-        dm = dynmat.assemble(packing, rho, comm)
+        dm = dynmat.assemble(packing, ContactModel(rho), comm)
         now = slicing.solve(dm, window=None, vectors=False)
         dm.destroy()
         assert_close(now.omega, omega[rho], rtol=1e-10, what=f"spectrum of the stored packing, rho = {rho}")

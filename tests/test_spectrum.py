@@ -5,6 +5,7 @@ import pytest
 import scipy.linalg as sl
 from conftest import COMM, assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver.model import dynmat, operators
 from solver.io import hdf5
 from solver.spectrum import modes
@@ -26,7 +27,7 @@ def dense_omegas(dm):
 
 @pytest.mark.parametrize("rho", [0.0, 0.2, 1.0, 2.0])
 def test_full_spectrum_equals_dense_eigh(comm, packing96, rho):
-    dm = dynmat.assemble(packing96, rho, comm)
+    dm = dynmat.assemble(packing96, ContactModel(rho), comm)
     result = slicing.solve(dm, window=None, vectors=False, max_window_modes=120)
     ref = dense_omegas(dm)
     nonzero = ref[ref > 1e-4]
@@ -41,7 +42,7 @@ def test_full_spectrum_equals_dense_eigh(comm, packing96, rho):
 def test_full_spectrum_survives_a_low_band_top_estimate(comm, packing96):
     """The full spectrum's upper bound comes from the Lanczos omega_max (cached on dm); if that
     were too low, the inertia sees the missing modes and the Gershgorin bound takes over."""
-    dm = dynmat.assemble(packing96, 1.0, comm)
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comm)
     ref = dense_omegas(dm)
     dm.omega_max = 0.9 * ref.max()  # the top ~10 % of the band is above the estimate
     result = slicing.solve(dm, window=None, vectors=False)
@@ -51,7 +52,7 @@ def test_full_spectrum_survives_a_low_band_top_estimate(comm, packing96):
 
 
 def test_window_is_subset_of_full(comm, packing96):
-    dm = dynmat.assemble(packing96, 1.0, comm)
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comm)
     full = slicing.solve(dm, window=None, vectors=False)
     lo, hi = 2.5, 4.0
     part = slicing.solve(dm, window=(lo, hi), vectors=False)
@@ -63,7 +64,7 @@ def test_window_is_subset_of_full(comm, packing96):
 
 @pytest.mark.parametrize("rho", [0.4, 1.0])
 def test_energies_identity_and_against_dense_vectors(comm, packing96, rho):
-    dm = dynmat.assemble(packing96, rho, comm)
+    dm = dynmat.assemble(packing96, ContactModel(rho), comm)
     result = slicing.solve(dm, window=None, vectors=True, max_window_modes=100)
     e = result.energies
     n = int(dm.active.sum())
@@ -91,8 +92,8 @@ def test_loaded_packing_gives_same_spectrum(comm, packing96, shared_tmp):
         hdf5.save_packings(str(path), [packing96])
     COMM.Barrier()
     (loaded,) = hdf5.read_packings(str(path))
-    a = slicing.solve(dynmat.assemble(packing96, 0.5, comm), window=None, vectors=False)
-    b = slicing.solve(dynmat.assemble(loaded, 0.5, comm), window=None, vectors=False)
+    a = slicing.solve(dynmat.assemble(packing96, ContactModel(0.5), comm), window=None, vectors=False)
+    b = slicing.solve(dynmat.assemble(loaded, ContactModel(0.5), comm), window=None, vectors=False)
     assert_close(a.omega, b.omega, rtol=1e-12, what="file vs generated")
 
 
@@ -114,7 +115,7 @@ def test_shift_and_invert_factorises_with_mumps_unless_told(comm, packing96, sha
     options = PETSc.Options()
     if option:  # as the user's command line would put it
         options.setValue(f"spectrum_st_{option}", value)
-    dm = dynmat.assemble(packing96, 1.0, comm)
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comm)
     A = operators.scaled_operator(dm)
     eps = SLEPc.EPS().create(comm)
     path = str(shared_tmp / f"eps_{option}.txt")
@@ -153,7 +154,7 @@ def test_inertia_factorisation_takes_its_prefixed_options(comm, packing96, optio
     options = PETSc.Options()
     if option:
         options.setValue(f"inertia_{option}", value)
-    dm = dynmat.assemble(packing96, 1.0, comm)
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comm)
     A = operators.scaled_operator(dm)
     try:
         count, used = slicing.inertia(A, 4.0)
@@ -193,7 +194,7 @@ def test_checkpointed_windows_resume_to_the_same_spectrum(comm, packing96):
         if done == 2:
             raise Stop
 
-    dm = dynmat.assemble(packing96, 1.0, comm)
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comm)
     whole = slicing.solve(dm, window=None, vectors=True, max_window_modes=60)
     checkpoint = DictCheckpoint()
     with pytest.raises(Stop):
@@ -226,10 +227,10 @@ def test_checkpointed_spectrum_resumes_on_another_rank_count(packing96, first, t
             raise Stop
 
     comms = {"world": PETSc.COMM_WORLD, "self": PETSc.COMM_SELF}
-    whole_dm = dynmat.assemble(packing96, 1.0, comms[then])
+    whole_dm = dynmat.assemble(packing96, ContactModel(1.0), comms[then])
     whole = slicing.solve(whole_dm, window=None, vectors=True, max_window_modes=60)
     checkpoint = DictCheckpoint()
-    dm = dynmat.assemble(packing96, 1.0, comms[first])
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comms[first])
     with pytest.raises(Stop):
         slicing.solve(dm, window=None, vectors=True, max_window_modes=60, checkpoint=checkpoint,
                        progress=stop_after_one)
@@ -254,7 +255,7 @@ def test_checkpointed_spectrum_resumes_on_another_rank_count(packing96, first, t
 
 
 def test_count_below_is_sylvester_inertia(comm, packing96):
-    dm = dynmat.assemble(packing96, 1.0, comm)
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comm)
     A = operators.scaled_operator(dm)
     ref = dense_omegas(dm) ** 2 * np.sign(dense_omegas(dm))
     for sigma in (1e-8, 1.0, 7.3, 30.0):
@@ -268,7 +269,7 @@ def test_windows_have_balanced_counts(comm, packing96):
     window per cut, and its stored counts are exact; every sub-interval of a window split for
     p ranks likewise holds a piece's share (the plan refines inertias until it knows so);
     checked with dense eigh."""
-    dm = dynmat.assemble(packing96, 1.0, comm)
+    dm = dynmat.assemble(packing96, ContactModel(1.0), comm)
     A = operators.scaled_operator(dm)
     lam = dense_omegas(dm) ** 2
     hi = float(lam.max()) * 1.001
@@ -295,7 +296,7 @@ def test_count_below_frees_its_factorisation(comm):
     """Repeated inertias must not accumulate MUMPS factors (a leak of one factor per call once
     ran a 300-shift N = 32768 plan out of memory): 40 calls here leaked ~50 MiB."""
     p = jammed.generate(512, 0.9, np.random.SeedSequence([3, 0]))
-    dm = dynmat.assemble(p, 1.0, comm)
+    dm = dynmat.assemble(p, ContactModel(1.0), comm)
     A = operators.scaled_operator(dm)
 
     def resident_mib():

@@ -11,6 +11,7 @@ import scipy.linalg as sl
 from scipy.stats import binned_statistic
 from conftest import assert_all, assert_close
 
+from solver.contact_law import ContactModel
 from solver.model import dynmat, operators
 from solver.packing import jammed
 from solver.spectrum import counting, kpm, modes, slicing
@@ -73,7 +74,7 @@ def test_zero_modes_counted_from_the_inertia_and_explained(comm, request, name, 
     names that many, and its vectors span eigh's whole null space (so each zero mode is one
     of them: no unexplained floppy mode, none missing)."""
     packing = request.getfixturevalue(name)
-    dm = dynmat.assemble(packing, rho, comm, rho_roll=rho_roll, rho_twist=rho_twist)
+    dm = dynmat.assemble(packing, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         _, attrs, _ = counting.solve(dm, bin_width=BIN, zero_tol=1e-4)
         a, lam, vec = dense(dm)
@@ -101,7 +102,7 @@ def test_zero_modes_counted_from_the_inertia_and_explained(comm, request, name, 
 @pytest.mark.parametrize("rho, rho_roll, rho_twist", [(0.0, 0.0, 0.0), (0.5, 0.0, 0.0), (2.0, 0.3, 0.2),
                                                       (0.0, 0.3, 0.2)])
 def test_counts_equal_dense_histogram_3d(comm, spheres, rho, rho_roll, rho_twist):
-    dm = dynmat.assemble(spheres, rho, comm, rho_roll=rho_roll, rho_twist=rho_twist)
+    dm = dynmat.assemble(spheres, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         datasets, attrs, _ = counting.solve(dm, bin_width=BIN, zero_tol=1e-4)
         _, lam, _ = dense(dm)
@@ -121,7 +122,7 @@ def test_slicing_omega_and_energies_equal_dense_3d(comm, spheres, rho, rho_roll,
     """omega to 1e-11 relative (as in 2D); K_nu, Q_nu per mode against eigh's eigenvectors; and
     the normalisation K and Q imply in 3D (module ``modes``): each unit eigenvector has
     sum e^2 = 1 over its 6N DOF, so 3 K + 3 Q = 1/(2N) (frictionless: Q = 0, 3 K = 1/(2N))."""
-    dm = dynmat.assemble(spheres, rho, comm, rho_roll=rho_roll, rho_twist=rho_twist)
+    dm = dynmat.assemble(spheres, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         result = slicing.solve(dm, window=None, vectors=True, max_window_modes=150)
         _, lam, vec = dense(dm)
@@ -173,7 +174,7 @@ def test_kpm_moments_project_out_every_zero_mode(comm, spheres, rho, rho_roll, r
     complement of eigh's own null space (not on the code's rigid-mode vectors) and normalised by
     its non-zero mode count.  At rho = 0 the three uniform spins are zero modes too: leaving any
     in the probes shifts the moments by ~1e-2, far above the tolerance."""
-    dm = dynmat.assemble(spheres, rho, comm, rho_roll=rho_roll, rho_twist=rho_twist)
+    dm = dynmat.assemble(spheres, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         lam_max = operators.largest_omega(dm) ** 2
         mu, c, h = kpm.moments(dm, lam_max, 41, probes=5, seed=3)
@@ -207,7 +208,7 @@ def test_kpm_vdos_agrees_with_exact_counts_3d(comm, spheres, rho, rho_roll, rho_
     with M = 400 moments and bins of 0.5 (half a mode allowed for it).  Measured with seeds 0-3:
     at most 2.5 modes off in bins whose 4 sigma is 4-8 modes.  (Zero modes left in the probes
     would add about one mode each to the first bin: the moments test above is what catches that.)"""
-    dm = dynmat.assemble(spheres, rho, comm, rho_roll=rho_roll, rho_twist=rho_twist)
+    dm = dynmat.assemble(spheres, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         w = operators.largest_omega(dm)
         edges = np.arange(0.0, 1.1 * w + 0.5, 0.5)
@@ -233,7 +234,7 @@ def test_kpm_energies_against_exact_bin_averages_3d(comm, spheres, rho, rho_roll
     """Mode q has w_T = 6 N K_q and w_R = 6 N Q_q in 3D (w_T + w_R = 1): KPM's bin averages of K
     and Q in those share units against dense eigenvectors, held to 4 sigma, sigma = sqrt(2/(R m))
     per channel (tests/test_kpm.py's argument)."""
-    dm = dynmat.assemble(spheres, rho, comm, rho_roll=rho_roll, rho_twist=rho_twist)
+    dm = dynmat.assemble(spheres, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         w = operators.largest_omega(dm)
         _, lam, vec = dense(dm)

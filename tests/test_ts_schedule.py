@@ -12,6 +12,7 @@ import pytest
 import yaml
 from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, run_cli, schedule
 
+from solver.contact_law import ContactModel
 from solver import options
 from solver.errors import InputError
 from solver.model import dynmat, operators
@@ -79,7 +80,7 @@ def test_a_ts_type_petsc_does_not_know_is_bad_input():
 def test_dt_from_the_option_is_checked_like_the_scene_key(comm, packing64):
     """The stability check reads the schedule, whichever source set dt (the issue: -ts_dt 0.6
     bypassed the check that refuses waves.dt = 0.6)."""
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     omega_max = operators.largest_omega(dm)
     dm.destroy()
     limit = 2.0 / omega_max
@@ -126,7 +127,7 @@ def test_run_uses_and_records_the_options_and_writes_nothing_into_the_database(s
     assert_all({k: used["ts"][k] for k in ("prefix", "ts_type", "rk_type", "dt", "max_steps", "adapt_type")}
                == {"prefix": "waves_", "ts_type": "rk", "rk_type": "4", "dt": 0.01, "max_steps": 400,
                    "adapt_type": "none"} and used["wmax"]["prefix"] == "wmax_", f"{used}")
-    dm = dynmat.assemble(made, 1.0, PETSc.COMM_WORLD)
+    dm = dynmat.assemble(made, ContactModel(1.0), PETSc.COMM_WORLD)
     direct = integrators.integrate(dm, made.positions, "L", 0, float(datasets["k"][0]), amplitude=1e-3,
                              schedule=resolve("rk", dt=0.01, t_end=4.0))
     dm.destroy()
@@ -191,7 +192,7 @@ def test_theta_beuler_ssp_converge_at_their_order(comm, packing64, integrator, o
     """Against the exact modal solution (test_waves.exact_z_fixed): each halving of dt divides the
     error by 2^order to within 0.1 in the observed order (measured: theta 2.00, 2.00; beuler 0.97,
     0.99; ssp 2.00, 2.00)."""
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     k = 2 * np.pi / packing64.box_length
     errors = []
     for dt in dts:

@@ -5,6 +5,7 @@ import pytest
 from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, schedule
 from mpi4py import MPI
 
+from solver.contact_law import ContactModel
 from solver.analysis import correlations
 from solver.model import dynmat, operators
 from solver.packing import jammed
@@ -25,7 +26,7 @@ def run(dm, p, mode, k, dt, integrator="verlet", t_end=20.0, every=None, amplitu
 
 @pytest.mark.parametrize("mode", ["L", "TR", "RT"])
 def test_verlet_matches_exact_reference_at_second_order(comm, packing64, mode):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     k = 2 * np.pi / packing64.box_length
     errors = []
     for dt in (0.02, 0.01, 0.005):  # asymptotic regime: omega_max dt <= 0.1
@@ -40,7 +41,7 @@ def test_verlet_matches_exact_reference_at_second_order(comm, packing64, mode):
 
 @pytest.mark.parametrize("integrator, order", [("alpha2", 2), ("rk", 4), ("cn", 2)])
 def test_other_integrators_converge(comm, packing64, integrator, order):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     k = 2 * np.pi / packing64.box_length
     errors = []
     # RK4 reaches the reference's round-off floor early: compare it at larger (stable) steps
@@ -54,7 +55,7 @@ def test_other_integrators_converge(comm, packing64, integrator, order):
 
 
 def test_energy_bounded_over_long_run(comm, packing64):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     series = run(dm, packing64, "RT", 2 * np.pi / packing64.box_length, 0.05, t_end=400.0, every=20)
     drift = np.abs(series.energy - series.energy[0]) / series.energy[0]
     omega_max = operators.largest_omega(dm)
@@ -66,7 +67,7 @@ def test_energy_bounded_over_long_run(comm, packing64):
 
 
 def test_phase_with_current_positions_differs_by_order_amplitude(comm, packing64):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     k = 2 * np.pi * 3 / packing64.box_length
     diffs = []
     for amplitude in (1e-3, 1e-2):
@@ -77,7 +78,7 @@ def test_phase_with_current_positions_differs_by_order_amplitude(comm, packing64
 
 
 def test_excitation_has_no_momentum_and_expected_channel(comm, packing64):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     k = 2 * np.pi * 2 / packing64.box_length
     mpi = COMM
     for mode in ("L", "TR", "RT"):
@@ -103,8 +104,8 @@ def test_two_ranks_equal_one(comm, packing64):
     from petsc4py import PETSc
 
     k = 2 * np.pi * 2 / packing64.box_length
-    par = run(dynmat.assemble(packing64, 0.5, comm), packing64, "TR", k, 0.02)
-    ser = run(dynmat.assemble(packing64, 0.5, PETSc.COMM_SELF), packing64, "TR", k, 0.02)
+    par = run(dynmat.assemble(packing64, ContactModel(0.5), comm), packing64, "TR", k, 0.02)
+    ser = run(dynmat.assemble(packing64, ContactModel(0.5), PETSc.COMM_SELF), packing64, "TR", k, 0.02)
     # z crosses zero: the error is held relative to its amplitude; round-off of the MatMult sums
     # over 1000 steps (measured 1e-15; the README's rank-count table)
     assert_close(par.z, ser.z, rtol=0, atol=1e-12 * np.abs(ser.z).max(), what="1 vs 2 ranks")
@@ -125,7 +126,7 @@ def test_vaf_and_spectrum_of_damped_cosine():
 
 
 def test_block_verlet_equals_blocks_of_one(comm, packing64):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     L = packing64.box_length
     batch = [(mode, d, 2 * np.pi * n / L) for mode in ("L", "RT") for d in (0, 1) for n in (1, 3)]
     block = integrators.integrate_block(dm, packing64.positions, batch, amplitude=1e-3,
@@ -142,7 +143,7 @@ def test_block_verlet_equals_blocks_of_one(comm, packing64):
 
 @pytest.mark.parametrize("block", [False, True])
 def test_blow_up_stops_with_error_not_nan(comm, packing64, block):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     dt = 1.05 * integrators.stability_limit("verlet", operators.largest_omega(dm))
     k = 2 * np.pi / packing64.box_length
     with pytest.raises(integrators.StabilityError, match="unstable"):
@@ -160,7 +161,7 @@ def test_unequal_masses_match_exact_reference_on_both_paths(comm, packing64, mod
     and the spectral path to 1e-8 against the exact modal solution (which reads M only through
     A = M^-1/2 D M^-1/2); a start velocity, an energy or a channel that assumed unit masses
     would leave them apart."""
-    dm = dynmat.assemble(packing64, 1.0, comm, mass_rule="density")
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm, mass_rule="density")
     eig = dense_eigen(dm)
     k = 2 * np.pi * 2 / packing64.box_length
     errors = []
@@ -179,7 +180,7 @@ def test_unequal_masses_match_exact_reference_on_both_paths(comm, packing64, mod
 
 @pytest.mark.parametrize("mode", ["L", "TR", "RT"])
 def test_spectral_path_matches_exact_reference(comm, packing64, mode):
-    dm = dynmat.assemble(packing64, 1.0, comm)
+    dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     k = 2 * np.pi * 2 / packing64.box_length
     times = np.arange(0, 80.0 + 1e-9, 0.25)  # same sample times as the TS run below
     s = spectral(dm, packing64.positions, mode, 1, k, amplitude=1e-3, times=times, tol=1e-10)
@@ -210,7 +211,7 @@ def test_a_packing_tiled_along_x_has_the_same_standing_waves_in_its_rectangular_
     every = schedule("verlet", 0.02, 5.0, 25)
     got = {}
     for name, q in (("original", p), ("tiled", tiled)):
-        dm = dynmat.assemble(q, 1.0, comm)
+        dm = dynmat.assemble(q, ContactModel(1.0), comm)
         ns, ks = excitation.wave_vectors(spec, q.box, [0, 1])
         got[name] = mode_unit(dm, q.positions, spec, mode, ns, ks, [0, 1], omega_max=operators.largest_omega(dm),
                               schedule=every)[0]
@@ -234,7 +235,7 @@ def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
     spec = schema.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
                                            "sample_every": 25})
     every = schedule("verlet", 0.02, 5.0, 25)
-    dm = dynmat.assemble(stretched, 1.0, comm)
+    dm = dynmat.assemble(stretched, ContactModel(1.0), comm)
     ns, ks = excitation.wave_vectors(spec, stretched.box, [0, 1])
     data = mode_unit(dm, stretched.positions, spec, "TR", ns, ks, [0, 1], omega_max=operators.largest_omega(dm),
                      schedule=every)[0]
@@ -253,7 +254,7 @@ def test_waves_axes_keeps_the_runs_along_those_axes(comm, small_packing):
     from solver.waves.unit import mode_unit
 
     spec = schema.build(schema.WavesSpec, {"n": [1], "axes": ["y"], "t_end": 5.0, "dt": 0.02, "sample_every": 25})
-    dm = dynmat.assemble(small_packing, 1.0, comm)
+    dm = dynmat.assemble(small_packing, ContactModel(1.0), comm)
     axes = excitation.wave_axes(spec, 2)
     ns, ks = excitation.wave_vectors(spec, small_packing.box, axes)
     data, attrs, _ = mode_unit(dm, small_packing.positions, spec, "TR", ns, ks, axes,

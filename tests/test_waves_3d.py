@@ -11,6 +11,7 @@ import pytest
 from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, schedule
 from mpi4py import MPI
 
+from solver.contact_law import ContactModel
 from solver.analysis import dispersion
 from solver.io.schema import AnalysisSpec, WavesSpec
 from solver.model import dynmat, operators
@@ -40,7 +41,7 @@ def matrix(request, spheres):
     from petsc4py import PETSc
 
     rho, rho_roll, rho_twist = SPRINGS[request.param]
-    dm = dynmat.assemble(spheres, rho, PETSc.COMM_WORLD, rho_roll, rho_twist)
+    dm = dynmat.assemble(spheres, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), PETSc.COMM_WORLD)
     yield request.param, dm, dense_eigen(dm)
     dm.destroy()
 
@@ -169,7 +170,7 @@ def test_unit_stores_every_run_in_order(spheres, mode):
     run at the last k, the first run also at the first k)."""
     from petsc4py import PETSc
 
-    dm = dynmat.assemble(spheres, 1.0, PETSc.COMM_WORLD, 0.2, 0.3)
+    dm = dynmat.assemble(spheres, ContactModel(1.0, rho_roll=0.2, rho_twist=0.3), PETSc.COMM_WORLD)
     spec = WavesSpec(n=[1, 2], t_end=5.0, dt=0.02, sample_every=25)
     ns, ks = excitation.wave_vectors(spec, spheres.box, [0, 1, 2])  # the cube: one column three times
     every = schedule("verlet", 0.02, 5.0, 25)
@@ -203,8 +204,8 @@ def test_analysis_fits_every_mode_including_r(spheres, matrix):
         units[f"waves/r00_{mode}_p0000"] = (data, {**attrs, "packing": 0})
     out = dispersion.analyse(units, AnalysisSpec(power_law_kd0_max=2 * np.pi))  # every k: L and TR count points
     groups = sorted(g for g in out if g.startswith("analysis/rho"))
-    assert_all(groups == sorted(f"analysis/rho{dm.rho:g}_{m}" for m in MODES), f"{name}: groups {groups}")
-    table, attrs = out[f"analysis/rho{dm.rho:g}_R"]
+    assert_all(groups == sorted(f"analysis/rho{dm.model.rho:g}_{m}" for m in MODES), f"{name}: groups {groups}")
+    table, attrs = out[f"analysis/rho{dm.model.rho:g}_R"]
     assert_all(attrs["mode"] == "R" and attrs["configurations"] == 1 and attrs["power_law_points"] == 0,
                f"{name}: R attributes {attrs}")
     band = np.sqrt(lam[lam > 1e-10 * lam.max()])
@@ -225,7 +226,7 @@ def test_two_ranks_equal_one(spheres, mode):
     times = np.arange(0, 20.0 + 1e-9, 0.25)
     out = []
     for comm in (PETSc.COMM_WORLD, PETSc.COMM_SELF):
-        dm = dynmat.assemble(spheres, 1.0, comm, 0.2, 0.3)
+        dm = dynmat.assemble(spheres, ContactModel(1.0, rho_roll=0.2, rho_twist=0.3), comm)
         ts = integrators.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
                                    amplitude=AMPLITUDE, schedule=schedule("verlet", 0.02, 10.0, 25))
         lanczos = [spectral(dm, spheres.positions, mode, r, k, amplitude=AMPLITUDE, times=times, tol=1e-10)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
+from ..contact_law import ContactModel
 from ..errors import InputError
 
 
@@ -101,6 +102,10 @@ class ModelSpec:
                               "file holds, else m proportional to d^D; both scaled to a mean of 1. The inertia "
                               "is m d^2/8 (disk) or m d^2/10 (sphere)",
                      lambda v: None if v in ("equal", "density") else "must be one of equal, density", str)
+
+    def contact(self, rho: float) -> ContactModel:
+        """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
+        return ContactModel(rho, self.rho_roll, self.rho_twist, self.law)
 
 
 def _window(v):

@@ -18,6 +18,53 @@ import numpy as np
 
 from .. import __version__
 from .. import options
+from ..waves.excitation import wave_modes
+
+FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "waves": "waves"}
+"""Where each kind of unit lives, in the units folder and the results file."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Unit:
+    """One unit of a (rho, packing) task: its matrix summary, its spectrum, or one mode's waves.
+
+    kind : ``matrix``, ``spectrum`` or ``waves``;  r_index, p_index : positions in ``model.rho``
+    and in the scene's packings;  rho : ``model.rho[r_index]`` (kt/kn);  mode : the waves' mode
+    (L, TR, RT, R), None for the others.
+    """
+
+    kind: str
+    r_index: int
+    p_index: int
+    rho: float
+    mode: str | None = None
+
+    @property
+    def tag(self) -> str:
+        """``r<rho index>_p<packing index>``: the task's part of every unit name."""
+        return f"r{self.r_index:02d}_p{self.p_index:04d}"
+
+    @property
+    def name(self) -> str:
+        """``matrices/<tag>``, ``spectra/<tag>`` or ``waves/r<i>_<mode>_p<j>``: the unit's file in the
+        units folder and its group in the results file."""
+        if self.kind == "waves":
+            return f"waves/r{self.r_index:02d}_{self.mode}_p{self.p_index:04d}"
+        return f"{FOLDERS[self.kind]}/{self.tag}"
+
+
+def task_units(scene, r_index: int, p_index: int) -> list[Unit]:
+    """The units of task (rho index, packing index): its matrix, its spectrum if the scene has
+    one, and the waves of each mode the matrix has (no RT or R without rotational springs:
+    ``excitation.wave_modes``), in that order. Not collective."""
+    rho = scene.model.rho[r_index]
+    units = [Unit("matrix", r_index, p_index, rho)]
+    if scene.spectrum is not None:
+        units.append(Unit("spectrum", r_index, p_index, rho))
+    if scene.waves is not None:
+        rotations = scene.model.contact(rho).rotations
+        units += [Unit("waves", r_index, p_index, rho, mode) for mode in wave_modes(scene.waves, rotations)]
+    return units
 
 
 def content_key(*parts) -> str:
@@ -116,7 +163,8 @@ def packing_key(scene, index: int) -> UnitKey:
 
 
 def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
-    """Content key of every matrix, spectrum and waves unit this scene can compute. Not collective.
+    """Content key of every matrix, spectrum and waves unit of the scene (``task_units``), by unit
+    name. Not collective.
 
     A packing is keyed by its arrays (so a file and a generated packing with equal contents
     share units, and 2D and 3D never do: the arrays' shapes are hashed); the rolling and twisting
@@ -136,21 +184,22 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
         base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses),
                 "version": __version__, **springs}
-        for r_index, rho in enumerate(scene.model.rho):
-            tag = f"r{r_index:02d}_p{p_index:04d}"
-            keys[f"matrices/{tag}"] = UnitKey.of(unit="matrix", rho=rho, options={}, **base)
-            if scene.spectrum is not None:
-                method = scene.spectrum.method
-                keys[f"spectra/{tag}"] = UnitKey.of(
-                    unit="spectrum", rho=rho, section="spectrum", settings=dataclasses.asdict(scene.spectrum),
-                    seed=scene.seed + p_index if method == "kpm" else None,
-                    options=options.acting_on(petsc_argv, "spectra", method), **base)
-            if scene.waves is not None:  # one mode's unit does not depend on the others asked
-                settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()
-                            if k != "modes" and not (k == "axes" and v is None)}  # keys of before axes
-                acting = options.acting_on(petsc_argv, "waves", scene.waves.method)
-                for mode in scene.waves.modes:
-                    keys[f"waves/r{r_index:02d}_{mode}_p{p_index:04d}"] = UnitKey.of(
-                        unit="waves", rho=rho, mode=mode, section="waves", settings=settings,
-                        options=acting, **base)
+        for r_index in range(len(scene.model.rho)):
+            for unit in task_units(scene, r_index, p_index):
+                keys[unit.name] = _key(scene, unit, base, petsc_argv)
     return keys
+
+
+def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
+    """Key of one matrix, spectrum or waves ``unit`` on the packing and springs of ``base``."""
+    if unit.kind == "matrix":
+        return UnitKey.of(unit="matrix", rho=unit.rho, options={}, **base)
+    if unit.kind == "spectrum":
+        method = scene.spectrum.method
+        return UnitKey.of(unit="spectrum", rho=unit.rho, section="spectrum", settings=dataclasses.asdict(scene.spectrum),
+                          seed=scene.seed + unit.p_index if method == "kpm" else None,
+                          options=options.acting_on(petsc_argv, "spectra", method), **base)
+    settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not
+                if k != "modes" and not (k == "axes" and v is None)}   # depend on the others; keys of before axes
+    return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,
+                      options=options.acting_on(petsc_argv, "waves", scene.waves.method), **base)

@@ -5,8 +5,8 @@ with rolling and twisting springs, PHYSICS.md section 8) summed over contacts (b
 
 DOF order per non-rattler particle, in packing order: the D translations, then the rotations
 (D = 2: (u_x, u_y, theta); D = 3: (u_x, u_y, u_z, theta_x, theta_y, theta_z)).
-Decision: rotations are in the matrix whenever any rotational spring is on (rho, rho_roll or
-rho_twist > 0).  With none (frictionless, rho = 0) they carry no stiffness, so they are dropped
+Decision: rotations are in the matrix whenever any rotational spring of the contact model is
+on (rho, rho_roll or rho_twist > 0: ``ContactModel.rotations``).  With none (frictionless, rho = 0) they carry no stiffness, so they are dropped
 and the matrix is the D N' x D N' translational block -- the free rotations never appear as
 spurious zero modes.  Rattlers are excluded.  Each rank owns a contiguous range of particles
 (``dof`` rows each), computes the contact blocks touching its rows (vectorised) and inserts
@@ -26,6 +26,7 @@ from .. import parallel
 from .. import profiling
 from ..packing import geometry
 from .. import contact_law
+from ..contact_law import ContactModel
 from ..packing.jammed import Packing
 
 MASS = 1.0
@@ -36,8 +37,8 @@ class DynamicalMatrix:
     """D (PETSc Mat, block size ``dof``), M (PETSc Vec) and the DOF bookkeeping.
 
     active : (N,) bool, particles in the matrix;  dim : D (2 or 3);  dof : DOF per particle,
-    D translations then (with rotations) 1 (2D) or 3 (3D) rotations;  rho, rho_roll, rho_twist :
-    kt/kn, kr/kn, ko/kn;  disk_range : this rank's [start, stop) among active particles;
+    D translations then (with rotations) 1 (2D) or 3 (3D) rotations;  model : the contact model
+    it was assembled with;  disk_range : this rank's [start, stop) among active particles;
     n_contacts : global count.
     """
 
@@ -45,12 +46,10 @@ class DynamicalMatrix:
     M: object
     active: np.ndarray
     dof: int
-    rho: float
+    model: ContactModel
     disk_range: tuple[int, int]
     n_contacts: int
     dim: int = 2
-    rho_roll: float = 0.0
-    rho_twist: float = 0.0
     omega_max: float | None = None  # cached by operators.largest_omega
     wmax_settings: dict | None = None  # what its wmax_ EPS used (operators.largest_omega)
     scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
@@ -72,7 +71,7 @@ class DynamicalMatrix:
         Not collective."""
         names = "xyz"
         modes = [(axis, f"translation {names[axis]}") for axis in range(self.dim)]
-        if self.rotations and self.rho == 0.0:
+        if self.rotations and self.model.rho == 0.0:
             spins = ["z"] if self.dim == 2 else list(names)
             modes += [(self.dim + k, f"spin {axis}") for k, axis in enumerate(spins)]
         return modes
@@ -85,15 +84,10 @@ class DynamicalMatrix:
             self.scaled.destroy()
 
 
-def has_rotations(rho: float, rho_roll: float = 0.0, rho_twist: float = 0.0) -> bool:
-    """Whether the matrix keeps rotational DOF: some rotational spring is on. Not collective."""
-    return rho > 0.0 or rho_roll > 0.0 or rho_twist > 0.0
-
-
-def dof_per_particle(dim: int, rho: float, rho_roll: float = 0.0, rho_twist: float = 0.0) -> int:
+def dof_per_particle(dim: int, model: ContactModel) -> int:
     """DOF per particle: D translations, plus 1 (2D) or 3 (3D) rotations when any rotational
-    spring is on. Not collective."""
-    return dim + (dim * (dim - 1) // 2 if has_rotations(rho, rho_roll, rho_twist) else 0)
+    spring of ``model`` is on. Not collective."""
+    return dim + (dim * (dim - 1) // 2 if model.rotations else 0)
 
 
 MASS_RULES = ("equal", "density")
@@ -123,14 +117,13 @@ def mass_diagonal(diameters: np.ndarray, masses: np.ndarray, dim: int, dof: int)
     return diag.ravel()
 
 
-def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_roll: float = 0.0,
-              rho_twist: float = 0.0, law: str = "harmonic") -> tuple[sp.csr_matrix, int, int]:
+def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]) -> tuple[sp.csr_matrix, int, int]:
     """Rows of D owned by ``disk_range`` as a CSR (local rows x global columns).
 
     Returns (csr, dof, global number of contacts).  Not collective.
     """
     active = ~packing.rattler
-    dof = dof_per_particle(packing.dim, rho, rho_roll, rho_twist)
+    dof = dof_per_particle(packing.dim, model)
     index = np.cumsum(active) - 1  # particle -> position among active particles
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     a, b = index[found.i], index[found.j]
@@ -140,8 +133,7 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_rol
     radius = 0.5 * packing.diameters
     h_ii, h_ij, h_jj = contact_law.pair_blocks(
         found.normal[touch], found.distance[touch], found.overlap[touch],
-        radius[found.i[touch]], radius[found.j[touch]], rho, with_rotation=dof > packing.dim,
-        rho_roll=rho_roll, rho_twist=rho_twist, law=law)
+        radius[found.i[touch]], radius[found.j[touch]], model, with_rotation=dof > packing.dim)
     block_rows = np.concatenate((a, a, b, b))
     block_cols = np.concatenate((a, b, b, a))
     blocks = np.concatenate((h_ii, h_ij, h_jj, np.transpose(h_ij, (0, 2, 1))))
@@ -159,11 +151,10 @@ def local_csr(packing: Packing, rho: float, disk_range: tuple[int, int], rho_rol
 
 
 @profiling.logged("rsAssemble")
-def assemble(packing: Packing, rho: float, comm, rho_roll: float = 0.0,
-             rho_twist: float = 0.0, mass_rule: str = "equal", law: str = "harmonic") -> DynamicalMatrix:
-    """Assemble D and M of ``packing`` (2D or 3D) with kt = rho kn, kr = rho_roll kn and
-    ko = rho_twist kn (3D only), the contact ``law`` (harmonic or hertz: contact_law), masses by
-    ``mass_rule`` (:func:`particle_masses`), on ``comm`` (PETSc communicator). Collective.
+def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equal") -> DynamicalMatrix:
+    """Assemble D and M of ``packing`` (2D or 3D) with the springs and normal law of ``model``
+    (``contact_law``), masses by ``mass_rule`` (:func:`particle_masses`), on ``comm`` (PETSc
+    communicator). Collective.
 
     D is flagged symmetric (needed by Cholesky-based inertia in the spectrum stage).
     """
@@ -171,7 +162,7 @@ def assemble(packing: Packing, rho: float, comm, rho_roll: float = 0.0,
 
     active = ~packing.rattler
     disk_range = parallel.block_range(int(active.sum()), comm.tompi4py())
-    csr, dof, n_contacts = local_csr(packing, rho, disk_range, rho_roll, rho_twist, law)
+    csr, dof, n_contacts = local_csr(packing, model, disk_range)
     n_global = int(active.sum()) * dof
     n_local = csr.shape[0]
     D = PETSc.Mat().createAIJ(size=((n_local, n_global), (n_local, n_global)), bsize=dof,
@@ -184,7 +175,7 @@ def assemble(packing: Packing, rho: float, comm, rho_roll: float = 0.0,
     start, stop = disk_range
     masses = particle_masses(packing, mass_rule)[active][start:stop]
     M.setArray(mass_diagonal(packing.diameters[active][start:stop], masses, packing.dim, dof))
-    return DynamicalMatrix(D, M, active, dof, rho, disk_range, n_contacts, packing.dim, rho_roll, rho_twist)
+    return DynamicalMatrix(D, M, active, dof, model, disk_range, n_contacts, packing.dim)
 
 
 def gather_csr(mat) -> sp.csr_matrix:

@@ -71,7 +71,7 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
         summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), max energy "
                    f"drift {drift.max():.1e}")
         dt, integrator = schedule.dt, schedule.integrator
-    attrs = {"rho": dm.rho, "mode": mode, "dt": dt, "integrator": integrator, "omega_max": omega_max,
+    attrs = {"rho": dm.model.rho, "mode": mode, "dt": dt, "integrator": integrator, "omega_max": omega_max,
              "dt_limit": limit if limit is not None else np.inf, "amplitude": spec.amplitude,
              "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
              "run_labels": json.dumps([excitation.run_label(c, a, dm.dim) for c, a in excited])}
