@@ -63,6 +63,7 @@ def _report(PETSc, seconds, z, extra=None):
 def case(n: int, method: str, setting: float) -> None:
     """One timed run on the communicator mpirun gives: spectral (setting = tol) or TS (setting = dt)."""
     from solver.waves import integrators
+    from solver.waves.schedule import resolve_schedule
     from solver.waves.spectral import spectral
 
     PETSc, p, dm, omega_max, k = _setup(n)
@@ -73,7 +74,7 @@ def case(n: int, method: str, setting: float) -> None:
                      omega_max=omega_max)
     else:
         s = integrators.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
-                            schedule=integrators.resolve_schedule(integrator=method, dt=setting, t_end=T_END,
+                            schedule=resolve_schedule(integrator=method, dt=setting, t_end=T_END,
                                                             sample_every=int(round(SAMPLE / setting))))
     _report(PETSc, time.perf_counter() - t0, s.z_fixed, {"steps": s.steps, "estimate": s.error_estimate})
 
@@ -88,10 +89,11 @@ def scipy_case(n: int, dt: float) -> None:
 def scaling_case() -> None:
     """N = 32768 on this communicator: 200 MatMults, 500 Verlet steps, one spectral wave."""
     from solver.waves import integrators
+    from solver.waves.schedule import resolve_schedule
     from solver.waves.spectral import spectral
 
     PETSc, p, dm, omega_max, k = _setup(32768)
-    verlet = integrators.resolve_schedule(integrator="verlet", dt=0.02, t_end=10.0, sample_every=5)
+    verlet = resolve_schedule(integrator="verlet", dt=0.02, t_end=10.0, sample_every=5)
     mpi = PETSc.COMM_WORLD.tompi4py()
     x, y = dm.D.createVecs()
     x.setRandom()

@@ -170,6 +170,7 @@ def case(dim: int, law: str, n: int, seed: int, args, details: list) -> tuple[li
     from solver.contact_law import ContactModel
     from solver.packing import geometry, jammed
     from solver.waves import excitation, integrators
+    from solver.waves.schedule import resolve_schedule
 
     PETSc = petscenv.init([])
     comm = PETSc.COMM_SELF.tompi4py()
@@ -195,7 +196,7 @@ def case(dim: int, law: str, n: int, seed: int, args, details: list) -> tuple[li
             c_pm, c_held = (pooled_c([lammps_z(p, dm, law, run, k, args.amplitude, dt, steps, every, comm, hold)
                                       for run in runs], args.sample) for hold in (False, True))
             seconds += time.perf_counter() - t0
-            schedule = integrators.resolve_schedule(integrator="verlet", dt=dt, t_end=args.t_end, sample_every=every)
+            schedule = resolve_schedule(integrator="verlet", dt=dt, t_end=args.t_end, sample_every=every)
             series = integrators.integrate_block(dm, p.positions, [(mode, r, k) for r in range(len(runs))],
                                                  amplitude=args.amplitude, schedule=schedule)
             c_verlet = pooled_c([s.z_fixed for s in series], args.sample)

@@ -23,6 +23,7 @@ from solver.model import dynmat, operators
 from solver.packing import jammed
 from solver.spectrum import slicing
 from solver.waves import integrators
+from solver.waves.schedule import check_schedule, resolve_schedule, stability_limit
 from solver.errors import InputError  # noqa: E402
 
 PETSc = petscenv.init([])
@@ -102,12 +103,12 @@ def sizes():
 def stability_edge():
     p = jammed.generate(64, 0.9, np.random.SeedSequence([4, 0]))
     dm = dynmat.assemble(p, ContactModel(1.0), COMM)
-    limit = integrators.stability_limit("verlet", operators.largest_omega(dm))
+    limit = stability_limit("verlet", operators.largest_omega(dm))
     for factor in (0.99, 1.01):
-        schedule = integrators.resolve_schedule(integrator="verlet", dt=factor * limit, t_end=2000 * factor * limit,
+        schedule = resolve_schedule(integrator="verlet", dt=factor * limit, t_end=2000 * factor * limit,
                                           sample_every=10)
         try:
-            integrators.check_schedule(schedule, operators.largest_omega(dm), 1.0)
+            check_schedule(schedule, operators.largest_omega(dm), 1.0)
             s = integrators.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
                                 schedule=schedule)
             drift = np.abs(s.energy / s.energy[0] - 1).max()
@@ -125,7 +126,7 @@ def million_steps():
     dm = dynmat.assemble(p, ContactModel(1.0), COMM)
     t = time.perf_counter()
     s = integrators.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
-                        schedule=integrators.resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
+                        schedule=resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
                                                         sample_every=1000))
     sec = time.perf_counter() - t
     dev = np.abs(s.energy / s.energy[0] - 1)

@@ -32,7 +32,7 @@ from . import options
 from .spectrum import slicing
 from .model import operators
 from .waves import excitation
-from .waves import integrators
+from .waves import schedule
 from .waves.unit import mode_unit
 from .io.schema import Scene, check_dimension
 from .errors import InputError, Interrupted, NumericalFailure
@@ -187,16 +187,9 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
               f"({dm.dof} per particle), {nnz} non-zeros, assembled in {seconds:.3f} s")
     try:
         wave_todo = [unit for unit in todo if unit.kind == "waves"]
-        stability = None
-        with profiling.stage("waves"):  # the waves' stability check, before any other solve
-            if wave_todo and scene.waves.method == "spectral":
-                stability = (None, operators.largest_omega(dm), None)
-            elif wave_todo:  # the schedule the TS will follow, refused here if it cannot work
-                spec = scene.waves
-                schedule = integrators.resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
-                                                        sample_every=spec.sample_every)
-                omega_max = operators.largest_omega(dm)
-                stability = (schedule, omega_max, integrators.check_schedule(schedule, omega_max, rho))
+        if wave_todo:  # how the waves run, refused here if it cannot work: before any other solve
+            with profiling.stage("waves"):
+                plan = schedule.plan(scene.waves, operators.largest_omega(dm), rho)
         if matrix in todo:
             commit(matrix, {}, {
                 "rho": rho, "rho_roll": dm.model.rho_roll, "rho_twist": dm.model.rho_twist, "dim": dm.dim,
@@ -215,7 +208,7 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                     _spectrum_unit(scene, dm, spectrum, commit, comm, checkpoint)
         if wave_todo:
             with profiling.stage("waves"):
-                _wave_units(scene, dm, p, wave_todo, commit, comm, stability)
+                _wave_units(scene, dm, p, wave_todo, commit, comm, plan)
     finally:
         dm.destroy()
 
@@ -294,16 +287,14 @@ def _spectrum_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> np.n
     return result.omega
 
 
-def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, stability) -> None:
+def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Schedule) -> None:
     """Every (mode, run, k) of the waves units ``todo`` of one (rho, packing) into ``units``
     (``waves.unit.mode_unit``; a mode's runs: ``excitation.runs(mode, dm.dim)``).
 
-    ``stability``: (schedule or None for the spectral path, omega_max, stability limit or None).
-    Collective."""
+    ``plan``: how they run (``schedule.plan``).  Collective."""
     spec = scene.waves
     axes = excitation.wave_axes(spec, dm.dim)
     ns, ks = excitation.wave_vectors(spec, p.box, axes)
-    schedule, omega_max, limit = stability
     if spec.kd0 is not None:
         several = len(set(p.box[axes])) > 1  # sides that differ: one line per axis
         for column, axis in enumerate(axes if several else axes[:1]):
@@ -313,8 +304,7 @@ def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, stability) -> None
     for unit in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
-        datasets, attrs, summary = mode_unit(dm, p.positions, spec, unit.mode, ns, ks, axes, omega_max=omega_max,
-                                             schedule=schedule, limit=limit)
+        datasets, attrs, summary = mode_unit(dm, p.positions, spec, unit.mode, ns, ks, axes, plan)
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
         commit(unit, datasets, {**attrs, "packing": unit.p_index, "seconds": seconds})
         say(comm, f"waves rho = {unit.rho:g}, {unit.mode}, packing {unit.p_index}: {len(ks)} k x "

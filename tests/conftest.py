@@ -231,9 +231,9 @@ def exact_z_fixed(p, dm, eig, run, k, t, amplitude):
 
 def schedule(integrator, dt, t_end, every):
     """The scene's values as a TS schedule (no -waves_ts_* options are set in the tests)."""
-    from solver.waves import integrators
+    from solver.waves.schedule import resolve_schedule
 
-    return integrators.resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)
+    return resolve_schedule(integrator=integrator, dt=dt, t_end=t_end, sample_every=every)
 
 
 def star_cluster(p) -> tuple[np.ndarray, int, int]:

@@ -19,6 +19,7 @@ from solver.model import dynmat, operators
 from solver.packing import jammed
 from solver.waves import excitation
 from solver.waves import integrators
+from solver.waves.schedule import check_schedule, stability_limit
 
 
 @pytest.fixture(scope="module")
@@ -57,18 +58,18 @@ def test_schedule_comes_from_the_scene_or_the_waves_ts_options():
                                       "t_end": "-waves_ts_max_time 1.5"}, f"{chosen}")
     with user_options(waves_ts_rk_type="3"):
         rk3 = resolve("rk")
-    assert_all(rk3.variant == "3" and integrators.stability_limit("rk", 1.0, rk3.variant) == np.sqrt(3.0), f"{rk3}")
+    assert_all(rk3.variant == "3" and stability_limit("rk", 1.0, rk3.variant) == np.sqrt(3.0), f"{rk3}")
 
 
 def test_a_variable_step_or_too_few_samples_is_refused_naming_the_option():
     with user_options(waves_ts_adapt_type="basic"):
         adaptive = resolve("rk")
     with pytest.raises(InputError, match="TSAdapt basic.*-waves_ts_adapt_type none"):
-        integrators.check_schedule(adaptive, 1.0, 1.0)
+        check_schedule(adaptive, 1.0, 1.0)
     with user_options(waves_ts_max_steps="10"):
         short = resolve()
     with pytest.raises(InputError, match=r"fewer than 4 samples in t_end = 0.5 \(waves.t_end = 2, -waves_ts_max_steps 10\)"):
-        integrators.check_schedule(short, 1.0, 1.0)
+        check_schedule(short, 1.0, 1.0)
 
 
 def test_a_ts_type_petsc_does_not_know_is_bad_input():
@@ -85,11 +86,11 @@ def test_dt_from_the_option_is_checked_like_the_scene_key(comm, packing64):
     dm.destroy()
     limit = 2.0 / omega_max
     with pytest.raises(InputError, match=r"^waves.dt = 0.6: above the stability limit"):
-        integrators.check_schedule(resolve(dt=0.6, t_end=20.0), omega_max, 1.0)
+        check_schedule(resolve(dt=0.6, t_end=20.0), omega_max, 1.0)
     with user_options(waves_ts_dt="0.6"):
         with pytest.raises(InputError, match=rf"^-waves_ts_dt 0.6: above the stability limit {limit:.4f} t0 of verlet"):
-            integrators.check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0)
-    assert_all(integrators.check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0) == limit, "limit returned")
+            check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0)
+    assert_all(check_schedule(resolve(dt=0.02, t_end=20.0), omega_max, 1.0) == limit, "limit returned")
 
 
 SCENE = """\

@@ -11,6 +11,7 @@ from solver.model import dynmat, operators
 from solver.packing import jammed
 from solver.waves import excitation
 from solver.waves import integrators
+from solver.waves.schedule import stability_limit
 from solver.waves.spectral import spectral
 
 
@@ -144,7 +145,7 @@ def test_block_verlet_equals_blocks_of_one(comm, packing64):
 @pytest.mark.parametrize("block", [False, True])
 def test_blow_up_stops_with_error_not_nan(comm, packing64, block):
     dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
-    dt = 1.05 * integrators.stability_limit("verlet", operators.largest_omega(dm))
+    dt = 1.05 * stability_limit("verlet", operators.largest_omega(dm))
     k = 2 * np.pi / packing64.box_length
     with pytest.raises(integrators.StabilityError, match="unstable"):
         if block:
@@ -201,6 +202,7 @@ def test_a_packing_tiled_along_x_has_the_same_standing_waves_in_its_rectangular_
     copies in phase), so C(k, t) is the original's.  A run given the other axis' n or side, or
     pooled with another k, differs at O(1)."""
     from solver.io import schema
+    from solver.waves.schedule import plan
     from solver.waves.unit import mode_unit
 
     p = small_packing
@@ -208,13 +210,12 @@ def test_a_packing_tiled_along_x_has_the_same_standing_waves_in_its_rectangular_
                                 np.tile(p.diameters, 2), [2 * p.box_length, p.box_length])
     spec = schema.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
                                            "sample_every": 25})
-    every = schedule("verlet", 0.02, 5.0, 25)
     got = {}
     for name, q in (("original", p), ("tiled", tiled)):
         dm = dynmat.assemble(q, ContactModel(1.0), comm)
         ns, ks = excitation.wave_vectors(spec, q.box, [0, 1])
-        got[name] = mode_unit(dm, q.positions, spec, mode, ns, ks, [0, 1], omega_max=operators.largest_omega(dm),
-                              schedule=every)[0]
+        got[name] = mode_unit(dm, q.positions, spec, mode, ns, ks, [0, 1],
+                              plan(spec, operators.largest_omega(dm), dm.model.rho))[0]
         dm.destroy()
     assert_all(got["tiled"]["n_axes"].tolist() == [[2, 1]] and "n_axes" not in got["original"], "allowed n")
     # the same sums over twice the particles: round-off only
@@ -228,6 +229,7 @@ def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
     and k_y = 2 pi / L (0.4 % apart: pooled), and each run's z is that run integrated alone at
     its own axis' k; 'k' is their mean, 'k_axes' each."""
     from solver.io import schema
+    from solver.waves.schedule import plan
     from solver.waves.unit import mode_unit
 
     p = small_packing
@@ -237,8 +239,8 @@ def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
     every = schedule("verlet", 0.02, 5.0, 25)
     dm = dynmat.assemble(stretched, ContactModel(1.0), comm)
     ns, ks = excitation.wave_vectors(spec, stretched.box, [0, 1])
-    data = mode_unit(dm, stretched.positions, spec, "TR", ns, ks, [0, 1], omega_max=operators.largest_omega(dm),
-                     schedule=every)[0]
+    data = mode_unit(dm, stretched.positions, spec, "TR", ns, ks, [0, 1],
+                     plan(spec, operators.largest_omega(dm), dm.model.rho))[0]
     assert_close(data["k_axes"][0], 2 * np.pi / stretched.box, rtol=1e-15, what="k per axis")
     for r, (_, axis) in enumerate(excitation.runs("TR", 2)):
         alone = integrators.integrate(dm, stretched.positions, "TR", r, 2 * np.pi / stretched.box[axis],
@@ -251,6 +253,7 @@ def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
 def test_waves_axes_keeps_the_runs_along_those_axes(comm, small_packing):
     """waves.axes: [y] keeps only the runs with k along y (TR: v_x with k || y) and the k of y."""
     from solver.io import schema
+    from solver.waves.schedule import plan
     from solver.waves.unit import mode_unit
 
     spec = schema.build(schema.WavesSpec, {"n": [1], "axes": ["y"], "t_end": 5.0, "dt": 0.02, "sample_every": 25})
@@ -258,7 +261,7 @@ def test_waves_axes_keeps_the_runs_along_those_axes(comm, small_packing):
     axes = excitation.wave_axes(spec, 2)
     ns, ks = excitation.wave_vectors(spec, small_packing.box, axes)
     data, attrs, _ = mode_unit(dm, small_packing.positions, spec, "TR", ns, ks, axes,
-                               omega_max=operators.largest_omega(dm), schedule=schedule("verlet", 0.02, 5.0, 25))
+                               plan(spec, operators.largest_omega(dm), dm.model.rho))
     dm.destroy()
     assert_all(axes == [1] and data["runs"].tolist() == [[0, 1]] and data["z"].shape[0] == 1
                and attrs["run_labels"] == '["v_x, k || y"]', f"{data['runs']}, {attrs['run_labels']}")

@@ -19,6 +19,7 @@ from solver.packing import jammed
 from solver.waves import excitation
 from solver.waves import integrators
 from solver.waves.spectral import spectral
+from solver.waves.schedule import plan
 from solver.waves.unit import mode_unit
 
 AMPLITUDE = 1e-3
@@ -175,7 +176,7 @@ def test_unit_stores_every_run_in_order(spheres, mode):
     ns, ks = excitation.wave_vectors(spec, spheres.box, [0, 1, 2])  # the cube: one column three times
     every = schedule("verlet", 0.02, 5.0, 25)
     data, attrs, _ = mode_unit(dm, spheres.positions, spec, mode, ns, ks, [0, 1, 2],
-                               omega_max=operators.largest_omega(dm), schedule=every)
+                               plan(spec, operators.largest_omega(dm), dm.model.rho))
     count = len(excitation.runs(mode, 3))
     assert_all(data["z"].shape == (count, 2, 11) and data["z_fixed"].shape == (count, 2, 11)
                and data["energy_drift"].shape == (count, 2), f"shapes {data['z'].shape}")
@@ -200,7 +201,7 @@ def test_analysis_fits_every_mode_including_r(spheres, matrix):
     units = {}
     for mode in MODES:
         data, attrs, _ = mode_unit(dm, spheres.positions, spec, mode, ns, ks, [0, 1, 2],
-                                   omega_max=operators.largest_omega(dm))
+                                   plan(spec, operators.largest_omega(dm), dm.model.rho))
         units[f"waves/r00_{mode}_p0000"] = (data, {**attrs, "packing": 0})
     out = dispersion.analyse(units, AnalysisSpec(power_law_kd0_max=2 * np.pi))  # every k: L and TR count points
     groups = sorted(g for g in out if g.startswith("analysis/rho"))

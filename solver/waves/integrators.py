@@ -11,175 +11,32 @@ Integrators (``waves.integrator``, or ``-waves_ts_type``; the TS has the options
            ``-waves_ts_rk_type`` says otherwise.
   alpha2 : generalized-alpha on the second-order form M a + D u = 0 (implicit, CG solves).
 
-Schedule (one source of truth): :func:`resolve_schedule` builds a TS with the scene's values as
-defaults (type, dt, t_end), lets ``-waves_ts_*`` options act on it, and reads back type, dt,
-final time, step limit and adaptivity; :func:`check_schedule` refuses, before any integration,
-a step at or above the scheme's stability limit, a variable step, or too few samples, naming
-where the value came from (``waves.dt = 0.6`` or ``-waves_ts_dt 0.6``); the runs then use
-exactly those values, and a unit records them.  A run whose energy stops being finite or grows
-tenfold raises :class:`StabilityError` on every rank.  Samples: ``sampling``.
+Every run follows a :class:`~solver.waves.schedule.Schedule` (``schedule.resolve_schedule``: the
+scene's values and the ``-waves_ts_*`` options, read back from a TS; checked against the
+stability limit before any run).  Each non-Verlet TS is built by a problem object that owns its
+TS and the PETSc objects the TS needs and destroys them all (:class:`FirstOrderProblem`,
+:class:`SecondOrderProblem`, in the manner of dolfinx's ``LinearProblem``).  A run whose energy
+stops being finite or grows tenfold raises :class:`StabilityError` on every rank.  Samples:
+``sampling``.
 Collective on the matrix's communicator.  Units: d0 = m = kn = 1.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 
 from .. import profiling
-from ..errors import InputError, NumericalFailure
+from ..errors import NumericalFailure
 from ..model.operators import first_order_matrix
-from ..options import ts_adapt_type, ts_settings
+from ..options import ts_settings
 from . import excitation
 from .excitation import start_velocity
 from .sampling import FourierSampler, Recorder, WaveSeries
-
-PREFIX = "waves_"
-
-STABILITY = {("verlet", None): 2.0, ("rk", "4"): 2.0 * math.sqrt(2.0), ("rk", "3"): math.sqrt(3.0),
-             ("rk", "3bs"): math.sqrt(3.0), ("rk", "1fe"): 0.0, ("euler", None): 0.0}
-"""(integrator, RK variant) -> omega_max dt at the edge of stability on the imaginary axis (where
-the spectrum of J lies): 2 for Verlet, 2 sqrt(2) for any 4-stage RK4, sqrt(3) for 3-stage RK3, 0
-for forward Euler (never stable).  Implicit schemes are unconditionally stable; 2nd-order explicit
-RK (``ssp``, ``rk 2a``) grows every mode by ~(omega dt)^4 per step, and other RK variants are not
-tabulated: for those only the blow-up check applies."""
+from .schedule import Schedule, apply_defaults
 
 
 class StabilityError(NumericalFailure):
     """A run whose energy stopped being finite or grew tenfold (raised on every rank)."""
-
-
-def stability_limit(integrator: str, omega_max: float, variant: str | None = None) -> float | None:
-    """Largest stable dt (t0) of a tabulated explicit scheme (``STABILITY``), else None."""
-    ratio = STABILITY.get((integrator, variant if integrator == "rk" else None))
-    return None if ratio is None else ratio / omega_max
-
-
-@dataclass(frozen=True)
-class Schedule:
-    """A resolved time-stepping plan: what the TS uses after the scene's values and the
-    ``-waves_ts_*`` options, and where each value came from.
-
-    integrator : ``verlet`` (TS type python) or the PETSc TS type;  variant : the RK type of rk;
-    dt : step (t0);  steps : steps to take;  sample_every : steps between samples;
-    adapt : TSAdapt type (``none`` is required);  sources : {"dt", "t_end", "integrator"} ->
-    the scene key or option that set it.
-    """
-
-    integrator: str
-    variant: str | None
-    dt: float
-    steps: int
-    sample_every: int
-    adapt: str
-    sources: dict
-
-    @property
-    def t_end(self) -> float:
-        return self.steps * self.dt
-
-    @property
-    def ts_type(self) -> str:
-        return "python" if self.integrator == "verlet" else self.integrator
-
-    @property
-    def label(self) -> str:
-        """e.g. ``verlet`` or ``rk (-waves_ts_type rk, RK type 4)`` for messages."""
-        notes = [self.sources["integrator"]] if self.sources["integrator"].startswith("-") else []
-        notes += [f"RK type {self.variant}"] if self.variant else []
-        return self.integrator + (f" ({', '.join(notes)})" if notes else "")
-
-
-def _source(option: str, scene: str) -> str:
-    """``-waves_<option> <value>`` if the user set that option, else the scene's ``scene`` text."""
-    from petsc4py import PETSc
-
-    options = PETSc.Options()
-    name = PREFIX + option
-    if not options.hasName(name):
-        return scene
-    value = options.getString(name, "")
-    return f"-{name} {value}".rstrip()
-
-
-def _defaults(ts, ts_type: str, dt: float, max_time: float, max_steps: int | None = None) -> None:
-    """The scene's values on a TS, before setFromOptions (so that ``-waves_ts_*`` win)."""
-    from petsc4py import PETSc
-
-    ts.setType(ts_type)
-    if ts_type == "rk":
-        ts.setRKType("4")  # classical RK4
-    ts.setTime(0.0)
-    ts.setTimeStep(dt)
-    ts.setMaxTime(max_time)
-    if max_steps is not None:
-        ts.setMaxSteps(max_steps)
-    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-    ts.setOptionsPrefix(PREFIX)
-
-
-def resolve_schedule(*, integrator: str, dt: float, t_end: float, sample_every: int) -> Schedule:
-    """The schedule the TS will follow: scene values (``waves.integrator``, ``waves.dt``,
-    ``waves.t_end``) as defaults on a probe TS, then the ``-waves_ts_*`` options, read back.
-
-    Probes live on ``PETSc.COMM_SELF`` (they only read the options database, the same on every
-    rank) and are destroyed.  A second probe starts from the type the first one ended with, so
-    that the defaults of that type (RK4 for rk) are in place before the options act, as on the
-    run's TS.  steps = min(max steps, floor(max time / dt)).  Raises InputError (the same on
-    every rank) if PETSc refuses the options.  Not collective.
-    """
-    from petsc4py import PETSc
-
-    def probe(ts_type):
-        ts = PETSc.TS().create(PETSc.COMM_SELF)
-        try:
-            _defaults(ts, ts_type, dt, t_end)
-            ts.setFromOptions()
-            return ts_settings(ts), ts_adapt_type(ts)
-        except PETSc.Error as exc:  # e.g. -waves_ts_type verlet: not a PETSc type
-            given = " ".join(f"-{k} {v}" for k, v in PETSc.Options().getAll().items() if k.startswith(PREFIX))
-            reason = str(exc).strip().splitlines()[-1].lstrip("[0123456789] ")
-            raise InputError(f"{given}: PETSc's TS refused it ({reason}); -{PREFIX}ts_type takes a PETSc TS "
-                             f"type (python is Verlet)") from None
-        finally:
-            ts.destroy()
-
-    settings, adapt = probe("python" if integrator == "verlet" else integrator)
-    if settings["ts_type"] != ("python" if integrator == "verlet" else integrator):  # -waves_ts_type
-        settings, adapt = probe(settings["ts_type"])
-    kind = settings["ts_type"]
-    used_dt, max_time, max_steps = settings["dt"], settings["max_time"], settings["max_steps"]
-    steps = int(min(max_steps, math.floor(max_time / used_dt * (1 + 1e-12))))
-    t_source = _source("ts_max_time", f"waves.t_end = {t_end:g}")
-    if _source("ts_max_steps", "").startswith("-"):
-        t_source += f", {_source('ts_max_steps', '')}"
-    return Schedule(
-        integrator="verlet" if kind == "python" else kind, variant=settings.get("rk_type"), dt=used_dt,
-        steps=steps, sample_every=sample_every, adapt=adapt,
-        sources={"dt": _source("ts_dt", f"waves.dt = {dt:g}"), "t_end": t_source,
-                 "integrator": _source("ts_type", f"waves.integrator = {integrator}")})
-
-
-def check_schedule(schedule: Schedule, omega_max: float, rho: float) -> float | None:
-    """Refuse (InputError) a variable step, fewer than 4 samples, or a dt at or above the
-    scheme's stability limit for this matrix, naming where each value came from; return the
-    limit (None if not tabulated).  Not collective (same verdict on every rank)."""
-    src = schedule.sources
-    if schedule.adapt != "none":
-        raise InputError(f"{src['integrator']}: the TS adapts its step (TSAdapt {schedule.adapt}), but the "
-                         f"waves are sampled every waves.sample_every steps and need a fixed step: add "
-                         f"-{PREFIX}ts_adapt_type none")
-    if schedule.steps < 4 * schedule.sample_every:
-        raise InputError(f"waves.sample_every = {schedule.sample_every}: with dt = {schedule.dt:g} "
-                         f"({src['dt']}) that leaves fewer than 4 samples in t_end = {schedule.t_end:g} "
-                         f"({src['t_end']})")
-    limit = stability_limit(schedule.integrator, omega_max, schedule.variant)
-    if limit is not None and schedule.dt >= limit:
-        raise InputError(f"{src['dt']}: above the stability limit {limit:.4f} t0 of {schedule.label} for "
-                         f"this packing (omega_max = {omega_max:.4f}/t0, rho = {rho:g})")
-    return limit
 
 
 def _configure(ts, schedule: Schedule, monitor) -> dict:
@@ -187,7 +44,7 @@ def _configure(ts, schedule: Schedule, monitor) -> dict:
     setFromOptions (for the solver options: -waves_ts_theta_*, -waves_ksp_*, ...), then the
     schedule's step and step count again (the values the options gave when it was resolved);
     returns what the TS uses. Collective."""
-    _defaults(ts, schedule.ts_type, schedule.dt, schedule.t_end * (1 + 1e-12), schedule.steps)
+    apply_defaults(ts, schedule.ts_type, schedule.dt, schedule.t_end * (1 + 1e-12), schedule.steps)
     ts.setMonitor(monitor)
     ts.setFromOptions()
     used = ts_settings(ts)
@@ -304,96 +161,157 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
     return recorder.series(taken, used)
 
 
+def integrate_all(dm, positions, waves_: list[tuple[str, int, float]], *, amplitude: float,
+                  schedule: Schedule) -> list[WaveSeries]:
+    """Integrate every (mode, run, k) of ``waves_`` with ``schedule``: all at once by block
+    Verlet (:func:`integrate_block`), or one by one with the schedule's PETSc TS
+    (:func:`integrate`). Collective."""
+    if schedule.integrator == "verlet":
+        return integrate_block(dm, positions, waves_, amplitude=amplitude, schedule=schedule)
+    return [integrate(dm, positions, mode, run, k, amplitude=amplitude, schedule=schedule) for mode, run, k in waves_]
+
+
+class _Problem:
+    """A TS on ``dm``'s communicator and the PETSc objects it needs (``self.objects``), destroyed
+    together by :meth:`destroy` (or on leaving a ``with`` block). Collective."""
+
+    def __init__(self, dm):
+        from petsc4py import PETSc
+
+        self.dm = dm
+        self.ts = PETSc.TS().create(dm.D.getComm())
+        self.objects: list = []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.destroy()
+
+    def destroy(self) -> None:
+        self.ts.destroy()
+        for obj in self.objects:
+            obj.destroy()
+
+    def release(self) -> None:
+        """Undo what :meth:`state` set up, after the monitor has used it (nothing by default)."""
+
+
+class SecondOrderProblem(_Problem):
+    """eq:motion as M a + D u = 0 for TS ``alpha2`` (generalized-alpha; implicit, CG solves), from
+    u = 0 and v = ``v0`` (nloc,).  :meth:`state` gives (u, v) views for the monitor."""
+
+    def __init__(self, dm, v0: np.ndarray):
+        from petsc4py import PETSc
+
+        super().__init__(dm)
+        ts = self.ts
+        U, V = dm.M.duplicate(), dm.M.duplicate()
+        U.set(0.0)
+        V.setArray(v0)
+        jac = dm.D.duplicate(copy=True)
+        diag = dm.D.getDiagonal()
+        self.objects += [U, V, jac, diag]
+
+        def residual(ts_, t, u, v, a, F):
+            dm.D.mult(u, F)
+            ma = a.copy()
+            ma.pointwiseMult(ma, dm.M)
+            F.axpy(1.0, ma)
+            ma.destroy()
+
+        def jacobian(ts_, t, u, v, a, shift_v, shift_a, J, P):
+            dm.D.copy(J, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            d = diag.copy()
+            d.axpy(shift_a, dm.M)
+            J.setDiagonal(d)
+            d.destroy()
+
+        ts.setType(PETSc.TS.Type.ALPHA2)
+        ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
+        self.objects.append(dm.M.duplicate())
+        ts.setI2Function(residual, self.objects[-1])
+        ts.setI2Jacobian(jacobian, jac, jac)
+        ts.setSolution2(U, V)
+        self.solution = U
+        ts.getSNES().getKSP().setType(PETSc.KSP.Type.CG)  # -waves_ksp_type wins
+
+    def state(self, ts, X):
+        """(u Vec, v local array) of the TS's current solution."""
+        u, v = ts.getSolution2()
+        return u, v.getArray()
+
+
+class FirstOrderProblem(_Problem):
+    """eq:motion as X' = J X, X = (u, v), J = [[0, I], [-M^-1 D, 0]] assembled, for any
+    first-order PETSc TS type ``ts_type`` (linear, constant Jacobian), from u = 0, v = ``v0``.
+    :meth:`state` gives (u, v) views of X for the monitor."""
+
+    def __init__(self, dm, v0: np.ndarray, ts_type: str):
+        from petsc4py import PETSc
+
+        super().__init__(dm)
+        ts = self.ts
+        minv = dm.M.copy()
+        minv.reciprocal()
+        self.objects.append(minv)
+        ts.setType(ts_type)
+        ts.setProblemType(PETSc.TS.ProblemType.LINEAR)
+        jacobian = first_order_matrix(dm, minv)
+        X = jacobian.createVecRight()
+        X.setArray(np.concatenate((np.zeros(len(v0)), v0)))
+        self.objects += [jacobian, X, X.duplicate()]
+        ts.setRHSFunction(PETSc.TS.computeRHSFunctionLinear, self.objects[-1])
+        ts.setRHSJacobian(PETSc.TS.computeRHSJacobianConstant, jacobian, jacobian)
+        ts.setSolution(X)
+        self.solution = X
+        self.n = len(v0)
+        self.u_view = PETSc.Vec().createWithArray(np.zeros(self.n), size=(self.n, dm.size), comm=dm.D.getComm())
+        self.objects.append(self.u_view)
+
+    def state(self, ts, X):
+        """(u Vec viewing X's first half, v local array); call :meth:`release` after use."""
+        arr = X.getArray()
+        self.u_view.placeArray(arr[: self.n])
+        return self.u_view, arr[self.n:]
+
+    def release(self) -> None:
+        self.u_view.resetArray()
+
+
 def integrate(dm, positions, mode: str, run: int, k: float, *, amplitude: float,
               schedule: Schedule) -> WaveSeries:
     """Integrate one standing wave, run ``run`` of ``excitation.runs(mode, dm.dim)``, with
-    ``schedule`` (see :func:`resolve_schedule`); return its samples. Collective.
+    ``schedule`` (see ``schedule.resolve_schedule``); return its samples. Collective.
 
     Raises StabilityError on every rank if the energy stops being finite or grows 10x.
     Verlet runs go through :func:`integrate_block` with a block of one.
     """
-    from petsc4py import PETSc
-
     if schedule.integrator == "verlet":
         return integrate_block(dm, positions, [(mode, run, k)], amplitude=amplitude, schedule=schedule)[0]
     comm = dm.D.getComm()
     mpi = comm.tompi4py()
     component, axis = excitation.runs(mode, dm.dim)[run]
-    minv = dm.M.copy()
-    minv.reciprocal()
     v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)
-    work = dm.M.duplicate()
     recorder = Recorder(FourierSampler(dm, positions, [(component, axis, k)], mpi), schedule.sample_every)
+    work = dm.M.duplicate()
+    if schedule.integrator == "alpha2":
+        problem = SecondOrderProblem(dm, v0)
+    else:
+        problem = FirstOrderProblem(dm, v0, schedule.ts_type)
+    problem.objects.append(work)
 
-    def record(ts_, step, t, uvec, v_arr):
-        dm.D.mult(uvec, work)
-        recorder.record(ts_, step, t, uvec.getArray()[:, None], v_arr[:, None], work.getArray()[:, None])
+    def monitor(ts_, step, t, X):
+        if recorder.due(step):
+            uvec, v_arr = problem.state(ts_, X)
+            dm.D.mult(uvec, work)
+            recorder.record(ts_, step, t, uvec.getArray()[:, None], v_arr[:, None], work.getArray()[:, None])
+            problem.release()
 
-    ts = PETSc.TS().create(comm)
-    owned = [minv, work]
-    try:
-        if schedule.integrator == "alpha2":
-            U, V = dm.M.duplicate(), dm.M.duplicate()
-            U.set(0.0)
-            V.setArray(v0)
-            jac = dm.D.duplicate(copy=True)
-            diag = dm.D.getDiagonal()
-            owned += [U, V, jac, diag]
-
-            def residual(ts_, t, u, v, a, F):
-                dm.D.mult(u, F)
-                ma = a.copy()
-                ma.pointwiseMult(ma, dm.M)
-                F.axpy(1.0, ma)
-                ma.destroy()
-
-            def jacobian(ts_, t, u, v, a, shift_v, shift_a, J, P):
-                dm.D.copy(J, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-                d = diag.copy()
-                d.axpy(shift_a, dm.M)
-                J.setDiagonal(d)
-                d.destroy()
-
-            ts.setType(PETSc.TS.Type.ALPHA2)
-            ts.setProblemType(PETSc.TS.ProblemType.NONLINEAR)
-            owned.append(dm.M.duplicate())
-            ts.setI2Function(residual, owned[-1])
-            ts.setI2Jacobian(jacobian, jac, jac)
-            ts.setSolution2(U, V)
-            state = U
-            ts.getSNES().getKSP().setType(PETSc.KSP.Type.CG)  # -waves_ksp_type wins
-
-            def monitor(ts_, step, t, X):
-                if recorder.due(step):
-                    u, v = ts_.getSolution2()
-                    record(ts_, step, t, u, v.getArray())
-        else:
-            ts.setType(schedule.ts_type)
-            ts.setProblemType(PETSc.TS.ProblemType.LINEAR)
-            jacobian = first_order_matrix(dm, minv)
-            X = jacobian.createVecRight()
-            X.setArray(np.concatenate((np.zeros(len(v0)), v0)))
-            owned += [jacobian, X, X.duplicate()]
-            ts.setRHSFunction(PETSc.TS.computeRHSFunctionLinear, owned[-1])
-            ts.setRHSJacobian(PETSc.TS.computeRHSJacobianConstant, jacobian, jacobian)
-            ts.setSolution(X)
-            state = X
-            u_view = PETSc.Vec().createWithArray(np.zeros(len(v0)), size=(len(v0), dm.size), comm=comm)
-            owned.append(u_view)
-
-            def monitor(ts_, step, t, X_):
-                if recorder.due(step):
-                    arr = X_.getArray()
-                    u_view.placeArray(arr[: len(v0)])
-                    record(ts_, step, t, u_view, arr[len(v0):])
-                    u_view.resetArray()
-        used = _configure(ts, schedule, monitor)
-        ts.solve(state)
-        taken = ts.getStepNumber()
-    finally:
-        ts.destroy()
-        for obj in owned:
-            obj.destroy()
+    with problem:
+        used = _configure(problem.ts, schedule, monitor)
+        problem.ts.solve(problem.solution)
+        taken = problem.ts.getStepNumber()
     if recorder.blown:
         raise _blown(recorder, f"wave {mode} k = {k:.4f}", schedule)
     return recorder.series(taken, used)[0]

@@ -16,37 +16,35 @@ import numpy as np
 
 from ..analysis import correlations
 from . import excitation, integrators, spectral
+from .schedule import Schedule
 
 
-def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, axes: list[int], *,
-              omega_max: float, schedule: integrators.Schedule | None = None, limit: float | None = None
-              ) -> tuple[dict, dict, str]:
+def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, axes: list[int],
+              schedule: Schedule) -> tuple[dict, dict, str]:
     """(datasets, attrs, summary) of one mode on ``dm`` for the wave numbers ``ks`` (``ns``), both
     (K, A) over the A ``axes`` used (``excitation.wave_vectors``), every run of the mode in
     ``dm.dim`` dimensions along those axes (R runs: the first axis of z, z_fixed, energy_drift,
     error_estimate; which run is which: datasets ``runs`` (R, 2) and attribute ``run_labels``).
     A run along axis a uses the k of that axis.
 
-    ``spec``: the scene's waves section; ``schedule``: the resolved TS schedule (``method: ts``;
-    None for ``spectral``, which samples every ``dt * sample_every`` to ``t_end``);
-    ``limit``: its stability limit (None: none tabulated).  ``summary``: one line for the log.
+    ``spec``: the scene's waves section; ``schedule``: how the runs go (``schedule.plan``: the
+    spectral path samples every ``dt * sample_every`` to ``t_end``, time stepping follows the TS
+    schedule; it carries omega_max and the stability limit).  ``summary``: one line for the log.
     Raises StabilityError on every rank if a run blows up (nothing is returned then).
     """
     chosen = [r for r, (_, axis) in enumerate(excitation.runs(mode, dm.dim)) if axis in axes]
     excited = [excitation.runs(mode, dm.dim)[r] for r in chosen]
     column = {r: axes.index(axis) for r, (_, axis) in zip(chosen, excited)}  # the k of the run's axis
     count = len(ks)
-    if schedule is None:
-        times = np.arange(0.0, spec.t_end * (1 + 1e-12), spec.dt * spec.sample_every)
+    if schedule.method == "spectral":
+        times = schedule.sample_times()
         series = [[spectral.spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times,
-                                     tol=spec.tol, omega_max=omega_max) for k in ks[:, column[r]]] for r in chosen]
-    elif schedule.integrator == "verlet":  # all runs and k at once: one MatMatMult per step
-        flat = integrators.integrate_block(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
-                                           amplitude=spec.amplitude, schedule=schedule)
+                                     tol=spec.tol, omega_max=schedule.omega_max) for k in ks[:, column[r]]]
+                  for r in chosen]
+    else:  # Verlet: all runs and k at once, one MatMatMult per step
+        flat = integrators.integrate_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
+                                         amplitude=spec.amplitude, schedule=schedule)
         series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
-    else:
-        series = [[integrators.integrate(dm, positions, mode, r, k, amplitude=spec.amplitude, schedule=schedule)
-                   for k in ks[:, column[r]]] for r in chosen]
     z = np.array([[r.z for r in row] for row in series])  # (R, K, S)
     z_fixed = np.array([[r.z_fixed for r in row] for row in series])
     energy = np.array([[r.energy for r in row] for row in series])
@@ -60,19 +58,17 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     if not (same and np.all(ns == ns[:, :1])):  # sides that differ: each axis' own n and k (k: their mean)
         datasets.update(n_axes=ns, k_axes=ks)
     settings = {"wmax": dm.wmax_settings}
-    if schedule is None:
+    if schedule.method == "spectral":
         datasets["error_estimate"] = np.array([[r.error_estimate for r in row] for row in series])
         settings["lanczos"] = {"tol": spec.tol, "max_steps": max(r.steps for row in series for r in row)}
         summary = (f"spectral, up to {settings['lanczos']['max_steps']} Lanczos steps, error estimate "
                    f"{np.nanmax(datasets['error_estimate']):.1e}")
-        dt, integrator = spec.dt, "spectral (Lanczos)"
     else:
         settings["ts"] = series[0][0].settings
         summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), max energy "
                    f"drift {drift.max():.1e}")
-        dt, integrator = schedule.dt, schedule.integrator
-    attrs = {"rho": dm.model.rho, "mode": mode, "dt": dt, "integrator": integrator, "omega_max": omega_max,
-             "dt_limit": limit if limit is not None else np.inf, "amplitude": spec.amplitude,
+    attrs = {"rho": dm.model.rho, "mode": mode, "dt": schedule.dt, "integrator": schedule.integrator,
+             "omega_max": schedule.omega_max, "dt_limit": schedule.limit if schedule.limit is not None else np.inf, "amplitude": spec.amplitude,
              "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
              "run_labels": json.dumps([excitation.run_label(c, a, dm.dim) for c, a in excited])}
     return datasets, attrs, summary
