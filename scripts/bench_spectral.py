@@ -74,7 +74,7 @@ def case(n: int, method: str, setting: float) -> None:
                      omega_max=omega_max)
     else:
         s = integrators.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
-                            schedule=resolve_schedule(integrator=method, dt=setting, t_end=T_END,
+                                  schedule=resolve_schedule(integrator=method, dt=setting, t_end=T_END,
                                                             sample_every=int(round(SAMPLE / setting))))
     _report(PETSc, time.perf_counter() - t0, s.z_fixed, {"steps": s.steps, "estimate": s.error_estimate})
 

@@ -48,7 +48,7 @@ def ts_case(integrator: str, dt: float) -> None:
     mpi.Barrier()
     t0 = time.perf_counter()
     s = integrators.integrate(dm, p.positions, "L", 0, float(ref["k"]), amplitude=1e-3,
-                        schedule=resolve_schedule(integrator=integrator, dt=dt, t_end=T_END,
+                              schedule=resolve_schedule(integrator=integrator, dt=dt, t_end=T_END,
                                                         sample_every=int(round(SAMPLE / dt))))
     seconds = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     error = float(np.abs(s.z_fixed - ref["z"]).max() / np.abs(ref["z"]).max())
@@ -87,13 +87,13 @@ def step_cost_case() -> None:
     mpi.Barrier()
     t0 = time.perf_counter()
     s = integrators.integrate(dm, p.positions, "L", 0, k, amplitude=1e-3,
-                        schedule=resolve_schedule(integrator="verlet", dt=0.02, t_end=reps * 0.02,
+                              schedule=resolve_schedule(integrator="verlet", dt=0.02, t_end=reps * 0.02,
                                                         sample_every=reps))
     step = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX) / s.steps
     mpi.Barrier()
     t0 = time.perf_counter()
     full = integrators.integrate(dm, p.positions, "RT", 0, k, amplitude=1e-3,
-                           schedule=resolve_schedule(integrator="verlet", dt=0.02, t_end=200.0, sample_every=5))
+                                 schedule=resolve_schedule(integrator="verlet", dt=0.02, t_end=200.0, sample_every=5))
     run200 = mpi.allreduce(time.perf_counter() - t0, op=__import__("mpi4py").MPI.MAX)
     batch = [("RT", d, 2 * np.pi * n / p.box_length) for d in (0, 1) for n in (8, 16, 24, 32)]
     mpi.Barrier()

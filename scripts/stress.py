@@ -106,11 +106,11 @@ def stability_edge():
     limit = stability_limit("verlet", operators.largest_omega(dm))
     for factor in (0.99, 1.01):
         schedule = resolve_schedule(integrator="verlet", dt=factor * limit, t_end=2000 * factor * limit,
-                                          sample_every=10)
+                                    sample_every=10)
         try:
             check_schedule(schedule, operators.largest_omega(dm), 1.0)
             s = integrators.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
-                                schedule=schedule)
+                                      schedule=schedule)
             drift = np.abs(s.energy / s.energy[0] - 1).max()
             row(f"dt = {factor} x limit ({factor * limit:.4f})", f"ran 2000 steps; energy oscillates by up to "
                 f"{drift:.2f} (bounded: Verlet's shadow energy near the limit)", "accepted: below 2/omega_max; the "
@@ -126,7 +126,7 @@ def million_steps():
     dm = dynmat.assemble(p, ContactModel(1.0), COMM)
     t = time.perf_counter()
     s = integrators.integrate(dm, p.positions, "RT", 0, 2 * np.pi / p.box_length, amplitude=1e-3,
-                        schedule=resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
+                              schedule=resolve_schedule(integrator="verlet", dt=0.05, t_end=50_000.0,
                                                         sample_every=1000))
     sec = time.perf_counter() - t
     dev = np.abs(s.energy / s.energy[0] - 1)

@@ -90,7 +90,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[ja
     seeds = [parallel.seed_sequence(scene.seed, i) for i in missing]
     if spec.engine == "lammps":  # each configuration on all ranks, one after another
         made = [jammed.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim,
-                                 engine="lammps", comm=comm, law=scene.model.law) for s in seeds]
+                                engine="lammps", comm=comm, law=scene.model.law) for s in seeds]
     else:
         made = parallel.owner_compute(comm, seeds, lambda s: jammed.generate(
             spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law))
@@ -264,9 +264,9 @@ def _spectrum_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> np.n
         check_interrupt(comm)
 
     result = slicing.solve(dm, window=tuple(spec.window) if spec.window else None,
-                            vectors=spec.energies, tol=spec.tol, zero_tol=spec.zero_tol,
-                            max_window_modes=spec.max_window_modes, progress=progress,
-                            checkpoint=checkpoint)
+                           vectors=spec.energies, tol=spec.tol, zero_tol=spec.zero_tol,
+                           max_window_modes=spec.max_window_modes, progress=progress,
+                           checkpoint=checkpoint)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     datasets = {"omega": result.omega}
     if result.energies is not None:
@@ -396,7 +396,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         try:  # rank 0 writes; any error it meets is raised on every rank (owner_compute)
             with profiling.stage("output"):
                 parallel.owner_compute(comm, [0], lambda _: hdf5.write_results(scene.output, provenance,
-                                                                                packings, units))
+                                                                               packings, units))
         except OSError as exc:
             raise InputError(f"output = {scene.output}: cannot write the results file ({exc}); the "
                              f"finished units are kept in {store.folder}: run again to resume") from exc

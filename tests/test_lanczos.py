@@ -38,7 +38,7 @@ def crystal_wave(comm, packing, mode, p):
     k = 2 * np.pi * p / L
     dm = dynmat.assemble(packing, ContactModel(1.0), comm)
     series = spectral.spectral(dm, packing.positions, mode, direction, k, amplitude=AMPLITUDE,
-                              times=TIMES, tol=1e-10)
+                               times=TIMES, tol=1e-10)
     dm.destroy()
     block = [0] if mode == "L" else [1, 2]
     matrix = bloch_matrix(np.array([k, 0.0]), 1.0)

@@ -130,7 +130,7 @@ def test_run_uses_and_records_the_options_and_writes_nothing_into_the_database(s
                    "adapt_type": "none"} and used["wmax"]["prefix"] == "wmax_", f"{used}")
     dm = dynmat.assemble(made, ContactModel(1.0), PETSc.COMM_WORLD)
     direct = integrators.integrate(dm, made.positions, "L", 0, float(datasets["k"][0]), amplitude=1e-3,
-                             schedule=resolve("rk", dt=0.01, t_end=4.0))
+                                   schedule=resolve("rk", dt=0.01, t_end=4.0))
     dm.destroy()
     assert_close(datasets["z"][0, 0], direct.z, rtol=0, atol=1e-14 * np.abs(direct.z).max(),
                  what="unit z against a direct RK4 run at dt = 0.01")  # same code, same numbers
@@ -198,7 +198,7 @@ def test_theta_beuler_ssp_converge_at_their_order(comm, packing64, integrator, o
     errors = []
     for dt in dts:
         series = integrators.integrate(dm, packing64.positions, "L", 0, k, amplitude=1e-3,
-                                 schedule=resolve(integrator, dt=dt, t_end=10.0, every=int(round(0.32 / dt))))
+                                       schedule=resolve(integrator, dt=dt, t_end=10.0, every=int(round(0.32 / dt))))
         assert_all(series.settings["ts_type"] == integrator and series.settings["dt"] == dt, f"{series.settings}")
         exact = exact_z_fixed(packing64, dm, dense_eigen(dm), excitation.runs("L", 2)[0], k, series.t, 1e-3)
         errors.append(np.abs(series.z_fixed - exact).max() / np.abs(exact).max())
@@ -211,7 +211,7 @@ def test_unused_options_are_judged_by_prefix():
     names = ["spectrum_eps_tol", "log_view", "waves_ts_dt", "inertia_mat_mumps_icntl_14", "not_an_option"]
     assert options.unused(names, [("spectra", "slicing")]) == ["waves_ts_dt", "not_an_option"]
     assert options.unused(names, [("waves", "ts")]) == ["spectrum_eps_tol", "inertia_mat_mumps_icntl_14",
-                                                         "not_an_option"]
+                                                        "not_an_option"]
 
 
 def test_bare_solver_options_are_refused_with_the_prefixed_name():

@@ -22,7 +22,7 @@ def packing64():
 
 def run(dm, p, mode, k, dt, integrator="verlet", t_end=20.0, every=None, amplitude=1e-3, direction=0):
     return integrators.integrate(dm, p.positions, mode, direction, k, amplitude=amplitude,
-                           schedule=schedule(integrator, dt, t_end, every or int(round(0.5 / dt))))
+                                 schedule=schedule(integrator, dt, t_end, every or int(round(0.5 / dt))))
 
 
 @pytest.mark.parametrize("mode", ["L", "TR", "RT"])
@@ -131,7 +131,7 @@ def test_block_verlet_equals_blocks_of_one(comm, packing64):
     L = packing64.box_length
     batch = [(mode, d, 2 * np.pi * n / L) for mode in ("L", "RT") for d in (0, 1) for n in (1, 3)]
     block = integrators.integrate_block(dm, packing64.positions, batch, amplitude=1e-3,
-                                  schedule=schedule("verlet", 0.02, 10.0, 25))
+                                        schedule=schedule("verlet", 0.02, 10.0, 25))
     for (mode, d, k), got in zip(batch, block):
         ref = run(dm, packing64, mode, k, 0.02, t_end=10.0, every=25, direction=d)
         scale = np.abs(ref.z).max()
@@ -150,7 +150,7 @@ def test_blow_up_stops_with_error_not_nan(comm, packing64, block):
     with pytest.raises(integrators.StabilityError, match="unstable"):
         if block:
             integrators.integrate_block(dm, packing64.positions, [("RT", 0, k)], amplitude=1e-3,
-                                  schedule=schedule("verlet", dt, 2000 * dt, 1))
+                                        schedule=schedule("verlet", dt, 2000 * dt, 1))
         else:
             run(dm, packing64, "RT", k, dt, t_end=2000 * dt, every=1)
     dm.destroy()
@@ -207,7 +207,7 @@ def test_a_packing_tiled_along_x_has_the_same_standing_waves_in_its_rectangular_
 
     p = small_packing
     tiled = jammed.from_arrays(np.concatenate([p.positions, p.positions + [p.box_length, 0.0]]),
-                                np.tile(p.diameters, 2), [2 * p.box_length, p.box_length])
+                               np.tile(p.diameters, 2), [2 * p.box_length, p.box_length])
     spec = schema.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
                                            "sample_every": 25})
     got = {}
@@ -244,7 +244,7 @@ def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
     assert_close(data["k_axes"][0], 2 * np.pi / stretched.box, rtol=1e-15, what="k per axis")
     for r, (_, axis) in enumerate(excitation.runs("TR", 2)):
         alone = integrators.integrate(dm, stretched.positions, "TR", r, 2 * np.pi / stretched.box[axis],
-                                amplitude=spec.amplitude, schedule=every)
+                                      amplitude=spec.amplitude, schedule=every)
         # block (MatMatMult) against one run (MatMult): round-off
         assert_close(data["z"][r, 0], alone.z, rtol=0.0, atol=1e-12 * np.abs(alone.z).max(), what=f"run {r}")
     dm.destroy()

@@ -124,7 +124,7 @@ def test_block_verlet_matches_exact_reference_at_second_order(spheres, matrix, m
     errors = []
     for dt in (0.02, 0.01):
         block = integrators.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
-                                      amplitude=AMPLITUDE, schedule=schedule("verlet", dt, 5.0, int(round(0.5 / dt))))
+                                            amplitude=AMPLITUDE, schedule=schedule("verlet", dt, 5.0, int(round(0.5 / dt))))
         errors.append(relative_errors(spheres, dm, eig, mode, k, block))
     omega_max = operators.largest_omega(dm)
     bound = (omega_max * 0.01) ** 2 / 24 * omega_max * 5.0  # measured: at most 0.35 of it (all, R)
@@ -142,7 +142,7 @@ def test_petsc_rk4_matches_exact_reference_at_fourth_order(spheres, matrix, mode
     errors = []
     for dt in (0.12, 0.06):
         series = [integrators.integrate(dm, spheres.positions, mode, r, k, amplitude=AMPLITUDE,
-                                  schedule=schedule("rk", dt, 5.0, int(round(0.48 / dt)))) for r in range(count)]
+                                        schedule=schedule("rk", dt, 5.0, int(round(0.48 / dt)))) for r in range(count)]
         errors.append(relative_errors(spheres, dm, eig, mode, k, series))
     omega_max = operators.largest_omega(dm)
     bound = (omega_max * 0.06) ** 4 / 120 * omega_max * 5.0  # measured: at most 0.26 of it (all, R)
@@ -161,7 +161,7 @@ def test_spectral_path_matches_exact_reference(spheres, matrix, mode):
     errors = relative_errors(spheres, dm, eig, mode, k, series)
     estimates = np.array([s.error_estimate for s in series])
     assert_all(errors.max() < 1e-8 and estimates.max() < 1e-10, f"{name} {mode}: errors {errors}, "
-                                                                   f"estimates {estimates}")
+               f"estimates {estimates}")
 
 
 @pytest.mark.parametrize("mode", ["TR", "R"])
@@ -229,7 +229,7 @@ def test_two_ranks_equal_one(spheres, mode):
     for comm in (PETSc.COMM_WORLD, PETSc.COMM_SELF):
         dm = dynmat.assemble(spheres, ContactModel(1.0, rho_roll=0.2, rho_twist=0.3), comm)
         ts = integrators.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
-                                   amplitude=AMPLITUDE, schedule=schedule("verlet", 0.02, 10.0, 25))
+                                         amplitude=AMPLITUDE, schedule=schedule("verlet", 0.02, 10.0, 25))
         lanczos = [spectral(dm, spheres.positions, mode, r, k, amplitude=AMPLITUDE, times=times, tol=1e-10)
                    for r in range(count)]
         out.append((np.array([s.z for s in ts]), np.array([s.z for s in lanczos])))

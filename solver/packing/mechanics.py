@@ -100,7 +100,7 @@ class FrictionlessForces:
         stay = ~(movers[self.i] | movers[self.j])
         at = np.searchsorted(self.i[stay] * n + self.j[stay], fresh[0][order] * n + fresh[1][order])
         self._use(*(np.insert(old[stay], at, new[order], axis=0) for old, new in
-                       zip((self.i, self.j, self.shift, self.contact, self.reduced), fresh)))  # still sorted by (i, j)
+                    zip((self.i, self.j, self.shift, self.contact, self.reduced), fresh)))  # still sorted by (i, j)
         self.reference[movers] = x[movers]
         self.relisted |= movers
         self.refreshes += 1
