@@ -1,4 +1,4 @@
-"""Render the bad-input catalogue (tests/bad_inputs.py) into README.md with the real messages.
+"""Render the bad-input catalogue (tests/io/bad_inputs.py) into README.md with the real messages.
 
     .venv/bin/python scripts/render_bad_inputs.py
 Runs every case once (1 process) and replaces the text between the README markers
@@ -12,6 +12,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
+sys.path.insert(0, str(REPO / "tests" / "io"))
 
 from bad_inputs import CASES  # noqa: E402
 from conftest import run_cli  # noqa: E402

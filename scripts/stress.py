@@ -15,6 +15,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "scripts"))
 sys.path.insert(0, str(REPO / "tests"))
+sys.path.insert(0, str(REPO / "tests" / "run"))  # test_resume.contents
 
 from benchlib import machine  # noqa: E402
 from solver.contact_law import ContactModel

@@ -24,7 +24,7 @@ and kr = 0 this is
     H_ii = [[ P', -kt R_i t], [-kt R_i t^T, kt R_i^2]]   H_jj = [[ P', kt R_j t], [kt R_j t^T, kt R_j^2]]
     H_ij = [[-P', -kt R_j t], [ kt R_i t^T, kt R_i R_j]]  H_ji = H_ij^T,   P' = kn n n^T + k* t t^T.
 
-The blocks are the exact Hessian of e_ij at the reference (tests/test_contact_law.py checks them,
+The blocks are the exact Hessian of e_ij at the reference (tests/model/test_contact_law.py checks them,
 and the forces, against central differences of ``pair_energy`` in 2D and 3D with every spring on).
 Every function is vectorised over the C contacts.  The springs of a model travel together as
 one :class:`ContactModel`.  Not collective.

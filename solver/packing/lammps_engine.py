@@ -5,7 +5,7 @@ xi = (d_i + d_j)/2 - r, kn = 1 and masses 1 (eq:eij at rho = 0).  LAMMPS compute
 ``pair_style gran/hooke`` at zero damping and zero friction: each contact pushes with
 kn (R_i + R_j - r) along the centre line, R = d/2 per particle (``atom_style sphere``), which is
 exactly -grad E, at any diameters.  Granular pair styles tally no energy (LAMMPS's ``pe`` is 0),
-so the energy is checked through the forces and the virial pressure (tests/test_lammps_engine.py:
+so the energy is checked through the forces and the virial pressure (tests/packing/test_lammps_engine.py:
 equal to rotsound's to round-off); LAMMPS's FIRE uses no energy when its energy tolerance is 0,
 as here.  The build has no ``harmonic/cut`` nor the DPD package (whose conservative force is also
 harmonic); ``pair_style table`` would only interpolate the law.
@@ -33,7 +33,7 @@ What differs from rotsound's FIRE (:func:`fire.minimize`), bit for bit:
       of ranks (rotsound's does not);
   (5) the force criterion is checked after a step, so at least one step is taken.
 (1)-(3) decide which minimum is reached: rotsound's FIRE with all three, on rotsound's forces,
-takes LAMMPS's number of steps and ends where LAMMPS ends, to 1e-8 (tests/test_lammps_engine.py;
+takes LAMMPS's number of steps and ends where LAMMPS ends, to 1e-8 (tests/packing/test_lammps_engine.py;
 N = 512 in 2D and 3D, 2048 in 2D), while with any one or two of them it ends in another minimum,
 0.9 to 1.6 diameters away from LAMMPS's.  (4) alone moved the end by 1e-9 to 1.5e-4 (LAMMPS on
 1 rank against 2, N = 512 and 2048, 2D and 3D; the largest in 3D at N = 2048, one step more):

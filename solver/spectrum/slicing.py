@@ -146,7 +146,7 @@ CLUSTER_MARGIN = 1e-5
 eigenvalue makes SLEPc's own inertia disagree with the modes it finds (error 77, raised on one
 rank only).  A cut is also a shift of SLEPc's: a relative distance delta amplifies the cluster by
 1/delta in shift-and-invert, and at delta <~ 1e-6 Lanczos returned a spurious extra copy of a
-12-fold eigenvalue below the cut (the FCC crystal of tests/test_crystal_fcc.py on 2 ranks, with
+12-fold eigenvalue below the cut (the FCC crystal of tests/model/test_crystal_fcc.py on 2 ranks, with
 20-fold clusters: 1e-7, 3e-7 and 8e-7 failed, 1e-6 to 1e-3 all passed).  1e-5 is far from both
 that and the eigenvalues' accuracy (~1e-14), and far below any bin."""
 

@@ -8,7 +8,7 @@ import pathlib
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, star_cluster
+from conftest import COMM, assert_all, assert_close, jammed_packing, star_cluster
 
 from solver.errors import InputError
 from solver.io import hdf5
@@ -24,7 +24,7 @@ PHI = 0.7  # above this mixture's 3D jamming point (~0.648)
 @pytest.fixture(scope="module")
 def spheres():
     """A jammed 128-sphere packing at phi = 0.7 (same on every rank; ~0.2 s)."""
-    return jammed.generate(128, PHI, np.random.SeedSequence([3, 0]), dim=3)
+    return jammed_packing(128, PHI, 3, dim=3)
 
 
 def all_pairs(p):

@@ -3,7 +3,7 @@
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, jammed_packing
 
 from solver.contact_law import ContactModel
 from solver import parallel
@@ -160,7 +160,7 @@ def test_a_packing_tiled_along_x_is_the_same_packing_in_a_rectangular_box(dim, s
     from conftest import dense_eigen
     from solver.model import dynmat
 
-    p = small_packing if dim == 2 else jammed.generate(64, 0.7, np.random.SeedSequence([3, 0]), dim=3)
+    p = small_packing if dim == 2 else jammed_packing(64, 0.7, 3, dim=3)
     shift = np.zeros(dim)
     shift[0] = p.box_length
     box = np.full(dim, p.box_length)
@@ -231,7 +231,7 @@ def test_hertz_packings_balance_under_hertz_forces_only(dim):
     """model.law: hertz makes FIRE minimise the Hertz normal energy: the packing is jammed and in
     equilibrium under Hertz forces, and not under harmonic ones (the two laws weigh
     overlaps differently, so one law's minimum is off balance under the other)."""
-    p = jammed.generate(64, 0.9 if dim == 2 else 0.7, np.random.SeedSequence([2, 0]), dim=dim, law="hertz")
+    p = jammed_packing(64, 0.9 if dim == 2 else 0.7, 2, dim=dim, law="hertz")
     assert_all(p.info["law"] == "hertz" and mechanics.jamming_failure(p) is None, "not a jammed Hertz packing")
     hertz, harmonic = mechanics.net_force(p, "hertz"), mechanics.net_force(p, "harmonic")
     # FIRE's criterion holds with the rattlers in; without their contacts ~1e-6 remain on others

@@ -9,11 +9,10 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 from scipy.stats import binned_statistic
-from conftest import assert_all, assert_close
+from conftest import assert_all, assert_close, jammed_packing
 
 from solver.contact_law import ContactModel
 from solver.model import dynmat, operators
-from solver.packing import jammed
 from solver.spectrum import counting, kpm, modes, slicing
 
 BIN = 0.05
@@ -23,12 +22,12 @@ ZERO = 1e-8  # |lambda| below this is a zero mode of eigh (measured: zero modes 
 
 @pytest.fixture(scope="module")
 def spheres():
-    return jammed.generate(64, 0.7, np.random.SeedSequence([5, 0]), dim=3)
+    return jammed_packing(64, 0.7, 5, dim=3)
 
 
 @pytest.fixture(scope="module")
 def disks():
-    return jammed.generate(64, 0.9, np.random.SeedSequence([5, 0]), dim=2)
+    return jammed_packing(64, 0.9, 5)
 
 
 def dense(dm) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -140,7 +139,7 @@ def test_slicing_omega_and_energies_equal_dense_3d(comm, spheres, rho, rho_roll,
     assert_close(3 * e["K"] + 3 * e["Q"], np.full(e["K"].size, 1 / (2 * n)), rtol=1e-13,
                  what="3 K + 3 Q = 1/(2N)")
     lam, vec = lam[nonzero], vec[:, nonzero]
-    # Davis-Kahan as in the 2D test (tests/test_spectrum.py): each sum of squares over N
+    # Davis-Kahan as in the 2D test (tests/spectrum/test_spectrum.py): each sum of squares over N
     # particles is held to 2 (r lambda + n eps lambda_max) / gap / 2N
     gap = np.minimum(np.diff(lam, prepend=0.0), np.diff(lam, append=np.inf))
     bound = 2 * (result.max_residual * lam + lam.size * np.finfo(float).eps * lam.max()) / gap / (2 * n)
@@ -192,7 +191,7 @@ def test_kpm_moments_project_out_every_zero_mode(comm, spheres, rho, rho_roll, r
         t_prev, t_curr = t_curr, 2 * B @ t_curr - t_prev
         ref.append(np.sum(z * t_curr))
     ref = np.array(ref) / (5 * (n - null.shape[1]))
-    # as in 2D (tests/test_kpm.py): errors relative to mu_0 (measured 3e-16); eigh's null
+    # as in 2D (tests/spectrum/test_kpm.py): errors relative to mu_0 (measured 3e-16); eigh's null
     # vectors are accurate to ~1e-14 here (the zero-mode test), so the two projections agree
     assert_close(mu, ref, rtol=0, atol=1e-13 * ref[0], what="moments")
 
@@ -233,7 +232,7 @@ def test_kpm_vdos_agrees_with_exact_counts_3d(comm, spheres, rho, rho_roll, rho_
 def test_kpm_energies_against_exact_bin_averages_3d(comm, spheres, rho, rho_roll, rho_twist):
     """Mode q has w_T = 6 N K_q and w_R = 6 N Q_q in 3D (w_T + w_R = 1): KPM's bin averages of K
     and Q in those share units against dense eigenvectors, held to 4 sigma, sigma = sqrt(2/(R m))
-    per channel (tests/test_kpm.py's argument)."""
+    per channel (tests/spectrum/test_kpm.py's argument)."""
     dm = dynmat.assemble(spheres, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         w = operators.largest_omega(dm)

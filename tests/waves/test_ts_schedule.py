@@ -16,15 +16,9 @@ from solver.contact_law import ContactModel
 from solver import options
 from solver.errors import InputError
 from solver.model import dynmat, operators
-from solver.packing import jammed
 from solver.waves import excitation
 from solver.waves import integrators
 from solver.waves.schedule import check_schedule, stability_limit
-
-
-@pytest.fixture(scope="module")
-def packing64():
-    return jammed.generate(64, 0.9, np.random.SeedSequence([31, 0]))
 
 
 @contextlib.contextmanager

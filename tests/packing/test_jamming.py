@@ -1,6 +1,6 @@
 """A generated packing that does not jam stops the run with one InputError naming packing.phi,
 before any solver runs, whether the packing was just made, resumed from the units folder or taken
-from the cache (the command line on 2 ranks: tests/bad_inputs.py, rows 'packing does not jam')."""
+from the cache (the command line on 2 ranks: tests/io/bad_inputs.py, rows 'packing does not jam')."""
 
 import numpy as np
 import pytest

@@ -8,14 +8,13 @@ import json
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, schedule
+from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, jammed_packing, schedule
 from mpi4py import MPI
 
 from solver.contact_law import ContactModel
 from solver.analysis import dispersion
 from solver.io.schema import AnalysisSpec, WavesSpec
 from solver.model import dynmat, operators
-from solver.packing import jammed
 from solver.waves import excitation
 from solver.waves import integrators
 from solver.waves.spectral import spectral
@@ -32,7 +31,7 @@ the uniform spins are exact zero modes (rolling != twisting, so RT and R differ)
 @pytest.fixture(scope="module")
 def spheres():
     """32 jammed spheres at phi = 0.7 (192 DOF with rotations; L = 2.96 d0)."""
-    return jammed.generate(32, 0.7, np.random.SeedSequence([31, 0]), dim=3)
+    return jammed_packing(32, 0.7, 31, dim=3)
 
 
 @pytest.fixture(scope="module", params=list(SPRINGS))

@@ -15,11 +15,6 @@ from solver.waves.schedule import stability_limit
 from solver.waves.spectral import spectral
 
 
-@pytest.fixture(scope="module")
-def packing64():
-    return jammed.generate(64, 0.9, np.random.SeedSequence([31, 0]))
-
-
 def run(dm, p, mode, k, dt, integrator="verlet", t_end=20.0, every=None, amplitude=1e-3, direction=0):
     return integrators.integrate(dm, p.positions, mode, direction, k, amplitude=amplitude,
                                  schedule=schedule(integrator, dt, t_end, every or int(round(0.5 / dt))))

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import scipy.linalg as sl
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, jammed_packing
 
 from solver.contact_law import ContactModel
 from solver.model import dynmat, operators
@@ -15,7 +15,7 @@ from solver.spectrum import slicing
 
 @pytest.fixture(scope="module")
 def packing96():
-    return jammed.generate(96, 0.9, np.random.SeedSequence([21, 0]))
+    return jammed_packing(96, 0.9, 21)
 
 
 def dense_omegas(dm):

@@ -3,11 +3,10 @@ through rotsound's loader: rescaled to d0 = 1 and the box's corner, in equilibri
 program left them, refused where the normal forces alone do not balance (friction, YADE's 6
 digits) and re-minimised by packing.relax, with their own masses under model.masses: density."""
 
-import pathlib
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, REPO, assert_all, assert_close
 
 from solver.contact_law import ContactModel
 from solver import pipeline
@@ -18,7 +17,7 @@ from solver.model import dynmat
 from solver.packing import jammed
 from solver.packing import mechanics
 
-DATA = pathlib.Path(__file__).parent / "data" / "dem"
+DATA = REPO / "tests" / "data" / "dem"
 BALANCED = ["lammps_2d.data", "lammps_2d.dump", "lammps_3d.data", "lammps_3d.dump", "liggghts_3d.data"]
 
 

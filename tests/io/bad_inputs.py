@@ -1,4 +1,4 @@
-"""The catalogue of bad inputs: one row per case, used by tests/test_bad_inputs.py and rendered
+"""The catalogue of bad inputs: one row per case, used by tests/io/test_bad_inputs.py and rendered
 into the README by scripts/render_bad_inputs.py (with the message the program really prints).
 
 A case is (what, scene text or None, extra command-line words, expected message fragment,
@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 
 GOOD = "packing: {n: 64, phi: 0.9}\n"
-DEM = pathlib.Path(__file__).parent / "data" / "dem"  # files made by LAMMPS, LIGGGHTS and YADE
+DEM = pathlib.Path(__file__).parents[1] / "data" / "dem"  # files made by LAMMPS, LIGGGHTS and YADE
 
 
 def _dem(name, keep=lambda text: text):

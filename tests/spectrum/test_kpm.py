@@ -4,17 +4,16 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 from scipy.stats import binned_statistic
-from conftest import assert_all, assert_close
+from conftest import assert_all, assert_close, jammed_packing
 
 from solver.contact_law import ContactModel
 from solver.model import dynmat, operators
 from solver.spectrum import kpm
-from solver.packing import jammed
 
 
 @pytest.fixture(scope="module")
 def packing256():
-    return jammed.generate(256, 0.9, np.random.SeedSequence([41, 0]))
+    return jammed_packing(256, 0.9, 41)
 
 
 def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):

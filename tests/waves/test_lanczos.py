@@ -5,8 +5,8 @@ when scipy's tridiagonal eigensolver fails."""
 import numpy as np
 import pytest
 import scipy.linalg
-from conftest import assert_all, assert_close
-from test_crystal import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
+from conftest import assert_all, assert_close, jammed_packing
+from lattices import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
 
 from solver.contact_law import ContactModel
 from solver.model import dynmat
@@ -74,7 +74,7 @@ def test_lanczos_stops_at_the_invariant_subspace(comm, crystal_packing, mode, p,
 def test_dense_fallback_gives_the_same_z_when_mrrr_fails(comm, monkeypatch):
     """eigh_tridiagonal (MRRR) can raise LinAlgError on the clustered Ritz values that loss of
     orthogonality makes; the code then diagonalises T densely.  Force the failure everywhere."""
-    p = jammed.generate(64, 0.9, np.random.SeedSequence([31, 0]))
+    p = jammed_packing(64, 0.9, 31)
     k = 2 * np.pi * 2 / p.box_length
     dm = dynmat.assemble(p, ContactModel(1.0), comm)
     reference = spectral.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
