@@ -20,6 +20,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+import yaml  # noqa: E402
 
 from solver import petscenv  # noqa: E402
 
@@ -187,6 +188,19 @@ def missing(what: str, why) -> None:
     pytest.skip(f"{what} is not installed ({why})")
 
 
+def scene_text(output, **sections) -> str:
+    """The YAML text of a scene: ``output`` (a path), then ``sections`` in the order given, each a
+    value (``seed=3``, ``cache="off"``) or a mapping (``packing={"n": 64, "phi": 0.9}``)."""
+    return yaml.safe_dump({"output": str(output), **sections}, sort_keys=False)
+
+
+def scene_of(output, **sections):
+    """The validated :class:`~solver.io.schema.Scene` of :func:`scene_text`'s text."""
+    from solver.io import schema
+
+    return schema.build(schema.Scene, yaml.safe_load(scene_text(output, **sections)))
+
+
 @functools.lru_cache(maxsize=None)
 def jammed_packing(n: int, phi: float, seed: int, dim: int = 2, law: str = "harmonic"):
     """The jammed packing of ``n`` particles at ``phi`` from SeedSequence([seed, 0]), made once per
@@ -210,6 +224,18 @@ def small_packing():
 def packing64():
     """Another jammed 64-disk packing at phi = 0.9 (seed 31: the waves tests' reference)."""
     return jammed_packing(64, 0.9, 31)
+
+
+def all_pairs(p):
+    """Overlap (N, N), separation r_i - r_j (N, N, D) and distance (N, N; inf on the diagonal) over
+    every pair of packing ``p`` in its cubic box, minimum image, by brute force: not the
+    package's neighbour search, Verlet list or contact code."""
+    delta = p.positions[:, None, :] - p.positions[None, :, :]
+    delta -= p.box_length * np.round(delta / p.box_length)
+    distance = np.sqrt(np.sum(delta**2, axis=2))
+    np.fill_diagonal(distance, np.inf)
+    overlap = np.maximum(0.5 * (p.diameters[:, None] + p.diameters[None, :]) - distance, 0.0)
+    return overlap, delta, distance
 
 
 def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:

@@ -11,7 +11,7 @@ from solver.analysis import claims
 from solver.analysis import dispersion
 from solver.analysis import lattice
 from solver.io.schema import AnalysisSpec
-from conftest import assert_close, run_cli
+from conftest import assert_close, run_cli, scene_text
 
 pytestmark = pytest.mark.serial_only
 
@@ -120,9 +120,10 @@ def test_claims_pass_and_fail_on_their_tolerance():
 def test_report_from_a_tiny_run(tmp_path):
     out = tmp_path / "tiny.h5"
     scene = tmp_path / "tiny.yaml"
-    scene.write_text(f"output: {out}\nseed: 4\npacking: {{n: 128, phi: 0.9, count: 1}}\n"
-                     "model: {rho: [0.0, 0.2, 0.4, 1.0, 2.0]}\nspectrum: {energies: true}\n"
-                     "waves: {n: [1, 2, 3, 4, 5], method: spectral, t_end: 40.0, dt: 0.05, sample_every: 2}\n")
+    scene.write_text(scene_text(out, seed=4, packing={"n": 128, "phi": 0.9, "count": 1},
+                                model={"rho": [0.0, 0.2, 0.4, 1.0, 2.0]}, spectrum={"energies": True},
+                                waves={"n": [1, 2, 3, 4, 5], "method": "spectral", "t_end": 40.0, "dt": 0.05,
+                                       "sample_every": 2}))
     proc = run_cli(["run", str(scene)], timeout=300)
     assert proc.returncode == 0, proc.stderr
     with h5py.File(out) as f:
@@ -174,8 +175,8 @@ def test_report_and_plot_of_a_kpm_file_with_energies(tmp_path):
     draws the bin averages."""
     out = tmp_path / "kpm.h5"
     scene = tmp_path / "kpm.yaml"
-    scene.write_text(f"output: {out}\ncache: off\npacking: {{n: 64, phi: 0.9}}\nmodel: {{rho: 1.0}}\n"
-                     "spectrum: {method: kpm, energies: true, probes: 4}\n")
+    scene.write_text(scene_text(out, cache="off", packing={"n": 64, "phi": 0.9}, model={"rho": 1.0},
+                                spectrum={"method": "kpm", "energies": True, "probes": 4}))
     assert run_cli(["run", str(scene)]).returncode == 0
     proc = run_cli(["report", str(out), "--output", str(tmp_path / "R.md")])
     assert proc.returncode == 0, proc.stderr

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 import yaml
-from conftest import COMM, assert_all, assert_close, run_stopped_after_windows
+from conftest import COMM, assert_all, assert_close, run_stopped_after_windows, scene_of
 
 from solver import pipeline
 from solver.io import schema
@@ -94,11 +94,10 @@ def test_stored_key_parts_say_what_changed():
 def test_window_checkpoint_of_other_options_is_discarded(shared_tmp, capsys, monkeypatch):
     """A spectrum stopped after two windows, resumed with an option acting on spectra: the
     saved plan and windows are recomputed (never mixed in), and the log says why once."""
-    text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 32, phi: 0.9, count: 1}}\n"
-            "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 20}}\n")
-    scene = schema.build(schema.Scene, yaml.safe_load(text.format(out=shared_tmp / "cut.h5")))
-    reference = pipeline.run(schema.build(schema.Scene, yaml.safe_load(text.format(out=shared_tmp / "ref.h5"))),
-                             COMM, [])["units"]["spectra/r00_p0000"][0]
+    windowed = dict(cache="off", seed=5, packing={"n": 32, "phi": 0.9, "count": 1}, model={"rho": [1.0]},
+                    spectrum={"energies": True, "max_window_modes": 20})
+    scene = scene_of(shared_tmp / "cut.h5", **windowed)
+    reference = pipeline.run(scene_of(shared_tmp / "ref.h5", **windowed), COMM, [])["units"]["spectra/r00_p0000"][0]
     calls = run_stopped_after_windows(monkeypatch, scene)
     capsys.readouterr()
     resumed = pipeline.run(scene, COMM, ["-spectrum_eps_tol", "1e-12"])["units"]["spectra/r00_p0000"][0]

@@ -148,7 +148,7 @@ def crystal():
     return fcc(N_CELLS, OVERLAP)
 
 
-def test_crystal_is_the_intended_one(crystal):
+def test_fcc_crystal_is_the_intended_one(crystal):
     """The premises of the comparison (they check the set-up, not the code under test)."""
     a_c = lattice_constant(OVERLAP)
     assert crystal.dim == 3 and crystal.n == 4 * N_CELLS**3
@@ -168,7 +168,7 @@ def test_crystal_is_the_intended_one(crystal):
 
 @pytest.mark.parametrize("rho, rho_roll, rho_twist", [(0.0, 0.0, 0.0), (1 / 7, 0.0, 0.0), (0.5, 0.0, 0.0),
                                                       (2.0, 0.0, 0.0), (0.5, 0.3, 0.2), (0.0, 0.3, 0.2)])
-def test_full_spectrum_equals_bloch_frequencies(comm, crystal, rho, rho_roll, rho_twist):
+def test_fcc_full_spectrum_equals_bloch_frequencies(comm, crystal, rho, rho_roll, rho_twist):
     dm = dynmat.assemble(crystal, ContactModel(rho, rho_roll=rho_roll, rho_twist=rho_twist), comm)
     try:
         result = slicing.solve(dm, window=None, vectors=False, zero_tol=ZERO_TOL)

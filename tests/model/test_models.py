@@ -4,13 +4,11 @@ both checked against references built here from the packing (1 and 2 ranks)."""
 
 import numpy as np
 import scipy.linalg as sl
-import yaml
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, scene_of
 
 from solver.contact_law import ContactModel
 from solver import pipeline
 from solver.packing import mechanics
-from solver.io import schema
 from solver.model import dynmat
 
 
@@ -19,9 +17,8 @@ def test_hertz_scene_with_density_masses_has_the_generalised_spectrum(shared_tmp
     eigenfrequencies are those of eigh(D, M) with D the Hertz matrix (checked against central
     differences in test_dynmat.py) and M written out here from the rule: m_i = d_i^2 / mean(d^2),
     I_i = m_i d_i^2 / 8.  A scene whose law or masses did not reach the matrix or FIRE fails."""
-    text = ("output: {out}\ncache: off\nseed: 3\npacking: {{n: 64, phi: 0.9}}\n"
-            "model: {{rho: 0.5, law: hertz, masses: density}}\nspectrum: {{method: slicing}}\n")
-    scene = schema.build(schema.Scene, yaml.safe_load(text.format(out=shared_tmp / "hertz.h5")))
+    scene = scene_of(shared_tmp / "hertz.h5", cache="off", seed=3, packing={"n": 64, "phi": 0.9},
+                     model={"rho": 0.5, "law": "hertz", "masses": "density"}, spectrum={"method": "slicing"})
     summary = pipeline.run(scene, COMM, [])
     p = pipeline.make_packings(scene, COMM)[0]
     # accepted as a file under Hertz, refused under harmonic (rattlers' contacts leave ~1e-6 on others)

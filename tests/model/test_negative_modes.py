@@ -17,13 +17,11 @@ sub-interval on an eigenvalue and fail, a separate defect.)
 import h5py
 import numpy as np
 import scipy.linalg as sl
-import yaml
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, scene_of
 
 from solver.contact_law import ContactModel
 from solver import pipeline
 from solver.io import hdf5
-from solver.io import schema
 from solver.model import dynmat
 from solver.packing import jammed
 from solver.packing import mechanics
@@ -72,9 +70,9 @@ def test_pipeline_records_and_warns_about_negative_modes(comm, shared_tmp, capsy
     if COMM.rank == 0:
         hdf5.save_packings(str(packing_file), [rectangular_lattice()])
     COMM.Barrier()
-    text = (f"output: {shared_tmp / 'lattice_out.h5'}\ncache: off\npacking: {{file: {packing_file}}}\n"
-            "model: {rho: [0.0]}\nspectrum: {}\n")
-    units = pipeline.run(schema.build(schema.Scene, yaml.safe_load(text)), COMM, [])["units"]
+    scene = scene_of(shared_tmp / "lattice_out.h5", cache="off", packing={"file": str(packing_file)},
+                     model={"rho": [0.0]}, spectrum={})
+    units = pipeline.run(scene, COMM, [])["units"]
     out = capsys.readouterr().out
     attrs = units["spectra/r00_p0000"][1]
     n_negative = N_NEGATIVE

@@ -6,7 +6,7 @@ digits) and re-minimised by packing.relax, with their own masses under model.mas
 
 import numpy as np
 import pytest
-from conftest import COMM, REPO, assert_all, assert_close
+from conftest import COMM, REPO, assert_all, assert_close, scene_of
 
 from solver.contact_law import ContactModel
 from solver import pipeline
@@ -77,11 +77,10 @@ def test_a_files_masses_reach_the_matrix_under_density(comm):
 def test_scene_on_a_rectangular_lammps_packing_counts_its_spectrum(shared_tmp):
     """A 2D LAMMPS packing in a 12.5 x 9.75 box, density masses, through a counting scene: every
     non-zero mode counted once (2 DOF x 126 non-rattlers + 126 rotations - 2 translations)."""
-    import yaml
 
-    text = (f"output: {shared_tmp / 'lammps.h5'}\ncache: off\npacking: {{file: '{DATA / 'lammps_2d.data'}'}}\n"
-            "model: {rho: 0.5, masses: density}\nspectrum: {method: counting}\n")
-    units = pipeline.run(schema.build(schema.Scene, yaml.safe_load(text)), COMM, [])["units"]
+    scene = scene_of(shared_tmp / "lammps.h5", cache="off", packing={"file": str(DATA / "lammps_2d.data")},
+                     model={"rho": 0.5, "masses": "density"}, spectrum={"method": "counting"})
+    units = pipeline.run(scene, COMM, [])["units"]
     datasets, attrs = units["spectra/r00_p0000"]
     p = hdf5.read_packings(str(DATA / "lammps_2d.data"))[0]
     active = int((~p.rattler).sum())

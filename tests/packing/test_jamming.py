@@ -4,18 +4,17 @@ from the cache (the command line on 2 ranks: tests/io/bad_inputs.py, rows 'packi
 
 import numpy as np
 import pytest
-import yaml
-from conftest import COMM, assert_all, star_cluster
+from conftest import COMM, assert_all, scene_of, star_cluster
 
 from solver import pipeline
 from solver.errors import InputError
-from solver.io import schema
 from solver.model import dynmat
 from solver.packing import jammed
 from solver.packing import mechanics
 
-UNJAMMED = ("output: {out}\ncache: {cache}\nseed: 0\npacking: {{n: 256, phi: 0.8}}\nmodel: {{rho: 1}}\n"
-            "spectrum: {{}}\nwaves: {{n: [1], method: spectral, t_end: 10}}\n")
+UNJAMMED = dict(seed=0, packing={"n": 256, "phi": 0.8}, model={"rho": 1}, spectrum={},
+                waves={"n": [1], "method": "spectral", "t_end": 10})
+"""Below jamming (scene_of's sections; the cache is the test's)."""
 
 
 def no_solver(*args, **kwargs):
@@ -33,9 +32,8 @@ def test_unjammed_packing_is_refused_before_any_solver_from_any_source(shared_tm
     cache = shared_tmp / "cache"
 
     def refused(out):
-        text = UNJAMMED.format(out=shared_tmp / out, cache=cache)
         with pytest.raises(InputError) as caught:
-            pipeline.run(schema.build(schema.Scene, yaml.safe_load(text)), COMM, [])
+            pipeline.run(scene_of(shared_tmp / out, cache=str(cache), **UNJAMMED), COMM, [])
         return str(caught.value)
 
     message = refused("first.h5")

@@ -8,7 +8,7 @@ import pathlib
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, jammed_packing, star_cluster
+from conftest import COMM, all_pairs, assert_all, assert_close, jammed_packing, star_cluster
 
 from solver.errors import InputError
 from solver.io import hdf5
@@ -27,17 +27,6 @@ def spheres():
     return jammed_packing(128, PHI, 3, dim=3)
 
 
-def all_pairs(p):
-    """Overlap (N, N) and separation r_i - r_j (N, N, 3) over every pair, minimum image, by brute
-    force: not the package's neighbour search, Verlet list or contact code."""
-    delta = p.positions[:, None, :] - p.positions[None, :, :]
-    delta -= p.box_length * np.round(delta / p.box_length)
-    distance = np.sqrt(np.sum(delta**2, axis=2))
-    np.fill_diagonal(distance, np.inf)
-    overlap = np.maximum(0.5 * (p.diameters[:, None] + p.diameters[None, :]) - distance, 0.0)
-    return overlap, delta, distance
-
-
 def test_generated_spheres_fill_the_asked_volume_fraction(spheres):
     """The cube against the mixture's volume (64 spheres of d = 1/1.2 and 64 of 1.4/1.2), not
     p.phi (computed from the box that was computed from phi): a 2D box formula fails here."""
@@ -48,16 +37,6 @@ def test_generated_spheres_fill_the_asked_volume_fraction(spheres):
     assert_close(p.phi, PHI, rtol=1e-15, what="phi read back")
     assert np.all((p.positions >= 0) & (p.positions < p.box_length))
     assert_close(np.unique(p.diameters), [1 / 1.2, 1.4 / 1.2], rtol=np.finfo(float).eps, what="diameters")
-
-
-def test_spheres_in_force_balance_independently(spheres):
-    """The net harmonic force on every sphere, summed over all N^2 pairs in 3D, is below FIRE's
-    force_tol = 1e-6 (contact forces are ~0.017): a force loop over x and y only, or a z column
-    left out of the neighbour list, leaves net forces of order 1e-2."""
-    overlap, delta, distance = all_pairs(spheres)
-    net = np.sum((overlap / distance)[..., None] * delta, axis=1)
-    worst = np.sqrt(np.sum(net**2, axis=1)).max()
-    assert worst < 1e-6, worst
 
 
 def test_spheres_contacts_pressure_and_rattlers(spheres):

@@ -7,7 +7,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
-from conftest import REPO, run_cli
+from conftest import REPO, run_cli, scene_text
 
 pytestmark = pytest.mark.serial_only  # these tests launch their own (mpirun) processes
 
@@ -228,7 +228,7 @@ def test_plot_overlays_several_results(tmp_path):
     outs = []
     for phi in (0.86, 0.92):
         out = tmp_path / f"phi{phi}.h5"
-        text = f"output: {out}\npacking: {{n: 64, phi: {phi}}}\nmodel: {{rho: 1}}\nspectrum: {{}}\n"
+        text = scene_text(out, packing={"n": 64, "phi": phi}, model={"rho": 1}, spectrum={})
         assert run_cli(["run", write(tmp_path, text, f"s{phi}.yaml")]).returncode == 0
         outs.append(str(out))
     proc = run_cli(["plot", *outs])

@@ -12,29 +12,27 @@ import threading
 import h5py
 import numpy as np
 import pytest
-import yaml
-from conftest import COMM, assert_all, assert_close, run_cli
+from conftest import COMM, assert_all, assert_close, run_cli, scene_of, scene_text
 
 from solver import parallel, pipeline
 from solver.errors import InputError
 from solver.io import hdf5
-from solver.io import schema
 
 # Scene A: slicing spectrum with per-mode energies (several windows, checkpointed) and TS waves
 # (block Verlet); scene B: KPM with K and Q and spectral (Lanczos) waves.  Small: seconds each.
 SCENES = (
-    "output: {out}\ncache: off\nseed: 4\npacking: {{n: 64, phi: 0.9}}\nmodel: {{rho: [1.0]}}\n"
-    "spectrum: {{energies: true, max_window_modes: 100}}\nwaves: {{n: [1, 2], t_end: 20, dt: 0.05}}\n",
-    "output: {out}\ncache: off\nseed: 9\npacking: {{n: 96, phi: 0.88}}\nmodel: {{rho: [0.5]}}\n"
-    "spectrum: {{method: kpm, energies: true, probes: 8}}\n"
-    "waves: {{n: [1, 2], method: spectral, t_end: 20, tol: 1e-10}}\n",
+    dict(cache="off", seed=4, packing={"n": 64, "phi": 0.9}, model={"rho": [1.0]},
+         spectrum={"energies": True, "max_window_modes": 100}, waves={"n": [1, 2], "t_end": 20, "dt": 0.05}),
+    dict(cache="off", seed=9, packing={"n": 96, "phi": 0.88}, model={"rho": [0.5]},
+         spectrum={"method": "kpm", "energies": True, "probes": 8},
+         waves={"n": [1, 2], "method": "spectral", "t_end": 20, "tol": 1e-10}),
 )
 WAVES_TOL = 1e-10  # scene B's waves.tol
 SKIPPED_ATTRS = {"seconds", "assembly_seconds", "max_relative_residual", "solver_settings"}  # compare()
 
 
 def scene(index, path):
-    return schema.build(schema.Scene, yaml.safe_load(SCENES[index].format(out=path)))
+    return scene_of(path, **SCENES[index])
 
 
 def compare(got, ref, what):
@@ -135,8 +133,7 @@ def test_two_scenes_on_split_communicators_equal_their_plain_runs(shared_tmp):
 
 def matrices_only(path):
     """The cheapest scene that writes a results file: two packings and their matrix summaries."""
-    text = f"output: {path}\ncache: off\nseed: 1\npacking: {{n: 32, phi: 0.9, count: 2}}\nmodel: {{rho: 1}}\n"
-    return schema.build(schema.Scene, yaml.safe_load(text))
+    return scene_of(path, cache="off", seed=1, packing={"n": 32, "phi": 0.9, "count": 2}, model={"rho": 1})
 
 
 @pytest.mark.mpi
@@ -217,7 +214,7 @@ def test_unwritable_output_stops_every_rank_with_one_message(tmp_path):
     (tmp_path / "r.h5.partial").mkdir()
     for out, message in cases:
         scene = tmp_path / "scene.yaml"
-        scene.write_text(f"output: {out}\ncache: off\npacking: {{n: 32, phi: 0.9}}\n")
+        scene.write_text(scene_text(out, cache="off", packing={"n": 32, "phi": 0.9}))
         proc = run_cli(["run", str(scene)], ranks=2, timeout=120)
         assert proc.returncode == 2, (proc.returncode, proc.stderr)
         assert proc.stderr.count("rotsound: error:") == 1 and message in proc.stderr, proc.stderr

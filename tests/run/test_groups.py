@@ -7,21 +7,16 @@ another group size (units are keyed by content, not by grouping)."""
 import re
 
 import pytest
-import yaml
-from conftest import COMM, assert_all, run_cli
+from conftest import COMM, assert_all, run_cli, scene_of
 from test_cli import RANK_SCENE, assert_within_rank_tolerance, contents, fit_sensitivity, write
 
 from solver import parallel, pipeline
 from solver.errors import InputError, Interrupted
-from solver.io import schema
 
 # 2 rho x 2 packings = 4 tasks; slicing with K/Q, spectral waves and the analysis: ~1 s.
-SMALL = ("output: {out}\ncache: off\nseed: 6\npacking: {{n: 64, phi: 0.9, count: 2}}\nmodel: {{rho: [0.5, 1.0]}}\n"
-         "spectrum: {{energies: true}}\nwaves: {{n: [1, 2], method: spectral, t_end: 20}}\n")
-
-
 def small(path):
-    return schema.build(schema.Scene, yaml.safe_load(SMALL.format(out=path)))
+    return scene_of(path, cache="off", seed=6, packing={"n": 64, "phi": 0.9, "count": 2}, model={"rho": [0.5, 1.0]},
+                    spectrum={"energies": True}, waves={"n": [1, 2], "method": "spectral", "t_end": 20})
 
 
 def test_groups_split_consecutive_ranks_and_deal_tasks_round_robin():

@@ -10,7 +10,7 @@ import time
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, REPO, mpirun, run_cli, run_stopped_after_windows
+from conftest import COMM, REPO, mpirun, run_cli, run_stopped_after_windows, scene_of, scene_text
 
 pytestmark = pytest.mark.serial_only  # these tests launch and kill their own mpirun jobs
 
@@ -24,6 +24,10 @@ spectrum: {{energies: true}}
 waves: {{n: [1, 2], t_end: 150, dt: 0.02}}
 """
 TIMING = {"seconds", "assembly_seconds"}
+
+WINDOWED = dict(cache="off", seed=5, packing={"n": 64, "phi": 0.9, "count": 1}, model={"rho": [1.0]},
+                spectrum={"energies": True, "max_window_modes": 40})
+"""A spectrum of several windows (scene_of's sections), for the window-checkpoint tests."""
 
 
 def scene(tmp_path, name):
@@ -148,14 +152,10 @@ def test_different_scene_same_output_is_refused(tmp_path, reference):
 def test_sigterm_mid_spectrum_keeps_finished_windows(tmp_path, monkeypatch, capsys):
     """SIGTERM during a many-window spectrum stops after the window in flight; the rerun takes
     the plan and the finished windows from the units folder and equals an uninterrupted run."""
-    import yaml
 
     from solver import pipeline
-    from solver.io import schema
 
-    text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9, count: 1}}\n"
-            "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 40}}\n")
-    make = lambda name: schema.build(schema.Scene, yaml.safe_load(text.format(out=tmp_path / name)))  # noqa: E731
+    make = lambda name: scene_of(tmp_path / name, **WINDOWED)  # noqa: E731
     reference = pipeline.run(make("ref.h5"), COMM, [])["units"]["spectra/r00_p0000"][0]
     calls = run_stopped_after_windows(monkeypatch, make("cut.h5"))
     assert len(calls) == 2
@@ -200,15 +200,10 @@ def test_spectrum_stopped_after_one_window_resumes_on_another_rank_count(tmp_pat
     from conftest import assert_close
 
     from solver import pipeline
-    from solver.io import schema
-    import yaml
 
-    text = ("output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9, count: 1}}\n"
-            "model: {{rho: [1.0]}}\nspectrum: {{energies: true, max_window_modes: 40}}\n")
-    reference = pipeline.run(schema.build(schema.Scene, yaml.safe_load(text.format(out=tmp_path / "ref.h5"))),
-                             COMM, [])["units"]["spectra/r00_p0000"]
+    reference = pipeline.run(scene_of(tmp_path / "ref.h5", **WINDOWED), COMM, [])["units"]["spectra/r00_p0000"]
     path, out, driver = tmp_path / "cut.yaml", tmp_path / "cut.h5", tmp_path / "stop_after_one_window.py"
-    path.write_text(text.format(out=out))
+    path.write_text(scene_text(out, **WINDOWED))
     driver.write_text(STOP_AFTER_ONE_WINDOW)
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX_", "OMPI_MCA_ess"))}
     env["PYTHONPATH"] = str(REPO)

@@ -7,12 +7,10 @@ scene's pooled vDOS through the pipeline.  Runs on 1 and 2 ranks (edges spread o
 
 import numpy as np
 import pytest
-import yaml
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, scene_of
 
 from solver.contact_law import ContactModel
 from solver import pipeline
-from solver.io import schema
 from solver.model import dynmat, operators
 from solver.spectrum import counting, slicing
 
@@ -63,10 +61,9 @@ def test_reused_factorisation_counts_like_fresh_ones(comm, small_packing):
 
 
 def test_counting_scene_vdos_equals_the_slicing_histogram(shared_tmp):
-    scene = ("output: {out}\ncache: off\nseed: 4\npacking: {{n: 64, phi: 0.9, count: 2}}\n"
-             "model: {{rho: [0.0, 1.0]}}\nspectrum: {{method: {method}}}\n")
-    units = {m: pipeline.run(schema.build(schema.Scene, yaml.safe_load(
-        scene.format(out=shared_tmp / f"{m}.h5", method=m))), COMM, [])["units"] for m in ("counting", "slicing")}
+    units = {m: pipeline.run(scene_of(shared_tmp / f"{m}.h5", cache="off", seed=4,
+                                      packing={"n": 64, "phi": 0.9, "count": 2}, model={"rho": [0.0, 1.0]},
+                                      spectrum={"method": m}), COMM, [])["units"] for m in ("counting", "slicing")}
     for r in ("r00", "r01"):
         (c, ca), (s, sa) = units["counting"][f"vdos/{r}"], units["slicing"][f"vdos/{r}"]
         m = min(c["density"].size, s["density"].size)

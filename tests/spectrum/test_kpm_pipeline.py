@@ -4,32 +4,29 @@ and the per-bin K and Q (rho = 0: filled, K = 1/4N', Q = 0)."""
 
 import numpy as np
 import pytest
-import yaml
-from conftest import COMM, assert_all, assert_close
+from conftest import COMM, assert_all, assert_close, scene_of
 
 from solver import pipeline
-from solver.io import schema
 from solver.spectrum.modes import bin_average
 
-SCENE = ("output: {out}\ncache: off\nseed: 3\npacking: {{n: 64, phi: 0.9, count: 1}}\n"
-         "model: {{rho: [0.0, 1.0]}}\nspectrum: {spectrum}\n")
 BIN = 0.5          # wide bins: ~20 modes each, so the exact histogram is a fair reference
 MOMENTS = 300
 PROBES = (4, 64)
 
 
 def run(folder, name, spectrum):
-    text = SCENE.format(out=folder / f"{name}.h5", spectrum=spectrum)
-    return pipeline.run(schema.build(schema.Scene, yaml.safe_load(text)), COMM, [])["units"]
+    scene = scene_of(folder / f"{name}.h5", cache="off", seed=3, packing={"n": 64, "phi": 0.9, "count": 1},
+                     model={"rho": [0.0, 1.0]}, spectrum=spectrum)
+    return pipeline.run(scene, COMM, [])["units"]
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     folder = tmp_path_factory.mktemp("kpm_pipeline")
     folder = type(folder)(COMM.bcast(str(folder), root=0))  # rank 0's folder on every rank
-    exact = run(folder, "slicing", "{energies: true}")
-    kpm = {p: run(folder, f"kpm{p}", f"{{method: kpm, energies: true, probes: {p}, bin_width: {BIN}, "
-                                     f"moments: {MOMENTS}}}") for p in PROBES}
+    exact = run(folder, "slicing", {"energies": True})
+    kpm = {p: run(folder, f"kpm{p}", {"method": "kpm", "energies": True, "probes": p, "bin_width": BIN,
+                                      "moments": MOMENTS}) for p in PROBES}
     return exact, kpm
 
 

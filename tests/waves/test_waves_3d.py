@@ -149,7 +149,7 @@ def test_petsc_rk4_matches_exact_reference_at_fourth_order(spheres, matrix, mode
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_spectral_path_matches_exact_reference(spheres, matrix, mode):
+def test_spectral_path_matches_exact_reference_for_every_3d_run(spheres, matrix, mode):
     """Every run by Lanczos to tol 1e-10: within 1e-8 of the exact z (measured <= 1e-13), 1e-8
     as in test_waves (a few times the tolerance of the Lanczos error estimate)."""
     name, dm, eig = matrix
@@ -216,7 +216,7 @@ def test_analysis_fits_every_mode_including_r(spheres, matrix):
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("mode", MODES)
-def test_two_ranks_equal_one(spheres, mode):
+def test_two_ranks_equal_one_for_every_3d_run_on_both_paths(spheres, mode):
     """Every run of the mode on 2 ranks against 1 rank (COMM_SELF): Verlet to 1e-12 of max |z|
     (round-off of the MatMult sums), Lanczos within 2 tol of max |z| (each within tol of exact)."""
     from petsc4py import PETSc
