@@ -1,6 +1,6 @@
 """Make tests/data/results_v1.h5: a tiny results file of format_version 1, written by rotsound itself.
 
-It is kept as written, so that tests/test_results_format.py checks that every later rotsound still
+It is kept as written, so that tests/io/test_results_format.py checks that every later rotsound still
 reads a version-1 file (the README promises that results files written before stay readable).
 Rerun only when the format_version changes, to add a file for the new version beside this one:
 

@@ -2,7 +2,8 @@
 the scene's values and the ``-waves_ts_*`` options; it is checked before any integration, used
 for the runs and recorded.  Also: a blow-up in flight ends cleanly, a run writes nothing into
 the options database, the theta, beuler and ssp integrators converge at their order, and what
-each solver object used is recorded per unit."""
+each solver object used is recorded per unit; ``schedule.plan`` is the one place the waves'
+method is decided."""
 
 import contextlib
 import json
@@ -18,7 +19,8 @@ from solver.errors import InputError
 from solver.model import dynmat, operators
 from solver.waves import excitation
 from solver.waves import integrators
-from solver.waves.schedule import check_schedule, stability_limit
+from solver.io.schema import WavesSpec
+from solver.waves.schedule import check_schedule, plan, stability_limit
 
 
 @contextlib.contextmanager
@@ -216,3 +218,19 @@ def test_bare_solver_options_are_refused_with_the_prefixed_name():
         with pytest.raises(InputError, match=f"did you mean {hint}"):
             options.refuse_bare_solver_options(["log_view", name])
     options.refuse_bare_solver_options(["log_view", "spectrum_eps_tol", "waves_ts_dt"])
+
+
+def test_plan_decides_the_method_once():
+    """plan: spectral gives the sample grid alone (no step, no limit); ts gives the TS schedule with
+    the Verlet limit 2 / omega_max, and refuses a step above it; both carry omega_max."""
+    spectral = plan(WavesSpec(method="spectral", dt=0.05, t_end=1.0, sample_every=2), 3.0, 1.0)
+    assert_all(spectral.method == "spectral" and spectral.limit is None and spectral.omega_max == 3.0
+               and spectral.steps == 0, f"{spectral}")
+    assert_close(spectral.sample_times(), 0.1 * np.arange(11), rtol=0.0, atol=1e-15, what="spectral grid")
+    ts = plan(WavesSpec(dt=0.05, t_end=1.0, sample_every=2), 3.0, 1.0)
+    assert_all(ts.method == "ts" and ts.integrator == "verlet" and ts.steps == 20 and ts.omega_max == 3.0,
+               f"{ts}")
+    assert_close(ts.limit, 2.0 / 3.0, rtol=1e-15, what="Verlet limit")
+    with pytest.raises(InputError, match="above the stability limit 0.6667 t0 of verlet"):
+        plan(WavesSpec(dt=0.7, t_end=10.0, sample_every=1), 3.0, 1.0)
+
