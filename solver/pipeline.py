@@ -168,7 +168,7 @@ def _solve_task(scene: Scene, p, task: list[Unit], keys, store: UnitStore, units
             found[1]["packing"] = unit.p_index
             units[unit.name] = found
     if todo:
-        spectrum = Unit("spectrum", task[0].r_index, task[0].p_index, task[0].rho).name
+        spectrum = next((unit.name for unit in task if unit.kind == "spectrum"), None)
         _compute(scene, p, task[0], todo, commit, comm, WindowCheckpoint(store, task[0].tag, keys.get(spectrum)))
 
 

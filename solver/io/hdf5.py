@@ -95,7 +95,8 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
     packing = from_arrays(positions, diameters, box, rattler, info, masses, law)
     if packing.rattler.all():
         name = mechanics.NAMES[packing.dim]
-        raise InputError(f"packing file {where}: no {name[:-1]} has {mechanics.min_contacts(packing.dim)} or more contacts "
+        needed = mechanics.min_contacts(packing.dim)
+        raise InputError(f"packing file {where}: no {name[:-1]} has {needed} or more contacts "
                          f"(not a jammed packing: all {name} are rattlers)")
     if check_equilibrium:
         mechanics.require_equilibrium(packing, where, law)

@@ -78,6 +78,7 @@ def content_key(*parts) -> str:
             h.update(json.dumps(part, sort_keys=True, default=str).encode())
     return h.hexdigest()[:24]
 
+
 @dataclasses.dataclass(frozen=True)
 class UnitKey:
     """What determines one unit: ``parts`` (JSON-able: unit, packing, rho, section, settings,
@@ -168,8 +169,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
 
     A packing is keyed by its arrays (so a file and a generated packing with equal contents
     share units, and 2D and 3D never do: the arrays' shapes are hashed); the rolling and twisting
-    ratios join every key when they are not 0 (so units made before they existed keep their keys); spectra and waves also by their section's settings and the PETSc options that
-    act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
+    ratios join every key when they are not 0 (so units made before they existed keep their keys);
+    spectra and waves also by their section's settings and the PETSc options that act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
     KPM's probes by their seed.  The rotsound version is part of every key, so a new version
     never reuses an older one's numbers.
     """
@@ -196,8 +197,8 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
         return UnitKey.of(unit="matrix", rho=unit.rho, options={}, **base)
     if unit.kind == "spectrum":
         method = scene.spectrum.method
-        return UnitKey.of(unit="spectrum", rho=unit.rho, section="spectrum", settings=dataclasses.asdict(scene.spectrum),
-                          seed=scene.seed + unit.p_index if method == "kpm" else None,
+        return UnitKey.of(unit="spectrum", rho=unit.rho, section="spectrum",
+                          settings=dataclasses.asdict(scene.spectrum), seed=scene.seed + unit.p_index if method == "kpm" else None,
                           options=options.acting_on(petsc_argv, "spectra", method), **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not
                 if k != "modes" and not (k == "axes" and v is None)}   # depend on the others; keys of before axes

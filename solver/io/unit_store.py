@@ -40,6 +40,7 @@ from .unit_keys import UnitKey
 _META = ("complete", "unit_key", "unit_key_parts")
 """Attributes of a unit file that describe the file, not the unit (not in the results file)."""
 
+
 def cache_folder(scene) -> str | None:
     """The cache folder ``scene`` uses (scene key ``cache``), or None for ``off``."""
     if scene.cache == "off":
@@ -47,6 +48,7 @@ def cache_folder(scene) -> str | None:
     if scene.cache == "auto":
         return os.path.join(os.path.dirname(scene.output) or ".", "cache")
     return scene.cache
+
 
 def _on_root(comm, work):
     """``work()`` on rank 0; its result on every rank, its error (any type) raised on every rank."""

@@ -5,12 +5,13 @@ with rolling and twisting springs, PHYSICS.md section 8) summed over contacts (b
 
 DOF order per non-rattler particle, in packing order: the D translations, then the rotations
 (D = 2: (u_x, u_y, theta); D = 3: (u_x, u_y, u_z, theta_x, theta_y, theta_z)).
-Decision: rotations are in the matrix whenever any rotational spring of the contact model is
-on (rho, rho_roll or rho_twist > 0: ``ContactModel.rotations``).  With none (frictionless, rho = 0) they carry no stiffness, so they are dropped
-and the matrix is the D N' x D N' translational block -- the free rotations never appear as
-spurious zero modes.  Rattlers are excluded.  Each rank owns a contiguous range of particles
-(``dof`` rows each), computes the contact blocks touching its rows (vectorised) and inserts
-only its own rows, with exact preallocation from the local CSR pattern.
+Decision: rotations are in the matrix whenever any rotational spring of the contact model is on
+(rho, rho_roll or rho_twist > 0: ``ContactModel.rotations``). With none (frictionless, rho = 0)
+they carry no stiffness, so they are dropped and the matrix is the D N' x D N' translational
+block -- the free rotations never appear as spurious zero modes. Rattlers are excluded. Each
+rank owns a contiguous range of particles (``dof`` rows each), computes the contact blocks
+touching its rows (vectorised) and inserts only its own rows, with exact preallocation from the
+local CSR pattern.
 Units: m = d0 = kn = 1; M = diag(m, ..., I_i, ...) with I_i = m d_i^2 / 8 (disk) or
 m d_i^2 / 10 (sphere).
 """

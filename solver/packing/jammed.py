@@ -6,9 +6,10 @@ the frictionless harmonic energy E_n = sum kn xi^2 / 2 until max_i |F_i| / m < f
 (default 1e-6 kn d0 / m).  The dimension D = 2 or 3 is the number of columns of ``positions``.
 
 Rattlers are flagged by ``mechanics.find_rattlers`` (fewer than D + 1 contacts, applied until
-none is new) and stay in the packing.  After minimisation particles are renumbered in a spatial order (2D: horizontal strips by y, x inside a strip; 3D: slabs by z,
-strips by y inside a slab, x inside a strip) so that contiguous rank blocks are compact in
-space; the renumbering depends only on the packing, never on the number of ranks.
+none is new) and stay in the packing. After minimisation particles are renumbered in a spatial
+order (2D: horizontal strips by y, x inside a strip; 3D: slabs by z, strips by y inside a slab,
+x inside a strip) so that contiguous rank blocks are compact in space; the renumbering depends
+only on the packing, never on the number of ranks.
 Not collective.
 """
 
@@ -109,7 +110,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
              max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
              law: str = "harmonic") -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
-    fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``: rotsound's FIRE (not collective) or LAMMPS's
+    fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``:
+    rotsound's FIRE (not collective) or LAMMPS's
     (``lammps_engine.minimize``: the same start and criterion, an equally valid but different
     minimum; collective on ``comm``, an mpi4py communicator).
 

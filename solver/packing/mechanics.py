@@ -157,6 +157,8 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
         "n_contacts": int(keep.sum()),
         "mean_overlap": float(found.overlap.mean()) if len(found) else 0.0,
     }
+
+
 EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force accepted on a loaded packing (FIRE reaches 1e-6)
 
 

@@ -68,7 +68,7 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
         summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), max energy "
                    f"drift {drift.max():.1e}")
     attrs = {"rho": dm.model.rho, "mode": mode, "dt": schedule.dt, "integrator": schedule.integrator,
-             "omega_max": schedule.omega_max, "dt_limit": schedule.limit if schedule.limit is not None else np.inf, "amplitude": spec.amplitude,
-             "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
+             "omega_max": schedule.omega_max, "dt_limit": np.inf if schedule.limit is None else schedule.limit,
+             "amplitude": spec.amplitude, "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
              "run_labels": json.dumps([excitation.run_label(c, a, dm.dim) for c, a in excited])}
     return datasets, attrs, summary

@@ -146,7 +146,8 @@ def key(n):
 
 @pytest.fixture
 def store(shared_tmp):
-    made = unit_store.UnitStore(str(shared_tmp / "out.h5"), "scene: test\n", "d1", COMM, cache=str(shared_tmp / "cache"))
+    made = unit_store.UnitStore(str(shared_tmp / "out.h5"), "scene: test\n", "d1", COMM,
+                                cache=str(shared_tmp / "cache"))
     made.save("spectra/r00_p0000", {"omega": np.arange(3.0)}, {"rho": 1.0}, key(1))
     return made
 

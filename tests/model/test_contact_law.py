@@ -107,7 +107,8 @@ def test_unstressed_tangential_springs_and_rolling_without_slip():
     count = overlap.size
     zero, zero2 = np.zeros(count), np.zeros((count, 2))
     # at the reference only the normal force acts: the packing stays in equilibrium for any rho
-    force, tau_i, tau_j = contact_law.pair_forces(**geometry, model=ContactModel(1.0), du=zero2, theta_i=zero, theta_j=zero)
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, model=ContactModel(1.0), du=zero2, theta_i=zero,
+                                                  theta_j=zero)
     assert_close(force, contact_law.normal_force(overlap)[:, None] * geometry["normal"], rtol=1e-13,
                  what="reference force")  # rtol: n recomputed from the separation, a few ulp
     assert np.all(tau_i == 0) and np.all(tau_j == 0), "torques at the reference"
@@ -232,7 +233,8 @@ def test_nd_forces_and_torques_are_minus_the_energy_gradient(dim, springs):
     count, size = geometry["contact"].size, 2 * (dim + (1 if dim == 2 else 3))
     w = 1e-3 * np.random.default_rng(3).normal(size=(count, size))
     du, theta_i, theta_j = split(w, dim)
-    force, tau_i, tau_j = contact_law.pair_forces(**geometry, model=ContactModel(**springs), du=du, theta_i=theta_i, theta_j=theta_j)
+    force, tau_i, tau_j = contact_law.pair_forces(**geometry, model=ContactModel(**springs), du=du, theta_i=theta_i,
+                                                  theta_j=theta_j)
     col = (lambda t: t[:, None]) if dim == 2 else (lambda t: t)  # noqa: E731
     generalised = np.concatenate((force, col(tau_i), -force, col(tau_j)), axis=1)
     errors = [np.abs(generalised + central_gradient(lambda x: energy_nd(geometry, springs, x), w, h)).max()
@@ -254,7 +256,8 @@ def test_3d_springs_act_on_the_motions_they_resist():
     phi = 1e-3
 
     def extra(springs, theta_i, theta_j):
-        return contact_law.pair_energy(**geometry, model=ContactModel(**springs), du=zero3, theta_i=theta_i, theta_j=theta_j) - base
+        return contact_law.pair_energy(**geometry, model=ContactModel(**springs), du=zero3, theta_i=theta_i,
+                                       theta_j=theta_j) - base
 
     spin = phi * axis
     zero = 1e-12 * base  # round-off of e - e_normal; a spring that acts adds ~(a' phi)^2 ~ 1e-8 >> this

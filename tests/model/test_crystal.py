@@ -2,12 +2,6 @@
 triangular lattice, slightly compressed (``tests/lattices.py``).  The project's full spectrum
 (packing -> model.dynmat -> spectrum.slicing) must equal the Bloch frequencies to 1e-10 of omega_max.
 
-The lattice: n_x columns and an even number n_y of rows in the square box L, row j shifted by
-half a spacing when j is odd; spacings a = L / n_x along a row and b = L / n_y between rows.
-It is the Bravais lattice of a_1 = (a, 0), a_2 = (a/2, b) (a triangular lattice strained along y
-when b != a sqrt(3)/2), one disk per cell, so every disk is a centre of inversion: the net force
-vanishes exactly and the crystal is in equilibrium for any overlap.  Each disk touches 6
-neighbours: 2 in its row at distance a, 4 in the next rows at s = sqrt(a^2/4 + b^2).
 """
 
 import numpy as np

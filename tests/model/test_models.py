@@ -36,4 +36,3 @@ def test_hertz_scene_with_density_masses_has_the_generalised_spectrum(shared_tmp
     assert_all(omega.size == expected.size, f"{omega.size} modes, expected {expected.size}")
     # both sides give lam to ~1e-13 lam_max, so omega to ~1e-13 lam_max / (2 lam): ~1e-10 at the lowest modes
     assert_close(omega, expected, rtol=1e-9, what="Hertz + density-mass spectrum")
-

@@ -72,11 +72,12 @@ def test_lammps_standing_wave_is_rotsounds_within_verlet_error(lammps_present, c
     runs = excitation.runs(mode, dim)
     t = np.arange(0.0, T_END + 1e-9, EVERY * DT)
     steps = int(round(T_END / DT))
-    lmp = crosscheck_lammps.pooled_c([crosscheck_lammps.lammps_z(p, dm, law, run, k, AMPLITUDE, DT, steps, EVERY, mpi, hold=True)
-                               for run in runs], EVERY * DT)
+    lmp = crosscheck_lammps.pooled_c([crosscheck_lammps.lammps_z(p, dm, law, run, k, AMPLITUDE, DT, steps, EVERY, mpi,
+                                                                 hold=True) for run in runs], EVERY * DT)
     exact = crosscheck_lammps.pooled_c([exact_z_fixed(p, dm, eig, run, k, t, AMPLITUDE) for run in runs], EVERY * DT)
-    verlet = crosscheck_lammps.pooled_c([exact_z_fixed(p, dm, crosscheck_lammps.verlet_eigen(eig, DT), run, k, t, AMPLITUDE)
-                                  for run in runs], EVERY * DT)
+    shifted = crosscheck_lammps.verlet_eigen(eig, DT)
+    verlet = crosscheck_lammps.pooled_c([exact_z_fixed(p, dm, shifted, run, k, t, AMPLITUDE) for run in runs],
+                                        EVERY * DT)
     bound = verlet_bound(p, dm, eig, runs, k, t, DT)
     assert_all(np.abs(verlet - exact).max() > 1e-4, "the test's dt should make Verlet's error visible")
     # atol 1e-6: not time-step error (cubic terms, round-off; measured <= 3e-8), see the docstring

@@ -14,6 +14,8 @@ from solver import parallel, pipeline
 from solver.errors import InputError, Interrupted
 
 # 2 rho x 2 packings = 4 tasks; slicing with K/Q, spectral waves and the analysis: ~1 s.
+
+
 def small(path):
     return scene_of(path, cache="off", seed=6, packing={"n": 64, "phi": 0.9, "count": 2}, model={"rho": [0.5, 1.0]},
                     spectrum={"energies": True}, waves={"n": [1, 2], "method": "spectral", "t_end": 20})

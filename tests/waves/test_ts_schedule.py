@@ -233,4 +233,3 @@ def test_plan_decides_the_method_once():
     assert_close(ts.limit, 2.0 / 3.0, rtol=1e-15, what="Verlet limit")
     with pytest.raises(InputError, match="above the stability limit 0.6667 t0 of verlet"):
         plan(WavesSpec(dt=0.7, t_end=10.0, sample_every=1), 3.0, 1.0)
-

@@ -122,8 +122,9 @@ def test_block_verlet_matches_exact_reference_at_second_order(spheres, matrix, m
     count = len(excitation.runs(mode, 3))
     errors = []
     for dt in (0.02, 0.01):
+        every = schedule("verlet", dt, 5.0, int(round(0.5 / dt)))
         block = integrators.integrate_block(dm, spheres.positions, [(mode, r, k) for r in range(count)],
-                                            amplitude=AMPLITUDE, schedule=schedule("verlet", dt, 5.0, int(round(0.5 / dt))))
+                                            amplitude=AMPLITUDE, schedule=every)
         errors.append(relative_errors(spheres, dm, eig, mode, k, block))
     omega_max = operators.largest_omega(dm)
     bound = (omega_max * 0.01) ** 2 / 24 * omega_max * 5.0  # measured: at most 0.35 of it (all, R)
@@ -183,7 +184,8 @@ def test_unit_stores_every_run_in_order(spheres, mode):
     labels = json.loads(attrs["run_labels"])
     assert_all(labels[0] == ("v_y, k || x" if mode == "TR" else "w_x, k || x") and len(labels) == count, str(labels))
     for r, i in [(0, 0)] + [(r, 1) for r in range(count)]:
-        alone = integrators.integrate(dm, spheres.positions, mode, r, ks[i, 0], amplitude=spec.amplitude, schedule=every)
+        alone = integrators.integrate(dm, spheres.positions, mode, r, ks[i, 0], amplitude=spec.amplitude,
+                                      schedule=every)
         # the same arithmetic in a block of R K columns or of one: MatMatMult vs MatMult round-off
         assert_close(data["z"][r, i], alone.z, rtol=0.0, atol=1e-12 * np.abs(alone.z).max(),
                      what=f"{mode} run {r} k {i}")
