@@ -26,6 +26,10 @@ and kr = 0 this is
 
 The blocks are the exact Hessian of e_ij at the reference (tests/model/test_contact_law.py checks them,
 and the forces, against central differences of ``pair_energy`` in 2D and 3D with every spring on).
+A packing made with friction stands on stored tangential forces f_t (per contact, the force on i
+from j): :func:`stressed_blocks` adds what they contribute in LAMMPS's history convention, a
+non-symmetric term (docs/stressed_contacts.md; tests/model/test_stressed.py checks it against
+finite differences of LAMMPS's update).
 Every function is vectorised over the C contacts.  The springs of a model travel together as
 one :class:`ContactModel`.  Not collective.
 """
@@ -47,8 +51,8 @@ class ContactModel:
     rho = kt / kn (tangential), rho_roll = kr / kn (rolling), rho_twist = ko / kn (twisting, 3D
     only): stiffness ratios >= 0;  law : the normal law, ``harmonic`` (kn xi) or ``hertz``
     (kn sqrt(a' xi) xi, every spring scaled by :func:`spring_scale`).  The scene gives one per
-    rho (``ModelSpec.contact``); the dashpots and stored tangential state of later physics join
-    here.
+    rho (``ModelSpec.contact``); the dashpots of later physics join here.  A stressed packing's
+    stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
 
     rho: float
@@ -262,3 +266,44 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
             full += KN * ratio * scale[:, None, None] * np.einsum("cki,ckj->cij", b, b)
     k = m if with_rotation else dim
     return full[:, :k, :k], full[:, :k, m:m + k], full[:, m:m + k, m:m + k]
+
+
+def _cross_matrix(vector: np.ndarray) -> np.ndarray:
+    """[a]_x (C, r, D) with [a]_x b = a x b: 2D (r = 1) the row (-a_y, a_x) (the z component),
+    3D the skew matrix."""
+    if vector.shape[1] == 2:
+        return np.stack((-vector[:, 1], vector[:, 0]), axis=1)[:, None, :]
+    return -_rotation_map(vector)
+
+
+def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
+                    radius_i: np.ndarray, radius_j: np.ndarray, tangential: np.ndarray, law: str,
+                    with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What stored tangential forces add to the contact blocks (docs/stressed_contacts.md
+    section 2): (S_ii, S_ij, S_ji, S_jj), each (C, k, k) like :func:`pair_blocks`'s, with
+    S_ji != S_ij^T in general (no energy: LAMMPS's history update).
+
+    tangential : (C, D) the stored tangential force f_t on i from j (units kn d0; perpendicular
+    to ``normal``).  With G = n f_t^T / r + c f_t n^T and T = [f_t]_x P / r + c (n x f_t) n^T
+    (c = 0 harmonic, 1/(2 xi) hertz: LAMMPS's tangential stiffness follows the current overlap),
+    the rows of u_i gain (G, -G) on the columns of (u_i, u_j), the rows of u_j (-G, G), those of
+    theta_i R_i (-T, T), those of theta_j R_j (-T, T); no column of a rotation gains anything.
+    Zero forces add exact zeros.
+    """
+    count, dim = normal.shape
+    rot = _rotation_map(normal).shape[2]
+    c = np.zeros(count) if law == "harmonic" else 0.5 / overlap
+    proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
+    g = (normal[:, :, None] * tangential[:, None, :] / distance[:, None, None]
+         + c[:, None, None] * tangential[:, :, None] * normal[:, None, :])
+    turn = _cross(normal, tangential)
+    t = (np.einsum("crd,cde->cre", _cross_matrix(tangential), proj) / distance[:, None, None]
+         + c[:, None, None] * (turn[:, None] if turn.ndim == 1 else turn)[:, :, None] * normal[:, None, :])
+    m = dim + rot if with_rotation else dim
+    blocks = [np.zeros((count, m, m)) for _ in range(4)]  # ii, ij, ji, jj
+    for block, sign in zip(blocks, (1.0, -1.0, -1.0, 1.0)):
+        block[:, :dim, :dim] = sign * g
+    if with_rotation:
+        for block, radius, sign in zip(blocks, (radius_i, radius_i, radius_j, radius_j), (-1.0, 1.0, -1.0, 1.0)):
+            block[:, dim:, :dim] = sign * radius[:, None, None] * t
+    return tuple(blocks)

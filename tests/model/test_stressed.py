@@ -1,0 +1,167 @@
+"""Stored tangential forces (docs/stressed_contacts.md): contact_law.stressed_blocks against
+central differences of LAMMPS's own history update, written out here independently of the
+derivation, in 2D and 3D under both laws; a dimer whose entries are known by hand."""
+
+import numpy as np
+import pytest
+from conftest import assert_close
+
+from solver import contact_law
+from solver.contact_law import ContactModel
+
+pytestmark = pytest.mark.serial_only  # pure numpy
+
+STEPS = np.array([2e-3, 1e-3, 5e-4, 2.5e-4])
+
+
+def _cross(a, b):
+    """a x b: the z component (C,) in 2D, (C, 3) in 3D."""
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] if a.shape[1] == 2 else np.cross(a, b)
+
+
+def _spin_cross_normal(spin, normal):
+    """spin x n (C, D): spin (C,) about z in 2D, (C, 3) in 3D."""
+    if normal.shape[1] == 2:
+        return spin[:, None] * np.stack((-normal[:, 1], normal[:, 0]), axis=1)
+    return np.cross(spin, normal)
+
+
+def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x):
+    """Generalised forces (C, 2m) = (F_i, tau_i, F_j, tau_j) after one step of LAMMPS's
+    gran/hooke/history (or gran/hertz/history) that moves the contact by x (C, 2m) =
+    (u_i, theta_i, u_j, theta_j) from a reference at rest with separation (C, D) and stored
+    tangential force ``tangential`` (C, D) on i: PairGranHookeHistory::compute with v dt = x,
+    the history incremented by the relative tangential displacement of the contact point
+    (with the new normal), projected onto the new tangent plane, the force -k_t(xi) s."""
+    dim = separation.shape[1]
+    m = x.shape[1] // 2
+    u_i, th_i, u_j, th_j = x[:, :dim], x[:, dim:m], x[:, m:m + dim], x[:, m + dim:]
+    if dim == 2:
+        th_i, th_j = th_i[:, 0], th_j[:, 0]
+    reduced = radius_i * radius_j / (radius_i + radius_j)
+
+    def stiffness(overlap):  # (f_n, k_t) of the law at this overlap
+        scale = np.ones_like(overlap) if law == "harmonic" else np.sqrt(reduced * overlap)
+        return scale * overlap, rho * scale
+
+    overlap0 = radius_i + radius_j - np.linalg.norm(separation, axis=1)
+    s = -tangential / stiffness(overlap0)[1][:, None]  # the stored history
+    moved = separation + u_i - u_j
+    distance = np.linalg.norm(moved, axis=1)
+    normal = moved / distance[:, None]
+    f_n, k_t = stiffness(radius_i + radius_j - distance)
+    du = u_i - u_j
+    spin = radius_i * th_i + radius_j * th_j if dim == 2 else radius_i[:, None] * th_i + radius_j[:, None] * th_j
+    increment = du - np.einsum("cd,cd->c", du, normal)[:, None] * normal - _spin_cross_normal(spin, normal)
+    s = s + increment
+    s = s - np.einsum("cd,cd->c", s, normal)[:, None] * normal
+    f_t = -k_t[:, None] * s
+    force = f_n[:, None] * normal + f_t
+    turn = _cross(normal, f_t)
+    tau_i = -(radius_i * turn if dim == 2 else radius_i[:, None] * turn)
+    tau_j = -(radius_j * turn if dim == 2 else radius_j[:, None] * turn)
+    if dim == 2:
+        tau_i, tau_j = tau_i[:, None], tau_j[:, None]
+    return np.concatenate((force, tau_i, -force, tau_j), axis=1)
+
+
+def stressed_contacts(dim, count=20, seed=0, ratio=0.6):
+    """Random contacts (overlaps 0.01-0.05) with stored tangential forces of |f_t| = ratio f_n
+    (harmonic f_n) in random tangent directions."""
+    rng = np.random.default_rng(seed)
+    radii = rng.uniform(0.4, 0.6, size=(2, count))
+    normal = rng.normal(size=(count, dim))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    overlap = rng.uniform(0.01, 0.05, count)
+    direction = rng.normal(size=(count, dim))
+    direction -= np.einsum("cd,cd->c", direction, normal)[:, None] * normal
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    tangential = ratio * overlap[:, None] * direction
+    separation = normal * (radii[0] + radii[1] - overlap)[:, None]
+    return separation, normal, overlap, radii[0], radii[1], tangential
+
+
+def full_matrix(blocks):
+    """[[ii, ij], [ji, jj]] (C, 2m, 2m) from four (C, m, m) blocks."""
+    ii, ij, ji, jj = blocks
+    return np.concatenate((np.concatenate((ii, ij), 2), np.concatenate((ji, jj), 2)), 1)
+
+
+def linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model, stressed=True):
+    """The contact's K (C, 2m, 2m): pair_blocks plus (if ``stressed``) stressed_blocks."""
+    distance = np.linalg.norm(separation, axis=1)
+    ii, ij, jj = contact_law.pair_blocks(normal, distance, overlap, r_i, r_j, model)
+    k = full_matrix((ii, ij, np.transpose(ij, (0, 2, 1)), jj))
+    if stressed:
+        k = k + full_matrix(contact_law.stressed_blocks(normal, distance, overlap, r_i, r_j, tangential,
+                                                        model.law))
+    return k
+
+
+def jacobian(separation, tangential, r_i, r_j, law, rho, size, h):
+    """d(generalised force)/dx (C, size, size) of ``lammps_step`` by central differences."""
+    out = np.empty((separation.shape[0], size, size))
+    for b in range(size):
+        x = np.zeros((separation.shape[0], size))
+        x[:, b] = h
+        out[:, :, b] = (lammps_step(separation, tangential, r_i, r_j, law, rho, x)
+                        - lammps_step(separation, tangential, r_i, r_j, law, rho, -x)) / (2 * h)
+    return out
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("law", ["harmonic", "hertz"])
+def test_stressed_blocks_are_the_linearised_lammps_update(dim, law):
+    separation, normal, overlap, r_i, r_j, tangential = stressed_contacts(dim, seed=dim)
+    if law == "hertz":  # stored forces of the Hertz scale: |f_t| = 0.6 f_n
+        tangential = tangential * np.sqrt(r_i * r_j / (r_i + r_j) * overlap)[:, None]
+    rho = 0.7
+    model = ContactModel(rho, law=law)
+    exact = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model)
+    size = exact.shape[1]
+    # Hertz's sqrt(xi) at overlaps down to 0.01 has large third derivatives: smaller steps
+    steps = STEPS if law == "harmonic" else STEPS / 8
+    errors = [np.abs(jacobian(separation, tangential, r_i, r_j, law, rho, size, h) + exact).max()
+              / np.abs(exact).max() for h in steps]
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    # a missing or wrong term leaves an error of the stored forces' size (|f_t|/r ~ 0.01), flat in h
+    assert np.all(np.abs(orders - 2) < 0.15), f"errors {errors}, orders {orders}"
+    assert errors[-1] < 1e-6, f"error {errors[-1]} at h = {steps[-1]}"
+    unstressed = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model, stressed=False)
+    miss = np.abs(jacobian(separation, tangential, r_i, r_j, law, rho, size, steps[-1]) + unstressed).max()
+    assert miss / np.abs(exact).max() > 1e-3, f"the unstressed blocks also match ({miss:.2e}): the test is blind"
+    assert np.abs(exact - np.transpose(exact, (0, 2, 1))).max() > 1e-3, "stressed blocks came out symmetric"
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_zero_stored_forces_add_exact_zeros(dim):
+    separation, normal, overlap, r_i, r_j, _ = stressed_contacts(dim, seed=5)
+    for law in ("harmonic", "hertz"):
+        added = contact_law.stressed_blocks(normal, np.linalg.norm(separation, axis=1), overlap, r_i, r_j,
+                                            np.zeros_like(normal), law)
+        assert all(np.all(block == 0.0) for block in added), law
+
+
+@pytest.mark.parametrize("law", ["harmonic", "hertz"])
+def test_a_stressed_dimer_by_hand(law):
+    """Two disks on the x axis (n = x, t = y), disk i at +x, stored force f along +y on i: the new
+    entries are D[u_ix, u_iy] = f/r and, under hertz, D[u_iy, u_ix] = f/(2 xi) and
+    D[theta_i, u_ix] = -R_i f/(2 xi) (docs/stressed_contacts.md section 2, 2D)."""
+    r_i, r_j, overlap, f = np.array([0.5]), np.array([0.7]), np.array([0.02]), 0.004
+    distance = r_i + r_j - overlap
+    normal = np.array([[1.0, 0.0]])
+    tangential = np.array([[0.0, f]])
+    ii, ij, ji, jj = contact_law.stressed_blocks(normal, distance, overlap, r_i, r_j, tangential, law)
+    c = 0.0 if law == "harmonic" else 1.0 / (2 * overlap[0])
+    g = np.array([[0.0, f / distance[0]], [c * f, 0.0]])
+    expected_ii = np.zeros((3, 3))
+    expected_ii[:2, :2] = g
+    expected_ii[2, :2] = [-r_i[0] * c * f, 0.0]
+    assert_close(ii[0], expected_ii, rtol=1e-15, what="S_ii")
+    expected_ij = -expected_ii
+    expected_ij[2, :2] = [r_i[0] * c * f, 0.0]
+    assert_close(ij[0], expected_ij, rtol=1e-15, what="S_ij")
+    assert_close(ji[0][:2], -expected_ii[:2], rtol=1e-15, what="S_ji translations")
+    assert_close(ji[0][2, :2], [-r_j[0] * c * f, 0.0], rtol=1e-15, what="S_ji torque row")
+    assert_close(jj[0][2, :2], [r_j[0] * c * f, 0.0], rtol=1e-15, what="S_jj torque row")
+    assert np.all(ii[0][:, 2] == 0) and np.all(jj[0][:, 2] == 0), "a rotation column gained a term"
