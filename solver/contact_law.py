@@ -188,7 +188,7 @@ def _reference_overlap(separation: np.ndarray, contact: np.ndarray) -> np.ndarra
     return contact - np.sqrt(np.einsum("cd,cd->c", separation, separation))
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a x b per contact: (C,) (the z component) in 2D, (C, 3) in 3D."""
     return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] if a.shape[1] == 2 else np.cross(a, b)
 
@@ -210,8 +210,8 @@ def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     force, _ = normal_pair(separation + du, contact, model.law, reduced)
     k = KN * spring_scale(_reference_overlap(separation, contact), model.law, reduced)
     s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
-    slide = _cross(s_t, normal)
-    roll = _cross(normal, s_r)
+    slide = cross(s_t, normal)
+    roll = cross(normal, s_r)
     tau_common = -model.rho_roll * _expand(k * reduced, roll)
     twist = -model.rho_twist * _expand(k * reduced * s_o, normal) if normal.shape[1] == 3 else 0.0
     tau_i = -model.rho * _expand(k * radius_i, slide) + tau_common + twist
@@ -296,7 +296,7 @@ def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarra
     proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
     g = (normal[:, :, None] * tangential[:, None, :] / distance[:, None, None]
          + c[:, None, None] * tangential[:, :, None] * normal[:, None, :])
-    turn = _cross(normal, tangential)
+    turn = cross(normal, tangential)
     t = (np.einsum("crd,cde->cre", _cross_matrix(tangential), proj) / distance[:, None, None]
          + c[:, None, None] * (turn[:, None] if turn.ndim == 1 else turn)[:, :, None] * normal[:, None, :])
     m = dim + rot if with_rotation else dim

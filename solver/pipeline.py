@@ -34,7 +34,7 @@ from .model import operators
 from .waves import excitation
 from .waves import schedule
 from .waves.unit import mode_unit
-from .io.schema import Scene, check_dimension
+from .io.schema import Scene, check_dimension, check_stressed
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import unit_keys
@@ -79,6 +79,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[ja
     if spec.file is not None:
         def load(_):
             read = hdf5.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law,
+                                      contacts=spec.contacts, friction=spec.friction,
                                       fmt=spec.format)
             return [_relaxed(p, index, scene) for index, p in enumerate(read)] if spec.relax else read
 
@@ -345,6 +346,10 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.packing.file is not None:  # generated packings were checked with the scene
             check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
                                                     f"(positions (N, 2))")
+            stressed = [i for i, p in enumerate(packings) if p.stressed]
+            check_stressed(scene, f"packing.file {scene.packing.file}: configuration(s) "
+                                  f"{', '.join(map(str, stressed[:5]))} carry stored tangential forces"
+                           if stressed else None)
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
                 excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))

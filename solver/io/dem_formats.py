@@ -91,27 +91,28 @@ class RawPacking:
         return self.positions.shape[1]
 
 
-def _fail(path, what: str):
-    raise InputError(f"packing file {path}: {what}")
+def _fail(path, what: str, kind: str = "packing file"):
+    raise InputError(f"{kind} {path}: {what}")
 
 
-def _text(path) -> str:
-    """The file's text; InputError if it is missing, not a regular file, not text or empty."""
+def read_text(path, kind: str = "packing file") -> str:
+    """The file's text; InputError (naming the ``kind`` of file) if it is missing, not a regular
+    file, not text or empty."""
     p = pathlib.Path(path)
     if not p.exists():
-        _fail(path, "not found")
+        _fail(path, "not found", kind)
     if not p.is_file():
-        _fail(path, "not a regular file")
+        _fail(path, "not a regular file", kind)
     try:
         text = p.read_text()
     except UnicodeDecodeError:
-        _fail(path, "not a text file (LAMMPS data files and text dumps and YADE exports are text)")
+        _fail(path, "not a text file (LAMMPS data files and text dumps and YADE exports are text)", kind)
     if not text.strip():
-        _fail(path, "the file is empty")
+        _fail(path, "the file is empty", kind)
     return text
 
 
-def _numbers(path, lines: list[str], first: int, where: str, expect: str) -> np.ndarray:
+def number_table(path, lines: list[str], first: int, where: str, expect: str, kind: str = "packing file") -> np.ndarray:
     """(len(lines), C) float64 table of ``lines``, which start at line ``first`` (from 1) of the
     file; InputError naming the first bad line on blank lines, ragged rows, non-numeric or
     non-finite values.  ``where`` names the block, ``expect`` says what its rows hold."""
@@ -121,11 +122,11 @@ def _numbers(path, lines: list[str], first: int, where: str, expect: str) -> np.
         table = None
     if table is None or table.shape[0] != len(lines):
         row, problem = _first_bad_row(lines)
-        _fail(path, f"line {first + row} of the file, in {where}, {problem}; each row must hold {expect}")
+        _fail(path, f"line {first + row} of the file, in {where}, {problem}; each row must hold {expect}", kind)
     if not np.all(np.isfinite(table)):
         row = int(np.argwhere(~np.isfinite(table))[0, 0])
         _fail(path, f"line {first + row} of the file, in {where}, holds a non-finite value (nan or inf); "
-                    f"values must be finite numbers")
+                    f"values must be finite numbers", kind)
     return table
 
 
@@ -195,7 +196,7 @@ _BLANK_THEN = re.compile(r"\n[ \t]*(?:\n|$)")
 def read_lammps_data(path) -> RawPacking:
     """A LAMMPS or LIGGGHTS ``write_data`` file of atom_style sphere -> :class:`RawPacking`
     (source "lammps-data"; masses from the densities).  Not collective."""
-    text = _text(path)
+    text = read_text(path)
     body = text.split("\n", 1)[1] if "\n" in text else ""  # the first line is a free title
     first = _SECTION.search(body)
     header = body[:first.start()] if first else body
@@ -239,7 +240,7 @@ def read_lammps_data(path) -> RawPacking:
     if len(lines) != natoms:
         _fail(path, f"the Atoms section has {len(lines)} atom lines where the header says {natoms} atoms "
                     f"(truncated or damaged file); it must list every atom once")
-    table = _numbers(path, lines, text[:len(text) - len(rest)].count("\n") + 1, "the Atoms section", SPHERE_COLUMNS)
+    table = number_table(path, lines, text[:len(text) - len(rest)].count("\n") + 1, "the Atoms section", SPHERE_COLUMNS)
     if table.shape[1] not in (7, 10):
         _fail(path, f"Atoms lines have {table.shape[1]} columns; atom_style sphere has 7 or 10: {SPHERE_COLUMNS}")
     ids = _ids(path, table[:, 0], "the Atoms section")
@@ -270,7 +271,7 @@ _POSITION_SETS = (("x", "y", "z"), ("xu", "yu", "zu"), ("xs", "ys", "zs"), ("xsu
 def read_lammps_dump(path, frame: int = -1) -> RawPacking:
     """One frame (Python index; the last by default) of a LAMMPS or LIGGGHTS text dump ->
     :class:`RawPacking` (source "lammps-dump").  Not collective."""
-    text = _text(path)
+    text = read_text(path)
     starts = [m.start() for m in re.finditer(r"^ITEM: TIMESTEP[ \t]*$", text, re.M)]
     if not starts or text[:starts[0]].strip():
         _fail(path, "does not start with 'ITEM: TIMESTEP'; a LAMMPS text dump starts every frame with it")
@@ -324,7 +325,7 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
         _fail(path, f"{where}: the ATOMS columns ({' '.join(names) or 'none'}) lack {', '.join(missing)}; "
                     f"a packing dump needs id, diameter or radius, and x y z (or xu yu zu, or xs ys zs)")
     first = text[:starts[frame]].count("\n") + chunk[:len(chunk) - len(rows)].count("\n") + 1
-    table = _numbers(path, lines[:natoms], first, f"{where}'s atom lines",
+    table = number_table(path, lines[:natoms], first, f"{where}'s atom lines",
                      f"the {len(names)} columns {' '.join(names)}")
     if table.shape[1] != len(names):
         _fail(path, f"{where}: atom lines have {table.shape[1]} columns but 'ITEM: ATOMS' names {len(names)} "
@@ -352,7 +353,7 @@ _PERIODIC = re.compile(r"^#*[ \t]*##PERIODIC::(.*)$", re.M)  # also after textEx
 def read_yade_text(path) -> RawPacking:
     """A YADE sphere text export (export.textExt / export.text, or SpherePack.save) ->
     :class:`RawPacking` (source "yade", 3D, masses None).  Not collective."""
-    text = _text(path)
+    text = read_text(path)
     first = _first_line(text).split()
     fmt = first[1] if first[0] == "#format" and len(first) > 1 else None
     if first[0] == "#format" and fmt not in YADE_FORMATS:
@@ -375,7 +376,7 @@ def read_yade_text(path) -> RawPacking:
     if not rows:
         _fail(path, "no sphere lines, only comments; a YADE export lists one sphere per line (x y z r ...)")
     expect = f"the columns of format {fmt}" if fmt else "x y z r (and clumpId), as SpherePack.save writes"
-    table = _numbers(path, rows, head.count("\n") + 1, "the sphere lines", expect)
+    table = number_table(path, rows, head.count("\n") + 1, "the sphere lines", expect)
     width = table.shape[1]
     if (columns is not None and width != columns) or width < 4 or (fmt is None and width > 5):
         _fail(path, f"sphere lines have {width} columns; {expect} "

@@ -7,8 +7,13 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
     positions   (N, D) float64   centres of disks (D = 2) or spheres (D = 3), any real values
                                  (folded into [0, L)); the dimension is read from this shape
     diameters   (N,)   float64   > 0, units of the mean diameter d0
-    rattler     (N,)   bool      optional; computed (iterative < D + 1 contacts rule) if absent
+    rattler     (N,)   bool      optional; computed (iterative < D + 1 contacts rule; with stored
+                                 tangential forces, particles that carry none) if absent
     masses      (N,)   float64   optional, > 0; used with model.masses: density (scaled to mean 1)
+    tangential/ optional group: the stored tangential forces of a packing made with friction
+                (docs/stressed_contacts.md): pairs (C, 2) int64 0-based indices i < j, force
+                (C, D) float64 the tangential force on i from j (kn d0), attribute friction
+                (the Coulomb mu, optional)
     attribute box   (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box
                                  (origin at 0), each > 2 max(diameters) (a pair then touches
                                  through one image only)
@@ -26,9 +31,9 @@ import numpy as np
 
 from ..errors import InputError
 from .. import profiling
-from . import dem_formats
+from . import contact_files, dem_formats
 from .atomic import atomic_write
-from ..packing import mechanics
+from ..packing import mechanics, stressed
 from ..packing.jammed import Packing, from_arrays
 
 FORMAT_VERSION = 1
@@ -71,6 +76,7 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
         fail(f"'rattler' has shape {rattler.shape}; need ({n},)")
     if masses is not None and (masses.shape != (n,) or not np.all(np.isfinite(masses)) or np.any(masses <= 0)):
         fail(f"'masses' (shape {masses.shape}) must be ({n},), finite and > 0")
+    stored = _read_tangential(group, where, n, positions.shape[1]) if "tangential" in group else None
     if not np.all(np.isfinite(positions)):
         fail("'positions' contains NaN or inf")
     if not np.all(np.isfinite(diameters)) or np.any(diameters <= 0):
@@ -81,18 +87,51 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
         fail(f"'{name}' has shape {box.shape}; need ({dim},) for 'box' or one number for 'box_length'")
     if "box" in group.attrs and "box_length" in group.attrs and np.any(box != group.attrs["box_length"]):
         fail(f"'box' = {box.tolist()} and 'box_length' = {group.attrs['box_length']} disagree")
+    if stored is not None:
+        _check_box(box, diameters, where, name)
+        stored = stressed.build(*stored, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
+                                stored[2], f"packing file {where}:/tangential")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
-                   check_equilibrium, law)
+                   check_equilibrium, law, stored)
 
 
-def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
-            check_equilibrium: bool, law: str) -> Packing:
-    """The checks every format shares (box > 2 max d, not all rattlers, equilibrium under
-    ``law``), then the Packing."""
+def _read_tangential(group, where: str, n: int, dim: int):
+    """(pairs, force, friction) of a packing group's ``tangential`` group (format above)."""
+    sub = group["tangential"]
+    try:
+        pairs = np.asarray(sub["pairs"][()])
+        force = np.asarray(sub["force"][()], dtype=float)
+        friction = float(sub.attrs["friction"]) if "friction" in sub.attrs else None
+    except (KeyError, OSError, ValueError, TypeError) as exc:
+        raise InputError(f"packing file {where}: group 'tangential' needs datasets 'pairs' (C, 2) and 'force' "
+                         f"(C, D) ({exc})") from None
+    if pairs.ndim != 2 or pairs.shape[1] != 2 or not np.issubdtype(pairs.dtype, np.integer):
+        raise InputError(f"packing file {where}: 'tangential/pairs' has shape {pairs.shape} and type {pairs.dtype}; "
+                         f"need (C, 2) integers (0-based particle indices)")
+    if force.shape != (pairs.shape[0], dim):
+        raise InputError(f"packing file {where}: 'tangential/force' has shape {force.shape}; need "
+                         f"({pairs.shape[0]}, {dim}), one tangential force per pair")
+    if friction is not None and not friction >= 0:
+        raise InputError(f"packing file {where}: 'tangential' attribute friction = {friction}: must be >= 0")
+    return pairs, force, friction
+
+
+def _check_box(box, diameters, where: str, box_name: str) -> None:
+    """InputError unless every side is finite and > 2 max(diameters)."""
     if not np.all(np.isfinite(box)) or np.any(box <= 2 * diameters.max()):
         raise InputError(f"packing file {where}: {box_name} = {np.asarray(box).tolist()}: every side must be "
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
-    packing = from_arrays(positions, diameters, box, rattler, info, masses, law)
+
+
+def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
+            check_equilibrium: bool, law: str, tangential=None) -> Packing:
+    """The checks every format shares (box > 2 max d, not all rattlers, equilibrium under
+    ``law`` with the stored ``tangential`` forces if any), then the Packing."""
+    _check_box(box, diameters, where, box_name)
+    packing = from_arrays(positions, diameters, box, rattler, info, masses, law, tangential)
+    if tangential is not None:
+        packing.info.update(n_stored=len(tangential), n_mobilised=int(stressed.mobilised(
+            tangential, packing.positions, packing.diameters, packing.box, law).sum()))
     if packing.rattler.all():
         name = mechanics.NAMES[packing.dim]
         needed = mechanics.min_contacts(packing.dim)
@@ -103,10 +142,14 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
     return packing
 
 
-def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str) -> Packing:
+def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str, contacts: str | None = None,
+              friction: float | None = None) -> Packing:
     """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
     file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
-    masses kept as they are (``model.masses: density`` scales them to a mean of 1)."""
+    masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
+    ``contacts`` file (``contact_files``), its stored tangential forces, divided by kn d0 of the
+    file's units with kn = 1 there (LAMMPS units lj with kn = 1): by the length unit (harmonic)
+    or its square (hertz, whose kn carries a length^1/2 more)."""
     raw = dem_formats.read(path, fmt)
     if raw.box_lo is None:
         raise InputError(f"packing file {path}: the {raw.source} file records no periodic box; rotsound needs "
@@ -114,22 +157,60 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str) -> Packing
                          f"in textExt's comment)")
     unit = float(raw.diameters.mean())
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
-    return _finish((raw.positions - raw.box_lo) / unit, raw.diameters / unit, (raw.box_hi - raw.box_lo) / unit,
-                   None, raw.masses, info, path, "box", check_equilibrium, law)
+    positions, diameters = (raw.positions - raw.box_lo) / unit, raw.diameters / unit
+    box = (raw.box_hi - raw.box_lo) / unit
+    stored = None
+    if contacts is not None:
+        _check_box(box, diameters, path, "box")
+        stored = _stored_forces(contacts, raw, positions, diameters, box, law, friction, unit)
+        info.update(contacts=contacts)
+    return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, law, stored)
+
+
+def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
+                   box: np.ndarray, law: str, friction: float | None, unit: float):
+    """The contact file ``path`` of the packing ``raw`` as rotsound's stored tangential forces."""
+    found = contact_files.read(path)
+    at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
+    missing = np.flatnonzero(raw.ids[at] != found.ids)
+    if missing.size:
+        raise InputError(f"contact file {path}: atom id {found.ids.ravel()[missing[0]]} is not in the packing file "
+                         f"({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe "
+                         f"the same packing")
+    force = found.force / (unit if law == "harmonic" else unit ** 2)
+    if raw.dim == 2:
+        if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
+            raise InputError(f"contact file {path}: a tangential force has a z component, but the packing is 2D")
+        force = force[:, :2]
+    return stressed.build(at, force, positions, diameters, box, law, friction, f"contact file {path}")
 
 
 def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,
-                  law: str = "harmonic", fmt: str | None = None) -> list[Packing]:
+                  law: str = "harmonic", fmt: str | None = None, contacts: str | list[str] | None = None,
+                  friction: float | None = None) -> list[Packing]:
     """Read configurations from one or more packing files (first ``count``); each must be in
-    equilibrium under its normal forces unless ``check_equilibrium`` is False (``packing.relax``
-    re-minimises it), under the normal ``law``; ``fmt`` is ``packing.format`` (None: each
-    file's format is detected from its content). Not collective."""
+    equilibrium under its normal forces (and its stored tangential forces, if any) unless
+    ``check_equilibrium`` is False (``packing.relax`` re-minimises it), under the normal ``law``;
+    ``fmt`` is ``packing.format`` (None: each file's format is detected from its content);
+    ``contacts`` (``packing.contacts``) one contact file per DEM packing file, whose stored
+    tangential forces join it, ``friction`` the mu they were made with (or None).  rotsound's
+    own files carry their stored forces inside.  Not collective."""
     packings: list[Packing] = []
-    for path in [paths] if isinstance(paths, str) else paths:
+    paths = [paths] if isinstance(paths, str) else paths
+    contacts = [contacts] if isinstance(contacts, str) else contacts
+    if contacts is not None and len(contacts) != len(paths):
+        raise InputError(f"packing.contacts: {len(contacts)} contact file(s) for {len(paths)} packing file(s); give "
+                         f"one contact file per packing file, in the same order")
+    for index, path in enumerate(paths):
         kind = fmt or dem_formats.detect_format(path)
         if kind != "rotsound":
-            packings.append(_from_dem(path, kind, check_equilibrium, law))
+            packings.append(_from_dem(path, kind, check_equilibrium, law, contacts[index] if contacts else None,
+                                      friction))
             continue
+        if contacts is not None:
+            raise InputError(f"packing.contacts: {path} is a rotsound HDF5 packing file, which holds its stored "
+                             f"tangential forces itself (group 'tangential'); contact files go with LAMMPS, "
+                             f"LIGGGHTS and YADE packing files")
         with _open(path) as f:
             if "positions" in f:
                 packings.append(_read_one(f, path, check_equilibrium, law))
@@ -165,6 +246,12 @@ def write_packing(group, packing: Packing) -> None:
     group.attrs["phi"] = packing.phi
     for key, value in packing.info.items():
         group.attrs[key] = value
+    if packing.tangential is not None:
+        sub = group.create_group("tangential")
+        sub.create_dataset("pairs", data=packing.tangential.pairs)
+        sub.create_dataset("force", data=packing.tangential.force)
+        if packing.tangential.friction is not None:
+            sub.attrs["friction"] = packing.tangential.friction
 
 
 def box_of(group, dim: int) -> np.ndarray:

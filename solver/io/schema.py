@@ -77,6 +77,14 @@ class PackingSpec:
                              "lammps (LAMMPS's FIRE on all ranks, one configuration after another: the same start "
                              "and criterion, a different but equally valid minimum; needs scripts/setup_dem.sh)",
                      lambda v: None if v in ("fire", "lammps") else "must be one of fire, lammps", str)
+    contacts: str | list[str] | None = _f(None, "with `file`: the contact file(s), one per packing file, holding "
+                                                "every contact's stored tangential force (a LAMMPS 'dump local' of "
+                                                "index, patom1 patom2, pair/local p1 p2 p3; see README, Stressed "
+                                                "packings): the packing is analysed as the DEM code left it, on its "
+                                                "tangential forces (docs/stressed_contacts.md)", None, "paths")
+    friction: float | None = _f(None, "with `contacts`: the Coulomb coefficient mu the packing was made with; a "
+                                      "stored force above mu f_n is refused and those at mu f_n are counted as "
+                                      "mobilised (null: unknown, not checked)", _range(0.0, 1e4), float)
     relax: bool = _f(False, "with `file`: re-minimise each configuration frictionlessly with FIRE (to force_tol) "
                             "before the matrix is built, for packings made with friction, which balance only "
                             "with their tangential forces (they are refused otherwise); this moves the particles",
@@ -364,6 +372,14 @@ def build(cls, raw, where: str = ""):
 
 
 def _cross_check(obj, where):
+    if isinstance(obj, PackingSpec) and obj.contacts is not None and (obj.file is None or obj.relax):
+        raise InputError(f"{where}contacts: the stored tangential forces of packing.file's packings; they need "
+                         f"packing.file" + (" and cannot go with packing.relax, which re-minimises without them"
+                                            if obj.relax else ""))
+    if isinstance(obj, PackingSpec) and obj.friction is not None and obj.contacts is None:
+        raise InputError(f"{where}friction = {obj.friction}: the mu of the stored forces in packing.contacts; give "
+                         f"packing.contacts (rotsound's own frictional packings, packing.engine: lammps with "
+                         f"friction, are not built yet)")
     if isinstance(obj, PackingSpec) and obj.file is None:
         for name in ("n", "phi"):
             if getattr(obj, name) is None:
@@ -385,6 +401,8 @@ def _cross_check(obj, where):
                          f"fewer than 4 samples in t_end = {obj.t_end}")
     if isinstance(obj, Scene) and obj.packing.file is None:
         check_dimension(obj, obj.packing.dim, f"packing.dim is {obj.packing.dim}")
+    if isinstance(obj, Scene) and obj.packing.contacts is not None:
+        check_stressed(obj, f"packing.contacts gives the packings stored tangential forces")
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
 
@@ -404,6 +422,26 @@ def check_dimension(scene: Scene, dim: int, source: str) -> None:
     if scene.waves is not None and "R" in scene.waves.modes:
         raise InputError(f"waves.modes = {scene.waves.modes}: mode R (angular velocity along k) needs 3D, but "
                          f"{source}: in 2D the only rotation is about z (use RT, or spheres)")
+
+
+def check_stressed(scene: Scene, which: str | None) -> None:
+    """Raise InputError if stressed packings (``which`` says whose stored tangential forces; None:
+    none) meet what needs a symmetric matrix (docs/stressed_contacts.md section 4): any
+    ``spectrum`` method (slicing, counting and kpm all rest on symmetry), ``waves.method:
+    spectral``, or rho = 0 (the tangential spring holds the stored forces).  Not collective."""
+    if which is None:
+        return
+    if scene.spectrum is not None:
+        raise InputError(f"spectrum (method {scene.spectrum.method}): {which}, so the dynamical matrix is not "
+                         f"symmetric (LAMMPS's history update has no energy, docs/stressed_contacts.md); slicing, "
+                         f"counting and kpm need a symmetric matrix and would give a wrong vDOS: drop the spectrum "
+                         f"section (standing waves with waves.method: ts work), or leave packing.contacts out to "
+                         f"analyse unstressed springs on a packing in equilibrium without them")
+    if scene.waves is not None and scene.waves.method == "spectral":
+        raise InputError(f"waves.method = 'spectral': {which}, so the matrix is not symmetric and has no "
+                         f"orthogonal eigendecomposition: use waves.method: ts")
+    if 0.0 in scene.model.rho:
+        raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:

@@ -167,7 +167,7 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     """Content key of every matrix, spectrum and waves unit of the scene (``task_units``), by unit
     name. Not collective.
 
-    A packing is keyed by its arrays (so a file and a generated packing with equal contents
+    A packing is keyed by its arrays, stored tangential forces included (so a file and a generated packing with equal contents
     share units, and 2D and 3D never do: the arrays' shapes are hashed); the rolling and twisting
     ratios join every key when they are not 0 (so units made before they existed keep their keys);
     spectra and waves also by their section's settings and the PETSc options that act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
@@ -183,7 +183,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     for p_index, p in enumerate(packings):
         box = np.float64(p.box[0]) if np.all(p.box == p.box[0]) else p.box  # cubic: the keys of before
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
-        base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses),
+        stored = [] if p.tangential is None else [p.tangential.pairs, p.tangential.force]  # likewise
+        base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses, *stored),
                 "version": __version__, **springs}
         for r_index in range(len(scene.model.rho)):
             for unit in task_units(scene, r_index, p_index):

@@ -1,7 +1,8 @@
 """Distributed dynamical matrix D and mass vector M of a packing (PETSc): the paper's eq:motion
 M u'' = -D u with the mass matrix eq:mm, D the Hessian of the contact energy eq:eij (in 3D and
 with rolling and twisting springs, PHYSICS.md section 8) summed over contacts (blocks from
-``contact_law``).
+``contact_law``), plus, on a packing made with friction, the non-symmetric terms of its stored
+tangential forces (docs/stressed_contacts.md).
 
 DOF order per non-rattler particle, in packing order: the D translations, then the rotations
 (D = 2: (u_x, u_y, theta); D = 3: (u_x, u_y, u_z, theta_x, theta_y, theta_z)).
@@ -40,7 +41,8 @@ class DynamicalMatrix:
     active : (N,) bool, particles in the matrix;  dim : D (2 or 3);  dof : DOF per particle,
     D translations then (with rotations) 1 (2D) or 3 (3D) rotations;  model : the contact model
     it was assembled with;  disk_range : this rank's [start, stop) among active particles;
-    n_contacts : global count.
+    n_contacts : global count;  symmetric : False for a stressed packing (stored tangential
+    forces), whose D has no symmetry (docs/stressed_contacts.md section 4).
     """
 
     D: object
@@ -51,6 +53,7 @@ class DynamicalMatrix:
     disk_range: tuple[int, int]
     n_contacts: int
     dim: int = 2
+    symmetric: bool = True
     omega_max: float | None = None  # cached by operators.largest_omega
     wmax_settings: dict | None = None  # what its wmax_ EPS used (operators.largest_omega)
     scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
@@ -132,12 +135,18 @@ def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]
     touch = ((a >= start) & (a < stop)) | ((b >= start) & (b < stop))
     a, b = a[touch], b[touch]
     radius = 0.5 * packing.diameters
-    h_ii, h_ij, h_jj = contact_law.pair_blocks(
-        found.normal[touch], found.distance[touch], found.overlap[touch],
-        radius[found.i[touch]], radius[found.j[touch]], model, with_rotation=dof > packing.dim)
+    geometry_args = (found.normal[touch], found.distance[touch], found.overlap[touch],
+                     radius[found.i[touch]], radius[found.j[touch]])
+    h_ii, h_ij, h_jj = contact_law.pair_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
+    h_ji = np.transpose(h_ij, (0, 2, 1))
+    if packing.tangential is not None:  # stored tangential forces: the non-symmetric part
+        s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(
+            *geometry_args, packing.tangential.on(found.i[touch], found.j[touch]), model.law,
+            with_rotation=dof > packing.dim)
+        h_ii, h_ij, h_ji, h_jj = h_ii + s_ii, h_ij + s_ij, h_ji + s_ji, h_jj + s_jj
     block_rows = np.concatenate((a, a, b, b))
     block_cols = np.concatenate((a, b, b, a))
-    blocks = np.concatenate((h_ii, h_ij, h_jj, np.transpose(h_ij, (0, 2, 1))))
+    blocks = np.concatenate((h_ii, h_ij, h_jj, h_ji))
     own = (block_rows >= start) & (block_rows < stop)
     block_rows, block_cols, blocks = block_rows[own], block_cols[own], blocks[own]
     k = np.arange(dof)
@@ -157,10 +166,14 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
     (``contact_law``), masses by ``mass_rule`` (:func:`particle_masses`), on ``comm`` (PETSc
     communicator). Collective.
 
-    D is flagged symmetric (needed by Cholesky-based inertia in the spectrum stage).
+    D is flagged symmetric (needed by Cholesky-based inertia in the spectrum stage) unless the
+    packing is stressed (``Packing.stressed``: stored tangential forces, docs/stressed_contacts.md),
+    which needs the tangential spring that holds them (ValueError at rho = 0).
     """
     from petsc4py import PETSc
 
+    if packing.stressed and model.rho == 0.0:
+        raise ValueError("a stressed packing's tangential forces need the tangential spring: rho must be > 0")
     active = ~packing.rattler
     disk_range = parallel.block_range(int(active.sum()), comm.tompi4py())
     csr, dof, n_contacts = local_csr(packing, model, disk_range)
@@ -170,13 +183,14 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
                               csr=(csr.indptr.astype(PETSc.IntType), csr.indices.astype(PETSc.IntType),
                                    csr.data), comm=comm)
     D.assemble()
-    D.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    D.setOption(PETSc.Mat.Option.SYMMETRIC, not packing.stressed)
     D.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     M = D.createVecLeft()
     start, stop = disk_range
     masses = particle_masses(packing, mass_rule)[active][start:stop]
     M.setArray(mass_diagonal(packing.diameters[active][start:stop], masses, packing.dim, dof))
-    return DynamicalMatrix(D, M, active, dof, model, disk_range, n_contacts, packing.dim)
+    return DynamicalMatrix(D, M, active, dof, model, disk_range, n_contacts, packing.dim,
+                           symmetric=not packing.stressed)
 
 
 def gather_csr(mat) -> sp.csr_matrix:

@@ -19,7 +19,7 @@ WMAX_PREFIX = "wmax_"
 
 
 def scaled_operator(dm):
-    """A = M^-1/2 D M^-1/2 as a new PETSc Mat (flagged symmetric). Collective."""
+    """A = M^-1/2 D M^-1/2 as a new PETSc Mat (flagged symmetric when D is). Collective."""
     from petsc4py import PETSc
 
     scale = dm.M.copy()
@@ -27,7 +27,7 @@ def scaled_operator(dm):
     scale.reciprocal()
     A = dm.D.copy()
     A.diagonalScale(scale, scale)
-    A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    A.setOption(PETSc.Mat.Option.SYMMETRIC, dm.symmetric)
     A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     scale.destroy()
     return A
@@ -39,6 +39,9 @@ def largest_omega(dm) -> float:
 
     The EPS has the options prefix ``wmax_`` (defaults in code: Krylov-Schur, largest real
     eigenvalue, tol 1e-8; ``-wmax_eps_*`` win); what it used is kept in ``dm.wmax_settings``.
+    A non-symmetric D (a stressed packing) has complex omega^2 in general: then the eigenvalue of
+    largest magnitude (non-Hermitian problem), omega_max = sqrt(|lambda|), the scale a time step
+    must resolve.
     """
     from slepc4py import SLEPc
 
@@ -48,8 +51,8 @@ def largest_omega(dm) -> float:
     eps = SLEPc.EPS().create(A.getComm())
     try:
         eps.setOperators(A)
-        eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
+        eps.setProblemType(SLEPc.EPS.ProblemType.HEP if dm.symmetric else SLEPc.EPS.ProblemType.NHEP)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL if dm.symmetric else SLEPc.EPS.Which.LARGEST_MAGNITUDE)
         eps.setDimensions(nev=1)
         eps.setTolerances(tol=1e-8)
         eps.setOptionsPrefix(WMAX_PREFIX)
@@ -57,7 +60,7 @@ def largest_omega(dm) -> float:
         eps.solve()
         if eps.getConverged() < 1:
             raise RuntimeError("could not compute the largest eigenfrequency (wmax_ EPS did not converge)")
-        lam = eps.getEigenvalue(0).real
+        lam = eps.getEigenvalue(0).real if dm.symmetric else abs(eps.getEigenvalue(0))
         dm.wmax_settings = {**eps_settings(eps), "iterations": eps.getIterationNumber()}
     finally:
         eps.destroy()

@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import InputError
 from .. import profiling
 from . import fire, geometry, mechanics
+from .stressed import TangentialForces
 
 SIZE_RATIO = 1.4
 D_SMALL = 2.0 / (1.0 + SIZE_RATIO)
@@ -41,7 +42,9 @@ class Packing:
     box : (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box, origin at 0;
     rattler : (N,) bool;  info : provenance and statistics (energy, pressure, z, ...);
     masses : (N,) float64 the masses a file gave (its own units), or None (generated packings, and
-    files without them); ``model.masses`` decides what the matrix uses (``dynmat.particle_masses``).
+    files without them); ``model.masses`` decides what the matrix uses (``dynmat.particle_masses``);
+    tangential : the stored tangential forces of a packing made with friction
+    (docs/stressed_contacts.md), or None (unstressed springs).
     """
 
     positions: np.ndarray
@@ -50,6 +53,12 @@ class Packing:
     rattler: np.ndarray
     info: dict = field(default_factory=dict)
     masses: np.ndarray | None = None
+    tangential: TangentialForces | None = None
+
+    @property
+    def stressed(self) -> bool:
+        """Whether some stored tangential force is not zero (the matrix is then not symmetric)."""
+        return self.tangential is not None and self.tangential.nonzero()
 
     @property
     def n(self) -> int:
@@ -173,23 +182,26 @@ def relax(packing: Packing, force_tol: float = 1e-6, max_steps: int = 2_000_000,
 
 
 def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.ndarray | None = None,
-                info: dict | None = None, masses: np.ndarray | None = None, law: str = "harmonic") -> Packing:
+                info: dict | None = None, masses: np.ndarray | None = None, law: str = "harmonic",
+                tangential: TangentialForces | None = None) -> Packing:
     """Build a :class:`Packing` from user arrays (e.g. another code's packing), positions (N, D),
-    ``box`` the (D,) sides or one side for a square or cubic box, ``masses`` (N,) or None; the
-    statistics (energy, pressure) under the normal ``law``.
+    ``box`` the (D,) sides or one side for a square or cubic box, ``masses`` (N,) or None,
+    ``tangential`` the stored tangential forces (``stressed.build``) or None; the statistics
+    (energy, pressure) under the normal ``law``.
 
-    Rattlers are computed with the iterative rule when ``rattler`` is None.
+    Rattlers are computed with the iterative rule (``mechanics.find_rattlers``) when ``rattler``
+    is None.
     """
     positions = np.asarray(positions, dtype=float)
     box = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],)).copy()
     positions = geometry.wrap(positions, box)
     diameters = np.asarray(diameters, dtype=float)
     if rattler is None:
-        rattler = mechanics.find_rattlers(positions, diameters, box)
+        rattler = mechanics.find_rattlers(positions, diameters, box, tangential, law)
     stats = mechanics.describe(positions, diameters, box, rattler, law)
     stats.update(info or {})
     return Packing(positions, diameters, box, np.asarray(rattler, dtype=bool), stats,
-                   None if masses is None else np.asarray(masses, dtype=float))
+                   None if masses is None else np.asarray(masses, dtype=float), tangential)
 
 
 PHI_JAMMING = {2: 0.84, 3: 0.648}

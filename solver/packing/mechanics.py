@@ -1,12 +1,14 @@
-"""Mechanics of a packing under its normal contact forces (eq:eij at rho = 0): the force engine
-FIRE minimises on (:class:`FrictionlessForces`), the rattler rule, the statistics of a packing
-(energy, pressure, z), the net force and equilibrium check of a loaded packing, and the
-rigidity count that decides whether a matrix can be built on it (:func:`jamming_failure`).
+"""Mechanics of a packing under its normal contact forces (eq:eij at rho = 0) and, for a packing
+made with friction, its stored tangential forces: the force engine FIRE minimises on
+(:class:`FrictionlessForces`), the rattler rule, the statistics of a packing (energy, pressure,
+z), the net force and torque and the equilibrium check of a loaded packing, and the rigidity
+count that decides whether a matrix can be built on a generated one (:func:`jamming_failure`).
 
 Rattlers [choice]: a particle with fewer than D + 1 contacts among the remaining non-rattlers is
 a rattler (3 for a disk, 4 for a sphere: fewer cannot hold it in force balance against every
-direction); the rule is applied repeatedly until no new rattler appears.  Rattlers stay in the
-packing (flagged) and are excluded from the dynamical matrix.
+direction); in a stressed packing, a particle whose contacts carry (almost) no force
+(:func:`find_rattlers`).  The rule is applied repeatedly until no new rattler appears.
+Rattlers stay in the packing (flagged) and are excluded from the dynamical matrix.
 Units kn = d0 = m = 1.  Not collective.
 """
 
@@ -23,7 +25,9 @@ from . import geometry
 
 if TYPE_CHECKING:
     from .jammed import Packing
+    from .stressed import TangentialForces
 NAMES = {2: "disks", 3: "spheres"}
+EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force (and torque, kn d0^2) accepted on a loaded packing (FIRE reaches 1e-6)
 
 
 def min_contacts(dim: int) -> int:
@@ -123,15 +127,32 @@ class FrictionlessForces:
         return force, energy  # eq:eij at rho = 0
 
 
-def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box) -> np.ndarray:
-    """Rattler mask (N,): iteratively, particles with fewer than D + 1 contacts among non-rattlers."""
+def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential: TangentialForces | None = None,
+                  law: str = "harmonic") -> np.ndarray:
+    """Rattler mask (N,), applied until no new rattler appears.
+
+    Unstressed (``tangential`` None): particles with fewer than D + 1 contacts among non-rattlers.
+    Stressed [choice]: with tangential springs a disk on 2 contacts (a sphere on 2 or 3) carries
+    load, so the count rule would cut load-bearing particles; instead a particle is a rattler when
+    its contacts among non-rattlers carry together less than EQUILIBRIUM_TOL (sum of |f_n n + f_t|
+    under ``law``): removing it changes no neighbour's force balance beyond the tolerance the
+    equilibrium check allows.
+    """
     found = geometry.find_contacts(positions, diameters, box)
     rattler = np.zeros(diameters.size, dtype=bool)
-    needed = min_contacts(positions.shape[1])
+    if tangential is None:
+        needed = min_contacts(positions.shape[1])
+        weight = np.ones(len(found))
+    else:
+        needed = EQUILIBRIUM_TOL
+        reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
+        total = (contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal
+                 + tangential.on(found.i, found.j))
+        weight = np.linalg.norm(total, axis=1)
     while True:
         keep = ~rattler[found.i] & ~rattler[found.j]
-        count = (np.bincount(found.i[keep], minlength=rattler.size)
-                 + np.bincount(found.j[keep], minlength=rattler.size))
+        count = (np.bincount(found.i[keep], weight[keep], minlength=rattler.size)
+                 + np.bincount(found.j[keep], weight[keep], minlength=rattler.size))
         new = ~rattler & (count < needed)
         if not new.any():
             return rattler
@@ -159,36 +180,68 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
     }
 
 
-EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force accepted on a loaded packing (FIRE reaches 1e-6)
 
 
-def net_force(packing: Packing, law: str = "harmonic") -> float:
-    """Largest net normal contact force of ``law`` on a non-rattler particle (units kn d0)."""
+def net_load(packing: Packing, law: str = "harmonic") -> tuple[np.ndarray, np.ndarray]:
+    """Net contact force (N, D) and torque (N, r) (r = 1 in 2D, 3 in 3D; units kn d0, kn d0^2) on
+    every particle from the contacts among non-rattlers: the normal forces of ``law`` and the
+    packing's stored tangential forces f_t (torques -R_i n x f_t on i, -R_j n x f_t on j,
+    LAMMPS's convention; docs/stressed_contacts.md)."""
     active = ~packing.rattler
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     reduced = contact_law.reduced_radius(packing.diameters[found.i], packing.diameters[found.j])
     f = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal  # eq:eij, on i
+    rot = 1 if packing.dim == 2 else 3
+    turn = np.zeros((len(found), rot))
+    if packing.tangential is not None:
+        f_t = packing.tangential.on(found.i, found.j)
+        f = f + f_t
+        turn = contact_law.cross(found.normal, f_t).reshape(len(found), rot)  # n x f_t
+    radius = 0.5 * packing.diameters
     net = np.zeros((packing.n, packing.dim))
+    torque = np.zeros((packing.n, rot))
     for axis in range(packing.dim):
         net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
                         - np.bincount(found.j, f[:, axis], minlength=packing.n))
-    return float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
+    for axis in range(rot):
+        torque[:, axis] = -(np.bincount(found.i, radius[found.i] * turn[:, axis], minlength=packing.n)
+                            + np.bincount(found.j, radius[found.j] * turn[:, axis], minlength=packing.n))
+    return net, torque
+
+
+def net_force(packing: Packing, law: str = "harmonic") -> float:
+    """Largest net contact force (normal, plus the stored tangential ones) on a non-rattler (kn d0)."""
+    net, _ = net_load(packing, law)
+    return float(np.sqrt((net[~packing.rattler] ** 2).sum(axis=1)).max())
 
 
 def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> None:
-    """Raise InputError unless the normal contact forces alone balance on every non-rattler to
-    EQUILIBRIUM_TOL: the unstressed tangential springs of the dynamical matrix need an energy
-    minimum of the normal energy.  A packing made with friction in a DEM code fails this (it
-    balances only with its tangential forces): the message offers ``packing.relax: true``."""
-    residual = net_force(packing, law)
+    """Raise InputError unless the contact forces balance on every non-rattler to EQUILIBRIUM_TOL
+    (and, for a stressed packing, the torques too): the matrix is built about a state at rest.
+    Unstressed springs need a minimum of the normal energy; a packing made with friction fails
+    that (it balances only with its tangential forces): the message names the contact file
+    (``packing.contacts``) that holds them, and ``packing.relax``."""
+    net, torque = net_load(packing, law)
+    active = ~packing.rattler
+    residual = float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
+    twist = float(np.sqrt((torque[active] ** 2).sum(axis=1)).max())
+    if packing.tangential is not None:
+        if residual > EQUILIBRIUM_TOL or twist > EQUILIBRIUM_TOL:
+            raise InputError(
+                f"packing file {where}: not at rest with its stored tangential forces under the {law} normal law: the "
+                f"largest net force on a non-rattler is {residual:.3e} kn d0 and the largest net torque {twist:.3e} "
+                f"kn d0^2 (both must be <= {EQUILIBRIUM_TOL:g}); the contact file must be written at the same step as "
+                f"the packing, from a packing at rest, with the normal law of model.law")
+        return
     if residual > EQUILIBRIUM_TOL:
         raise InputError(
             f"packing file {where}: not in mechanical equilibrium under the {law} normal contact forces alone: the "
             f"largest net normal force on a non-rattler is {residual:.3e} kn d0 > {EQUILIBRIUM_TOL:g}. The "
-            f"dynamical matrix needs a minimum of the normal energy; a packing made with friction balances "
-            f"only with its tangential forces, and building unstressed springs on it would be wrong (one written "
-            f"with few digits, as YADE's 6, is off balance by its rounding). Set "
-            f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles)")
+            f"dynamical matrix needs a state at rest; a packing made with friction balances only with its "
+            f"tangential forces: give them with packing.contacts (the contact file written with the packing: a "
+            f"LAMMPS 'dump local' of patom1 patom2 and the pair's tangential force, see README), or set "
+            f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles; "
+            f"one written with few digits, as YADE's 6, is off balance by its rounding and needs this too)")
 
 
 def jamming_failure(packing: Packing) -> str | None:

@@ -4,12 +4,11 @@ derivation, in 2D and 3D under both laws; a dimer whose entries are known by han
 
 import numpy as np
 import pytest
-from conftest import assert_close
+from conftest import assert_close, jammed_packing
 
 from solver import contact_law
 from solver.contact_law import ContactModel
 
-pytestmark = pytest.mark.serial_only  # pure numpy
 
 STEPS = np.array([2e-3, 1e-3, 5e-4, 2.5e-4])
 
@@ -109,6 +108,7 @@ def jacobian(separation, tangential, r_i, r_j, law, rho, size, h):
     return out
 
 
+@pytest.mark.serial_only  # pure numpy
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("law", ["harmonic", "hertz"])
 def test_stressed_blocks_are_the_linearised_lammps_update(dim, law):
@@ -133,6 +133,7 @@ def test_stressed_blocks_are_the_linearised_lammps_update(dim, law):
     assert np.abs(exact - np.transpose(exact, (0, 2, 1))).max() > 1e-3, "stressed blocks came out symmetric"
 
 
+@pytest.mark.serial_only
 @pytest.mark.parametrize("dim", [2, 3])
 def test_zero_stored_forces_add_exact_zeros(dim):
     separation, normal, overlap, r_i, r_j, _ = stressed_contacts(dim, seed=5)
@@ -142,6 +143,7 @@ def test_zero_stored_forces_add_exact_zeros(dim):
         assert all(np.all(block == 0.0) for block in added), law
 
 
+@pytest.mark.serial_only
 @pytest.mark.parametrize("law", ["harmonic", "hertz"])
 def test_a_stressed_dimer_by_hand(law):
     """Two disks on the x axis (n = x, t = y), disk i at +x, stored force f along +y on i: the new
@@ -165,3 +167,78 @@ def test_a_stressed_dimer_by_hand(law):
     assert_close(ji[0][2, :2], [-r_j[0] * c * f, 0.0], rtol=1e-15, what="S_ji torque row")
     assert_close(jj[0][2, :2], [r_j[0] * c * f, 0.0], rtol=1e-15, what="S_jj torque row")
     assert np.all(ii[0][:, 2] == 0) and np.all(jj[0][:, 2] == 0), "a rotation column gained a term"
+
+
+def with_random_stored_forces(p, seed, ratio=0.5, zero=False):
+    """``p`` with a stored tangential force on every contact among non-rattlers, |f_t| = ratio f_n
+    in a random tangent direction (not in equilibrium: the matrix does not need it)."""
+    import dataclasses
+
+    from solver.packing import geometry, stressed
+
+    found = geometry.find_contacts(p.positions, p.diameters, p.box, ~p.rattler)
+    rng = np.random.default_rng(seed)
+    direction = rng.normal(size=found.normal.shape)
+    direction -= np.einsum("cd,cd->c", direction, found.normal)[:, None] * found.normal
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    force = 0.0 * direction if zero else ratio * found.overlap[:, None] * direction
+    stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.box,
+                            "harmonic", None, "test")
+    return dataclasses.replace(p, tangential=stored)
+
+
+def summed_lammps_forces(p, stored, law, rho, x):
+    """Generalised force (N', dof) on every non-rattler after LAMMPS's one-step update moves all
+    particles by x (N', dof) in the matrix's DOF order, summed over contacts (lammps_step)."""
+    from solver.packing import geometry
+
+    active = ~p.rattler
+    index = np.cumsum(active) - 1
+    found = geometry.find_contacts(p.positions, p.diameters, p.box, active)
+    a, b = index[found.i], index[found.j]
+    separation = found.normal * found.distance[:, None]
+    radius = 0.5 * p.diameters
+    pair = lammps_step(separation, stored.on(found.i, found.j), radius[found.i], radius[found.j], law, rho,
+                       np.concatenate((x[a], x[b]), axis=1))
+    dof = x.shape[1]
+    out = np.zeros_like(x)
+    np.add.at(out, a, pair[:, :dof])
+    np.add.at(out, b, pair[:, dof:])
+    return out
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_assembled_stressed_matrix_is_the_summed_lammps_update(comm, dim):
+    """D of a packing with stored forces against central differences of LAMMPS's update summed
+    over every contact: the blocks land on the right rows and columns with the right signs."""
+    from solver.model import dynmat
+
+    p = with_random_stored_forces(jammed_packing(32 if dim == 2 else 48, 0.9 if dim == 2 else 0.7, 3, dim), 11)
+    model = ContactModel(0.8)
+    dm = dynmat.assemble(p, model, comm)
+    dense = dynmat.gather_csr(dm.D).toarray()
+    assert not dm.symmetric and np.abs(dense - dense.T).max() > 1e-4, "a stressed D came out symmetric"
+    x = np.random.default_rng(2).normal(size=(int((~p.rattler).sum()), dm.dof))
+    h = 1e-6
+    slope = (summed_lammps_forces(p, p.tangential, "harmonic", 0.8, h * x)
+             - summed_lammps_forces(p, p.tangential, "harmonic", 0.8, -h * x)) / (2 * h)
+    # central differences, h = 1e-6 on forces of order 1: truncation ~1e-12, round-off ~1e-10
+    assert_close(slope.ravel(), -dense @ x.ravel(), rtol=0.0, atol=1e-8 * np.abs(dense).max(), what="-D x")
+    dm.destroy()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_zero_stored_forces_give_todays_matrix_bit_for_bit(comm, dim):
+    from solver.model import dynmat
+
+    p = jammed_packing(32 if dim == 2 else 48, 0.9 if dim == 2 else 0.7, 3, dim)
+    zero = with_random_stored_forces(p, 11, zero=True)
+    assert zero.tangential is not None and not zero.stressed
+    model = ContactModel(0.8, rho_roll=0.3, law="harmonic")
+    plain, stored = dynmat.assemble(p, model, comm), dynmat.assemble(zero, model, comm)
+    assert stored.symmetric and stored.D.isSymmetric(0.0)
+    a, b = dynmat.gather_csr(plain.D), dynmat.gather_csr(stored.D)
+    assert np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
+    assert np.array_equal(a.data, b.data), "zero stored forces changed D"
+    plain.destroy()
+    stored.destroy()
