@@ -198,7 +198,8 @@ class _Problem:
 
 
 class SecondOrderProblem(_Problem):
-    """eq:motion as M a + D u = 0 for TS ``alpha2`` (generalized-alpha; implicit, CG solves), from
+    """eq:motion as M a + D u = 0 for TS ``alpha2`` (generalized-alpha; implicit, CG solves; GMRES
+    for a non-symmetric D), from
     u = 0 and v = ``v0`` (nloc,).  :meth:`state` gives (u, v) views for the monitor."""
 
     def __init__(self, dm, v0: np.ndarray):
@@ -234,7 +235,8 @@ class SecondOrderProblem(_Problem):
         ts.setI2Jacobian(jacobian, jac, jac)
         ts.setSolution2(U, V)
         self.solution = U
-        ts.getSNES().getKSP().setType(PETSc.KSP.Type.CG)  # -waves_ksp_type wins
+        # CG needs a symmetric D; a stressed packing's is not (docs/stressed_contacts.md). -waves_ksp_type wins
+        ts.getSNES().getKSP().setType(PETSc.KSP.Type.CG if dm.symmetric else PETSc.KSP.Type.GMRES)
 
     def state(self, ts, X):
         """(u Vec, v local array) of the TS's current solution."""
