@@ -1,4 +1,4 @@
-"""Run every scripts/bench_*.py (and crosscheck_lammps.py) in turn (alone: the machine has 2 cores)
+"""Run every scripts/bench_*.py (and crosscheck_lammps.py, crosscheck_stressed.py) in turn (alone: the machine has 2 cores)
 and write BENCHMARKS.md.
 
     make bench          # or: python scripts/bench_all.py [--render-only]
@@ -13,10 +13,11 @@ import sys
 from benchlib import OUT, PY, REPO, machine
 
 ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_engines.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py",
-         "bench_spectral.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py", "crosscheck_lammps.py"]
+         "bench_spectral.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py", "crosscheck_lammps.py",
+         "crosscheck_stressed.py"]
 ARGS = {"bench_vdos.py": ["--skip", "slicing:32768"]}  # over an hour; the spectrum section has it with K/Q
 HAND_WRITTEN = ["bench_paper_programme.md"]  # configs/paper.yaml, timed from its own log
-RECORDS = {"crosscheck_lammps.py": "crosscheck"}  # record names of scripts not called bench_<name>.py
+RECORDS = {"crosscheck_lammps.py": "crosscheck", "crosscheck_stressed.py": "crosscheck_stressed"}  # record names of scripts not called bench_<name>.py
 
 
 def _record(script: str) -> str:
@@ -38,7 +39,7 @@ def render() -> None:
              "Regenerate with `make bench` (runs `scripts/bench_*.py` one after another, then "
              "renders this file from `results/bench/*.json`). Every comparison is measured in the "
              "same run, on the same machine, with the machine otherwise idle.", "",
-             f"Machine: {machine()}", ""]
+             f"Rendered on: {machine()}. Each section names the machine it was measured on.", ""]
     for script in ORDER:
         path = OUT / f"{_record(script)}.json"
         if not path.exists():

@@ -24,21 +24,21 @@ For 2D disks and 3D spheres under each law (``gran/hooke/history``, ``gran/hertz
    can fail, the unstressed D of the same packing (stored forces dropped).
 
 Writes results/bench/crosscheck_stressed.json (max |C_LAMMPS - C| over t <= t_end per mode and dt,
-for both matrices).  One process; a few minutes.
+for both matrices; BENCHMARKS.md "crosscheck_stressed").  LAMMPS in two processes at a time;
+about three minutes.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import sys
 import tempfile
 import time
 
 import numpy as np
-from benchlib import OUT
+from benchlib import save
 
 LAMMPS_PAIR = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
 PHI = {2: (0.70, 0.86), 3: (0.50, 0.66)}  # start and final packing fraction of the squeeze
@@ -258,9 +258,28 @@ def main() -> None:
     parser.add_argument("--laws", nargs="+", default=["harmonic", "hertz"])
     parser.add_argument("--dims", nargs="+", type=int, default=[2, 3])
     args = parser.parse_args()
-    rows = [case(dim, law, args.n2 if dim == 2 else args.n3, args) for dim in args.dims for law in args.laws]
-    OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "crosscheck_stressed.json").write_text(json.dumps({"args": vars(args), "cases": rows}, indent=1))
+    cases = [case(dim, law, args.n2 if dim == 2 else args.n3, args) for dim in args.dims for law in args.laws]
+    table = []
+    for c in cases:
+        for mode, m in c["modes"].items():
+            row = {"D": c["dim"], "law": c["law"], "N": c["n"], "seed": c["seed"], "contacts": c["contacts"],
+                   "z": f"{c['z']:.3f}", "pressure": f"{c['pressure']:.2e}", "mean abs f_t": f"{c['mean_ft']:.2e}",
+                   "mode": mode}
+            for dt, e in zip(m["dt"], m["error"]):
+                row[f"LAMMPS - stressed, dt={dt:g}"] = f"{e:.2e}"
+            row["order"] = " ".join(f"{np.log2(a / b):.2f}" for a, b in zip(m["error"][:-1], m["error"][1:]))
+            for dt, e in zip(m["dt"], m["unstressed_error"]):
+                row[f"LAMMPS - unstressed, dt={dt:g}"] = f"{e:.2e}"
+            row["LAMMPS s"] = f"{m['lammps_seconds']:.1f}"
+            table.append(row)
+    notes = (f"C(k, t) of standing waves integrated by LAMMPS (fix nve/sphere from the restart of a stressed "
+             f"packing it made: squeezed to phi = {PHI[2][1]} (2D) or {PHI[3][1]} (3D) and damped to rest, kt = kn, "
+             f"friction 1e4 so that every contact sticks) against exp(tJ) of rotsound's matrix on the same packing "
+             f"and start: the stressed D (its stored forces read from LAMMPS) and the unstressed D (stored forces "
+             f"dropped). k = 2 pi / L, A = {args.amplitude:g}, +-A half difference, runs of a mode pooled; each "
+             f"column: max over t <= {args.t_end:g} (sampled every {args.sample:g}) of abs(C_LAMMPS - C). Order: "
+             f"log2 of successive error ratios (2 = dt^2).")
+    save("crosscheck_stressed", "python scripts/crosscheck_stressed.py " + " ".join(sys.argv[1:]), table, notes)
 
 
 if __name__ == "__main__":
