@@ -91,7 +91,8 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[ja
     seeds = [parallel.seed_sequence(scene.seed, i) for i in missing]
     if spec.engine == "lammps":  # each configuration on all ranks, one after another
         made = [jammed.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim,
-                                engine="lammps", comm=comm, law=scene.model.law) for s in seeds]
+                                engine="lammps", comm=comm, law=scene.model.law, friction=spec.friction)
+                for s in seeds]
     else:
         made = parallel.owner_compute(comm, seeds, lambda s: jammed.generate(
             spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law))
@@ -346,10 +347,9 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.packing.file is not None:  # generated packings were checked with the scene
             check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
                                                     f"(positions (N, 2))")
-            stressed = [i for i, p in enumerate(packings) if p.stressed]
-            check_stressed(scene, f"packing.file {scene.packing.file}: configuration(s) "
-                                  f"{', '.join(map(str, stressed[:5]))} carry stored tangential forces"
-                           if stressed else None)
+        stressed = [i for i, p in enumerate(packings) if p.stressed]
+        check_stressed(scene, f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces"
+                       if stressed else None)
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
                 excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))

@@ -82,9 +82,13 @@ class PackingSpec:
                                                 "index, patom1 patom2, pair/local p1 p2 p3; see README, Stressed "
                                                 "packings): the packing is analysed as the DEM code left it, on its "
                                                 "tangential forces (docs/stressed_contacts.md)", None, "paths")
-    friction: float | None = _f(None, "with `contacts`: the Coulomb coefficient mu the packing was made with; a "
-                                      "stored force above mu f_n is refused and those at mu f_n are counted as "
-                                      "mobilised (null: unknown, not checked)", _range(0.0, 1e4), float)
+    friction: float | None = _f(None, "Coulomb coefficient mu. With engine: lammps, generated packings are "
+                                      "frictional, as a DEM code leaves them: squeezed from 0.75 phi to phi in "
+                                      "LAMMPS (gran/hooke/history or gran/hertz/history, kt = 2/7 kn, damped) until "
+                                      "every force and torque is below force_tol, with their stored tangential "
+                                      "forces. With `contacts`: the mu the file's packing was made with; a stored "
+                                      "force above mu f_n is refused, those at mu f_n are counted as mobilised. "
+                                      "null: frictionless packings, or mu unknown", _range(0.0, 1e4), float)
     relax: bool = _f(False, "with `file`: re-minimise each configuration frictionlessly with FIRE (to force_tol) "
                             "before the matrix is built, for packings made with friction, which balance only "
                             "with their tangential forces (they are refused otherwise); this moves the particles",
@@ -376,10 +380,11 @@ def _cross_check(obj, where):
         raise InputError(f"{where}contacts: the stored tangential forces of packing.file's packings; they need "
                          f"packing.file" + (" and cannot go with packing.relax, which re-minimises without them"
                                             if obj.relax else ""))
-    if isinstance(obj, PackingSpec) and obj.friction is not None and obj.contacts is None:
-        raise InputError(f"{where}friction = {obj.friction}: the mu of the stored forces in packing.contacts; give "
-                         f"packing.contacts (rotsound's own frictional packings, packing.engine: lammps with "
-                         f"friction, are not built yet)")
+    if isinstance(obj, PackingSpec) and obj.friction is not None and obj.contacts is None and (
+            obj.file is not None or obj.engine != "lammps"):
+        raise InputError(f"{where}friction = {obj.friction}: the Coulomb mu of a frictional packing, made by LAMMPS "
+                         f"(generated packings with packing.engine: lammps) or read with its contact file "
+                         f"(packing.file with packing.contacts); give one of these")
     if isinstance(obj, PackingSpec) and obj.file is None:
         for name in ("n", "phi"):
             if getattr(obj, name) is None:
@@ -402,7 +407,10 @@ def _cross_check(obj, where):
     if isinstance(obj, Scene) and obj.packing.file is None:
         check_dimension(obj, obj.packing.dim, f"packing.dim is {obj.packing.dim}")
     if isinstance(obj, Scene) and obj.packing.contacts is not None:
-        check_stressed(obj, f"packing.contacts gives the packings stored tangential forces")
+        check_stressed(obj, "packing.contacts gives the packings stored tangential forces")
+    if isinstance(obj, Scene) and obj.packing.file is None and obj.packing.friction:
+        check_stressed(obj, f"packing.friction = {obj.packing.friction} makes frictional packings that stand on "
+                            f"stored tangential forces")
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
 

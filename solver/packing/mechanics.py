@@ -257,7 +257,10 @@ def jamming_failure(packing: Packing) -> str | None:
     take as the only ones.  That count is the minimum of non-rattlers, rather than a fixed
     number: in 2D it needs at least 5 disks (4 make at most 6 < 7 contacts), in 3D at least 7
     spheres (6 make at most 15 < 16), and every 2D packing measured that jammed passes it (N = 16
-    to 1024, phi = 0.83 to 0.9, 90 seeds; the smallest margin was 1 contact).
+    to 1024, phi = 0.83 to 0.9, 90 seeds; the smallest margin was 1 contact).  A packing with
+    stored tangential forces has D + r DOF per particle (r = 1 in 2D, 3 in 3D) and D constraints
+    per contact (normal and tangential springs): it needs ceil(((D + r) N' - D + 1) / D) contacts,
+    z >= D + 1 for large N' (frictional isostaticity).
     """
     stats = describe(packing.positions, packing.diameters, packing.box, packing.rattler,
                      packing.info.get("law", "harmonic"))
@@ -265,9 +268,15 @@ def jamming_failure(packing: Packing) -> str | None:
     n_active = packing.n - int(packing.rattler.sum())
     if n_active == 0:
         return f"all {packing.n} {name} are rattlers (pressure {stats['pressure']:.1e})"
-    needed = dim * (n_active - 1) + 1
+    if packing.tangential is not None:  # D constraints per contact on D + r DOF per particle
+        per = dim + dim * (dim - 1) // 2
+        needed = -(-(per * n_active - dim + 1) // dim)
+        rule = f"ceil(({per}N' - {dim - 1}) / {dim})"
+    else:
+        needed = dim * (n_active - 1) + 1
+        rule = f"{dim}N' - {dim - 1}"
     if stats["n_contacts"] < needed:
         return (f"only {n_active} of {packing.n} {name} are not rattlers and they share "
-                f"{stats['n_contacts']} contacts, fewer than the {dim}N' - {dim - 1} = {needed} of a "
+                f"{stats['n_contacts']} contacts, fewer than the {rule} = {needed} of a "
                 f"rigid packing (pressure {stats['pressure']:.1e})")
     return None
