@@ -39,6 +39,9 @@ dem-data:
 	$(DEM) lmp -in lammps_2d.in -log none -screen none
 	$(DEM) lmp -in lammps_3d.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_friction.in -log none -screen none
+	$(DEM) lmp -in lammps_2d_friction.in -log none -screen none
+	$(DEM) lmp -in lammps_3d_hooke.in -log none -screen none
+	$(DEM) lmp -in lammps_3d_hertz.in -log none -screen none
 	$(DEM) lmp -in lammps_triclinic.in -log none -screen none
 	$(DEM) liggghts -in liggghts_3d.in -log none > /dev/null
 	$(DEM) yade -n -x yade_3d.py > /dev/null

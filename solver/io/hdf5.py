@@ -126,7 +126,8 @@ def _check_box(box, diameters, where: str, box_name: str) -> None:
 def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
             check_equilibrium: bool, law: str, tangential=None) -> Packing:
     """The checks every format shares (box > 2 max d, not all rattlers, equilibrium under
-    ``law`` with the stored ``tangential`` forces if any), then the Packing."""
+    ``law`` with the stored ``tangential`` forces if any), then the Packing.  ``info`` of a DEM
+    file holds its ``length_unit`` (then a contact file is what a frictional packing lacks)."""
     _check_box(box, diameters, where, box_name)
     packing = from_arrays(positions, diameters, box, rattler, info, masses, law, tangential)
     if tangential is not None:
@@ -136,7 +137,10 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
         name = mechanics.NAMES[packing.dim]
         needed = mechanics.min_contacts(packing.dim)
         raise InputError(f"packing file {where}: no {name[:-1]} has {needed} or more contacts "
-                         f"(not a jammed packing: all {name} are rattlers)")
+                         f"(not a jammed packing: all {name} are rattlers); a packing made with friction "
+                         f"carries load on fewer contacts: give its stored tangential forces "
+                         + ("with its contact file, packing.contacts" if info.get("length_unit") else
+                            "in the file's 'tangential' group (README, Files)"))
     if check_equilibrium:
         mechanics.require_equilibrium(packing, where, law)
     return packing

@@ -25,6 +25,24 @@ def _dem(name, keep=lambda text: text):
     return make
 
 
+def _stressed(keep=lambda lines: lines):
+    """A maker: the 2D frictional LAMMPS packing at ``path`` and its contact file at
+    ``path.contacts``, whose entry lines (after 'ITEM: ENTRIES') are passed through ``keep``."""
+    def make(path):
+        shutil.copyfile(DEM / "lammps_2d_friction.data", path)
+        lines = (DEM / "lammps_2d_friction.contacts").read_text().splitlines()
+        head = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ENTRIES")) + 1
+        pathlib.Path(f"{path}.contacts").write_text("\n".join(lines[:head] + keep(lines[head:])) + "\n")
+    return make
+
+
+def _renamed(lines, column, value):
+    """``lines`` with the first entry's ``column`` set to ``value``."""
+    row = lines[0].split()
+    row[column] = value
+    return [" ".join(row)] + lines[1:]
+
+
 def _valid(path, dim=2, **changes):
     from solver.packing import jammed
 
@@ -209,6 +227,23 @@ CASES = [
     ("LAMMPS packing made with friction", "packing: {file: '{file}'}\n", [],
      "normal contact forces alone: the largest net normal force on a non-rattler is 5.062e-02",
      _dem("lammps_3d_friction.data", None)),
+    ("contact file naming an atom not in the packing", "packing: {file: '{file}', contacts: '{file}.contacts'}\n",
+     [], "atom id 9999 is not in the packing file",
+     _stressed(lambda lines: _renamed(lines, 1, "9999"))),
+    ("contact file cut short", "packing: {file: '{file}', contacts: '{file}.contacts'}\n", [],
+     "entry lines where 'ITEM: NUMBER OF ENTRIES' says", _stressed(lambda lines: lines[:-5])),
+    ("contact pair that carries a force but does not touch",
+     "packing: {file: '{file}', contacts: '{file}.contacts'}\n", [],
+     "carry a force but do not touch", _stressed(lambda lines: _renamed(_renamed(lines, 1, "1"), 2, "128"))),
+    ("stored force above the Coulomb limit", "packing: {file: '{file}', contacts: '{file}.contacts', friction: 0.1}\n",
+     [], "above the Coulomb limit mu f_n with mu = packing.friction = 0.1", _stressed()),
+    ("frictional packing without its contact file", "packing: {file: '{file}'}\n", [],
+     "give its stored tangential forces with its contact file, packing.contacts", _stressed()),
+    ("a spectrum on a stressed packing",
+     "packing: {file: '{file}', contacts: '{file}.contacts'}\nspectrum: {}\n", [],
+     "slicing, counting and kpm need a symmetric matrix", None),
+    ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],
+     "packing.friction = 0.5: the Coulomb mu of a frictional packing", None),
     ("YADE export without its periodic cell", "packing: {file: '{file}'}\n", [],
      "the yade file records no periodic box",
      _dem("yade_3d.txt", lambda text: "".join(l for l in text.splitlines(True) if "PERIODIC" not in l))),

@@ -1,0 +1,113 @@
+"""Contact files (``packing.contacts``, solver/io/contact_files.py): frictional packings written
+by LAMMPS itself with their stored tangential forces (tests/data/dem/README.md) load as stressed
+packings at rest, and damaged or inconsistent contact files get one clear error."""
+
+import numpy as np
+import pytest
+from conftest import REPO
+
+from solver.errors import InputError
+from solver.io import contact_files, hdf5
+from solver.packing import mechanics
+
+pytestmark = pytest.mark.serial_only  # file reading: nothing to gain from a second rank
+
+DATA = REPO / "tests" / "data" / "dem"
+STRESSED = [("lammps_2d_friction", "harmonic", 2), ("lammps_3d_hooke", "harmonic", 3),
+            ("lammps_3d_hertz", "hertz", 3)]
+
+
+@pytest.mark.parametrize("name, law, dim", STRESSED)
+def test_lammps_frictional_packings_load_at_rest_with_their_contacts(name, law, dim):
+    p = hdf5.read_packings(str(DATA / f"{name}.data"), law=law, contacts=str(DATA / f"{name}.contacts"))[0]
+    assert p.dim == dim and p.stressed and p.info["n_stored"] > 0
+    net, torque = mechanics.net_load(p, law)
+    active = ~p.rattler
+    # LAMMPS's own residuals at rest are below 1e-12 (README of tests/data/dem); the file's 17 digits keep them
+    assert np.abs(net[active]).max() < 1e-10 and np.abs(torque[active]).max() < 1e-10
+    with pytest.raises(InputError, match="packing.contacts"):  # without its contacts: refused, naming the key
+        hdf5.read_packings(str(DATA / f"{name}.data"), law=law)
+
+
+def test_reader_takes_the_first_six_columns_of_the_last_frame(tmp_path):
+    text = (DATA / "lammps_2d_friction.contacts").read_text()
+    raw = contact_files.read(DATA / "lammps_2d_friction.contacts")
+    extra = tmp_path / "extra.contacts"  # two frames, the second with an extra column: the last is read
+    lines = text.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ENTRIES"))
+    second = lines[:head] + [lines[head] + " c_more"] + [line + " 7.5" for line in lines[head + 1:]]
+    first = lines[:head + 2]
+    first[3] = "1"  # ITEM: NUMBER OF ENTRIES of a one-entry first frame
+    extra.write_text("\n".join(first + second) + "\n")
+    again = contact_files.read(extra)
+    assert np.array_equal(raw.ids, again.ids) and np.array_equal(raw.force, again.force)
+
+
+def _damaged(tmp_path, how):
+    """The 2D contact file, damaged ``how``."""
+    lines = (DATA / "lammps_2d_friction.contacts").read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ENTRIES"))
+    row = lines[head + 1].split()
+    if how == "truncated":
+        lines = lines[:-3]
+    elif how == "unknown id":
+        row[1] = "99999"
+        lines[head + 1] = " ".join(row)
+    elif how == "normal part":
+        row[3], row[4] = str(float(row[3]) + 0.01), str(float(row[4]) + 0.01)
+        lines[head + 1] = " ".join(row)
+    elif how == "columns":
+        lines[head + 1:] = [" ".join(line.split()[:5]) for line in lines[head + 1:]]
+    elif how == "not a dump local":
+        lines[head] = lines[head].replace("ENTRIES", "ATOMS")
+    path = tmp_path / f"{how.replace(' ', '_')}.contacts"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("how, match", [
+    ("truncated", "entry lines where 'ITEM: NUMBER OF ENTRIES' says"),
+    ("unknown id", "atom id 99999 is not in the packing file"),
+    ("normal part", "is not tangential"),
+    ("columns", "a contact file needs at least 6"),
+    ("not a dump local", "unknown format"),
+])
+def test_damaged_contact_files_are_refused_naming_the_file(tmp_path, how, match):
+    path = _damaged(tmp_path, how)
+    with pytest.raises(InputError, match=match) as caught:
+        hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(path))
+    assert str(path) in str(caught.value)
+
+
+def test_a_listed_pair_that_does_not_touch_but_carries_a_force_is_refused(tmp_path):
+    from solver.io import dem_formats
+    from solver.packing import geometry
+
+    raw = dem_formats.read(DATA / "lammps_2d_friction.data")
+    found = geometry.find_contacts(raw.positions - raw.box_lo, raw.diameters, raw.box_hi - raw.box_lo)
+    touching = set(zip(found.i.tolist(), found.j.tolist()))
+    i, j = next((i, j) for i in range(raw.ids.size) for j in range(i + 1, raw.ids.size) if (i, j) not in touching)
+    lines = (DATA / "lammps_2d_friction.contacts").read_text().splitlines()
+    head = next(k for k, line in enumerate(lines) if line.startswith("ITEM: ENTRIES"))
+    row = lines[head + 1].split()
+    row[1], row[2] = str(raw.ids[i]), str(raw.ids[j])
+    lines[head + 1] = " ".join(row)
+    path = tmp_path / "apart.contacts"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match="carry a force but do not touch"):
+        hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(path))
+
+
+def test_a_force_above_the_coulomb_limit_is_refused_when_mu_is_given():
+    p = hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(DATA / "lammps_2d_friction.contacts"))[0]
+    from solver import contact_law
+    from solver.packing import geometry
+
+    found = geometry.find_contacts(p.positions, p.diameters, p.box)
+    ratio = np.linalg.norm(p.tangential.on(found.i, found.j), axis=1) / contact_law.normal_force(found.overlap)
+    below = 0.9 * ratio.max()  # a mu below the largest |f_t| / f_n the file holds
+    with pytest.raises(InputError, match="above the Coulomb limit"):
+        hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(DATA / "lammps_2d_friction.contacts"),
+                           friction=below)
+    hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(DATA / "lammps_2d_friction.contacts"),
+                       friction=ratio.max() * 1.01)  # the true mu (1) and any mu above the largest ratio pass
