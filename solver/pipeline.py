@@ -24,7 +24,7 @@ from . import __version__, parallel
 from .analysis import dispersion
 from .model import dynmat
 from .io import hdf5
-from .spectrum import counting, kpm
+from .spectrum import counting, kpm, nonhermitian
 from .spectrum import modes
 from .packing import jammed
 from .packing import mechanics
@@ -206,6 +206,8 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                     _kpm_unit(scene, dm, spectrum, commit, comm)
                 elif scene.spectrum.method == "counting":
                     _counting_unit(scene, dm, spectrum, commit, comm)
+                elif scene.spectrum.method == "nonhermitian":
+                    _nonhermitian_unit(scene, dm, spectrum, commit, comm)
                 else:
                     _spectrum_unit(scene, dm, spectrum, commit, comm, checkpoint)
         if wave_todo:
@@ -243,6 +245,22 @@ def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
               f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias, omega_max = "
               f"{attrs['omega_max']:.4f}, {seconds:.1f} s")
     _warn_negative(comm, attrs["n_negative_modes"])
+
+
+def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm) -> None:
+    """Every eigenvalue of one (rho, packing) matrix, symmetric or not (``nonhermitian``). Collective."""
+    t = time.perf_counter()
+    result = nonhermitian.solve(dm, scene.spectrum.zero_tol)
+    seconds = parallel.global_max(comm, time.perf_counter() - t)
+    commit(unit, {"omega": result.omega, "omega2": result.omega2}, {
+        "rho": unit.rho, "packing": unit.p_index, "method": "nonhermitian", "n_zero_modes": result.n_zero_modes,
+        "n_complex": result.n_complex, "n_negative_modes": result.n_negative, "max_growth": result.max_growth,
+        "symmetric": int(dm.symmetric), "seconds": seconds, "window": "full", "dof": dm.size,
+        "n_disks": int(dm.active.sum())})
+    unstable = result.n_complex + result.n_negative
+    say(comm, f"spectrum rho = {unit.rho:g}, packing {unit.p_index}: {result.omega.size} stable modes "
+              f"(+{result.n_zero_modes} zero modes), {unstable} unstable ({result.n_complex} complex, "
+              f"{result.n_negative} negative; largest growth rate {result.max_growth:.2e} / t0), dense, {seconds:.1f} s")
 
 
 def _warn_negative(comm, count: int) -> None:

@@ -300,3 +300,21 @@ def star_cluster(p) -> tuple[np.ndarray, int, int]:
     cluster[found.j[found.i == 0]] = True
     cluster[found.i[found.j == 0]] = True
     return cluster, int(cluster.sum()), int(np.sum(cluster[found.i] & cluster[found.j]))
+
+
+def with_random_stored_forces(p, seed, ratio=0.5, zero=False):
+    """``p`` with a stored tangential force on every contact among non-rattlers, |f_t| = ratio f_n
+    in a random tangent direction (not in equilibrium: the matrix does not need it)."""
+    import dataclasses
+
+    from solver.packing import geometry, stressed
+
+    found = geometry.find_contacts(p.positions, p.diameters, p.box, ~p.rattler)
+    rng = np.random.default_rng(seed)
+    direction = rng.normal(size=found.normal.shape)
+    direction -= np.einsum("cd,cd->c", direction, found.normal)[:, None] * found.normal
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    force = 0.0 * direction if zero else ratio * found.overlap[:, None] * direction
+    stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.box,
+                            "harmonic", None, "test")
+    return dataclasses.replace(p, tangential=stored)

@@ -126,7 +126,7 @@ def _window(v):
     return None
 
 
-METHODS = ("auto", "slicing", "counting", "kpm")
+METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian")
 
 
 @dataclass(frozen=True)
@@ -147,7 +147,9 @@ class SpectrumSpec:
                              "slicing; slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
                                 "vDOS from Sylvester inertias at the bin edges (no eigenvalues: vDOS, omega_c, mode "
                                 "counts); kpm: stochastic vDOS (Chebyshev moments, no factorisation; vDOS, omega_c "
-                                "and, with energies, binned K and Q)",
+                                "and, with energies, binned K and Q); nonhermitian: every eigenvalue omega^2 of a "
+                                "matrix that need not be symmetric (a stressed packing's), complex ones counted as "
+                                "unstable, by dense LAPACK (up to 20000 DOF; no window, no energies)",
                      lambda v: None if v in METHODS else f"must be one of {', '.join(METHODS)}", str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
@@ -396,6 +398,9 @@ def _cross_check(obj, where):
     if isinstance(obj, SpectrumSpec) and obj.method != "slicing" and obj.window:
         raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
                          f"'slicing'")
+    if isinstance(obj, SpectrumSpec) and obj.method == "nonhermitian" and obj.energies:
+        raise InputError(f"{where}method = 'nonhermitian' gives eigenvalues only: {where}energies (K, Q of each mode) "
+                         f"is not built for non-symmetric matrices")
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")
@@ -435,16 +440,15 @@ def check_dimension(scene: Scene, dim: int, source: str) -> None:
 def check_stressed(scene: Scene, which: str | None) -> None:
     """Raise InputError if stressed packings (``which`` says whose stored tangential forces; None:
     none) meet what needs a symmetric matrix (docs/stressed_contacts.md section 4): any
-    ``spectrum`` method (slicing, counting and kpm all rest on symmetry), ``waves.method:
+    ``spectrum`` method but nonhermitian (slicing, counting and kpm rest on symmetry), ``waves.method:
     spectral``, or rho = 0 (the tangential spring holds the stored forces).  Not collective."""
     if which is None:
         return
-    if scene.spectrum is not None:
+    if scene.spectrum is not None and scene.spectrum.method != "nonhermitian":
         raise InputError(f"spectrum (method {scene.spectrum.method}): {which}, so the dynamical matrix is not "
                          f"symmetric (LAMMPS's history update has no energy, docs/stressed_contacts.md); slicing, "
-                         f"counting and kpm need a symmetric matrix and would give a wrong vDOS: drop the spectrum "
-                         f"section (standing waves with waves.method: ts work), or leave packing.contacts out to "
-                         f"analyse unstressed springs on a packing in equilibrium without them")
+                         f"counting and kpm need a symmetric matrix and would give a wrong vDOS: use "
+                         f"spectrum.method: nonhermitian (every eigenvalue, complex ones counted as unstable)")
     if scene.waves is not None and scene.waves.method == "spectral":
         raise InputError(f"waves.method = 'spectral': {which}, so the matrix is not symmetric and has no "
                          f"orthogonal eigendecomposition: use waves.method: ts")

@@ -4,7 +4,7 @@ derivation, in 2D and 3D under both laws; a dimer whose entries are known by han
 
 import numpy as np
 import pytest
-from conftest import assert_close, jammed_packing
+from conftest import assert_close, jammed_packing, with_random_stored_forces
 
 from solver import contact_law
 from solver.contact_law import ContactModel
@@ -167,24 +167,6 @@ def test_a_stressed_dimer_by_hand(law):
     assert_close(ji[0][2, :2], [-r_j[0] * c * f, 0.0], rtol=1e-15, what="S_ji torque row")
     assert_close(jj[0][2, :2], [r_j[0] * c * f, 0.0], rtol=1e-15, what="S_jj torque row")
     assert np.all(ii[0][:, 2] == 0) and np.all(jj[0][:, 2] == 0), "a rotation column gained a term"
-
-
-def with_random_stored_forces(p, seed, ratio=0.5, zero=False):
-    """``p`` with a stored tangential force on every contact among non-rattlers, |f_t| = ratio f_n
-    in a random tangent direction (not in equilibrium: the matrix does not need it)."""
-    import dataclasses
-
-    from solver.packing import geometry, stressed
-
-    found = geometry.find_contacts(p.positions, p.diameters, p.box, ~p.rattler)
-    rng = np.random.default_rng(seed)
-    direction = rng.normal(size=found.normal.shape)
-    direction -= np.einsum("cd,cd->c", direction, found.normal)[:, None] * found.normal
-    direction /= np.linalg.norm(direction, axis=1)[:, None]
-    force = 0.0 * direction if zero else ratio * found.overlap[:, None] * direction
-    stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.box,
-                            "harmonic", None, "test")
-    return dataclasses.replace(p, tangential=stored)
 
 
 def summed_lammps_forces(p, stored, law, rho, x):

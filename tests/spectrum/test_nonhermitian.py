@@ -1,0 +1,70 @@
+"""``spectrum.method: nonhermitian`` (solver/spectrum/nonhermitian.py): every eigenvalue of a
+matrix that need not be symmetric.  On a symmetric matrix it gives slicing's spectrum; on a
+stressed one, the generalized eigenvalues of (D, M) from an independent dense solve; 1 and 2
+ranks agree; a scene on a LAMMPS frictional packing gives its vDOS and its unstable-mode count."""
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+from conftest import COMM, REPO, assert_all, assert_close, jammed_packing, scene_of, with_random_stored_forces
+
+from solver import pipeline
+from solver.contact_law import ContactModel
+from solver.model import dynmat
+from solver.spectrum import nonhermitian, slicing
+
+DATA = REPO / "tests" / "data" / "dem"
+
+
+def test_on_a_symmetric_matrix_it_is_slicings_spectrum(comm):
+    p = jammed_packing(32, 0.9, 3)
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    dense = nonhermitian.solve(dm, zero_tol=1e-4)
+    sliced = slicing.solve(dm, window=None, vectors=False, tol=1e-12, zero_tol=1e-4)
+    dm.destroy()
+    assert_all(dense.n_complex == 0 and dense.n_negative == 0 and dense.n_zero_modes == sliced.n_zero_modes)
+    # both exact to round-off of omega_max^2 ~ 10: relative 1e-10 of the frequencies
+    assert_close(dense.omega, sliced.omega, rtol=1e-10, atol=1e-10, what="nonhermitian vs slicing omega")
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_on_a_stressed_matrix_it_is_the_generalized_eigenproblem(comm, dim):
+    """lambda of M^-1/2 D M^-1/2 against scipy's generalized eig of (D, diag M) (QZ, another
+    algorithm on another form), with stored forces large enough (|f_t| = 3 f_n, not in
+    equilibrium) that some eigenvalues turn complex: the classification is checked too."""
+    p = with_random_stored_forces(jammed_packing(32 if dim == 2 else 48, 0.9 if dim == 2 else 0.7, 3, dim), 11,
+                                  ratio=3.0)
+    dm = dynmat.assemble(p, ContactModel(0.8), comm)
+    result = nonhermitian.solve(dm, zero_tol=1e-4)
+    d = dynmat.gather_csr(dm.D).toarray()
+    m = dynmat.gather_vec(dm.M)
+    dm.destroy()
+    reference = sl.eig(d, np.diag(m), right=False)
+    reference = reference[np.abs(reference) >= 1e-8]
+    reference = reference[np.argsort(reference.real)]
+    assert_all(result.omega2.size == reference.size, f"{result.omega2.size} vs {reference.size} eigenvalues")
+    scale = np.abs(reference).max()
+    # pairs of conjugates sort by real part in either order: compare the sorted real parts, then |Im|
+    assert_close(result.omega2.real, reference.real, rtol=0.0, atol=1e-10 * scale, what="Re lambda")
+    assert_close(np.sort(np.abs(result.omega2.imag)), np.sort(np.abs(reference.imag)), rtol=0.0,
+                 atol=1e-10 * scale, what="|Im lambda|")
+    complex_ = np.abs(reference.imag) > 1e-9 * scale
+    assert_all(result.n_complex == int(complex_.sum()) and result.n_complex > 0,
+               f"{result.n_complex} complex eigenvalues, the reference has {complex_.sum()}")
+    assert_all(result.omega.size + result.n_complex + result.n_negative == reference.size)
+
+
+def test_a_scene_on_a_lammps_frictional_packing_gives_its_vdos(shared_tmp):
+    """The 2D frictional LAMMPS packing with its contact file: every mode found (3 DOF x 120
+    non-rattlers less the 2 translations), its vDOS, and its unstable modes counted."""
+    scene = scene_of(shared_tmp / "stressed.h5", cache="off",
+                     packing={"file": str(DATA / "lammps_2d_friction.data"),
+                              "contacts": str(DATA / "lammps_2d_friction.contacts"), "friction": 1.0},
+                     model={"rho": 2 / 7}, spectrum={"method": "nonhermitian"})
+    units = pipeline.run(scene, COMM, [])["units"]
+    datasets, attrs = units["spectra/r00_p0000"]
+    assert_all(attrs["symmetric"] == 0 and attrs["n_zero_modes"] == 2, str(attrs))
+    total = datasets["omega"].size + attrs["n_complex"] + attrs["n_negative_modes"] + attrs["n_zero_modes"]
+    assert_all(total == 3 * 120, f"{total} modes for 120 disks")
+    edges, density = units["vdos/r00"][0]["edges"], units["vdos/r00"][0]["density"]
+    assert_close(np.sum(density * np.diff(edges)), 1.0, rtol=1e-12, what="vDOS area")
