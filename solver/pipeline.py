@@ -247,6 +247,18 @@ def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
     _warn_negative(comm, attrs["n_negative_modes"])
 
 
+def _check_dense_size(scene: Scene, particles: int, dim: int, which: str) -> None:
+    """InputError if ``particles`` in ``dim`` dimensions (``which``: the packing, for the message)
+    make a matrix beyond the dense non-Hermitian solver's size at some rho. Not collective."""
+    for rho in scene.model.rho:
+        size = particles * dynmat.dof_per_particle(dim, scene.model.contact(rho))
+        if size > nonhermitian.MAX_DOF:
+            raise InputError(f"spectrum.method = 'nonhermitian': the {which} packing's {particles} particles make "
+                             f"{size} DOF at rho = {rho:g}, more than the {nonhermitian.MAX_DOF} the dense solver "
+                             f"takes (a full non-symmetric eigensolve of that size needs hours and "
+                             f"{16 * size ** 2 / 2 ** 30:.0f} GiB); use a smaller packing.n")
+
+
 def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm) -> None:
     """Every eigenvalue of one (rho, packing) matrix, symmetric or not (``nonhermitian``). Collective."""
     t = time.perf_counter()
@@ -360,6 +372,8 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     try:
         store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,
                           cache=cache_folder(scene))
+        if scene.spectrum is not None and scene.spectrum.method == "nonhermitian" and scene.packing.file is None:
+            _check_dense_size(scene, scene.packing.n, scene.packing.dim, "generated")  # before the packings
         with profiling.stage("packings"):
             packings = make_packings(scene, comm, store)
         if scene.packing.file is not None:  # generated packings were checked with the scene
@@ -371,6 +385,9 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
                 excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
+        if scene.spectrum is not None and scene.spectrum.method == "nonhermitian":  # dense: refuse before any solve
+            for index, p in enumerate(packings):
+                _check_dense_size(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
         keys = unit_keys.scene_keys(scene, packings, petsc_argv)
         for index, p in enumerate(packings):
             i = p.info
