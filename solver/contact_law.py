@@ -50,7 +50,8 @@ class ContactModel:
 
     rho = kt / kn (tangential), rho_roll = kr / kn (rolling), rho_twist = ko / kn (twisting, 3D
     only): stiffness ratios >= 0;  law : the normal law, ``harmonic`` (kn xi) or ``hertz``
-    (kn sqrt(a' xi) xi, every spring scaled by :func:`spring_scale`).  The scene gives one per
+    (kn sqrt(a' xi) xi, every spring scaled by :func:`spring_scale`);  mobilised : how a stressed
+    contact at the Coulomb limit responds, ``stick`` or ``slide`` (:func:`sliding_blocks`).  The scene gives one per
     rho (``ModelSpec.contact``); the dashpots of later physics join here.  A stressed packing's
     stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
@@ -59,6 +60,7 @@ class ContactModel:
     rho_roll: float = 0.0
     rho_twist: float = 0.0
     law: str = "harmonic"
+    mobilised: str = "stick"
 
     @property
     def rotations(self) -> bool:
@@ -307,3 +309,51 @@ def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarra
         for block, radius, sign in zip(blocks, (radius_i, radius_i, radius_j, radius_j), (-1.0, 1.0, -1.0, 1.0)):
             block[:, dim:, :dim] = sign * radius[:, None, None] * t
     return tuple(blocks)
+
+
+def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray, radius_i: np.ndarray,
+                   radius_j: np.ndarray, tangential: np.ndarray, model: ContactModel,
+                   with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What turns the stick blocks (:func:`pair_blocks` + :func:`stressed_blocks`) of contacts at
+    the Coulomb limit, |f_t| = mu f_n, into their sliding branch (``model.mobilised: slide``;
+    docs/stressed_contacts.md section 5): (S_ii, S_ij, S_ji, S_jj), each (C, k, k).
+
+    LAMMPS rescales a trial force above the cone back onto it, f_t = mu f_n(xi) s^ with s^ the
+    trial's direction; to first order the stick increment keeps its part across s^ and its part
+    along s^ becomes mu df_n/dxi dxi (the cone growing with the load).  With w = kt B_t^T s^ +
+    mu (c f_n - kn') (n, 0, -n, 0) (c as in :func:`stressed_blocks`, kn' = df_n/dxi), the rows of
+    u_i gain -s^ w^T, those of u_j + s^ w^T, those of theta_i R_i (n x s^) w^T, those of theta_j
+    R_j (n x s^) w^T.  Valid for increments that load the contact along s^ (it slides); an
+    unloading one sticks.  ``tangential`` (C, D) the stored forces, all non-zero.
+    """
+    count, dim = normal.shape
+    c_n = _rotation_map(normal)
+    rot = c_n.shape[2]
+    m = dim + rot
+    reduced = radius_i * radius_j / (radius_i + radius_j)
+    size = np.linalg.norm(tangential, axis=1)
+    slip = tangential / size[:, None]
+    fn = normal_force(overlap, model.law, reduced)
+    mu = size / fn  # at the limit: |f_t| = mu f_n
+    c = np.zeros(count) if model.law == "harmonic" else 0.5 / overlap
+    kt = KN * model.rho * spring_scale(overlap, model.law, reduced)
+    proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
+    b_t = np.zeros((count, dim, 2 * m))
+    b_t[:, :, :dim], b_t[:, :, m:m + dim] = proj, -proj
+    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -radius_i[:, None, None] * c_n, -radius_j[:, None, None] * c_n
+    w = kt[:, None] * np.einsum("cdk,cd->ck", b_t, slip)
+    load = mu * (c * fn - normal_stiffness(overlap, model.law, reduced))
+    w[:, :dim] += load[:, None] * normal
+    w[:, m:m + dim] -= load[:, None] * normal
+    turn = cross(normal, slip).reshape(count, rot)  # n x s^
+    k = m if with_rotation else dim
+    keep = np.r_[0:k, m:m + k]
+    w = w[:, keep]
+    blocks = []
+    for rows_of, sign_u, radius in ((0, -1.0, radius_i), (1, 1.0, radius_j)):
+        rows = np.zeros((count, k, 2 * k))
+        rows[:, :dim] = sign_u * slip[:, :, None] * w[:, None, :]
+        if with_rotation:
+            rows[:, dim:] = radius[:, None, None] * turn[:, :, None] * w[:, None, :]
+        blocks += [rows[:, :, :k], rows[:, :, k:]]
+    return tuple(blocks)  # ii, ij, ji, jj

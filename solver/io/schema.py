@@ -115,9 +115,15 @@ class ModelSpec:
                               "is m d^2/8 (disk) or m d^2/10 (sphere)",
                      lambda v: None if v in ("equal", "density") else "must be one of equal, density", str)
 
+    mobilised: str = _f("stick", "stressed packings: how a contact at the Coulomb limit (|f_t| = mu f_n, needs "
+                                 "packing.friction) responds: stick (the stick stiffness, LAMMPS's for unloading "
+                                 "increments) or slide (no tangential stiffness along the slip, LAMMPS's for loading "
+                                 "ones; docs/stressed_contacts.md)",
+                        lambda v: None if v in ("stick", "slide") else "must be one of stick, slide", str)
+
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
-        return ContactModel(rho, self.rho_roll, self.rho_twist, self.law)
+        return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised)
 
 
 def _window(v):
@@ -411,6 +417,9 @@ def _cross_check(obj, where):
                          f"fewer than 4 samples in t_end = {obj.t_end}")
     if isinstance(obj, Scene) and obj.packing.file is None:
         check_dimension(obj, obj.packing.dim, f"packing.dim is {obj.packing.dim}")
+    if isinstance(obj, Scene) and obj.model.mobilised == "slide" and obj.packing.friction is None:
+        raise InputError("model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu: give "
+                         "packing.friction (with packing.contacts, or packing.engine: lammps)")
     if isinstance(obj, Scene) and obj.packing.contacts is not None:
         check_stressed(obj, "packing.contacts gives the packings stored tangential forces")
     if isinstance(obj, Scene) and obj.packing.file is None and obj.packing.friction:

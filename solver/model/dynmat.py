@@ -29,6 +29,7 @@ from .. import profiling
 from ..packing import geometry
 from .. import contact_law
 from ..contact_law import ContactModel
+from ..packing import stressed
 from ..packing.jammed import Packing
 
 MASS = 1.0
@@ -140,10 +141,17 @@ def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]
     h_ii, h_ij, h_jj = contact_law.pair_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
     h_ji = np.transpose(h_ij, (0, 2, 1))
     if packing.tangential is not None:  # stored tangential forces: the non-symmetric part
-        s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(
-            *geometry_args, packing.tangential.on(found.i[touch], found.j[touch]), model.law,
-            with_rotation=dof > packing.dim)
+        stored = packing.tangential.on(found.i[touch], found.j[touch])
+        s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(*geometry_args, stored, model.law,
+                                                             with_rotation=dof > packing.dim)
         h_ii, h_ij, h_ji, h_jj = h_ii + s_ii, h_ij + s_ij, h_ji + s_ji, h_jj + s_jj
+        if model.mobilised == "slide":  # contacts at the Coulomb limit take their sliding branch
+            limit = stressed.at_limit(stored, np.stack((found.i[touch], found.j[touch]), 1), found.overlap[touch],
+                                      packing.diameters, model.law, packing.tangential.friction)
+            slide = contact_law.sliding_blocks(*(a[limit] for a in geometry_args), stored[limit], model,
+                                               with_rotation=dof > packing.dim)
+            for block, extra in zip((h_ii, h_ij, h_ji, h_jj), slide):
+                block[limit] += extra
     block_rows = np.concatenate((a, a, b, b))
     block_cols = np.concatenate((a, b, b, a))
     blocks = np.concatenate((h_ii, h_ij, h_jj, h_ji))

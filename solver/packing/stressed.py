@@ -122,12 +122,18 @@ def _normal_force(pairs: np.ndarray, overlap: np.ndarray, diameters: np.ndarray,
     return contact_law.normal_force(np.maximum(overlap, 0.0), law, reduced)
 
 
+def at_limit(force: np.ndarray, pairs: np.ndarray, overlap: np.ndarray, diameters: np.ndarray, law: str,
+             friction: float | None) -> np.ndarray:
+    """(C,) bool: contacts (pairs (C, 2), overlaps (C,)) whose tangential force (C, D) is at the
+    Coulomb limit, |f_t| >= mu f_n (1 - 1e-9) under the normal ``law``; none when mu is None."""
+    if friction is None:
+        return np.zeros(pairs.shape[0], dtype=bool)
+    fn = _normal_force(pairs, overlap, diameters, law)
+    return np.linalg.norm(force, axis=1) >= friction * fn * (1.0 - COULOMB_SLACK)
+
+
 def mobilised(stored: TangentialForces, positions: np.ndarray, diameters: np.ndarray, box,
               law: str) -> np.ndarray:
-    """(C,) bool: the stored contacts at the Coulomb limit, |f_t| >= mu f_n (1 - 1e-9) under the
-    normal ``law``; none when mu is unknown."""
-    if stored.friction is None:
-        return np.zeros(len(stored), dtype=bool)
+    """(C,) bool: the stored contacts at the Coulomb limit (:func:`at_limit`)."""
     _, _, overlap = geometry.pair_geometry(positions, diameters, box, stored.pairs)
-    fn = _normal_force(stored.pairs, overlap, diameters, law)
-    return np.linalg.norm(stored.force, axis=1) >= stored.friction * fn * (1.0 - COULOMB_SLACK)
+    return at_limit(stored.force, stored.pairs, overlap, diameters, law, stored.friction)

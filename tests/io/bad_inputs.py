@@ -245,6 +245,8 @@ CASES = [
     ("nonhermitian spectrum too large for the dense solver",
      "packing: {n: 8192, phi: 0.9}\nspectrum: {method: nonhermitian}\n", [],
      "more than the 20000 the dense solver takes", None),
+    ("sliding contacts without their mu", "packing: {n: 64, phi: 0.9}\nmodel: {mobilised: slide}\n", [],
+     "model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu", None),
     ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],
      "packing.friction = 0.5: the Coulomb mu of a frictional packing", None),
     ("YADE export without its periodic cell", "packing: {file: '{file}'}\n", [],

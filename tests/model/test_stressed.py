@@ -25,13 +25,14 @@ def _spin_cross_normal(spin, normal):
     return np.cross(spin, normal)
 
 
-def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x):
+def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x, friction=None):
     """Generalised forces (C, 2m) = (F_i, tau_i, F_j, tau_j) after one step of LAMMPS's
     gran/hooke/history (or gran/hertz/history) that moves the contact by x (C, 2m) =
     (u_i, theta_i, u_j, theta_j) from a reference at rest with separation (C, D) and stored
     tangential force ``tangential`` (C, D) on i: PairGranHookeHistory::compute with v dt = x,
     the history incremented by the relative tangential displacement of the contact point
-    (with the new normal), projected onto the new tangent plane, the force -k_t(xi) s."""
+    (with the new normal), projected onto the new tangent plane, the force -k_t(xi) s, rescaled
+    onto the Coulomb cone mu f_n when ``friction`` = mu is given and the trial exceeds it."""
     dim = separation.shape[1]
     m = x.shape[1] // 2
     u_i, th_i, u_j, th_j = x[:, :dim], x[:, dim:m], x[:, m:m + dim], x[:, m + dim:]
@@ -55,6 +56,10 @@ def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x):
     s = s + increment
     s = s - np.einsum("cd,cd->c", s, normal)[:, None] * normal
     f_t = -k_t[:, None] * s
+    if friction is not None:  # the Coulomb cap: a trial force above mu f_n is rescaled onto the cone
+        size = np.linalg.norm(f_t, axis=1)
+        over = size > friction * f_n
+        f_t[over] *= (friction * f_n[over] / size[over])[:, None]
     force = f_n[:, None] * normal + f_t
     turn = _cross(normal, f_t)
     tau_i = -(radius_i * turn if dim == 2 else radius_i[:, None] * turn)
@@ -169,7 +174,7 @@ def test_a_stressed_dimer_by_hand(law):
     assert np.all(ii[0][:, 2] == 0) and np.all(jj[0][:, 2] == 0), "a rotation column gained a term"
 
 
-def summed_lammps_forces(p, stored, law, rho, x):
+def summed_lammps_forces(p, stored, law, rho, x, friction=None):
     """Generalised force (N', dof) on every non-rattler after LAMMPS's one-step update moves all
     particles by x (N', dof) in the matrix's DOF order, summed over contacts (lammps_step)."""
     from solver.packing import geometry
@@ -181,7 +186,7 @@ def summed_lammps_forces(p, stored, law, rho, x):
     separation = found.normal * found.distance[:, None]
     radius = 0.5 * p.diameters
     pair = lammps_step(separation, stored.on(found.i, found.j), radius[found.i], radius[found.j], law, rho,
-                       np.concatenate((x[a], x[b]), axis=1))
+                       np.concatenate((x[a], x[b]), axis=1), friction)
     dof = x.shape[1]
     out = np.zeros_like(x)
     np.add.at(out, a, pair[:, :dof])
@@ -224,3 +229,77 @@ def test_zero_stored_forces_give_todays_matrix_bit_for_bit(comm, dim):
     assert np.array_equal(a.data, b.data), "zero stored forces changed D"
     plain.destroy()
     stored.destroy()
+
+
+@pytest.mark.serial_only
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("law", ["harmonic", "hertz"])
+def test_sliding_blocks_are_lammps_update_at_the_coulomb_limit(dim, law):
+    """Contacts at |f_t| = mu f_n moved in a direction that loads them (the relative tangential
+    displacement against f_t, plus a 10 % random part): LAMMPS's capped update has one-sided
+    derivative K_stick + S_slide (Richardson-extrapolated forward differences, O(h^2): at h = 1e-6
+    about 1e-9 of the largest force, round-off beyond); the stick blocks alone miss by the
+    tangential stiffness along the slip."""
+    separation, normal, overlap, r_i, r_j, tangential = stressed_contacts(dim, seed=7, ratio=1.0)
+    mu = 0.6
+    reduced = r_i * r_j / (r_i + r_j)
+    fn = contact_law.normal_force(overlap, law, reduced)
+    tangential = mu * fn[:, None] * tangential / np.linalg.norm(tangential, axis=1)[:, None]  # on the cone
+    rho = 0.7
+    model = ContactModel(rho, law=law)
+    stick = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model)
+    distance = np.linalg.norm(separation, axis=1)
+    slide = stick + full_matrix(contact_law.sliding_blocks(normal, distance, overlap, r_i, r_j, tangential, model))
+    count, size = stick.shape[0], stick.shape[1]
+    m = size // 2
+    rng = np.random.default_rng(3)
+    x = 0.1 * rng.normal(size=(count, size))
+    x[:, :dim] -= tangential / np.linalg.norm(tangential, axis=1)[:, None]  # u_i against f_t: loads
+    h = 1e-6
+
+    def force(step):
+        return lammps_step(separation, tangential, r_i, r_j, law, rho, step * x, friction=mu)
+
+    base = force(0.0)
+    slope = 2 * (force(h) - base) / h - (force(2 * h) - base) / (2 * h)  # forward differences: O(h) cancels
+    expected = -np.einsum("cij,cj->ci", slide, x)
+    scale = np.abs(expected).max()
+    assert_close(slope, expected, rtol=0.0, atol=1e-7 * scale, what="one-sided slope vs sliding blocks")
+    miss = np.abs(slope + np.einsum("cij,cj->ci", stick, x)).max()
+    assert miss > 1e-2 * scale, f"the stick blocks also match ({miss:.2e}): the test is blind"
+    assert m == dim + (1 if dim == 2 else 3)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_assembled_matrix_slides_the_contacts_at_the_coulomb_limit(comm, dim):
+    """model.mobilised: slide on a packing whose stored forces are at half the cone except one at
+    mu f_n: D is LAMMPS's capped update summed over the packing, differentiated one-sidedly in a
+    direction that loads that contact (the others stick either way); stick misses it."""
+    import dataclasses
+
+    from solver.model import dynmat
+    from solver.packing import geometry
+    from solver.packing.stressed import TangentialForces
+
+    mu = 0.8
+    p = with_random_stored_forces(jammed_packing(32 if dim == 2 else 48, 0.9 if dim == 2 else 0.7, 3, dim), 11,
+                                  ratio=0.5 * mu)
+    found = geometry.find_contacts(p.positions, p.diameters, p.box, ~p.rattler)
+    force = p.tangential.force.copy()
+    force[0] *= 2.0  # contact 0 (pairs sorted alike) now at mu f_n
+    p = dataclasses.replace(p, tangential=TangentialForces(p.tangential.pairs, force, mu))
+    assert (found.i[0], found.j[0]) == tuple(p.tangential.pairs[0])
+    index = np.cumsum(~p.rattler) - 1
+    x = 0.1 * np.random.default_rng(4).normal(size=(int((~p.rattler).sum()), dim + (1 if dim == 2 else 3)))
+    x[index[found.i[0]], :dim] -= force[0] / np.linalg.norm(force[0])  # loads contact 0 along its slip
+    h = 1e-6
+    base = summed_lammps_forces(p, p.tangential, "harmonic", 0.8, 0.0 * x, mu)
+    slope = (2 * (summed_lammps_forces(p, p.tangential, "harmonic", 0.8, h * x, mu) - base) / h
+             - (summed_lammps_forces(p, p.tangential, "harmonic", 0.8, 2 * h * x, mu) - base) / (2 * h))
+    for mode, should_match in (("slide", True), ("stick", False)):
+        dm = dynmat.assemble(p, ContactModel(0.8, mobilised=mode), comm)
+        dense = dynmat.gather_csr(dm.D).toarray()
+        dm.destroy()
+        error = np.abs(slope.ravel() + dense @ x.ravel()).max() / np.abs(dense).max()
+        # one-sided Richardson differences at h = 1e-6: ~1e-9; stick misses by the slip's stiffness
+        assert (error < 1e-7) == should_match, f"{mode}: error {error:.2e}"
