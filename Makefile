@@ -44,7 +44,9 @@ dem-data:
 	$(DEM) lmp -in lammps_3d_hertz.in -log none -screen none
 	$(DEM) lmp -in lammps_triclinic.in -log none -screen none
 	$(DEM) liggghts -in liggghts_3d.in -log none > /dev/null
+	$(DEM) liggghts -in liggghts_3d_friction.in -log none > /dev/null
 	$(DEM) yade -n -x yade_3d.py > /dev/null
+	$(DEM) yade -n -x yade_3d_friction.py > /dev/null
 
 clean:
 	rm -rf results .venv *.egg-info
