@@ -164,20 +164,23 @@ def plot_spectra(waves: dict, stem: str, rhos=None) -> list[str]:
 
 
 def plot_vdos_compare(paths: list[str], stem: str) -> list[str]:
-    """Fig. S1: g(omega) of several results files (e.g. different phi) overlaid, one panel per rho."""
+    """Fig. S1: g(omega) of several results files (e.g. different phi, or frictional packings of
+    different mu) overlaid, one panel per rho."""
     curves: dict[float, list] = {}
     for path in paths:
         with results.open_results(path) as f:
             phi, n = results.packing_summary(f)
+            mu = results.packing_friction(f)
             for rho, v in results.vdos(f).items():
-                curves.setdefault(rho, []).append((phi, n, v.edges, v.density))
+                curves.setdefault(rho, []).append((phi, n, mu, v.edges, v.density))
     if not curves:
         return []
     rhos = sorted(curves)
     fig, axes = plt.subplots(1, len(rhos), figsize=(4.2 * len(rhos), 3.6), squeeze=False)
     for ax, rho in zip(axes[0], rhos):
-        for phi, n, edges, density in sorted(curves[rho], key=lambda c: c[0]):
-            ax.plot(_centres(edges), density, lw=1, label=f"phi = {phi:.3f} (N = {n})")
+        for phi, n, mu, edges, density in sorted(curves[rho], key=lambda c: (c[0], -1 if c[2] is None else c[2])):
+            ax.plot(_centres(edges), density, lw=1,
+                    label=f"phi = {phi:.3f} (N = {n})" + ("" if mu is None else f", mu = {mu:g}"))
         ax.set(xlabel="omega t0", ylabel="g(omega) t0", title=f"rho = {rho:g}", ylim=(0, None))
         ax.legend(fontsize=7)
     fig.tight_layout()

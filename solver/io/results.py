@@ -96,6 +96,15 @@ def packing_summary(f) -> tuple[float, int]:
     return float(groups[0].attrs["phi"]), int(groups[0]["diameters"].shape[0])
 
 
+def packing_friction(f) -> float | None:
+    """The Coulomb mu of the first configuration's stored tangential forces (a frictional packing:
+    group ``tangential``, attribute ``friction``); None for an unstressed packing or mu unknown."""
+    groups = _groups(f, "packings")
+    if not groups or "tangential" not in groups[0] or "friction" not in groups[0]["tangential"].attrs:
+        return None
+    return float(groups[0]["tangential"].attrs["friction"])
+
+
 def first_packing(f) -> dict | None:
     """The first configuration: positions (N, D) (D = 2 or 3), diameters (N,), rattler (N,) bool and the
     attributes box (D,) side lengths, phi, z (mean contact number; NaN if absent); None without packings."""
