@@ -51,7 +51,9 @@ class ContactModel:
     rho = kt / kn (tangential), rho_roll = kr / kn (rolling), rho_twist = ko / kn (twisting, 3D
     only): stiffness ratios >= 0;  law : the normal law, ``harmonic`` (kn xi) or ``hertz``
     (kn sqrt(a' xi) xi, every spring scaled by :func:`spring_scale`);  mobilised : how a stressed
-    contact at the Coulomb limit responds, ``stick`` or ``slide`` (:func:`sliding_blocks`).  The scene gives one per
+    contact at the Coulomb limit responds, ``stick`` or ``slide`` (:func:`sliding_blocks`);
+    lever : where the tangential force acts, ``radius`` (R from each centre: LAMMPS) or
+    ``contact`` (R - xi/2, the middle of the overlap: LIGGGHTS and YADE) (:func:`lever_arms`).  The scene gives one per
     rho (``ModelSpec.contact``); the dashpots of later physics join here.  A stressed packing's
     stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
@@ -61,11 +63,26 @@ class ContactModel:
     rho_twist: float = 0.0
     law: str = "harmonic"
     mobilised: str = "stick"
+    lever: str = "radius"
 
     @property
     def rotations(self) -> bool:
         """Whether some rotational spring is on (then the matrix keeps rotational DOF)."""
         return self.rho > 0.0 or self.rho_roll > 0.0 or self.rho_twist > 0.0
+
+
+LEVERS = ("radius", "contact")
+
+
+def lever_arms(radius_i: np.ndarray, radius_j: np.ndarray, overlap: np.ndarray, lever: str
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Distances (C,) from each centre to where the tangential force acts: R (``radius``,
+    LAMMPS's gran/*/history) or R - xi/2 (``contact``, the middle of the overlap, as LIGGGHTS and
+    YADE take it); they enter the contact point's slip and the torques
+    (docs/stressed_contacts.md section 2)."""
+    if lever == "radius":
+        return radius_i, radius_j
+    return radius_i - 0.5 * overlap, radius_j - 0.5 * overlap
 
 
 def reduced_radius(d_i: np.ndarray, d_j: np.ndarray) -> np.ndarray:
@@ -146,17 +163,20 @@ def _refuse_twist_in_2d(normal: np.ndarray, model: ContactModel) -> None:
 
 
 def stretches(normal: np.ndarray, radius_i: np.ndarray, radius_j: np.ndarray, du: np.ndarray,
-              theta_i: np.ndarray, theta_j: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              theta_i: np.ndarray, theta_j: np.ndarray, arms: tuple | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(s_t (C, D), s_r (C, D), s_o (C,)) of PHYSICS.md section 8, from the reference ``normal``.
 
     s_t = P (u_i - u_j) - (R_i theta_i + R_j theta_j) x n (tangential; in 2D delta_t t),
     s_r = a' (theta_i - theta_j) x n (rolling), s_o = a' n . (theta_i - theta_j) (twisting; 0 in 2D),
-    with a' = R_i R_j / (R_i + R_j).  du (C, D); theta (C,) in 2D, (C, 3) in 3D.
+    with a' = R_i R_j / (R_i + R_j).  du (C, D); theta (C,) in 2D, (C, 3) in 3D; ``arms`` the
+    lever arms (:func:`lever_arms`) in place of R_i, R_j in s_t (None: the radii).
     """
     c_n = _rotation_map(normal)
     ti, tj = _rotations(theta_i), _rotations(theta_j)
     reduced = radius_i * radius_j / (radius_i + radius_j)
-    spin = radius_i[:, None] * ti + radius_j[:, None] * tj
+    arm_i, arm_j = arms if arms is not None else (radius_i, radius_j)
+    spin = arm_i[:, None] * ti + arm_j[:, None] * tj
     s_t = du - np.einsum("cd,cd->c", normal, du)[:, None] * normal - np.einsum("cdr,cr->cd", c_n, spin)
     s_r = reduced[:, None] * np.einsum("cdr,cr->cd", c_n, ti - tj)
     s_o = (reduced * np.einsum("cd,cd->c", normal, ti - tj) if normal.shape[1] == 3
@@ -178,8 +198,10 @@ def pair_energy(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     _refuse_twist_in_2d(normal, model)
     reduced = radius_i * radius_j / (radius_i + radius_j)
     _, normal_part = normal_pair(separation + du, contact, model.law, reduced)
-    scale = spring_scale(_reference_overlap(separation, contact), model.law, reduced)
-    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
+    overlap = _reference_overlap(separation, contact)
+    scale = spring_scale(overlap, model.law, reduced)
+    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j,
+                              lever_arms(radius_i, radius_j, overlap, model.lever))
     return normal_part + 0.5 * KN * scale * (model.rho * np.einsum("cd,cd->c", s_t, s_t)
                                              + model.rho_roll * np.einsum("cd,cd->c", s_r, s_r)
                                              + model.rho_twist * s_o**2)
@@ -210,14 +232,16 @@ def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     _refuse_twist_in_2d(normal, model)
     reduced = radius_i * radius_j / (radius_i + radius_j)
     force, _ = normal_pair(separation + du, contact, model.law, reduced)
-    k = KN * spring_scale(_reference_overlap(separation, contact), model.law, reduced)
-    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j)
+    overlap = _reference_overlap(separation, contact)
+    k = KN * spring_scale(overlap, model.law, reduced)
+    arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
+    s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j, (arm_i, arm_j))
     slide = cross(s_t, normal)
     roll = cross(normal, s_r)
     tau_common = -model.rho_roll * _expand(k * reduced, roll)
     twist = -model.rho_twist * _expand(k * reduced * s_o, normal) if normal.shape[1] == 3 else 0.0
-    tau_i = -model.rho * _expand(k * radius_i, slide) + tau_common + twist
-    tau_j = -model.rho * _expand(k * radius_j, slide) - tau_common - twist
+    tau_i = -model.rho * _expand(k * arm_i, slide) + tau_common + twist
+    tau_j = -model.rho * _expand(k * arm_j, slide) - tau_common - twist
     return force - model.rho * k[:, None] * s_t, tau_i, tau_j
 
 
@@ -255,7 +279,8 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
             full[:, a:a + dim, b:b + dim] = sa * sb * stiff
     b_t = np.zeros((count, dim, 2 * m))
     b_t[:, :, :dim], b_t[:, :, m:m + dim] = proj, -proj
-    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -radius_i[:, None, None] * c_n, -radius_j[:, None, None] * c_n
+    arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
+    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -arm_i[:, None, None] * c_n, -arm_j[:, None, None] * c_n
     b_r = np.zeros((count, dim, 2 * m))
     b_r[:, :, dim:m], b_r[:, :, m + dim:] = reduced[:, None, None] * c_n, -reduced[:, None, None] * c_n
     springs = [(model.rho, b_t), (model.rho_roll, b_r)]
@@ -280,7 +305,8 @@ def _cross_matrix(vector: np.ndarray) -> np.ndarray:
 
 def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
                     radius_i: np.ndarray, radius_j: np.ndarray, tangential: np.ndarray, law: str,
-                    with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                    with_rotation: bool = True, lever: str = "radius"
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What stored tangential forces add to the contact blocks (docs/stressed_contacts.md
     section 2): (S_ii, S_ij, S_ji, S_jj), each (C, k, k) like :func:`pair_blocks`'s, with
     S_ji != S_ij^T in general (no energy: LAMMPS's history update).
@@ -290,7 +316,9 @@ def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarra
     (c = 0 harmonic, 1/(2 xi) hertz: LAMMPS's tangential stiffness follows the current overlap),
     the rows of u_i gain (G, -G) on the columns of (u_i, u_j), the rows of u_j (-G, G), those of
     theta_i R_i (-T, T), those of theta_j R_j (-T, T); no column of a rotation gains anything.
-    Zero forces add exact zeros.
+    Under ``lever`` = contact the arms are l = R - xi/2 (:func:`lever_arms`) and, since they
+    shorten as the overlap grows, each torque row gains -1/2 (n x f_t) n^T on the columns of u_i
+    (+ on u_j): l T becomes l T - (n x f_t) n^T / 2.  Zero forces add exact zeros.
     """
     count, dim = normal.shape
     rot = _rotation_map(normal).shape[2]
@@ -306,8 +334,11 @@ def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarra
     for block, sign in zip(blocks, (1.0, -1.0, -1.0, 1.0)):
         block[:, :dim, :dim] = sign * g
     if with_rotation:
-        for block, radius, sign in zip(blocks, (radius_i, radius_i, radius_j, radius_j), (-1.0, 1.0, -1.0, 1.0)):
-            block[:, dim:, :dim] = sign * radius[:, None, None] * t
+        arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, lever)
+        shorten = (0.5 if lever == "contact" else 0.0) * (turn[:, None] if turn.ndim == 1 else turn)[:, :, None] \
+            * normal[:, None, :]
+        for block, arm, sign in zip(blocks, (arm_i, arm_i, arm_j, arm_j), (-1.0, 1.0, -1.0, 1.0)):
+            block[:, dim:, :dim] = sign * (arm[:, None, None] * t - shorten)
     return tuple(blocks)
 
 
@@ -340,7 +371,8 @@ def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray
     proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
     b_t = np.zeros((count, dim, 2 * m))
     b_t[:, :, :dim], b_t[:, :, m:m + dim] = proj, -proj
-    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -radius_i[:, None, None] * c_n, -radius_j[:, None, None] * c_n
+    arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
+    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -arm_i[:, None, None] * c_n, -arm_j[:, None, None] * c_n
     w = kt[:, None] * np.einsum("cdk,cd->ck", b_t, slip)
     load = mu * (c * fn - normal_stiffness(overlap, model.law, reduced))
     w[:, :dim] += load[:, None] * normal
@@ -350,7 +382,7 @@ def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray
     keep = np.r_[0:k, m:m + k]
     w = w[:, keep]
     blocks = []
-    for rows_of, sign_u, radius in ((0, -1.0, radius_i), (1, 1.0, radius_j)):
+    for sign_u, radius in ((-1.0, arm_i), (1.0, arm_j)):
         rows = np.zeros((count, k, 2 * k))
         rows[:, :dim] = sign_u * slip[:, :, None] * w[:, None, :]
         if with_rotation:

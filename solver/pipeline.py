@@ -80,6 +80,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[ja
         def load(_):
             read = hdf5.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law,
                                       contacts=spec.contacts, friction=spec.friction,
+                                      contacts_format=spec.contacts_format, lever=scene.model.lever,
                                       fmt=spec.format)
             return [_relaxed(p, index, scene) for index, p in enumerate(read)] if spec.relax else read
 

@@ -11,6 +11,14 @@ caller maps ids to the packing's particles and rescales (``hdf5``).
   p1..p3 = the tangential force on patom1 from patom2.  Further columns are allowed and ignored.
   ``ITEM: TIMESTEP``, ``ITEM: NUMBER OF ENTRIES``, ``ITEM: BOX BOUNDS``, ``ITEM: ENTRIES``; the
   last frame is read.  The LAMMPS lines that write it are in the README ("Stressed packings").
+* ``liggghts-local`` -- a LIGGGHTS ``dump local`` of ``compute pair/gran/local pos id force
+  force_tangential`` (the same frame layout): after the index, x_i y_i z_i x_j y_j z_j, id_i
+  id_j, a periodic flag, the total force and the tangential force on id_i from id_j (LIGGGHTS
+  3.8.0 writes its values in a fixed order whatever the keywords' order; these four keywords
+  give exactly 16 columns).  LIGGGHTS (like YADE) applies the tangential force at the middle of
+  the overlap: read it with ``model.lever: contact``.
+The format is not detected: ``packing.contacts_format`` names it (default lammps-local); a
+LIGGGHTS file read as LAMMPS's fails on its columns 2 and 3, which are positions, not ids.
 """
 
 from __future__ import annotations
@@ -43,8 +51,9 @@ def _fail(path, what: str):
     raise InputError(f"{KIND} {path}: {what}")
 
 
-def read_lammps_local(path) -> RawContacts:
-    """The last frame of a LAMMPS ``dump local`` of contacts (layout above) -> :class:`RawContacts`."""
+def _last_frame(path) -> tuple[np.ndarray, int, str]:
+    """(table (C, K), the file line of its first row, the column names) of the last frame of a
+    text ``dump local``; a frame with no entries gives a (0, 0) table."""
     text = read_text(path, KIND)
     starts = [m.start() for m in re.finditer(r"^ITEM: TIMESTEP[ \t]*$", text, re.M)]
     if not starts or text[:starts[0]].strip():
@@ -64,33 +73,57 @@ def read_lammps_local(path) -> RawContacts:
         _fail(path, f"the last frame has {len(lines)} entry lines where 'ITEM: NUMBER OF ENTRIES' says {expected} "
                     f"(truncated or damaged file)")
     if expected == 0:
-        return RawContacts(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3)), "lammps-local")
+        return np.zeros((0, 0)), 0, names
     first = text[:starts[-1]].count("\n") + chunk[:len(chunk) - len(rows)].count("\n") + 1
-    table = number_table(path, lines, first, "the entries", f"at least 6 columns: {LOCAL_LAYOUT}", KIND)
+    return number_table(path, lines, first, "the entries", "one number per column", KIND), first, names
+
+
+def _ids(path, table: np.ndarray, columns: slice, first: int, layout: str) -> np.ndarray:
+    """The two atom-id columns ``columns`` of ``table`` as int64; InputError unless whole numbers >= 1."""
+    ids = table[:, columns]
+    bad = np.flatnonzero(np.any((ids != np.rint(ids)) | (ids < 1), axis=1))
+    if bad.size:
+        _fail(path, f"line {first + bad[0]}: the atom-id columns must hold whole numbers >= 1, not "
+                    f"{ids[bad[0]].tolist()}; the columns are {layout}")
+    return ids.astype(np.int64)
+
+
+def read_lammps_local(path) -> RawContacts:
+    """The last frame of a LAMMPS ``dump local`` of contacts (layout above) -> :class:`RawContacts`."""
+    table, first, names = _last_frame(path)
+    if table.size == 0:
+        return RawContacts(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3)), "lammps-local")
     if table.shape[1] < 6:
         _fail(path, f"entries have {table.shape[1]} columns (named: {names.split() or 'none'}); a contact file needs "
                     f"at least 6: {LOCAL_LAYOUT}")
-    ids = table[:, 1:3]
-    if np.any(ids != np.rint(ids)) or np.any(ids < 1):
-        row = int(np.flatnonzero(np.any((ids != np.rint(ids)) | (ids < 1), axis=1))[0])
-        _fail(path, f"line {first + row}: columns 2 and 3 must be atom ids (whole numbers >= 1, patom1 patom2), "
-                    f"not {ids[row].tolist()}; the columns are {LOCAL_LAYOUT}")
-    return RawContacts(ids.astype(np.int64), np.ascontiguousarray(table[:, 3:6]), "lammps-local")
+    ids = _ids(path, table, slice(1, 3), first, f"{LOCAL_LAYOUT} (packing.contacts_format: lammps-local)")
+    return RawContacts(ids, np.ascontiguousarray(table[:, 3:6]), "lammps-local")
 
 
-READERS = {"lammps-local": read_lammps_local}
+def read_liggghts_local(path) -> RawContacts:
+    """The last frame of a LIGGGHTS ``dump local`` of ``compute pair/gran/local pos id force
+    force_tangential`` (layout above) -> :class:`RawContacts`."""
+    table, first, names = _last_frame(path)
+    if table.size == 0:
+        return RawContacts(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3)), "liggghts-local")
+    if table.shape[1] != 16:
+        _fail(path, f"entries have {table.shape[1]} columns; packing.contacts_format liggghts-local reads the dump "
+                    f"local of 'compute pair/gran/local pos id force force_tangential': 16 columns ({LIGGGHTS_LAYOUT})")
+    ids = _ids(path, table, slice(7, 9), first, LIGGGHTS_LAYOUT)
+    return RawContacts(ids, np.ascontiguousarray(table[:, 13:16]), "liggghts-local")
+
+
+LIGGGHTS_LAYOUT = ("index, x_i y_i z_i x_j y_j z_j, id_i id_j periodic-flag, fx fy fz (total), ftx fty ftz "
+                   "(tangential, on id_i)")
+READERS = {"lammps-local": read_lammps_local, "liggghts-local": read_liggghts_local}
 FORMATS = tuple(READERS)
 
 
-def detect_format(path) -> str:
-    """The contact file's format from its content; InputError when it is none of ``FORMATS``."""
+def read(path, fmt: str = "lammps-local") -> RawContacts:
+    """Read a contact file of format ``fmt`` (``packing.contacts_format``).  A file that is not a
+    text dump local gets InputError naming the formats."""
     text = read_text(path, KIND)
-    if re.search(r"^ITEM: ENTRIES", text, re.M):
-        return "lammps-local"
-    _fail(path, f"unknown format; the formats read are: lammps-local (a LAMMPS 'dump local' with columns "
-                f"{LOCAL_LAYOUT})")
-
-
-def read(path) -> RawContacts:
-    """Read a contact file of any supported format (detected from its content)."""
-    return READERS[detect_format(path)](path)
+    if not re.search(r"^ITEM: ENTRIES", text, re.M):
+        _fail(path, f"unknown format: not a text 'dump local' (no 'ITEM: ENTRIES' line); the formats read are "
+                    f"lammps-local ({LOCAL_LAYOUT}) and liggghts-local ({LIGGGHTS_LAYOUT})")
+    return READERS[fmt](path)

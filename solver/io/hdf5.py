@@ -124,7 +124,7 @@ def _check_box(box, diameters, where: str, box_name: str) -> None:
 
 
 def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
-            check_equilibrium: bool, law: str, tangential=None) -> Packing:
+            check_equilibrium: bool, law: str, tangential=None, lever: str = "radius") -> Packing:
     """The checks every format shares (box > 2 max d, not all rattlers, equilibrium under
     ``law`` with the stored ``tangential`` forces if any), then the Packing.  ``info`` of a DEM
     file holds its ``length_unit`` (then a contact file is what a frictional packing lacks)."""
@@ -142,12 +142,12 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
                          + ("with its contact file, packing.contacts" if info.get("length_unit") else
                             "in the file's 'tangential' group (README, Files)"))
     if check_equilibrium:
-        mechanics.require_equilibrium(packing, where, law)
+        mechanics.require_equilibrium(packing, where, law, lever)
     return packing
 
 
 def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str, contacts: str | None = None,
-              friction: float | None = None) -> Packing:
+              friction: float | None = None, contacts_format: str = "lammps-local", lever: str = "radius") -> Packing:
     """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
     file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
@@ -166,15 +166,17 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str, contacts: 
     stored = None
     if contacts is not None:
         _check_box(box, diameters, path, "box")
-        stored = _stored_forces(contacts, raw, positions, diameters, box, law, friction, unit)
+        stored = _stored_forces(contacts, raw, positions, diameters, box, law, friction, unit, contacts_format)
         info.update(contacts=contacts)
-    return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, law, stored)
+    return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, law, stored,
+                   lever)
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
-                   box: np.ndarray, law: str, friction: float | None, unit: float):
-    """The contact file ``path`` of the packing ``raw`` as rotsound's stored tangential forces."""
-    found = contact_files.read(path)
+                   box: np.ndarray, law: str, friction: float | None, unit: float, fmt: str):
+    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` as rotsound's stored
+    tangential forces."""
+    found = contact_files.read(path, fmt)
     at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
     missing = np.flatnonzero(raw.ids[at] != found.ids)
     if missing.size:
@@ -191,14 +193,16 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
 
 def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,
                   law: str = "harmonic", fmt: str | None = None, contacts: str | list[str] | None = None,
-                  friction: float | None = None) -> list[Packing]:
+                  friction: float | None = None, contacts_format: str = "lammps-local",
+                  lever: str = "radius") -> list[Packing]:
     """Read configurations from one or more packing files (first ``count``); each must be in
     equilibrium under its normal forces (and its stored tangential forces, if any) unless
     ``check_equilibrium`` is False (``packing.relax`` re-minimises it), under the normal ``law``;
     ``fmt`` is ``packing.format`` (None: each file's format is detected from its content);
     ``contacts`` (``packing.contacts``) one contact file per DEM packing file, whose stored
-    tangential forces join it, ``friction`` the mu they were made with (or None).  rotsound's
-    own files carry their stored forces inside.  Not collective."""
+    tangential forces join it, ``friction`` the mu they were made with (or None),
+    ``contacts_format`` their format, ``lever`` where they act (``model.lever``, for the torque
+    balance).  rotsound's own files carry their stored forces inside.  Not collective."""
     packings: list[Packing] = []
     paths = [paths] if isinstance(paths, str) else paths
     contacts = [contacts] if isinstance(contacts, str) else contacts
@@ -209,7 +213,7 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
         kind = fmt or dem_formats.detect_format(path)
         if kind != "rotsound":
             packings.append(_from_dem(path, kind, check_equilibrium, law, contacts[index] if contacts else None,
-                                      friction))
+                                      friction, contacts_format, lever))
             continue
         if contacts is not None:
             raise InputError(f"packing.contacts: {path} is a rotsound HDF5 packing file, which holds its stored "

@@ -82,6 +82,12 @@ class PackingSpec:
                                                 "index, patom1 patom2, pair/local p1 p2 p3; see README, Stressed "
                                                 "packings): the packing is analysed as the DEM code left it, on its "
                                                 "tangential forces (docs/stressed_contacts.md)", None, "paths")
+    contacts_format: str = _f("lammps-local", "format of packing.contacts: lammps-local (LAMMPS dump local: index, "
+                                              "patom1 patom2, pair/local p1 p2 p3) or liggghts-local (LIGGGHTS dump "
+                                              "local of compute pair/gran/local pos id force force_tangential; read "
+                                              "it with model.lever: contact)",
+                              lambda v: None if v in ("lammps-local", "liggghts-local") else
+                              "must be one of lammps-local, liggghts-local", str)
     friction: float | None = _f(None, "Coulomb coefficient mu. With engine: lammps, generated packings are "
                                       "frictional, as a DEM code leaves them: squeezed from 0.75 phi to phi in "
                                       "LAMMPS (gran/hooke/history or gran/hertz/history, kt = 2/7 kn, damped) until "
@@ -121,9 +127,15 @@ class ModelSpec:
                                  "ones; docs/stressed_contacts.md)",
                         lambda v: None if v in ("stick", "slide") else "must be one of stick, slide", str)
 
+    lever: str = _f("radius", "where a contact's tangential force acts, for the slip of the contact point and "
+                              "the torques: radius (R from each centre, LAMMPS's gran/*/history and rotsound's own "
+                              "packings) or contact (R - xi/2, the middle of the overlap, as LIGGGHTS and YADE); a "
+                              "stressed packing balances its torques only with the lever it was made with",
+                    lambda v: None if v in ("radius", "contact") else "must be one of radius, contact", str)
+
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
-        return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised)
+        return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised, self.lever)
 
 
 def _window(v):

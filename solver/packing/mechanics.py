@@ -182,11 +182,11 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
 
 
 
-def net_load(packing: Packing, law: str = "harmonic") -> tuple[np.ndarray, np.ndarray]:
+def net_load(packing: Packing, law: str = "harmonic", lever: str = "radius") -> tuple[np.ndarray, np.ndarray]:
     """Net contact force (N, D) and torque (N, r) (r = 1 in 2D, 3 in 3D; units kn d0, kn d0^2) on
     every particle from the contacts among non-rattlers: the normal forces of ``law`` and the
-    packing's stored tangential forces f_t (torques -R_i n x f_t on i, -R_j n x f_t on j,
-    LAMMPS's convention; docs/stressed_contacts.md)."""
+    packing's stored tangential forces f_t (torques -l_i n x f_t on i, -l_j n x f_t on j, with
+    the ``lever`` arms l of ``contact_law.lever_arms``: R for LAMMPS; docs/stressed_contacts.md)."""
     active = ~packing.rattler
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     reduced = contact_law.reduced_radius(packing.diameters[found.i], packing.diameters[found.j])
@@ -197,15 +197,16 @@ def net_load(packing: Packing, law: str = "harmonic") -> tuple[np.ndarray, np.nd
         f_t = packing.tangential.on(found.i, found.j)
         f = f + f_t
         turn = contact_law.cross(found.normal, f_t).reshape(len(found), rot)  # n x f_t
-    radius = 0.5 * packing.diameters
+    arm_i, arm_j = contact_law.lever_arms(0.5 * packing.diameters[found.i], 0.5 * packing.diameters[found.j],
+                                          found.overlap, lever)
     net = np.zeros((packing.n, packing.dim))
     torque = np.zeros((packing.n, rot))
     for axis in range(packing.dim):
         net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
                         - np.bincount(found.j, f[:, axis], minlength=packing.n))
     for axis in range(rot):
-        torque[:, axis] = -(np.bincount(found.i, radius[found.i] * turn[:, axis], minlength=packing.n)
-                            + np.bincount(found.j, radius[found.j] * turn[:, axis], minlength=packing.n))
+        torque[:, axis] = -(np.bincount(found.i, arm_i * turn[:, axis], minlength=packing.n)
+                            + np.bincount(found.j, arm_j * turn[:, axis], minlength=packing.n))
     return net, torque
 
 
@@ -215,13 +216,14 @@ def net_force(packing: Packing, law: str = "harmonic") -> float:
     return float(np.sqrt((net[~packing.rattler] ** 2).sum(axis=1)).max())
 
 
-def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> None:
+def require_equilibrium(packing: Packing, where: str, law: str = "harmonic", lever: str = "radius") -> None:
     """Raise InputError unless the contact forces balance on every non-rattler to EQUILIBRIUM_TOL
     (and, for a stressed packing, the torques too): the matrix is built about a state at rest.
     Unstressed springs need a minimum of the normal energy; a packing made with friction fails
     that (it balances only with its tangential forces): the message names the contact file
-    (``packing.contacts``) that holds them, and ``packing.relax``."""
-    net, torque = net_load(packing, law)
+    (``packing.contacts``) that holds them, and ``packing.relax``.  ``lever``: where the stored
+    forces act (``model.lever``)."""
+    net, torque = net_load(packing, law, lever)
     active = ~packing.rattler
     residual = float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
     twist = float(np.sqrt((torque[active] ** 2).sum(axis=1)).max())
@@ -231,7 +233,8 @@ def require_equilibrium(packing: Packing, where: str, law: str = "harmonic") -> 
                 f"packing file {where}: not at rest with its stored tangential forces under the {law} normal law: the "
                 f"largest net force on a non-rattler is {residual:.3e} kn d0 and the largest net torque {twist:.3e} "
                 f"kn d0^2 (both must be <= {EQUILIBRIUM_TOL:g}); the contact file must be written at the same step as "
-                f"the packing, from a packing at rest, with the normal law of model.law")
+                f"the packing, from a packing at rest, with the normal law of model.law and the lever of model.lever "
+                f"(= {lever}: R for LAMMPS, contact for LIGGGHTS and YADE)")
         return
     if residual > EQUILIBRIUM_TOL:
         raise InputError(

@@ -111,3 +111,30 @@ def test_a_force_above_the_coulomb_limit_is_refused_when_mu_is_given():
                            friction=below)
     hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(DATA / "lammps_2d_friction.contacts"),
                        friction=ratio.max() * 1.01)  # the true mu (1) and any mu above the largest ratio pass
+
+
+def test_a_liggghts_frictional_packing_loads_with_the_contact_point_lever():
+    """LIGGGHTS's packing (compute pair/gran/local pos id force force_tangential) balances its
+    forces and torques with the lever R - xi/2 it integrates with (1e-14), not with LAMMPS's R
+    (a torque of 5.8e-4 is left, refused naming model.lever); read as a LAMMPS file, its position
+    columns are refused as ids."""
+    data, contacts = str(DATA / "liggghts_3d_friction.data"), str(DATA / "liggghts_3d_friction.contacts")
+    p = hdf5.read_packings(data, contacts=contacts, contacts_format="liggghts-local", lever="contact",
+                           friction=0.5)[0]
+    net, torque = mechanics.net_load(p, "harmonic", "contact")
+    active = ~p.rattler
+    assert p.stressed and p.info["n_stored"] == 382
+    assert np.abs(net[active]).max() < 1e-12 and np.abs(torque[active]).max() < 1e-12
+    with pytest.raises(InputError, match="model.lever"):
+        hdf5.read_packings(data, contacts=contacts, contacts_format="liggghts-local")
+    with pytest.raises(InputError, match="atom-id columns must hold whole numbers"):
+        hdf5.read_packings(data, contacts=contacts)
+
+
+def test_a_liggghts_contact_file_with_other_keywords_is_refused(tmp_path):
+    lines = (DATA / "liggghts_3d_friction.contacts").read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ENTRIES")) + 1
+    path = tmp_path / "narrow.contacts"
+    path.write_text("\n".join(lines[:head] + [" ".join(line.split()[:13]) for line in lines[head:]]) + "\n")
+    with pytest.raises(InputError, match="16 columns"):
+        contact_files.read(path, "liggghts-local")

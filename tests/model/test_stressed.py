@@ -25,14 +25,16 @@ def _spin_cross_normal(spin, normal):
     return np.cross(spin, normal)
 
 
-def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x, friction=None):
+def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x, friction=None, lever="radius"):
     """Generalised forces (C, 2m) = (F_i, tau_i, F_j, tau_j) after one step of LAMMPS's
     gran/hooke/history (or gran/hertz/history) that moves the contact by x (C, 2m) =
     (u_i, theta_i, u_j, theta_j) from a reference at rest with separation (C, D) and stored
     tangential force ``tangential`` (C, D) on i: PairGranHookeHistory::compute with v dt = x,
     the history incremented by the relative tangential displacement of the contact point
     (with the new normal), projected onto the new tangent plane, the force -k_t(xi) s, rescaled
-    onto the Coulomb cone mu f_n when ``friction`` = mu is given and the trial exceeds it."""
+    onto the Coulomb cone mu f_n when ``friction`` = mu is given and the trial exceeds it.  With
+    ``lever`` = contact the slip and the torques use the arms R - xi/2 of the current overlap
+    (LIGGGHTS's and YADE's contact point) instead of R."""
     dim = separation.shape[1]
     m = x.shape[1] // 2
     u_i, th_i, u_j, th_j = x[:, :dim], x[:, dim:m], x[:, m:m + dim], x[:, m + dim:]
@@ -51,6 +53,9 @@ def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x, frictio
     normal = moved / distance[:, None]
     f_n, k_t = stiffness(radius_i + radius_j - distance)
     du = u_i - u_j
+    if lever == "contact":  # LIGGGHTS's and YADE's arms: the middle of the current overlap
+        overlap = radius_i + radius_j - np.linalg.norm(separation + u_i - u_j, axis=1)
+        radius_i, radius_j = radius_i - 0.5 * overlap, radius_j - 0.5 * overlap
     spin = radius_i * th_i + radius_j * th_j if dim == 2 else radius_i[:, None] * th_i + radius_j[:, None] * th_j
     increment = du - np.einsum("cd,cd->c", du, normal)[:, None] * normal - _spin_cross_normal(spin, normal)
     s = s + increment
@@ -98,42 +103,43 @@ def linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model, stre
     k = full_matrix((ii, ij, np.transpose(ij, (0, 2, 1)), jj))
     if stressed:
         k = k + full_matrix(contact_law.stressed_blocks(normal, distance, overlap, r_i, r_j, tangential,
-                                                        model.law))
+                                                        model.law, lever=model.lever))
     return k
 
 
-def jacobian(separation, tangential, r_i, r_j, law, rho, size, h):
+def jacobian(separation, tangential, r_i, r_j, law, rho, size, h, lever="radius"):
     """d(generalised force)/dx (C, size, size) of ``lammps_step`` by central differences."""
     out = np.empty((separation.shape[0], size, size))
     for b in range(size):
         x = np.zeros((separation.shape[0], size))
         x[:, b] = h
-        out[:, :, b] = (lammps_step(separation, tangential, r_i, r_j, law, rho, x)
-                        - lammps_step(separation, tangential, r_i, r_j, law, rho, -x)) / (2 * h)
+        out[:, :, b] = (lammps_step(separation, tangential, r_i, r_j, law, rho, x, lever=lever)
+                        - lammps_step(separation, tangential, r_i, r_j, law, rho, -x, lever=lever)) / (2 * h)
     return out
 
 
 @pytest.mark.serial_only  # pure numpy
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("law", ["harmonic", "hertz"])
-def test_stressed_blocks_are_the_linearised_lammps_update(dim, law):
+@pytest.mark.parametrize("lever", ["radius", "contact"])
+def test_stressed_blocks_are_the_linearised_lammps_update(dim, law, lever):
     separation, normal, overlap, r_i, r_j, tangential = stressed_contacts(dim, seed=dim)
     if law == "hertz":  # stored forces of the Hertz scale: |f_t| = 0.6 f_n
         tangential = tangential * np.sqrt(r_i * r_j / (r_i + r_j) * overlap)[:, None]
     rho = 0.7
-    model = ContactModel(rho, law=law)
+    model = ContactModel(rho, law=law, lever=lever)
     exact = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model)
     size = exact.shape[1]
     # Hertz's sqrt(xi) at overlaps down to 0.01 has large third derivatives: smaller steps
     steps = STEPS if law == "harmonic" else STEPS / 8
-    errors = [np.abs(jacobian(separation, tangential, r_i, r_j, law, rho, size, h) + exact).max()
+    errors = [np.abs(jacobian(separation, tangential, r_i, r_j, law, rho, size, h, lever) + exact).max()
               / np.abs(exact).max() for h in steps]
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     # a missing or wrong term leaves an error of the stored forces' size (|f_t|/r ~ 0.01), flat in h
     assert np.all(np.abs(orders - 2) < 0.15), f"errors {errors}, orders {orders}"
     assert errors[-1] < 1e-6, f"error {errors[-1]} at h = {steps[-1]}"
     unstressed = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model, stressed=False)
-    miss = np.abs(jacobian(separation, tangential, r_i, r_j, law, rho, size, steps[-1]) + unstressed).max()
+    miss = np.abs(jacobian(separation, tangential, r_i, r_j, law, rho, size, steps[-1], lever) + unstressed).max()
     assert miss / np.abs(exact).max() > 1e-3, f"the unstressed blocks also match ({miss:.2e}): the test is blind"
     assert np.abs(exact - np.transpose(exact, (0, 2, 1))).max() > 1e-3, "stressed blocks came out symmetric"
 
@@ -234,7 +240,8 @@ def test_zero_stored_forces_give_todays_matrix_bit_for_bit(comm, dim):
 @pytest.mark.serial_only
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("law", ["harmonic", "hertz"])
-def test_sliding_blocks_are_lammps_update_at_the_coulomb_limit(dim, law):
+@pytest.mark.parametrize("lever", ["radius", "contact"])
+def test_sliding_blocks_are_lammps_update_at_the_coulomb_limit(dim, law, lever):
     """Contacts at |f_t| = mu f_n moved in a direction that loads them (the relative tangential
     displacement against f_t, plus a 10 % random part): LAMMPS's capped update has one-sided
     derivative K_stick + S_slide (Richardson-extrapolated forward differences, O(h^2): at h = 1e-6
@@ -246,7 +253,7 @@ def test_sliding_blocks_are_lammps_update_at_the_coulomb_limit(dim, law):
     fn = contact_law.normal_force(overlap, law, reduced)
     tangential = mu * fn[:, None] * tangential / np.linalg.norm(tangential, axis=1)[:, None]  # on the cone
     rho = 0.7
-    model = ContactModel(rho, law=law)
+    model = ContactModel(rho, law=law, lever=lever)
     stick = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model)
     distance = np.linalg.norm(separation, axis=1)
     slide = stick + full_matrix(contact_law.sliding_blocks(normal, distance, overlap, r_i, r_j, tangential, model))
@@ -258,7 +265,7 @@ def test_sliding_blocks_are_lammps_update_at_the_coulomb_limit(dim, law):
     h = 1e-6
 
     def force(step):
-        return lammps_step(separation, tangential, r_i, r_j, law, rho, step * x, friction=mu)
+        return lammps_step(separation, tangential, r_i, r_j, law, rho, step * x, friction=mu, lever=lever)
 
     base = force(0.0)
     slope = 2 * (force(h) - base) / h - (force(2 * h) - base) / (2 * h)  # forward differences: O(h) cancels
