@@ -273,7 +273,8 @@ def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm) -> None:
     unstable = result.n_complex + result.n_negative
     say(comm, f"spectrum rho = {unit.rho:g}, packing {unit.p_index}: {result.omega.size} stable modes "
               f"(+{result.n_zero_modes} zero modes), {unstable} unstable ({result.n_complex} complex, "
-              f"{result.n_negative} negative; largest growth rate {result.max_growth:.2e} / t0), dense, {seconds:.1f} s")
+              f"{result.n_negative} negative; largest growth rate {result.max_growth:.2e} / t0), dense, "
+              f"{seconds:.1f} s")
 
 
 def _warn_negative(comm, count: int) -> None:

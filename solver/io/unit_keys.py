@@ -169,11 +169,13 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     """Content key of every matrix, spectrum and waves unit of the scene (``task_units``), by unit
     name. Not collective.
 
-    A packing is keyed by its arrays, stored tangential forces included (so a file and a generated packing with equal contents
-    share units, and 2D and 3D never do: the arrays' shapes are hashed); the rolling and twisting
-    ratios join every key when they are not 0 (so units made before they existed keep their keys);
-    spectra and waves also by their section's settings and the PETSc options that act on their stage (``options.acting_on``; ``-log_view`` and the like change no key);
-    KPM's probes by their seed.  The rotsound version is part of every key, so a new version
+    A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
+    packing with equal contents share units, and 2D and 3D never do: the arrays' shapes are
+    hashed); the rolling and twisting ratios join every key when they are not 0, and masses, law,
+    mobilised and lever when not their defaults (so units made before they existed keep their
+    keys); spectra and waves also by their section's settings and the PETSc options that act on
+    their stage (``options.acting_on``; ``-log_view`` and the like change no key); KPM's probes
+    by their seed.  The rotsound version is part of every key, so a new version
     never reuses an older one's numbers.
     """
     keys = {}

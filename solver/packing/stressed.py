@@ -77,7 +77,8 @@ def build(pairs: np.ndarray, force: np.ndarray, positions: np.ndarray, diameters
         raise InputError(f"{where}: contact {bad[0]} names particle index {pairs[bad[0]].tolist()}, not among the "
                          f"packing's {n} particles")
     if np.any(pairs[:, 0] == pairs[:, 1]):
-        raise InputError(f"{where}: a contact pairs a particle with itself (index {pairs[pairs[:, 0] == pairs[:, 1]][0, 0]})")
+        self_pair = pairs[pairs[:, 0] == pairs[:, 1]][0, 0]
+        raise InputError(f"{where}: a contact pairs a particle with itself (index {self_pair})")
     flip = pairs[:, 0] > pairs[:, 1]
     pairs = np.sort(pairs, axis=1)
     force = np.where(flip[:, None], -force, force)
@@ -102,8 +103,8 @@ def build(pairs: np.ndarray, force: np.ndarray, positions: np.ndarray, diameters
     if tilted.size:
         k = tilted[0]
         raise InputError(f"{where}: the stored force of pair {pairs[k].tolist()} is not tangential: its part along the "
-                         f"contact normal is {abs(along[k]) / size[k]:.2e} of it (> {NORMAL_PART_TOL:g}); the file must "
-                         f"hold the tangential force alone")
+                         f"contact normal is {abs(along[k]) / size[k]:.2e} of it (> {NORMAL_PART_TOL:g}); the file "
+                         f"must hold the tangential force alone")
     force = force - along[:, None] * normal
     if friction is not None:
         fn = _normal_force(pairs, overlap, diameters, law)
