@@ -53,7 +53,9 @@ class ContactModel:
     (kn sqrt(a' xi) xi, every spring scaled by :func:`spring_scale`);  mobilised : how a stressed
     contact at the Coulomb limit responds, ``stick`` or ``slide`` (:func:`sliding_blocks`);
     lever : where the tangential force acts, ``radius`` (R from each centre: LAMMPS) or
-    ``contact`` (R - xi/2, the middle of the overlap: LIGGGHTS and YADE) (:func:`lever_arms`).  The scene gives one per
+    ``contact`` (R - xi/2, the middle of the overlap: LIGGGHTS and YADE) (:func:`lever_arms`);
+    stored_forces : ``keep`` a stressed packing's stored tangential forces in the matrix, or
+    ``drop`` them (unstressed springs on the same packing, for comparison).  The scene gives one per
     rho (``ModelSpec.contact``); the dashpots of later physics join here.  A stressed packing's
     stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
@@ -64,6 +66,7 @@ class ContactModel:
     law: str = "harmonic"
     mobilised: str = "stick"
     lever: str = "radius"
+    stored_forces: str = "keep"
 
     @property
     def rotations(self) -> bool:

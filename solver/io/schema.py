@@ -133,9 +133,16 @@ class ModelSpec:
                               "stressed packing balances its torques only with the lever it was made with",
                     lambda v: None if v in ("radius", "contact") else "must be one of radius, contact", str)
 
+    stored_forces: str = _f("keep", "stressed packings: keep their stored tangential forces in the matrix "
+                                    "(non-symmetric, as the DEM code integrates them), or drop them: unstressed "
+                                    "springs on the same packing, symmetric, for comparison (the packing is then not "
+                                    "at rest under the matrix's forces)",
+                            lambda v: None if v in ("keep", "drop") else "must be one of keep, drop", str)
+
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
-        return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised, self.lever)
+        return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised, self.lever,
+                            self.stored_forces)
 
 
 def _window(v):
@@ -462,8 +469,9 @@ def check_stressed(scene: Scene, which: str | None) -> None:
     """Raise InputError if stressed packings (``which`` says whose stored tangential forces; None:
     none) meet what needs a symmetric matrix (docs/stressed_contacts.md section 4): any
     ``spectrum`` method but nonhermitian (slicing, counting and kpm rest on symmetry), ``waves.method:
-    spectral``, or rho = 0 (the tangential spring holds the stored forces).  Not collective."""
-    if which is None:
+    spectral``, or rho = 0 (the tangential spring holds the stored forces); nothing when
+    ``model.stored_forces`` drops them.  Not collective."""
+    if which is None or scene.model.stored_forces == "drop":
         return
     if scene.spectrum is not None and scene.spectrum.method != "nonhermitian":
         raise InputError(f"spectrum (method {scene.spectrum.method}): {which}, so the dynamical matrix is not "

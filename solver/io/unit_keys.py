@@ -181,7 +181,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     keys = {}
     springs = {name: value for name in ("rho_roll", "rho_twist")
                if (value := getattr(scene.model, name))}  # only when on: 2D keys stay as before
-    for name, default in (("masses", "equal"), ("law", "harmonic"), ("mobilised", "stick"), ("lever", "radius")):
+    for name, default in (("masses", "equal"), ("law", "harmonic"), ("mobilised", "stick"), ("lever", "radius"),
+                          ("stored_forces", "keep")):
         if getattr(scene.model, name) != default:
             springs[name] = getattr(scene.model, name)
     for p_index, p in enumerate(packings):

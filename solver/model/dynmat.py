@@ -140,7 +140,7 @@ def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]
                      radius[found.i[touch]], radius[found.j[touch]])
     h_ii, h_ij, h_jj = contact_law.pair_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
     h_ji = np.transpose(h_ij, (0, 2, 1))
-    if packing.tangential is not None:  # stored tangential forces: the non-symmetric part
+    if packing.tangential is not None and model.stored_forces == "keep":  # the non-symmetric part
         stored = packing.tangential.on(found.i[touch], found.j[touch])
         s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(*geometry_args, stored, model.law,
                                                              with_rotation=dof > packing.dim, lever=model.lever)
@@ -175,12 +175,14 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
     communicator). Collective.
 
     D is flagged symmetric (needed by Cholesky-based inertia in the spectrum stage) unless the
-    packing is stressed (``Packing.stressed``: stored tangential forces, docs/stressed_contacts.md),
-    which needs the tangential spring that holds them (ValueError at rho = 0).
+    packing is stressed (``Packing.stressed``: stored tangential forces, docs/stressed_contacts.md)
+    and ``model.stored_forces`` keeps them, which needs the tangential spring that holds them
+    (ValueError at rho = 0).
     """
     from petsc4py import PETSc
 
-    if packing.stressed and model.rho == 0.0:
+    stressed = packing.stressed and model.stored_forces == "keep"
+    if stressed and model.rho == 0.0:
         raise ValueError("a stressed packing's tangential forces need the tangential spring: rho must be > 0")
     active = ~packing.rattler
     disk_range = parallel.block_range(int(active.sum()), comm.tompi4py())
@@ -191,14 +193,14 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
                               csr=(csr.indptr.astype(PETSc.IntType), csr.indices.astype(PETSc.IntType),
                                    csr.data), comm=comm)
     D.assemble()
-    D.setOption(PETSc.Mat.Option.SYMMETRIC, not packing.stressed)
+    D.setOption(PETSc.Mat.Option.SYMMETRIC, not stressed)
     D.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     M = D.createVecLeft()
     start, stop = disk_range
     masses = particle_masses(packing, mass_rule)[active][start:stop]
     M.setArray(mass_diagonal(packing.diameters[active][start:stop], masses, packing.dim, dof))
     return DynamicalMatrix(D, M, active, dof, model, disk_range, n_contacts, packing.dim,
-                           symmetric=not packing.stressed)
+                           symmetric=not stressed)
 
 
 def gather_csr(mat) -> sp.csr_matrix:

@@ -310,3 +310,19 @@ def test_assembled_matrix_slides_the_contacts_at_the_coulomb_limit(comm, dim):
         error = np.abs(slope.ravel() + dense @ x.ravel()).max() / np.abs(dense).max()
         # one-sided Richardson differences at h = 1e-6: ~1e-9; stick misses by the slip's stiffness
         assert (error < 1e-7) == should_match, f"{mode}: error {error:.2e}"
+
+
+def test_dropped_stored_forces_give_the_unstressed_matrix(comm):
+    """model.stored_forces: drop on a stressed packing is the matrix of the same packing without
+    them, bit for bit, and symmetric."""
+    import dataclasses
+
+    from solver.model import dynmat
+
+    p = with_random_stored_forces(jammed_packing(32, 0.9, 3, 2), 11)
+    dropped = dynmat.assemble(p, ContactModel(0.8, stored_forces="drop"), comm)
+    plain = dynmat.assemble(dataclasses.replace(p, tangential=None), ContactModel(0.8), comm)
+    a, b = dynmat.gather_csr(dropped.D), dynmat.gather_csr(plain.D)
+    assert dropped.symmetric and np.array_equal(a.indptr, b.indptr) and np.array_equal(a.data, b.data)
+    dropped.destroy()
+    plain.destroy()

@@ -68,3 +68,14 @@ def test_a_scene_on_a_lammps_frictional_packing_gives_its_vdos(shared_tmp):
     assert_all(total == 3 * 120, f"{total} modes for 120 disks")
     edges, density = units["vdos/r00"][0]["edges"], units["vdos/r00"][0]["density"]
     assert_close(np.sum(density * np.diff(edges)), 1.0, rtol=1e-12, what="vDOS area")
+
+
+def test_dropping_the_stored_forces_allows_the_symmetric_methods(shared_tmp):
+    """The same LAMMPS packing with model.stored_forces: drop counts its unstressed spectrum: as
+    many modes as the stressed one has eigenvalues."""
+    scene = scene_of(shared_tmp / "dropped.h5", cache="off",
+                     packing={"file": str(DATA / "lammps_2d_friction.data"),
+                              "contacts": str(DATA / "lammps_2d_friction.contacts")},
+                     model={"rho": 2 / 7, "stored_forces": "drop"}, spectrum={"method": "counting"})
+    datasets, attrs = pipeline.run(scene, COMM, [])["units"]["spectra/r00_p0000"]
+    assert_all(int(datasets["counts"].sum()) + attrs["n_zero_modes"] == 3 * 120 and attrs["n_negative_modes"] == 0)
