@@ -263,9 +263,9 @@ def _check_dense_size(scene: Scene, particles: int, dim: int, which: str) -> Non
 def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm) -> None:
     """Every eigenvalue of one (rho, packing) matrix, symmetric or not (``nonhermitian``). Collective."""
     t = time.perf_counter()
-    result = nonhermitian.solve(dm, scene.spectrum.zero_tol)
+    result = nonhermitian.solve(dm, scene.spectrum.zero_tol, vectors=scene.spectrum.energies)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
-    commit(unit, {"omega": result.omega, "omega2": result.omega2}, {
+    commit(unit, {"omega": result.omega, "omega2": result.omega2, **(result.energies or {})}, {
         "rho": unit.rho, "packing": unit.p_index, "method": "nonhermitian", "n_zero_modes": result.n_zero_modes,
         "n_complex": result.n_complex, "n_negative_modes": result.n_negative, "max_growth": result.max_growth,
         "symmetric": int(dm.symmetric), "seconds": seconds, "window": "full", "dof": dm.size,

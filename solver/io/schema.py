@@ -174,7 +174,7 @@ class SpectrumSpec:
                                 "counts); kpm: stochastic vDOS (Chebyshev moments, no factorisation; vDOS, omega_c "
                                 "and, with energies, binned K and Q); nonhermitian: every eigenvalue omega^2 of a "
                                 "matrix that need not be symmetric (a stressed packing's), complex ones counted as "
-                                "unstable, by dense LAPACK (up to 20000 DOF; no window, no energies)",
+                                "unstable, by dense LAPACK (up to 20000 DOF; no window; with energies: K, Q of the stable modes)",
                      lambda v: None if v in METHODS else f"must be one of {', '.join(METHODS)}", str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
@@ -423,9 +423,6 @@ def _cross_check(obj, where):
     if isinstance(obj, SpectrumSpec) and obj.method != "slicing" and obj.window:
         raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
                          f"'slicing'")
-    if isinstance(obj, SpectrumSpec) and obj.method == "nonhermitian" and obj.energies:
-        raise InputError(f"{where}method = 'nonhermitian' gives eigenvalues only: {where}energies (K, Q of each mode) "
-                         f"is not built for non-symmetric matrices")
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")

@@ -33,7 +33,8 @@ class Result:
     """omega2 (n,) complex128, every non-zero eigenvalue sorted by real part; omega (m,) the
     stable ones' frequencies, ascending; counts n_zero_modes, n_complex (eigenvalues, both
     members of each pair), n_negative; max_growth: the largest growth rate of an unstable mode
-    (1/t0; 0 when none)."""
+    (1/t0; 0 when none); energies: K, Q and participation of each stable mode (aligned with
+    ``omega``; ``modes.energies``), or None."""
 
     omega2: np.ndarray
     omega: np.ndarray
@@ -41,33 +42,48 @@ class Result:
     n_complex: int
     n_negative: int
     max_growth: float
+    energies: dict | None = None
 
 
-def solve(dm, zero_tol: float) -> Result:
+def solve(dm, zero_tol: float, vectors: bool = False) -> Result:
     """Every eigenvalue of A = M^-1/2 D M^-1/2 of ``dm`` (a :class:`~solver.model.dynmat.DynamicalMatrix`),
-    classified (module docstring).  Collective; ValueError above MAX_DOF."""
+    classified (module docstring); with ``vectors``, also the K, Q and participation of each
+    stable mode from its right eigenvector e of A, real for a real eigenvalue, scaled to |e| = 1
+    (the definitions of ``modes``; for a non-symmetric A the right eigenvectors are not
+    orthogonal, and these are each mode's own shares).  Collective; ValueError above MAX_DOF."""
     import scipy.linalg as sl
 
     from ..model import dynmat
+    from . import modes
 
     if dm.size > MAX_DOF:
         raise ValueError(f"spectrum.method nonhermitian: {dm.size} DOF > {MAX_DOF}, the dense solver's limit")
     comm = dm.D.getComm().tompi4py()
     d = dynmat.gather_csr(dm.D)  # collective: every rank takes part
     mass = dynmat.gather_vec(dm.M)
-    lam = None
+    lam = shares = None
     if comm.rank == 0:
         scale = 1.0 / np.sqrt(mass)
-        lam = sl.eigvals(d.multiply(scale[:, None]).multiply(scale[None, :]).toarray(), overwrite_a=True,
-                         check_finite=False)
+        a = d.multiply(scale[:, None]).multiply(scale[None, :]).toarray()
+        if vectors:
+            lam, vec = sl.eig(a, overwrite_a=True, check_finite=False)
+        else:
+            lam = sl.eigvals(a, overwrite_a=True, check_finite=False)
     lam = comm.bcast(lam, root=0)
     zero = np.abs(lam) < zero_tol ** 2
-    rest = lam[~zero]
-    rest = rest[np.argsort(rest.real, kind="stable")]
+    order = np.flatnonzero(~zero)[np.argsort(lam[~zero].real, kind="stable")]
+    rest = lam[order]
     complex_ = np.abs(rest.imag) > IMAG_TOL * np.abs(lam).max()
     negative = ~complex_ & (rest.real < 0.0)
     stable = ~complex_ & ~negative
+    if vectors:
+        if comm.rank == 0:
+            kept = vec[:, order[stable]]
+            kept = kept * np.exp(-1j * np.angle(kept[np.argmax(np.abs(kept), axis=0), np.arange(kept.shape[1])]))
+            real = kept.real / np.linalg.norm(kept.real, axis=0)  # a real eigenvalue's vector, phase removed
+            shares = modes.energies(modes.local_sums(real.T, dm.dof, dm.dim), int(dm.active.sum()), dm.dim)
+        shares = comm.bcast(shares, root=0)
     growth = np.sqrt(rest[~stable].astype(complex)).imag
     return Result(omega2=rest.astype(np.complex128), omega=np.sqrt(rest.real[stable]),
                   n_zero_modes=int(zero.sum()), n_complex=int(complex_.sum()), n_negative=int(negative.sum()),
-                  max_growth=float(np.abs(growth).max()) if growth.size else 0.0)
+                  max_growth=float(np.abs(growth).max()) if growth.size else 0.0, energies=shares)
