@@ -129,10 +129,11 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
     ``law`` with the stored ``tangential`` forces if any), then the Packing.  ``info`` of a DEM
     file holds its ``length_unit`` (then a contact file is what a frictional packing lacks)."""
     _check_box(box, diameters, where, box_name)
-    packing = from_arrays(positions, diameters, box, rattler, info, masses, law, tangential)
     if tangential is not None:
-        packing.info.update(n_stored=len(tangential), n_mobilised=int(stressed.mobilised(
-            tangential, packing.positions, packing.diameters, packing.box, law).sum()))
+        sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
+        info = {**info, "n_stored": len(tangential),
+                "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, sides, law).sum())}
+    packing = from_arrays(positions, diameters, box, rattler, info, masses, law, tangential)
     if packing.rattler.all():
         name = mechanics.NAMES[packing.dim]
         needed = mechanics.min_contacts(packing.dim)

@@ -188,11 +188,10 @@ def _frictional(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_t
     new_index[order] = np.arange(order.size)
     positions, diameters = x[order], diameters[order]
     stored = stressed.build(new_index[pairs], shear, positions, diameters, box, law, friction, "LAMMPS's contacts")
-    packing = from_arrays(positions, diameters, box, None, {}, None, law, stored)
-    packing.info.update(engine="lammps", friction=friction, settle_steps=steps, max_force=largest,
-                        force_tol=force_tol, law=law, n_stored=len(stored),
-                        n_mobilised=int(stressed.mobilised(stored, positions, diameters, box, law).sum()))
-    return packing
+    info = dict(engine="lammps", friction=friction, settle_steps=steps, max_force=largest, force_tol=force_tol,
+                law=law, n_stored=len(stored),
+                n_mobilised=int(stressed.mobilised(stored, positions, diameters, box, law).sum()))
+    return from_arrays(positions, diameters, box, None, info, None, law, stored)
 
 
 @profiling.logged("rsPackingFIRE")
