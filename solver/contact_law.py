@@ -74,7 +74,9 @@ class ContactModel:
         return self.rho > 0.0 or self.rho_roll > 0.0 or self.rho_twist > 0.0
 
 
-LEVERS = ("radius", "contact")
+LEVERS = ("radius", "contact")      # ContactModel.lever
+MOBILISED = ("stick", "slide")      # ContactModel.mobilised
+STORED_FORCES = ("keep", "drop")    # ContactModel.stored_forces
 
 
 def lever_arms(radius_i: np.ndarray, radius_j: np.ndarray, overlap: np.ndarray, lever: str
@@ -117,6 +119,12 @@ def spring_scale(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray
     return np.ones_like(overlap) if law == "harmonic" else np.sqrt(reduced * overlap)
 
 
+def tangential_growth(overlap: np.ndarray, law: str) -> np.ndarray:
+    """c = (dk_t/dxi) / k_t (C,) at the reference overlap: 0 (harmonic) or 1/(2 xi) (hertz, whose
+    tangential stiffness follows the current overlap as in LAMMPS; docs/stressed_contacts.md)."""
+    return np.zeros_like(overlap) if law == "harmonic" else 0.5 / overlap
+
+
 def normal_stiffness(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray | None = None) -> np.ndarray:
     """df_n / dxi (C,): kn (harmonic) or (3/2) kn sqrt(a' xi) (hertz)."""
     return KN * np.ones_like(overlap) if law == "harmonic" else 1.5 * KN * np.sqrt(reduced * overlap)
@@ -152,6 +160,18 @@ def _rotation_map(normal: np.ndarray) -> np.ndarray:
     zero = np.zeros_like(nx)
     return -np.stack((np.stack((zero, -nz, ny), 1), np.stack((nz, zero, -nx), 1),
                       np.stack((-ny, nx, zero), 1)), 1)
+
+
+def _tangential_map(normal: np.ndarray, c_n: np.ndarray, arm_i: np.ndarray, arm_j: np.ndarray) -> np.ndarray:
+    """B_t (C, D, 2m): the tangential stretch s_t as a linear map of (u_i, theta_i, u_j, theta_j),
+    m = D + r, with lever arms ``arm_i``, ``arm_j`` (:func:`lever_arms`) and C_n = ``c_n``."""
+    count, dim = normal.shape
+    m = dim + c_n.shape[2]
+    proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
+    b_t = np.zeros((count, dim, 2 * m))
+    b_t[:, :, :dim], b_t[:, :, m:m + dim] = proj, -proj
+    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -arm_i[:, None, None] * c_n, -arm_j[:, None, None] * c_n
+    return b_t
 
 
 def _rotations(theta: np.ndarray) -> np.ndarray:
@@ -280,10 +300,7 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
     for a, sa in ((0, 1), (m, -1)):
         for b, sb in ((0, 1), (m, -1)):
             full[:, a:a + dim, b:b + dim] = sa * sb * stiff
-    b_t = np.zeros((count, dim, 2 * m))
-    b_t[:, :, :dim], b_t[:, :, m:m + dim] = proj, -proj
-    arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
-    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -arm_i[:, None, None] * c_n, -arm_j[:, None, None] * c_n
+    b_t = _tangential_map(normal, c_n, *lever_arms(radius_i, radius_j, overlap, model.lever))
     b_r = np.zeros((count, dim, 2 * m))
     b_r[:, :, dim:m], b_r[:, :, m + dim:] = reduced[:, None, None] * c_n, -reduced[:, None, None] * c_n
     springs = [(model.rho, b_t), (model.rho_roll, b_r)]
@@ -307,39 +324,36 @@ def _cross_matrix(vector: np.ndarray) -> np.ndarray:
 
 
 def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
-                    radius_i: np.ndarray, radius_j: np.ndarray, tangential: np.ndarray, law: str,
-                    with_rotation: bool = True, lever: str = "radius"
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                    radius_i: np.ndarray, radius_j: np.ndarray, tangential: np.ndarray, model: ContactModel,
+                    with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What stored tangential forces add to the contact blocks (docs/stressed_contacts.md
     section 2): (S_ii, S_ij, S_ji, S_jj), each (C, k, k) like :func:`pair_blocks`'s, with
     S_ji != S_ij^T in general (no energy: LAMMPS's history update).
 
     tangential : (C, D) the stored tangential force f_t on i from j (units kn d0; perpendicular
     to ``normal``).  With G = n f_t^T / r + c f_t n^T and T = [f_t]_x P / r + c (n x f_t) n^T
-    (c = 0 harmonic, 1/(2 xi) hertz: LAMMPS's tangential stiffness follows the current overlap),
+    (c = :func:`tangential_growth` of ``model.law``),
     the rows of u_i gain (G, -G) on the columns of (u_i, u_j), the rows of u_j (-G, G), those of
     theta_i R_i (-T, T), those of theta_j R_j (-T, T); no column of a rotation gains anything.
-    Under ``lever`` = contact the arms are l = R - xi/2 (:func:`lever_arms`) and, since they
+    Under ``model.lever`` = contact the arms are l = R - xi/2 (:func:`lever_arms`) and, since they
     shorten as the overlap grows, each torque row gains -1/2 (n x f_t) n^T on the columns of u_i
     (+ on u_j): l T becomes l T - (n x f_t) n^T / 2.  Zero forces add exact zeros.
     """
     count, dim = normal.shape
     rot = _rotation_map(normal).shape[2]
-    c = np.zeros(count) if law == "harmonic" else 0.5 / overlap
+    c = tangential_growth(overlap, model.law)[:, None, None]
     proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
     g = (normal[:, :, None] * tangential[:, None, :] / distance[:, None, None]
-         + c[:, None, None] * tangential[:, :, None] * normal[:, None, :])
-    turn = cross(normal, tangential)
-    t = (np.einsum("crd,cde->cre", _cross_matrix(tangential), proj) / distance[:, None, None]
-         + c[:, None, None] * (turn[:, None] if turn.ndim == 1 else turn)[:, :, None] * normal[:, None, :])
+         + c * tangential[:, :, None] * normal[:, None, :])
+    turn = cross(normal, tangential).reshape(count, rot)[:, :, None] * normal[:, None, :]  # (n x f_t) n^T
+    t = np.einsum("crd,cde->cre", _cross_matrix(tangential), proj) / distance[:, None, None] + c * turn
     m = dim + rot if with_rotation else dim
     blocks = [np.zeros((count, m, m)) for _ in range(4)]  # ii, ij, ji, jj
     for block, sign in zip(blocks, (1.0, -1.0, -1.0, 1.0)):
         block[:, :dim, :dim] = sign * g
     if with_rotation:
-        arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, lever)
-        shorten = (0.5 if lever == "contact" else 0.0) * (turn[:, None] if turn.ndim == 1 else turn)[:, :, None] \
-            * normal[:, None, :]
+        shorten = 0.5 * turn if model.lever == "contact" else 0.0
+        arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
         for block, arm, sign in zip(blocks, (arm_i, arm_i, arm_j, arm_j), (-1.0, 1.0, -1.0, 1.0)):
             block[:, dim:, :dim] = sign * (arm[:, None, None] * t - shorten)
     return tuple(blocks)
@@ -355,7 +369,7 @@ def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray
     LAMMPS rescales a trial force above the cone back onto it, f_t = mu f_n(xi) s^ with s^ the
     trial's direction; to first order the stick increment keeps its part across s^ and its part
     along s^ becomes mu df_n/dxi dxi (the cone growing with the load).  With w = kt B_t^T s^ +
-    mu (c f_n - kn') (n, 0, -n, 0) (c as in :func:`stressed_blocks`, kn' = df_n/dxi), the rows of
+    mu (c f_n - kn') (n, 0, -n, 0) (c = :func:`tangential_growth`, kn' = df_n/dxi), the rows of
     u_i gain -s^ w^T, those of u_j + s^ w^T, those of theta_i R_i (n x s^) w^T, those of theta_j
     R_j (n x s^) w^T.  Valid for increments that load the contact along s^ (it slides); an
     unloading one sticks.  ``tangential`` (C, D) the stored forces, all non-zero.
@@ -369,15 +383,10 @@ def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray
     slip = tangential / size[:, None]
     fn = normal_force(overlap, model.law, reduced)
     mu = size / fn  # at the limit: |f_t| = mu f_n
-    c = np.zeros(count) if model.law == "harmonic" else 0.5 / overlap
     kt = KN * model.rho * spring_scale(overlap, model.law, reduced)
-    proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
-    b_t = np.zeros((count, dim, 2 * m))
-    b_t[:, :, :dim], b_t[:, :, m:m + dim] = proj, -proj
     arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
-    b_t[:, :, dim:m], b_t[:, :, m + dim:] = -arm_i[:, None, None] * c_n, -arm_j[:, None, None] * c_n
-    w = kt[:, None] * np.einsum("cdk,cd->ck", b_t, slip)
-    load = mu * (c * fn - normal_stiffness(overlap, model.law, reduced))
+    w = kt[:, None] * np.einsum("cdk,cd->ck", _tangential_map(normal, c_n, arm_i, arm_j), slip)
+    load = mu * (tangential_growth(overlap, model.law) * fn - normal_stiffness(overlap, model.law, reduced))
     w[:, :dim] += load[:, None] * normal
     w[:, m:m + dim] -= load[:, None] * normal
     turn = cross(normal, slip).reshape(count, rot)  # n x s^

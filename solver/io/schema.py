@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from ..contact_law import ContactModel
+from ..contact_law import LEVERS, MOBILISED, STORED_FORCES, ContactModel
 from ..errors import InputError
 
 
@@ -125,19 +125,19 @@ class ModelSpec:
                                  "packing.friction) responds: stick (the stick stiffness, LAMMPS's for unloading "
                                  "increments) or slide (no tangential stiffness along the slip, LAMMPS's for loading "
                                  "ones; docs/stressed_contacts.md)",
-                        lambda v: None if v in ("stick", "slide") else "must be one of stick, slide", str)
+                        lambda v: None if v in MOBILISED else f"must be one of {', '.join(MOBILISED)}", str)
 
     lever: str = _f("radius", "where a contact's tangential force acts, for the slip of the contact point and "
                               "the torques: radius (R from each centre, LAMMPS's gran/*/history and rotsound's own "
                               "packings) or contact (R - xi/2, the middle of the overlap, as LIGGGHTS and YADE); a "
                               "stressed packing balances its torques only with the lever it was made with",
-                    lambda v: None if v in ("radius", "contact") else "must be one of radius, contact", str)
+                    lambda v: None if v in LEVERS else f"must be one of {', '.join(LEVERS)}", str)
 
     stored_forces: str = _f("keep", "stressed packings: keep their stored tangential forces in the matrix "
                                     "(non-symmetric, as the DEM code integrates them), or drop them: unstressed "
                                     "springs on the same packing, symmetric, for comparison (the packing is then not "
                                     "at rest under the matrix's forces)",
-                            lambda v: None if v in ("keep", "drop") else "must be one of keep, drop", str)
+                            lambda v: None if v in STORED_FORCES else f"must be one of {', '.join(STORED_FORCES)}", str)
 
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""

@@ -142,8 +142,8 @@ def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]
     h_ji = np.transpose(h_ij, (0, 2, 1))
     if packing.tangential is not None and model.stored_forces == "keep":  # the non-symmetric part
         stored = packing.tangential.on(found.i[touch], found.j[touch])
-        s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(*geometry_args, stored, model.law,
-                                                             with_rotation=dof > packing.dim, lever=model.lever)
+        s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(*geometry_args, stored, model,
+                                                             with_rotation=dof > packing.dim)
         h_ii, h_ij, h_ji, h_jj = h_ii + s_ii, h_ij + s_ij, h_ji + s_ji, h_jj + s_jj
         if model.mobilised == "slide":  # contacts at the Coulomb limit take their sliding branch
             limit = stressed.at_limit(stored, np.stack((found.i[touch], found.j[touch]), 1), found.overlap[touch],

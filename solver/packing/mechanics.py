@@ -127,6 +127,15 @@ class FrictionlessForces:
         return force, energy  # eq:eij at rho = 0
 
 
+def contact_forces(found: geometry.Contacts, diameters: np.ndarray, law: str,
+                   tangential: TangentialForces | None) -> np.ndarray:
+    """Force on i from j (C, D) of each contact of ``found``: the normal force of ``law`` along n,
+    plus the stored tangential force when ``tangential`` is given (units kn d0)."""
+    reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
+    force = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal
+    return force if tangential is None else force + tangential.on(found.i, found.j)
+
+
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential: TangentialForces | None = None,
                   law: str = "harmonic") -> np.ndarray:
     """Rattler mask (N,), applied until no new rattler appears.
@@ -145,10 +154,7 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
         weight = np.ones(len(found))
     else:
         needed = EQUILIBRIUM_TOL
-        reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
-        total = (contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal
-                 + tangential.on(found.i, found.j))
-        weight = np.linalg.norm(total, axis=1)
+        weight = np.linalg.norm(contact_forces(found, diameters, law, tangential), axis=1)
     while True:
         keep = ~rattler[found.i] & ~rattler[found.j]
         count = (np.bincount(found.i[keep], weight[keep], minlength=rattler.size)
@@ -189,14 +195,11 @@ def net_load(packing: Packing, law: str = "harmonic", lever: str = "radius") -> 
     the ``lever`` arms l of ``contact_law.lever_arms``: R for LAMMPS; docs/stressed_contacts.md)."""
     active = ~packing.rattler
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
-    reduced = contact_law.reduced_radius(packing.diameters[found.i], packing.diameters[found.j])
-    f = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal  # eq:eij, on i
+    f = contact_forces(found, packing.diameters, law, packing.tangential)  # eq:eij, on i
     rot = 1 if packing.dim == 2 else 3
     turn = np.zeros((len(found), rot))
-    if packing.tangential is not None:
-        f_t = packing.tangential.on(found.i, found.j)
-        f = f + f_t
-        turn = contact_law.cross(found.normal, f_t).reshape(len(found), rot)  # n x f_t
+    if packing.tangential is not None:  # n x f_t: the normal part of f has no torque
+        turn = contact_law.cross(found.normal, f).reshape(len(found), rot)
     arm_i, arm_j = contact_law.lever_arms(0.5 * packing.diameters[found.i], 0.5 * packing.diameters[found.j],
                                           found.overlap, lever)
     net = np.zeros((packing.n, packing.dim))

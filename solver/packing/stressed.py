@@ -36,7 +36,7 @@ class TangentialForces:
     def on(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
         """Stored force (len(i), D) on each contact (i, j) (i < j) of a contact list: zero for a
         contact with no stored force (a pair that touched only at the end, or a file that lists
-        only the loaded contacts).  Every stored pair must be among them (``check``)."""
+        only the loaded contacts).  ``build`` has checked that every stored pair touches."""
         n = int(max(self.pairs.max(initial=-1), i.max(initial=-1), j.max(initial=-1))) + 1
         keys = self.pairs[:, 0] * n + self.pairs[:, 1]
         wanted = i.astype(np.int64) * n + j

@@ -50,39 +50,46 @@ def solve(dm, zero_tol: float, vectors: bool = False) -> Result:
     classified (module docstring); with ``vectors``, also the K, Q and participation of each
     stable mode from its right eigenvector e of A, real for a real eigenvalue, scaled to |e| = 1
     (the definitions of ``modes``; for a non-symmetric A the right eigenvectors are not
-    orthogonal, and these are each mode's own shares).  Collective; ValueError above MAX_DOF."""
-    import scipy.linalg as sl
-
+    orthogonal, and these are each mode's own shares).  Collective: rank 0 solves
+    (``parallel.owner_compute``: its result, or its error, reaches every rank); ValueError above
+    MAX_DOF."""
+    from .. import parallel
     from ..model import dynmat
-    from . import modes
 
     if dm.size > MAX_DOF:
         raise ValueError(f"spectrum.method nonhermitian: {dm.size} DOF > {MAX_DOF}, the dense solver's limit")
-    comm = dm.D.getComm().tompi4py()
     d = dynmat.gather_csr(dm.D)  # collective: every rank takes part
     mass = dynmat.gather_vec(dm.M)
-    lam = shares = None
-    if comm.rank == 0:
-        scale = 1.0 / np.sqrt(mass)
-        a = d.multiply(scale[:, None]).multiply(scale[None, :]).toarray()
-        if vectors:
-            lam, vec = sl.eig(a, overwrite_a=True, check_finite=False)
-        else:
-            lam = sl.eigvals(a, overwrite_a=True, check_finite=False)
-    lam = comm.bcast(lam, root=0)
+    dense = (d, mass, zero_tol, vectors, dm.dof, dm.dim, int(dm.active.sum()))
+    return parallel.owner_compute(dm.D.getComm().tompi4py(), [dense], _dense_solve)[0]
+
+
+def _dense_solve(task) -> Result:
+    """:func:`solve`'s work on one rank: task = (D as CSR, M (n,), zero_tol, vectors, dof, dim,
+    particles)."""
+    import scipy.linalg as sl
+
+    from . import modes
+
+    d, mass, zero_tol, vectors, dof, dim, particles = task
+    scale = 1.0 / np.sqrt(mass)
+    a = d.multiply(scale[:, None]).multiply(scale[None, :]).toarray()
+    if vectors:
+        lam, vec = sl.eig(a, overwrite_a=True, check_finite=False)
+    else:
+        lam = sl.eigvals(a, overwrite_a=True, check_finite=False)
     zero = np.abs(lam) < zero_tol ** 2
     order = np.flatnonzero(~zero)[np.argsort(lam[~zero].real, kind="stable")]
     rest = lam[order]
     complex_ = np.abs(rest.imag) > IMAG_TOL * np.abs(lam).max()
     negative = ~complex_ & (rest.real < 0.0)
     stable = ~complex_ & ~negative
+    shares = None
     if vectors:
-        if comm.rank == 0:
-            kept = vec[:, order[stable]]
-            kept = kept * np.exp(-1j * np.angle(kept[np.argmax(np.abs(kept), axis=0), np.arange(kept.shape[1])]))
-            real = kept.real / np.linalg.norm(kept.real, axis=0)  # a real eigenvalue's vector, phase removed
-            shares = modes.energies(modes.local_sums(real.T, dm.dof, dm.dim), int(dm.active.sum()), dm.dim)
-        shares = comm.bcast(shares, root=0)
+        kept = vec[:, order[stable]]
+        kept = kept * np.exp(-1j * np.angle(kept[np.argmax(np.abs(kept), axis=0), np.arange(kept.shape[1])]))
+        real = kept.real / np.linalg.norm(kept.real, axis=0)  # a real eigenvalue's vector, phase removed
+        shares = modes.energies(modes.local_sums(real.T, dof, dim), particles, dim)
     growth = np.sqrt(rest[~stable].astype(complex)).imag
     return Result(omega2=rest.astype(np.complex128), omega=np.sqrt(rest.real[stable]),
                   n_zero_modes=int(zero.sum()), n_complex=int(complex_.sum()), n_negative=int(negative.sum()),

@@ -102,8 +102,7 @@ def linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model, stre
     ii, ij, jj = contact_law.pair_blocks(normal, distance, overlap, r_i, r_j, model)
     k = full_matrix((ii, ij, np.transpose(ij, (0, 2, 1)), jj))
     if stressed:
-        k = k + full_matrix(contact_law.stressed_blocks(normal, distance, overlap, r_i, r_j, tangential,
-                                                        model.law, lever=model.lever))
+        k = k + full_matrix(contact_law.stressed_blocks(normal, distance, overlap, r_i, r_j, tangential, model))
     return k
 
 
@@ -150,7 +149,7 @@ def test_zero_stored_forces_add_exact_zeros(dim):
     separation, normal, overlap, r_i, r_j, _ = stressed_contacts(dim, seed=5)
     for law in ("harmonic", "hertz"):
         added = contact_law.stressed_blocks(normal, np.linalg.norm(separation, axis=1), overlap, r_i, r_j,
-                                            np.zeros_like(normal), law)
+                                            np.zeros_like(normal), ContactModel(1.0, law=law, lever="contact"))
         assert all(np.all(block == 0.0) for block in added), law
 
 
@@ -164,7 +163,8 @@ def test_a_stressed_dimer_by_hand(law):
     distance = r_i + r_j - overlap
     normal = np.array([[1.0, 0.0]])
     tangential = np.array([[0.0, f]])
-    ii, ij, ji, jj = contact_law.stressed_blocks(normal, distance, overlap, r_i, r_j, tangential, law)
+    ii, ij, ji, jj = contact_law.stressed_blocks(normal, distance, overlap, r_i, r_j, tangential,
+                                                 ContactModel(1.0, law=law))
     c = 0.0 if law == "harmonic" else 1.0 / (2 * overlap[0])
     g = np.array([[0.0, f / distance[0]], [c * f, 0.0]])
     expected_ii = np.zeros((3, 3))
