@@ -47,6 +47,7 @@ dem-data:
 	$(DEM) liggghts -in liggghts_3d_friction.in -log none > /dev/null
 	$(DEM) yade -n -x yade_3d.py > /dev/null
 	$(DEM) yade -n -x yade_3d_friction.py > /dev/null
+	$(DEM) yade -n -x yade_3d_friction.py uniform > /dev/null
 
 clean:
 	rm -rf results .venv *.egg-info

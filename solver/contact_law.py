@@ -55,7 +55,10 @@ class ContactModel:
     lever : where the tangential force acts, ``radius`` (R from each centre: LAMMPS) or
     ``contact`` (R - xi/2, the middle of the overlap: LIGGGHTS and YADE) (:func:`lever_arms`);
     stored_forces : ``keep`` a stressed packing's stored tangential forces in the matrix, or
-    ``drop`` them (unstressed springs on the same packing, for comparison).  The scene gives one per
+    ``drop`` them (unstressed springs on the same packing, for comparison);  history : the DEM
+    code's update of a stored force, ``lammps`` (projected onto the turning tangent plane:
+    LAMMPS, LIGGGHTS) or ``yade`` (also turned about the normal with the pair's mean spin:
+    YADE's ScGeom), which differ in 3D (:func:`stressed_blocks`).  The scene gives one per
     rho (``ModelSpec.contact``); the dashpots of later physics join here.  A stressed packing's
     stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
@@ -67,6 +70,7 @@ class ContactModel:
     mobilised: str = "stick"
     lever: str = "radius"
     stored_forces: str = "keep"
+    history: str = "lammps"
 
     @property
     def rotations(self) -> bool:
@@ -77,6 +81,7 @@ class ContactModel:
 LEVERS = ("radius", "contact")      # ContactModel.lever
 MOBILISED = ("stick", "slide")      # ContactModel.mobilised
 STORED_FORCES = ("keep", "drop")    # ContactModel.stored_forces
+HISTORIES = ("lammps", "yade")      # ContactModel.history
 
 
 def lever_arms(radius_i: np.ndarray, radius_j: np.ndarray, overlap: np.ndarray, lever: str
@@ -334,10 +339,14 @@ def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarra
     to ``normal``).  With G = n f_t^T / r + c f_t n^T and T = [f_t]_x P / r + c (n x f_t) n^T
     (c = :func:`tangential_growth` of ``model.law``),
     the rows of u_i gain (G, -G) on the columns of (u_i, u_j), the rows of u_j (-G, G), those of
-    theta_i R_i (-T, T), those of theta_j R_j (-T, T); no column of a rotation gains anything.
+    theta_i R_i (-T, T), those of theta_j R_j (-T, T); no column of a rotation gains anything (but
+    under history: yade).
     Under ``model.lever`` = contact the arms are l = R - xi/2 (:func:`lever_arms`) and, since they
     shorten as the overlap grows, each torque row gains -1/2 (n x f_t) n^T on the columns of u_i
-    (+ on u_j): l T becomes l T - (n x f_t) n^T / 2.  Zero forces add exact zeros.
+    (+ on u_j): l T becomes l T - (n x f_t) n^T / 2.  Under ``model.history`` = yade (3D) the
+    stored force also turns about n by the pair's mean spin, f_t += 1/2 n.(theta_i + theta_j)
+    n x f_t: the rows of u_i gain -W/2 on both rotation columns (u_j: +W/2) with W = (n x f_t) n^T,
+    those of theta_i -l_i f_t n^T / 2 (theta_j: -l_j f_t n^T / 2).  Zero forces add exact zeros.
     """
     count, dim = normal.shape
     rot = _rotation_map(normal).shape[2]
@@ -356,6 +365,11 @@ def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarra
         arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
         for block, arm, sign in zip(blocks, (arm_i, arm_i, arm_j, arm_j), (-1.0, 1.0, -1.0, 1.0)):
             block[:, dim:, :dim] = sign * (arm[:, None, None] * t - shorten)
+        if model.history == "yade" and dim == 3:  # the twist turn; in 2D n.theta = 0
+            spin = 0.5 * tangential[:, :, None] * normal[:, None, :]  # f_t n^T / 2
+            for block, arm, sign in zip(blocks, (arm_i, arm_i, arm_j, arm_j), (-1.0, -1.0, 1.0, 1.0)):
+                block[:, :dim, dim:] = sign * 0.5 * turn
+                block[:, dim:, dim:] = -arm[:, None, None] * spin
     return tuple(blocks)
 
 

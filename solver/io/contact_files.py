@@ -17,6 +17,13 @@ caller maps ids to the packing's particles and rescales (``hdf5``).
   3.8.0 writes its values in a fixed order whatever the keywords' order; these four keywords
   give exactly 16 columns).  LIGGGHTS (like YADE) applies the tangential force at the middle of
   the overlap: read it with ``model.lever: contact``.
+* ``yade`` -- YADE has no contact export of its own; this is the plain table that a few lines of
+  a YADE script write (``tests/data/dem/yade_3d_friction.py``): ``#`` comment lines, then one
+  line per real interaction, ``id1 id2 fsx fsy fsz fnx fny fnz``: the body ids (0-based, the
+  line order of the spheres file), ``i.phys.shearForce`` and ``i.phys.normalForce`` (both the
+  force on id2 from id1).  The normal forces give each contact's kn, which must be the same for
+  every contact (:func:`yade_forces`).  Read it with ``model.lever: contact`` and
+  ``model.history: yade``.
 The format is not detected: ``packing.contacts_format`` names it (default lammps-local); a
 LIGGGHTS file read as LAMMPS's fails on its columns 2 and 3, which are positions, not ids.
 """
@@ -29,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..packing import geometry
 from .dem_formats import number_table, read_text
 
 KIND = "contact file"
@@ -40,11 +48,14 @@ LOCAL_LAYOUT = ("the dump's index, patom1 patom2 (compute property/local), then 
 @dataclass(frozen=True, eq=False)
 class RawContacts:
     """ids (C, 2) int64 the two atoms of each contact (file ids); force (C, 3) float64 the
-    tangential force on the first from the second, in the file's units; source: the format."""
+    tangential force on the first from the second, in the file's units; source: the format;
+    normal (C, 3) float64 or None: the normal force on the first from the second, when the
+    file holds it (yade)."""
 
     ids: np.ndarray
     force: np.ndarray
     source: str
+    normal: np.ndarray | None = None
 
 
 def _fail(path, what: str):
@@ -78,12 +89,12 @@ def _last_frame(path) -> tuple[np.ndarray, int, str]:
     return number_table(path, lines, first, "the entries", "one number per column", KIND), first, names
 
 
-def _ids(path, table: np.ndarray, columns: slice, first: int, layout: str) -> np.ndarray:
-    """The two atom-id columns ``columns`` of ``table`` as int64; InputError unless whole numbers >= 1."""
+def _ids(path, table: np.ndarray, columns: slice, first: int, layout: str, lowest: int = 1) -> np.ndarray:
+    """The two atom-id columns ``columns`` of ``table`` as int64; InputError unless whole numbers >= ``lowest``."""
     ids = table[:, columns]
-    bad = np.flatnonzero(np.any((ids != np.rint(ids)) | (ids < 1), axis=1))
+    bad = np.flatnonzero(np.any((ids != np.rint(ids)) | (ids < lowest), axis=1))
     if bad.size:
-        _fail(path, f"line {first + bad[0]}: the atom-id columns must hold whole numbers >= 1, not "
+        _fail(path, f"line {first + bad[0]}: the id columns must hold whole numbers >= {lowest}, not "
                     f"{ids[bad[0]].tolist()}; the columns are {layout}")
     return ids.astype(np.int64)
 
@@ -115,15 +126,82 @@ def read_liggghts_local(path) -> RawContacts:
 
 LIGGGHTS_LAYOUT = ("index, x_i y_i z_i x_j y_j z_j, id_i id_j periodic-flag, fx fy fz (total), ftx fty ftz "
                    "(tangential, on id_i)")
-READERS = {"lammps-local": read_lammps_local, "liggghts-local": read_liggghts_local}
+YADE_LAYOUT = "id1 id2 fsx fsy fsz fnx fny fnz (body ids, i.phys.shearForce, i.phys.normalForce)"
+
+
+def read_yade(path) -> RawContacts:
+    """YADE's interactions as a plain table (layout above) -> :class:`RawContacts`, the forces
+    turned to act on id1 (YADE's act on id2)."""
+    text = read_text(path, KIND)
+    if re.search(r"^ITEM:", text, re.M):
+        _fail(path, "is a LAMMPS/LIGGGHTS dump ('ITEM:' lines), not YADE's table; set packing.contacts_format to "
+                    "lammps-local or liggghts-local")
+    head = re.match(r"(?:[ \t]*(?:#[^\n]*)?(?:\n|\Z))*", text).group(0)  # leading comments, blank lines
+    rows = text[len(head):].rstrip().splitlines()
+    if not rows:
+        return RawContacts(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3)), "yade", np.zeros((0, 3)))
+    first = head.count("\n") + 1
+    table = number_table(path, rows, first, "the interaction lines", YADE_LAYOUT, KIND)
+    if table.shape[1] != 8:
+        _fail(path, f"interaction lines have {table.shape[1]} columns; packing.contacts_format yade reads 8: "
+                    f"{YADE_LAYOUT}")
+    ids = _ids(path, table, slice(0, 2), first, YADE_LAYOUT, lowest=0)
+    return RawContacts(ids, -np.ascontiguousarray(table[:, 2:5]), "yade", -np.ascontiguousarray(table[:, 5:8]))
+
+
+READERS = {"lammps-local": read_lammps_local, "liggghts-local": read_liggghts_local, "yade": read_yade}
 FORMATS = tuple(READERS)
 
 
 def read(path, fmt: str = "lammps-local") -> RawContacts:
     """Read a contact file of format ``fmt`` (``packing.contacts_format``).  A file that is not a
-    text dump local gets InputError naming the formats."""
+    text dump local, read as one, gets InputError naming the formats."""
     text = read_text(path, KIND)
-    if not re.search(r"^ITEM: ENTRIES", text, re.M):
+    if fmt != "yade" and not re.search(r"^ITEM: ENTRIES", text, re.M):
         _fail(path, f"unknown format: not a text 'dump local' (no 'ITEM: ENTRIES' line); the formats read are "
-                    f"lammps-local ({LOCAL_LAYOUT}) and liggghts-local ({LIGGGHTS_LAYOUT})")
+                    f"lammps-local ({LOCAL_LAYOUT}), liggghts-local ({LIGGGHTS_LAYOUT}) and yade ({YADE_LAYOUT}), "
+                    f"named by packing.contacts_format")
     return READERS[fmt](path)
+
+
+KN_SPREAD_TOL = 1e-6   # relative spread of kn = |f_n| / overlap accepted as one stiffness
+SHEAR_NORMAL_TOL = 1e-3  # largest |f_s . n| / |f_s| of a YADE shear force projected away
+
+
+def yade_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.ndarray, diameters: np.ndarray,
+                box: np.ndarray, unit: float, law: str) -> np.ndarray:
+    """The tangential forces (C, 3) of a YADE contact file in rotsound's units kn d0, with pairs
+    (C, 2) the contacts' particle indices and positions, diameters, box the packing in units of
+    d0 = ``unit`` file lengths.  kn = |normalForce| / overlap is taken from the file, and must
+    be one number (to 1e-6): YADE's FrictPhys gives kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2), one
+    kn only when E R is the same for every sphere, and rotsound's harmonic law has one.  YADE's
+    ScGeom::rotate never projects a shear force back onto the tangent plane; a normal part up to
+    1e-3 of it is projected away here, a larger one refused.  Not collective."""
+    if law != "harmonic":
+        _fail(path, "YADE's FrictPhys contacts are linear (kn xi); read this file with model.law: harmonic")
+    normal, _, overlap = geometry.pair_geometry(positions, diameters, box, pairs)
+    size = np.linalg.norm(found.normal, axis=1)
+    touching = overlap > 0.0
+    if not np.any(touching):
+        return found.force / unit
+    tilt = np.abs(np.einsum("cd,cd->c", found.normal, normal))
+    off = np.flatnonzero(touching & (tilt < (1.0 - 1e-9) * size))
+    if off.size:
+        _fail(path, f"the normal force of ids {found.ids[off[0]].tolist()} is not along their centre line in the "
+                    f"packing file; the two files must be written at the same step")
+    kn = size[touching] / (overlap[touching] * unit)
+    if kn.max() > (1.0 + KN_SPREAD_TOL) * kn.min():
+        _fail(path, f"kn = |normalForce| / overlap differs between contacts ({kn.min():.6g} to {kn.max():.6g}); "
+                    f"rotsound's harmonic law has one kn. YADE's FrictPhys makes kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2): "
+                    f"one kn needs E R the same for every sphere (one radius, or a FrictMat per sphere with young "
+                    f"proportional to 1/R, as tests/data/dem/yade_3d_friction.py uniform does)")
+    force = found.force / (kn.mean() * unit)
+    along = np.einsum("cd,cd->c", force, normal)
+    shear = np.linalg.norm(force, axis=1)
+    tilted = np.flatnonzero(np.abs(along) > SHEAR_NORMAL_TOL * shear)
+    if tilted.size:
+        k = tilted[0]
+        _fail(path, f"the shear force of ids {found.ids[k].tolist()} has a part along the contact normal of "
+                    f"{abs(along[k]) / shear[k]:.2e} of itself (> {SHEAR_NORMAL_TOL:g}, the drift YADE's "
+                    f"approximate rotation leaves); the file is not a YADE shear force at rest")
+    return force - along[:, None] * normal

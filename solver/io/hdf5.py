@@ -154,7 +154,8 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str, contacts: 
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
     ``contacts`` file (``contact_files``), its stored tangential forces, divided by kn d0 of the
     file's units with kn = 1 there (LAMMPS units lj with kn = 1): by the length unit (harmonic)
-    or its square (hertz, whose kn carries a length^1/2 more)."""
+    or its square (hertz, whose kn carries a length^1/2 more); a YADE file gives its kn itself
+    (``contact_files.yade_forces``)."""
     raw = dem_formats.read(path, fmt)
     if raw.box_lo is None:
         raise InputError(f"packing file {path}: the {raw.source} file records no periodic box; rotsound needs "
@@ -184,7 +185,10 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
         raise InputError(f"contact file {path}: atom id {found.ids.ravel()[missing[0]]} is not in the packing file "
                          f"({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe "
                          f"the same packing")
-    force = found.force / (unit if law == "harmonic" else unit ** 2)
+    if found.normal is not None:  # YADE: kn from the file's normal forces
+        force = contact_files.yade_forces(path, found, at, positions, diameters, box, unit, law)
+    else:
+        force = found.force / (unit if law == "harmonic" else unit ** 2)
     if raw.dim == 2:
         if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
             raise InputError(f"contact file {path}: a tangential force has a z component, but the packing is 2D")

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from ..contact_law import LEVERS, MOBILISED, STORED_FORCES, ContactModel
+from ..contact_law import HISTORIES, LEVERS, MOBILISED, STORED_FORCES, ContactModel
 from ..errors import InputError
 
 
@@ -85,9 +85,11 @@ class PackingSpec:
     contacts_format: str = _f("lammps-local", "format of packing.contacts: lammps-local (LAMMPS dump local: index, "
                                               "patom1 patom2, pair/local p1 p2 p3) or liggghts-local (LIGGGHTS dump "
                                               "local of compute pair/gran/local pos id force force_tangential; read "
-                                              "it with model.lever: contact)",
-                              lambda v: None if v in ("lammps-local", "liggghts-local") else
-                              "must be one of lammps-local, liggghts-local", str)
+                                              "it with model.lever: contact) or yade (the table id1 id2 shearForce "
+                                              "normalForce a YADE script writes, see README; read it with "
+                                              "model.lever: contact and model.history: yade)",
+                              lambda v: None if v in ("lammps-local", "liggghts-local", "yade") else
+                              "must be one of lammps-local, liggghts-local, yade", str)
     friction: float | None = _f(None, "Coulomb coefficient mu. With engine: lammps, generated packings are "
                                       "frictional, as a DEM code leaves them: squeezed from 0.75 phi to phi in "
                                       "LAMMPS (gran/hooke/history or gran/hertz/history, kt = 2/7 kn, damped) until "
@@ -139,10 +141,16 @@ class ModelSpec:
                                     "at rest under the matrix's forces)",
                             lambda v: None if v in STORED_FORCES else f"must be one of {', '.join(STORED_FORCES)}", str)
 
+    history: str = _f("lammps", "stressed packings: the DEM code's update of a stored tangential force, which the "
+                                "matrix linearises: lammps (projected onto the tangent plane as the contact turns: "
+                                "LAMMPS's gran/*/history, LIGGGHTS, rotsound's own packings) or yade (YADE's ScGeom: "
+                                "also turned about the normal by the pair's mean spin); the two differ in 3D only",
+                      lambda v: None if v in HISTORIES else f"must be one of {', '.join(HISTORIES)}", str)
+
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
         return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised, self.lever,
-                            self.stored_forces)
+                            self.stored_forces, self.history)
 
 
 def _window(v):

@@ -172,7 +172,7 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
     packing with equal contents share units, and 2D and 3D never do: the arrays' shapes are
     hashed); the rolling and twisting ratios join every key when they are not 0, and masses, law,
-    mobilised and lever when not their defaults (so units made before they existed keep their
+    mobilised, lever, stored_forces and history when not their defaults (so units made before they existed keep their
     keys); spectra and waves also by their section's settings and the PETSc options that act on
     their stage (``options.acting_on``; ``-log_view`` and the like change no key); KPM's probes
     by their seed.  The rotsound version is part of every key, so a new version
@@ -182,7 +182,7 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     springs = {name: value for name in ("rho_roll", "rho_twist")
                if (value := getattr(scene.model, name))}  # only when on: 2D keys stay as before
     for name, default in (("masses", "equal"), ("law", "harmonic"), ("mobilised", "stick"), ("lever", "radius"),
-                          ("stored_forces", "keep")):
+                          ("stored_forces", "keep"), ("history", "lammps")):
         if getattr(scene.model, name) != default:
             springs[name] = getattr(scene.model, name)
     for p_index, p in enumerate(packings):

@@ -36,6 +36,14 @@ def _stressed(keep=lambda lines: lines):
     return make
 
 
+def _yade(name):
+    """A maker: YADE's frictional packing ``name`` (.spheres) at ``path``, its contacts at ``path.contacts``."""
+    def make(path):
+        shutil.copyfile(DEM / f"{name}.spheres", path)
+        shutil.copyfile(DEM / f"{name}.contacts", f"{path}.contacts")
+    return make
+
+
 def _renamed(lines, column, value):
     """``lines`` with the first entry's ``column`` set to ``value``."""
     row = lines[0].split()
@@ -237,6 +245,17 @@ CASES = [
      "carry a force but do not touch", _stressed(lambda lines: _renamed(_renamed(lines, 1, "1"), 2, "128"))),
     ("stored force above the Coulomb limit", "packing: {file: '{file}', contacts: '{file}.contacts', friction: 0.1}\n",
      [], "above the Coulomb limit mu f_n with mu = packing.friction = 0.1", _stressed()),
+    ("YADE contacts with more than one kn",
+     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\nmodel: {lever: contact}\n", [],
+     "kn = |normalForce| / overlap differs between contacts", _yade("yade_3d_friction")),
+    ("YADE contacts under the Hertz law",
+     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\nmodel: {law: hertz}\n", [],
+     "YADE's FrictPhys contacts are linear", _yade("yade_3d_friction_uniform")),
+    ("LAMMPS contact file read as YADE's",
+     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\n", [],
+     "is a LAMMPS/LIGGGHTS dump ('ITEM:' lines), not YADE's table", _stressed()),
+    ("unknown stored-force history", GOOD + "model: {history: liggghts}\n", [],
+     "model.history = 'liggghts': must be one of lammps, yade", None),
     ("frictional packing without its contact file", "packing: {file: '{file}'}\n", [],
      "give its stored tangential forces with its contact file, packing.contacts", _stressed()),
     ("a spectrum on a stressed packing",

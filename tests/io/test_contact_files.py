@@ -127,7 +127,7 @@ def test_a_liggghts_frictional_packing_loads_with_the_contact_point_lever():
     assert np.abs(net[active]).max() < 1e-12 and np.abs(torque[active]).max() < 1e-12
     with pytest.raises(InputError, match="model.lever"):
         hdf5.read_packings(data, contacts=contacts, contacts_format="liggghts-local")
-    with pytest.raises(InputError, match="atom-id columns must hold whole numbers"):
+    with pytest.raises(InputError, match="id columns must hold whole numbers"):
         hdf5.read_packings(data, contacts=contacts)
 
 
@@ -138,3 +138,73 @@ def test_a_liggghts_contact_file_with_other_keywords_is_refused(tmp_path):
     path.write_text("\n".join(lines[:head] + [" ".join(line.split()[:13]) for line in lines[head:]]) + "\n")
     with pytest.raises(InputError, match="16 columns"):
         contact_files.read(path, "liggghts-local")
+
+
+YADE = (str(DATA / "yade_3d_friction_uniform.spheres"), str(DATA / "yade_3d_friction_uniform.contacts"))
+
+
+def test_a_yade_frictional_packing_loads_with_its_kn_from_the_file():
+    """YADE's packing made with one kn (a FrictMat per sphere, E R the same) loads at rest: kn =
+    5e4 is read from its normal forces, the shear forces (on id2 in YADE) turn to act on id1, and
+    the torques balance with YADE's lever R - xi/2 to round-off. The net force keeps the normal
+    part of YADE's shear forces (up to 1.3e-4 of them, README of tests/data/dem), projected away:
+    below 1e-7 kn d0 where the mean |f_t| is 1.4e-3."""
+    p = hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", lever="contact", friction=0.5)[0]
+    assert p.stressed and p.info["n_stored"] == 305 and int(p.rattler.sum()) == 6
+    net, torque = mechanics.net_load(p, "harmonic", "contact")
+    active = ~p.rattler
+    assert np.abs(net[active]).max() < 1e-7 and np.abs(torque[active]).max() < 1e-12
+    mean_ft = np.linalg.norm(p.tangential.force, axis=1).mean()
+    raw = contact_files.read(YADE[1], "yade")
+    # the file's mean |shearForce| over kn d0 (kn = 5e4 by construction, d0 = the mean diameter)
+    expected = np.linalg.norm(raw.force, axis=1).mean() / (5e4 * p.info["length_unit"])
+    assert abs(mean_ft / expected - 1) < 1e-6, (mean_ft, expected)
+    with pytest.raises(InputError, match="packing.contacts"):
+        hdf5.read_packings(YADE[0])
+
+
+def test_a_yade_packing_with_many_kn_is_refused():
+    """One material for all radii (YADE's usual) gives kn = 2 E R1 R2 / (R1 + R2), 4.2e4 to 6.0e4:
+    refused, saying how to make one rotsound reads."""
+    with pytest.raises(InputError, match=r"kn = \|normalForce\| / overlap differs between contacts \(42222.1 to 59534"):
+        hdf5.read_packings(str(DATA / "yade_3d_friction.spheres"), contacts=str(DATA / "yade_3d_friction.contacts"),
+                           contacts_format="yade", lever="contact")
+
+
+def _damaged_yade(tmp_path, how):
+    lines = (DATA / "yade_3d_friction_uniform.contacts").read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    row = lines[first].split()
+    if how == "columns":
+        lines[first:] = [" ".join(line.split()[:7]) for line in lines[first:]]
+    elif how == "negative id":
+        row[0] = "-1"
+    elif how == "tilted normal":
+        row[5] = str(float(row[5]) + 1.0)
+    elif how == "shear normal part":  # add 1 % of |f_n| along the normal to the shear force
+        row[2:5] = [str(float(s) + 0.01 * float(n)) for s, n in zip(row[2:5], row[5:8])]
+    if how in ("negative id", "tilted normal", "shear normal part"):
+        lines[first] = " ".join(row)
+    path = tmp_path / f"{how.replace(' ', '_')}.contacts"
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+@pytest.mark.parametrize("how, message", [
+    ("columns", "interaction lines have 7 columns; packing.contacts_format yade reads 8"),
+    ("negative id", "the id columns must hold whole numbers >= 0"),
+    ("tilted normal", "is not along their centre line"),
+    ("shear normal part", "has a part along the contact normal of"),
+])
+def test_damaged_yade_contact_files_are_refused(tmp_path, how, message):
+    with pytest.raises(InputError, match=message):
+        hdf5.read_packings(YADE[0], contacts=_damaged_yade(tmp_path, how), contacts_format="yade", lever="contact")
+
+
+def test_yade_contact_files_are_not_dump_locals_and_are_linear():
+    with pytest.raises(InputError, match="is a LAMMPS/LIGGGHTS dump"):
+        contact_files.read(DATA / "lammps_3d_hooke.contacts", "yade")
+    with pytest.raises(InputError, match="no 'ITEM: ENTRIES' line"):
+        contact_files.read(YADE[1], "lammps-local")
+    with pytest.raises(InputError, match="model.law: harmonic"):
+        hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", law="hertz", lever="contact")

@@ -1,6 +1,7 @@
 """Stored tangential forces (docs/stressed_contacts.md): contact_law.stressed_blocks against
-central differences of LAMMPS's own history update, written out here independently of the
-derivation, in 2D and 3D under both laws; a dimer whose entries are known by hand."""
+central differences of LAMMPS's own history update (and of YADE's, model.history: yade), written
+out here independently of the derivation, in 2D and 3D under both laws; a dimer whose entries are
+known by hand."""
 
 import numpy as np
 import pytest
@@ -74,6 +75,39 @@ def lammps_step(separation, tangential, radius_i, radius_j, law, rho, x, frictio
     return np.concatenate((force, tau_i, -force, tau_j), axis=1)
 
 
+def yade_step(separation, tangential, radius_i, radius_j, rho, x, friction=None):
+    """(F_i, tau_i, F_j, tau_j) (C, 2m) after one step of YADE's Law2_ScGeom_FrictPhys_CundallStrack
+    (3D, kn = 1, ks = rho) that moves the contact by x from a reference at rest, written in YADE's
+    own terms: body 1 = i, body 2 = j, normal n from 1 to 2, shearForce f_s = the force on 2 from
+    1 (= -f_t); ScGeom::precompute's orthonormal_axis = n_prev x n and twist_axis = dt/2 n.(w_1 +
+    w_2) n (w dt = theta), ScGeom::rotate's f_s -= f_s x orthonormal_axis, f_s -= f_s x
+    twist_axis (no projection), then f_s -= ks * shearIncrement: the relative velocity of the
+    contact point (arms radius_k - depth/2 along -+n) with its normal part removed, times dt; the
+    force on 1 is -(kn depth n + f_s), the torque on each body (R_k - depth/2) n x (-f_s).  With
+    ``friction`` = tan(phi) a shear force above tan(phi) kn depth is rescaled onto it."""
+    u_1, w_1, u_2, w_2 = x[:, :3], x[:, 3:6], x[:, 6:9], x[:, 9:]
+    prev = -separation / np.linalg.norm(separation, axis=1)[:, None]
+    branch = -(separation + u_1 - u_2)
+    distance = np.linalg.norm(branch, axis=1)
+    normal = branch / distance[:, None]
+    depth = radius_i + radius_j - distance
+    arm_1, arm_2 = radius_i - 0.5 * depth, radius_j - 0.5 * depth
+    shear = -tangential
+    shear = shear - np.cross(shear, np.cross(prev, normal))
+    shear = shear - np.cross(shear, 0.5 * np.einsum("cd,cd->c", normal, w_1 + w_2)[:, None] * normal)
+    velocity = (u_2 + np.cross(w_2, -arm_2[:, None] * normal)) - (u_1 + np.cross(w_1, arm_1[:, None] * normal))
+    velocity = velocity - np.einsum("cd,cd->c", velocity, normal)[:, None] * normal
+    shear = shear - rho * velocity
+    if friction is not None:
+        size = np.linalg.norm(shear, axis=1)
+        over = size > friction * depth
+        shear[over] *= (friction * depth[over] / size[over])[:, None]
+    on_2 = depth[:, None] * normal + shear
+    torque_1 = arm_1[:, None] * np.cross(normal, -on_2)
+    torque_2 = arm_2[:, None] * np.cross(normal, -on_2)
+    return np.concatenate((-on_2, torque_1, on_2, torque_2), axis=1)
+
+
 def stressed_contacts(dim, count=20, seed=0, ratio=0.6):
     """Random contacts (overlaps 0.01-0.05) with stored tangential forces of |f_t| = ratio f_n
     (harmonic f_n) in random tangent directions."""
@@ -141,6 +175,66 @@ def test_stressed_blocks_are_the_linearised_lammps_update(dim, law, lever):
     miss = np.abs(jacobian(separation, tangential, r_i, r_j, law, rho, size, steps[-1], lever) + unstressed).max()
     assert miss / np.abs(exact).max() > 1e-3, f"the unstressed blocks also match ({miss:.2e}): the test is blind"
     assert np.abs(exact - np.transpose(exact, (0, 2, 1))).max() > 1e-3, "stressed blocks came out symmetric"
+
+
+@pytest.mark.serial_only  # pure numpy
+def test_yade_history_is_the_linearised_yade_update():
+    """model.history: yade, lever contact against central differences of YADE's step (3D): the
+    twist of the stored force with the pair's mean spin is there; LAMMPS's blocks miss it."""
+    separation, normal, overlap, r_i, r_j, tangential = stressed_contacts(3, seed=9)
+    rho = 0.7
+    model = ContactModel(rho, lever="contact", history="yade")
+    exact = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model)
+    size = exact.shape[1]
+
+    def slope(h):
+        out = np.empty_like(exact)
+        for b in range(size):
+            x = np.zeros((separation.shape[0], size))
+            x[:, b] = h
+            out[:, :, b] = (yade_step(separation, tangential, r_i, r_j, rho, x)
+                            - yade_step(separation, tangential, r_i, r_j, rho, -x)) / (2 * h)
+        return out
+
+    errors = [np.abs(slope(h) + exact).max() / np.abs(exact).max() for h in STEPS]
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(orders - 2) < 0.15), f"errors {errors}, orders {orders}"
+    assert errors[-1] < 1e-6, f"error {errors[-1]} at h = {STEPS[-1]}"
+    lammps = linear_matrix(separation, normal, overlap, r_i, r_j, tangential,
+                           ContactModel(rho, lever="contact"))
+    miss = np.abs(slope(STEPS[-1]) + lammps).max() / np.abs(exact).max()
+    assert miss > 1e-3, f"LAMMPS's history also matches YADE's step ({miss:.2e}): the test is blind"
+    two_d = stressed_contacts(2, seed=9)
+    blocks = [contact_law.stressed_blocks(two_d[1], np.linalg.norm(two_d[0], axis=1), *two_d[2:],
+                                          ContactModel(rho, lever="contact", history=h)) for h in ("lammps", "yade")]
+    assert all(np.array_equal(a, b) for a, b in zip(*blocks)), "history: yade changed a 2D matrix"
+
+
+@pytest.mark.serial_only  # pure numpy
+def test_yade_history_slides_like_yades_capped_update():
+    """At the Coulomb limit YADE rescales the shear force as LAMMPS does; its twist turns f_t
+    across the slip, so sliding_blocks is the same: one-sided differences of YADE's capped step
+    against stick + slide blocks under history: yade (as in the LAMMPS test below)."""
+    separation, normal, overlap, r_i, r_j, tangential = stressed_contacts(3, seed=8, ratio=1.0)
+    mu, rho = 0.6, 0.7
+    tangential = mu * overlap[:, None] * tangential / np.linalg.norm(tangential, axis=1)[:, None]
+    model = ContactModel(rho, lever="contact", history="yade")
+    stick = linear_matrix(separation, normal, overlap, r_i, r_j, tangential, model)
+    distance = np.linalg.norm(separation, axis=1)
+    slide = stick + full_matrix(contact_law.sliding_blocks(normal, distance, overlap, r_i, r_j, tangential, model))
+    x = 0.1 * np.random.default_rng(3).normal(size=(stick.shape[0], stick.shape[1]))
+    x[:, :3] -= tangential / np.linalg.norm(tangential, axis=1)[:, None]  # u_i against f_t: loads
+    x[:, 3:6] += normal  # and a spin about the normal, which turns f_t
+    h = 1e-6
+
+    def force(step):
+        return yade_step(separation, tangential, r_i, r_j, rho, step * x, friction=mu)
+
+    base = force(0.0)
+    slope = 2 * (force(h) - base) / h - (force(2 * h) - base) / (2 * h)
+    expected = -np.einsum("cij,cj->ci", slide, x)
+    scale = np.abs(expected).max()
+    assert_close(slope, expected, rtol=0.0, atol=1e-7 * scale, what="one-sided slope vs sliding blocks")
 
 
 @pytest.mark.serial_only

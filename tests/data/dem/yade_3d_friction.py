@@ -1,6 +1,7 @@
 # rotsound test data: a frictional periodic 3D sphere packing made by YADE, at rest on its shear
 # forces, with its contact file.
-# Remake (from this directory): yade -n -x yade_3d_friction.py
+# Remake (from this directory): yade -n -x yade_3d_friction.py, and
+# yade -n -x yade_3d_friction.py uniform for the packing with one normal stiffness (below).
 # Writes yade_3d_friction.spheres (SpherePack.save's format: '##PERIODIC:: Lx Ly Lz', then
 # 'x y z r -1' per sphere, line k+2 being body id k; written here with %.17g, since
 # SpherePack.save prints six significant digits) and yade_3d_friction.contacts (one line per real
@@ -13,25 +14,38 @@
 # (keeping its proportions) to a mean stress of 2000, friction on throughout; then, in the fixed
 # cell, damped dynamics (NewtonIntegrator's local damping 0.4) run until YADE's unbalanced force
 # is below 1e-9, and the files are written from that state (positions wrapped into the cell).
+# With the argument 'uniform' every sphere gets a material of its own, young = 1e5 * 0.5 / R, so that
+# E1 R1 = E2 R2 and every contact has the same kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2) = 5e4 (rotsound's
+# harmonic law: one kn); the files are then yade_3d_friction_uniform.spheres and .contacts.
 import math
 import sys
 from yade import pack
 
+UNIFORM = sys.argv[1:] == ['uniform']
+NAME = 'yade_3d_friction_uniform' if UNIFORM else 'yade_3d_friction'
+
+
+def material(young):
+    return FrictMat(young=young, poisson=2.0 / 7.0, frictionAngle=math.atan(0.5), density=2600.0)
+
+
 O.periodic = True
 O.cell.setBox(8.0, 8.0, 8.0)
-O.materials.append(FrictMat(young=1e5, poisson=2.0 / 7.0, frictionAngle=math.atan(0.5),
-                            density=2600.0))
+O.materials.append(material(1e5))
 cloud = pack.SpherePack()
 cloud.makeCloud((0, 0, 0), (8.0, 8.0, 8.0), rMean=0.5, rRelFuzz=0.2, num=128, periodic=True,
                 seed=20240607)
 cloud.toSimulation()
+if UNIFORM:
+    for b in O.bodies:
+        b.mat = material(1e5 * 0.5 / b.shape.radius)
 
-HEADER = """# YADE %s: frictional periodic packing yade_3d_friction.spheres, N = %d, at step %d
+HEADER = """# YADE %s: frictional periodic packing %s.spheres, N = %d, at step %d
 # periodic cell from (0, 0, 0) to (Lx, Ly, Lz):
 ##PERIODIC:: %r %r %r
 # One line per real interaction (Law2_ScGeom_FrictPhys_CundallStrack), %d lines.
 # columns: id1 id2 fsx fsy fsz fnx fny fnz
-#   id1 id2          i.id1, i.id2: body ids = 0-based line numbers in yade_3d_friction.spheres
+#   id1 id2          i.id1, i.id2: body ids = 0-based line numbers in %s.spheres
 #   fsx fsy fsz      i.phys.shearForce
 #   fnx fny fnz      i.phys.normalForce = kn * i.geom.penetrationDepth * i.geom.normal
 # Sign convention: i.geom.normal points from id1 to id2 (across the periodic boundary where the
@@ -54,15 +68,15 @@ def settled():
     O.pause()
     inters = [i for i in O.interactions if i.isReal]
     size = O.cell.size
-    with open('yade_3d_friction.contacts', 'w') as out:
-        out.write(HEADER % (version, len(O.bodies), O.iter, size[0], size[1], size[2], len(inters)))
+    with open(NAME + '.contacts', 'w') as out:
+        out.write(HEADER % (version, NAME, len(O.bodies), O.iter, size[0], size[1], size[2], len(inters), NAME))
         for i in inters:
             fs, fn = i.phys.shearForce, i.phys.normalForce
             out.write('%d %d %.17g %.17g %.17g %.17g %.17g %.17g\n'
                       % (i.id1, i.id2, fs[0], fs[1], fs[2], fn[0], fn[1], fn[2]))
     fmax = max(O.forces.f(b.id).norm() for b in O.bodies)
     tmax = max(O.forces.t(b.id).norm() for b in O.bodies)
-    with open('yade_3d_friction.spheres', 'w') as out:
+    with open(NAME + '.spheres', 'w') as out:
         out.write('##PERIODIC:: %.17g %.17g %.17g\n' % (size[0], size[1], size[2]))
         for b in O.bodies:
             p = O.cell.wrap(b.state.pos)
