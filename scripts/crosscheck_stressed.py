@@ -147,10 +147,10 @@ def lammps_velocities(restart: str, dim: int, start: np.ndarray, dt: float, step
     return np.array(samples)
 
 
-def exact_velocities(dm, start: np.ndarray, sample: float, count: int) -> np.ndarray:
-    """Velocities (count, N', dof) at t = 0, sample, 2 sample, ... of M u'' = -D u from u = 0,
-    v = ``start`` (N', dof): X(t) = exp(t J) X(0), J = [[0, I], [-M^-1 D, 0]], dense.  Exact to
-    round-off whatever D's symmetry.  One process."""
+def exact_velocities(dm, start: np.ndarray, sample: float, count: int, offset: float = 0.0) -> np.ndarray:
+    """Velocities (count, N', dof) at t = offset, offset + sample, ... of M u'' = -D u from u = 0,
+    v = ``start`` (N', dof) at t = 0: X(t) = exp(t J) X(0), J = [[0, I], [-M^-1 D, 0]], dense.
+    Exact to round-off whatever D's symmetry.  One process."""
     import scipy.linalg as sl
 
     from solver.model import dynmat
@@ -163,6 +163,8 @@ def exact_velocities(dm, start: np.ndarray, sample: float, count: int) -> np.nda
     j[size:, :size] = -d / m[:, None]
     step = sl.expm(sample * j)
     x = np.concatenate((np.zeros(size), start.ravel()))
+    if offset:
+        x = sl.expm(offset * j) @ x
     out = []
     for _ in range(count):
         out.append(x[size:].reshape(start.shape).copy())

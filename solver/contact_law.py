@@ -56,9 +56,10 @@ class ContactModel:
     ``contact`` (R - xi/2, the middle of the overlap: LIGGGHTS and YADE) (:func:`lever_arms`);
     stored_forces : ``keep`` a stressed packing's stored tangential forces in the matrix, or
     ``drop`` them (unstressed springs on the same packing, for comparison);  history : the DEM
-    code's update of a stored force, ``lammps`` (projected onto the turning tangent plane:
-    LAMMPS, LIGGGHTS) or ``yade`` (also turned about the normal with the pair's mean spin:
-    YADE's ScGeom), which differ in 3D (:func:`stressed_blocks`).  The scene gives one per
+    code's update of the tangential spring, ``lammps`` (projected onto the turning tangent plane,
+    slip taken at the lever: LAMMPS, LIGGGHTS) or ``yade`` (YADE's ScGeom: also turned about the
+    normal with the pair's mean spin, :func:`stressed_blocks`, and its own slip,
+    :func:`slip_blocks`).  The scene gives one per
     rho (``ModelSpec.contact``); the dashpots of later physics join here.  A stressed packing's
     stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
@@ -93,6 +94,13 @@ def lever_arms(radius_i: np.ndarray, radius_j: np.ndarray, overlap: np.ndarray, 
     if lever == "radius":
         return radius_i, radius_j
     return radius_i - 0.5 * overlap, radius_j - 0.5 * overlap
+
+
+def slip_differs(model: ContactModel) -> bool:
+    """Whether the tangential spring's slip is not the transpose of its force's action (YADE's
+    history with a tangential spring): it then adds :func:`slip_blocks`, which are not symmetric.
+    Not collective."""
+    return model.history == "yade" and model.rho > 0.0
 
 
 def reduced_radius(d_i: np.ndarray, d_j: np.ndarray) -> np.ndarray:
@@ -328,6 +336,45 @@ def _cross_matrix(vector: np.ndarray) -> np.ndarray:
     return -_rotation_map(vector)
 
 
+def _slip_map(normal: np.ndarray, c_n: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
+              radius_i: np.ndarray, radius_j: np.ndarray, model: ContactModel) -> np.ndarray:
+    """The slip that loads the tangential spring as a linear map (C, D, 2m) of (u_i, theta_i, u_j,
+    theta_j): B_t with the torques' :func:`lever_arms` under ``history: lammps``; under ``yade``
+    (Debian's YADE 2023.02a, measured: docs/stressed_contacts.md section 2) the arms R and the
+    relative translation scaled by alpha = (R_i + R_j) / r: alpha P (u_i - u_j) - (R_i theta_i +
+    R_j theta_j) x n."""
+    if model.history != "yade":
+        return _tangential_map(normal, c_n, *lever_arms(radius_i, radius_j, overlap, model.lever))
+    b_t = _tangential_map(normal, c_n, radius_i, radius_j)
+    dim, m = normal.shape[1], b_t.shape[2] // 2
+    alpha = ((radius_i + radius_j) / distance)[:, None, None]
+    b_t[:, :, :dim] *= alpha
+    b_t[:, :, m:m + dim] *= alpha
+    return b_t
+
+
+def slip_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray, radius_i: np.ndarray,
+                radius_j: np.ndarray, model: ContactModel,
+                with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the tangential spring adds when its slip (:func:`_slip_map`) is not the transpose of
+    its force's action, B_t with the torques' :func:`lever_arms` (:func:`slip_differs`: YADE's
+    history; docs/stressed_contacts.md section 2): (S_ii, S_ij, S_ji, S_jj), each (C, k, k) like
+    :func:`pair_blocks`'s, which holds kt B_t^T B_t; the spring is kt B_t^T B_slip, so this is
+    kt B_t^T (B_slip - B_t), of size kt xi / r (translations) and kt xi / 2 (rotations), not
+    symmetric.
+    """
+    count, dim = normal.shape
+    c_n = _rotation_map(normal)
+    m = dim + c_n.shape[2]
+    reduced = radius_i * radius_j / (radius_i + radius_j)
+    torque = _tangential_map(normal, c_n, *lever_arms(radius_i, radius_j, overlap, model.lever))
+    slip = _slip_map(normal, c_n, distance, overlap, radius_i, radius_j, model)
+    kt = KN * model.rho * spring_scale(overlap, model.law, reduced)
+    full = kt[:, None, None] * np.einsum("cki,ckj->cij", torque, slip - torque)
+    k = m if with_rotation else dim
+    return full[:, :k, :k], full[:, :k, m:m + k], full[:, m:m + k, :k], full[:, m:m + k, m:m + k]
+
+
 def stressed_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
                     radius_i: np.ndarray, radius_j: np.ndarray, tangential: np.ndarray, model: ContactModel,
                     with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -383,7 +430,8 @@ def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray
     LAMMPS rescales a trial force above the cone back onto it, f_t = mu f_n(xi) s^ with s^ the
     trial's direction; to first order the stick increment keeps its part across s^ and its part
     along s^ becomes mu df_n/dxi dxi (the cone growing with the load).  With w = kt B_t^T s^ +
-    mu (c f_n - kn') (n, 0, -n, 0) (c = :func:`tangential_growth`, kn' = df_n/dxi), the rows of
+    mu (c f_n - kn') (n, 0, -n, 0) (c = :func:`tangential_growth`, kn' = df_n/dxi; B_t the
+    :func:`_slip_map`), the rows of
     u_i gain -s^ w^T, those of u_j + s^ w^T, those of theta_i R_i (n x s^) w^T, those of theta_j
     R_j (n x s^) w^T.  Valid for increments that load the contact along s^ (it slides); an
     unloading one sticks.  ``tangential`` (C, D) the stored forces, all non-zero.
@@ -399,7 +447,8 @@ def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray
     mu = size / fn  # at the limit: |f_t| = mu f_n
     kt = KN * model.rho * spring_scale(overlap, model.law, reduced)
     arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
-    w = kt[:, None] * np.einsum("cdk,cd->ck", _tangential_map(normal, c_n, arm_i, arm_j), slip)
+    w = kt[:, None] * np.einsum("cdk,cd->ck", _slip_map(normal, c_n, distance, overlap, radius_i, radius_j, model),
+                                slip)
     load = mu * (tangential_growth(overlap, model.law) * fn - normal_stiffness(overlap, model.law, reduced))
     w[:, :dim] += load[:, None] * normal
     w[:, m:m + dim] -= load[:, None] * normal

@@ -92,7 +92,8 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[ja
     seeds = [parallel.seed_sequence(scene.seed, i) for i in missing]
     if spec.engine == "lammps":  # each configuration on all ranks, one after another
         made = [jammed.generate(spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim,
-                                engine="lammps", comm=comm, law=scene.model.law, friction=spec.friction)
+                                engine="lammps", comm=comm, law=scene.model.law, friction=spec.friction,
+                                pressure=spec.pressure)
                 for s in seeds]
     else:
         made = parallel.owner_compute(comm, seeds, lambda s: jammed.generate(

@@ -94,9 +94,17 @@ class PackingSpec:
                                       "frictional, as a DEM code leaves them: squeezed from 0.75 phi to phi in "
                                       "LAMMPS (gran/hooke/history or gran/hertz/history, kt = 2/7 kn, damped) until "
                                       "every force and torque is below force_tol, with their stored tangential "
-                                      "forces. With `contacts`: the mu the file's packing was made with; a stored "
+                                      "forces (friction: 0 is the same protocol without friction: no stored "
+                                      "forces, a symmetric matrix). With `contacts`: the mu the file's packing was "
+                                      "made with; a stored "
                                       "force above mu f_n is refused, those at mu f_n are counted as mobilised. "
                                       "null: frictionless packings, or mu unknown", _range(0.0, 1e4), float)
+    pressure: float | None = _f(None, "with friction and engine: lammps: the pressure (kn in 2D, kn/d0 in 3D; "
+                                      "the virial's, rotsound's `pressure`) at which LAMMPS holds the packing: "
+                                      "after the squeeze to phi, fix press/berendsen moves the box until the "
+                                      "packing is at rest at this pressure (to 1e-3), then it settles in that box; "
+                                      "phi is then where the squeeze ends and the packing's own phi is reported. "
+                                      "null: the squeeze's box is kept", _range(0.0, 1e2, True), float)
     relax: bool = _f(False, "with `file`: re-minimise each configuration frictionlessly with FIRE (to force_tol) "
                             "before the matrix is built, for packings made with friction, which balance only "
                             "with their tangential forces (they are refused otherwise); this moves the particles",
@@ -420,6 +428,10 @@ def _cross_check(obj, where):
         raise InputError(f"{where}friction = {obj.friction}: the Coulomb mu of a frictional packing, made by LAMMPS "
                          f"(generated packings with packing.engine: lammps) or read with its contact file "
                          f"(packing.file with packing.contacts); give one of these")
+    if isinstance(obj, PackingSpec) and obj.pressure is not None and (obj.friction is None or obj.file is not None):
+        raise InputError(f"{where}pressure = {obj.pressure}: the pressure at which LAMMPS holds a frictional packing "
+                         f"it makes: needs packing.friction with packing.engine: lammps and no packing.file (for a "
+                         f"frictionless one in the same protocol, give friction: 0)")
     if isinstance(obj, PackingSpec) and obj.file is None:
         for name in ("n", "phi"):
             if getattr(obj, name) is None:
@@ -449,6 +461,8 @@ def _cross_check(obj, where):
     if isinstance(obj, Scene) and obj.packing.file is None and obj.packing.friction:
         check_stressed(obj, f"packing.friction = {obj.packing.friction} makes frictional packings that stand on "
                             f"stored tangential forces")
+    if isinstance(obj, Scene):  # YADE's slip makes any packing's matrix non-symmetric
+        check_stressed(obj, None)
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
 
@@ -472,21 +486,28 @@ def check_dimension(scene: Scene, dim: int, source: str) -> None:
 
 def check_stressed(scene: Scene, which: str | None) -> None:
     """Raise InputError if stressed packings (``which`` says whose stored tangential forces; None:
-    none) meet what needs a symmetric matrix (docs/stressed_contacts.md section 4): any
-    ``spectrum`` method but nonhermitian (slicing, counting and kpm rest on symmetry), ``waves.method:
-    spectral``, or rho = 0 (the tangential spring holds the stored forces); nothing when
-    ``model.stored_forces`` drops them.  Not collective."""
-    if which is None or scene.model.stored_forces == "drop":
+    none) or YADE's slip (``model.history: yade``, docs/stressed_contacts.md) meet what
+    needs a symmetric matrix (docs/stressed_contacts.md sections 2 and 4): any ``spectrum`` method
+    but nonhermitian (slicing, counting and kpm rest on symmetry), ``waves.method: spectral``, or,
+    for stored forces, rho = 0 (the tangential spring holds them); stored forces count for nothing
+    when ``model.stored_forces`` drops them.  Not collective."""
+    model = scene.model
+    held = which if model.stored_forces == "keep" else None
+    if held is None and model.history == "yade" and any(r > 0 for r in model.rho):
+        which = "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
+    elif held is None:
         return
+    else:
+        which = held
     if scene.spectrum is not None and scene.spectrum.method != "nonhermitian":
         raise InputError(f"spectrum (method {scene.spectrum.method}): {which}, so the dynamical matrix is not "
-                         f"symmetric (LAMMPS's history update has no energy, docs/stressed_contacts.md); slicing, "
-                         f"counting and kpm need a symmetric matrix and would give a wrong vDOS: use "
+                         f"symmetric (the DEM code's tangential update has no energy, docs/stressed_contacts.md); "
+                         f"slicing, counting and kpm need a symmetric matrix and would give a wrong vDOS: use "
                          f"spectrum.method: nonhermitian (every eigenvalue, complex ones counted as unstable)")
     if scene.waves is not None and scene.waves.method == "spectral":
         raise InputError(f"waves.method = 'spectral': {which}, so the matrix is not symmetric and has no "
                          f"orthogonal eigendecomposition: use waves.method: ts")
-    if 0.0 in scene.model.rho:
+    if held is not None and 0.0 in model.rho:
         raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")
 
 

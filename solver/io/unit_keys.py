@@ -162,6 +162,8 @@ def packing_key(scene, index: int) -> UnitKey:
         settings["law"] = scene.model.law
     if spec.friction is not None:  # a frictional packing made by LAMMPS
         settings["friction"] = spec.friction
+    if spec.pressure is not None:  # held at a pressure
+        settings["pressure"] = spec.pressure
     return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
 
 

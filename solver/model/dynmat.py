@@ -43,7 +43,8 @@ class DynamicalMatrix:
     D translations then (with rotations) 1 (2D) or 3 (3D) rotations;  model : the contact model
     it was assembled with;  disk_range : this rank's [start, stop) among active particles;
     n_contacts : global count;  symmetric : False for a stressed packing (stored tangential
-    forces), whose D has no symmetry (docs/stressed_contacts.md section 4).
+    forces) or under YADE's history, whose D has no symmetry (docs/stressed_contacts.md
+    sections 2 and 4).
     """
 
     D: object
@@ -140,6 +141,9 @@ def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]
                      radius[found.i[touch]], radius[found.j[touch]])
     h_ii, h_ij, h_jj = contact_law.pair_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
     h_ji = np.transpose(h_ij, (0, 2, 1))
+    if contact_law.slip_differs(model):  # YADE's slip: not the transpose of the force's action
+        s_ii, s_ij, s_ji, s_jj = contact_law.slip_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
+        h_ii, h_ij, h_ji, h_jj = h_ii + s_ii, h_ij + s_ij, h_ji + s_ji, h_jj + s_jj
     if packing.tangential is not None and model.stored_forces == "keep":  # the non-symmetric part
         stored = packing.tangential.on(found.i[touch], found.j[touch])
         s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(*geometry_args, stored, model,
@@ -177,11 +181,12 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
     D is flagged symmetric (needed by Cholesky-based inertia in the spectrum stage) unless the
     packing is stressed (``Packing.stressed``: stored tangential forces, docs/stressed_contacts.md)
     and ``model.stored_forces`` keeps them, which needs the tangential spring that holds them
-    (ValueError at rho = 0).
+    (ValueError at rho = 0), or YADE's history takes its own slip (``contact_law.slip_differs``).
     """
     from petsc4py import PETSc
 
     stressed = packing.stressed and model.stored_forces == "keep"
+    symmetric = not (stressed or contact_law.slip_differs(model))
     if stressed and model.rho == 0.0:
         raise ValueError("a stressed packing's tangential forces need the tangential spring: rho must be > 0")
     active = ~packing.rattler
@@ -193,14 +198,13 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
                               csr=(csr.indptr.astype(PETSc.IntType), csr.indices.astype(PETSc.IntType),
                                    csr.data), comm=comm)
     D.assemble()
-    D.setOption(PETSc.Mat.Option.SYMMETRIC, not stressed)
+    D.setOption(PETSc.Mat.Option.SYMMETRIC, symmetric)
     D.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     M = D.createVecLeft()
     start, stop = disk_range
     masses = particle_masses(packing, mass_rule)[active][start:stop]
     M.setArray(mass_diagonal(packing.diameters[active][start:stop], masses, packing.dim, dof))
-    return DynamicalMatrix(D, M, active, dof, model, disk_range, n_contacts, packing.dim,
-                           symmetric=not stressed)
+    return DynamicalMatrix(D, M, active, dof, model, disk_range, n_contacts, packing.dim, symmetric=symmetric)
 
 
 def gather_csr(mat) -> sp.csr_matrix:

@@ -117,7 +117,7 @@ def spatial_order(positions: np.ndarray, box: np.ndarray) -> np.ndarray:
 @profiling.logged("rsPackingFIRE")
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
              max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
-             law: str = "harmonic", friction: float | None = None) -> Packing:
+             law: str = "harmonic", friction: float | None = None, pressure: float | None = None) -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
     fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``:
     rotsound's FIRE (not collective) or LAMMPS's
@@ -125,7 +125,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     minimum; collective on ``comm``, an mpi4py communicator).
 
     With ``friction`` = mu (``engine`` lammps only) the packing is a frictional one as a DEM code
-    leaves it, with its stored tangential forces (:func:`_frictional`).
+    leaves it, with its stored tangential forces (:func:`_frictional`), held at ``pressure`` when
+    one is given (phi is then where the squeeze ends, and the final phi is the packing's).
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the box would not exceed
     two large diameters (a pair could touch through two periodic images: tiny N at high phi in
@@ -141,7 +142,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
                          f"pair could touch through two periodic images: choose packing.n >= "
                          f"{smallest_n(phi, dim)} at this phi, or a smaller packing.phi")
     if friction is not None:
-        return _frictional(diameters, box, phi, rng, force_tol, max_steps, comm, law, friction)
+        return _frictional(diameters, box, phi, rng, force_tol, max_steps, comm, law, friction, pressure)
     start = rng.uniform(0.0, box_length, size=(n, dim))
     start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
     if engine == "lammps":
@@ -170,26 +171,26 @@ SQUEEZE_FROM = 0.75  # a frictional packing's start: phi_start = 0.75 phi, squee
 
 
 def _frictional(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_tol: float, max_steps: int,
-                comm, law: str, friction: float) -> Packing:
+                comm, law: str, friction: float, pressure: float | None = None) -> Packing:
     """A frictional packing made by LAMMPS (``lammps_engine.settle_frictional``): a uniform random
-    start at phi_start = 0.75 phi squeezed to phi and damped to rest (every force and torque
-    component below ``force_tol``) with Coulomb coefficient ``friction``; its stored tangential
-    forces read back, particles renumbered in spatial order, rattlers by the stressed rule.
-    Collective on ``comm``."""
+    start at phi_start = 0.75 phi squeezed to phi (then, with a target ``pressure``, held at it by
+    a barostat) and damped to rest (every force and torque component below ``force_tol``) with
+    Coulomb coefficient ``friction``; its stored tangential forces read back, particles renumbered
+    in spatial order, rattlers by the stressed rule.  Collective on ``comm``."""
     from . import lammps_engine, stressed
 
     dim = box.size
     start_box = box * SQUEEZE_FROM ** (-1.0 / dim)  # the same particles at 0.75 phi
     start = rng.uniform(0.0, start_box[0], size=(diameters.size, dim))
-    x, pairs, shear, steps, largest = lammps_engine.settle_frictional(
-        start, diameters, start_box, box, friction, force_tol, max_steps, comm, law)
+    x, box, pairs, shear, steps, largest = lammps_engine.settle_frictional(
+        start, diameters, start_box, box, friction, force_tol, max_steps, comm, law, pressure=pressure)
     order = spatial_order(x, box)
     new_index = np.empty_like(order)
     new_index[order] = np.arange(order.size)
     positions, diameters = x[order], diameters[order]
     stored = stressed.build(new_index[pairs], shear, positions, diameters, box, law, friction, "LAMMPS's contacts")
     info = dict(engine="lammps", friction=friction, settle_steps=steps, max_force=largest, force_tol=force_tol,
-                law=law, n_stored=len(stored),
+                law=law, n_stored=len(stored), **({} if pressure is None else {"target_pressure": pressure}),
                 n_mobilised=int(stressed.mobilised(stored, positions, diameters, box, law).sum()))
     return from_arrays(positions, diameters, box, None, info, None, law, stored)
 

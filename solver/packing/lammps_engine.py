@@ -216,21 +216,29 @@ GAMMA_N = 0.5         # contact damping while it settles (gamma_t = gamma_n / 2,
 SETTLE_DT = 0.02      # time step while it settles (t0)
 SQUEEZE_STEPS = 20000  # steps of the squeeze from the start box to the final one
 CHECK_EVERY = 2000    # steps between checks of the rest criterion
+PRESSURE_DAMP = 20.0  # fix press/berendsen's Pdamp (t0: 1000 steps) while a frictional packing is held at a pressure
+PRESSURE_TOL = 1e-3   # relative: the barostat is let go when the pressure is this close to its target, at rest
 
 
 def settle_frictional(start: np.ndarray, diameters: np.ndarray, start_box, box, friction: float,
-                      force_tol: float, max_steps: int, comm, law: str = "harmonic",
-                      screen: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
+                      force_tol: float, max_steps: int, comm, law: str = "harmonic", screen: bool = False,
+                      pressure: float | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float]:
     """A frictional packing as a DEM code leaves it (issue 25): LAMMPS's ``gran/hooke/history`` (or
     ``gran/hertz/history`` under hertz) with kn = 1, kt = 2/7 kn, contact damping gamma_n = 0.5,
     gamma_t = gamma_n / 2 and Coulomb coefficient ``friction``; the particles at ``start`` (N, D)
     in the box ``start_box`` are squeezed by ``fix deform`` to the box ``box`` ((D,) sides,
     centred on the start box) over 20000 steps of dt = 0.02, then held there, with ``fix viscous``
     0.05 against free drift, until every force and torque component is below ``force_tol``
-    (checked every 2000 steps; RuntimeError after ``max_steps``).  Masses 1, radius d/2.
+    (checked every 2000 steps; RuntimeError after ``max_steps``).  Masses 1, radius d/2.  With a
+    target ``pressure`` (kn in 2D, kn/d0 in 3D: the virial pressure, LAMMPS's and rotsound's), the
+    squeezed box then follows ``fix press/berendsen`` (isotropic, Pdamp 20 t0, modulus kn) until
+    the packing is at rest with its pressure within 1e-3 of the target; the barostat is then let go
+    and the packing comes to rest in that box.
 
-    Returns (positions (N, D) in [0, box), contact pairs (C, 2) 0-based, tangential forces
-    (C, D) on the first from the second, steps, largest force or torque component) on every rank;
+    Returns (positions (N, D) in [0, box), the final box (D,), contact pairs (C, 2) 0-based,
+    tangential forces (C, D) on the first from the second, steps, largest force or torque
+    component) on every rank;
     the contacts read back from ``compute property/local patom1 patom2`` and ``compute pair/local
     p1 p2 p3`` (gathered from every rank).  Collective on ``comm`` (mpi4py).
     """
@@ -258,10 +266,27 @@ def settle_frictional(start: np.ndarray, diameters: np.ndarray, start_box, box, 
             unfix squeeze
         """)
         steps, largest = SQUEEZE_STEPS, np.inf
+        held = pressure is not None
+        if held:
+            target = float(pressure)
+            axes = "iso" if dim == 3 else "couple xy"
+            barostat = " ".join(f"{a} {target!r} {target!r} {PRESSURE_DAMP!r}" for a in "xy") if dim == 2 else \
+                f"iso {target!r} {target!r} {PRESSURE_DAMP!r}"
+            lmp.commands_string(f"""
+                compute virial all pressure NULL virial
+                fix baro all press/berendsen {barostat}{' couple xy' if axes == 'couple xy' else ''} modulus {KN!r} dilate all
+                fix_modify baro press virial
+            """)
         while steps < max_steps:
             lmp.command(f"run {CHECK_EVERY}")
             steps += CHECK_EVERY
             largest = max(float(np.abs(gather(lmp, name, n, 3)).max()) for name in ("f", "torque"))
+            if held:
+                now = float(lmp.extract_compute("virial", 0, 0))
+                if largest < 10 * force_tol and abs(now / target - 1.0) < PRESSURE_TOL:
+                    lmp.command("unfix baro")
+                    held = False
+                continue
             if largest < force_tol:
                 break
         lmp.commands_string("""
@@ -272,14 +297,16 @@ def settle_frictional(start: np.ndarray, diameters: np.ndarray, start_box, box, 
         local = [lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "shear")]
         mine = tuple(np.zeros((0, width)) if a is None else np.array(a).reshape(-1, width)  # None: no contact here
                      for a, width in zip(local, (2, 3)))
-        lower = np.array(lmp.extract_box()[0][:dim])
+        lower, upper = (np.array(b[:dim]) for b in lmp.extract_box()[:2])
         x = gather(lmp, "x", n, dim)
     finally:
         lmp.close()
-    if not largest < force_tol:
-        raise RuntimeError(f"the frictional packing did not come to rest: largest force or torque component "
-                           f"{largest:.3e} > {force_tol:.1e} after {steps} steps (max_steps = {max_steps}, n = {n})")
+    if held or not largest < force_tol:
+        raise RuntimeError(f"the frictional packing did not come to rest{' at its pressure' if held else ''}: largest "
+                           f"force or torque component {largest:.3e} > {force_tol:.1e} after {steps} steps "
+                           f"(max_steps = {max_steps}, n = {n})")
     parts = comm.allgather(mine)
     pairs = np.concatenate([p for p, _ in parts]).astype(np.int64) - 1
     shear = np.concatenate([f for _, f in parts])[:, :dim]
-    return geometry.wrap(x - lower, box), pairs, shear, steps, largest
+    box = upper - lower
+    return geometry.wrap(x - lower, box), box, pairs, shear, steps, largest

@@ -126,11 +126,14 @@ def _normal_force(pairs: np.ndarray, overlap: np.ndarray, diameters: np.ndarray,
 def at_limit(force: np.ndarray, pairs: np.ndarray, overlap: np.ndarray, diameters: np.ndarray, law: str,
              friction: float | None) -> np.ndarray:
     """(C,) bool: contacts (pairs (C, 2), overlaps (C,)) whose tangential force (C, D) is at the
-    Coulomb limit, |f_t| >= mu f_n (1 - 1e-9) under the normal ``law``; none when mu is None."""
+    Coulomb limit, |f_t| >= mu f_n (1 - 1e-9) under the normal ``law``; none when mu is None, and
+    never a contact with no stored force (at mu = 0 every contact carries none: it has no slip
+    direction to slide along, and the packing is frictionless)."""
     if friction is None:
         return np.zeros(pairs.shape[0], dtype=bool)
     fn = _normal_force(pairs, overlap, diameters, law)
-    return np.linalg.norm(force, axis=1) >= friction * fn * (1.0 - COULOMB_SLACK)
+    size = np.linalg.norm(force, axis=1)
+    return (size > 0.0) & (size >= friction * fn * (1.0 - COULOMB_SLACK))
 
 
 def mobilised(stored: TangentialForces, positions: np.ndarray, diameters: np.ndarray, box,

@@ -42,6 +42,23 @@ def test_lammps_makes_frictional_packings_at_rest_on_their_tangential_forces(lam
     assert_all(p.info["z"] < 2 * dim, f"z = {p.info['z']}")
 
 
+@pytest.mark.parametrize("dim, phi", [(2, 0.82), (3, 0.6)])
+def test_lammps_holds_frictional_packings_at_a_pressure(lammps_present, dim, phi):
+    """packing.pressure: LAMMPS's barostat brings packings made with mu = 0 and mu = 1 to the same
+    pressure (rotsound's, recomputed from the positions: within 2e-3 of the target, the barostat's
+    1e-3 plus the settling in the fixed box after it); at that pressure the frictional one is looser
+    (lower phi, lower z); at mu = 0 no force is stored and no contact counts as mobilised."""
+    target = 1e-2
+    made = {mu: jammed.generate(128, phi, np.random.SeedSequence([2, 0]), force_tol=1e-10, dim=dim, engine="lammps",
+                                comm=COMM, friction=mu, pressure=target) for mu in (0.0, 1.0)}
+    for mu, p in made.items():
+        assert_all(abs(p.info["pressure"] / target - 1.0) < 2e-3 and p.info["target_pressure"] == target,
+                   f"mu = {mu}: pressure {p.info['pressure']}")
+    assert_all(not made[0.0].stressed and made[0.0].info["n_mobilised"] == 0 and made[1.0].stressed)
+    assert_all(made[1.0].phi < made[0.0].phi and made[1.0].info["z"] < made[0.0].info["z"],
+               f"phi {made[1.0].phi}, {made[0.0].phi}; z {made[1.0].info['z']}, {made[0.0].info['z']}")
+
+
 def test_stressed_rattler_rule_keeps_load_bearing_particles_on_few_contacts(lammps_present):
     """In the 2D mu = 1 packing some disks carry load on 2 contacts (their forces balance and they
     are not rattlers), which the frictionless count (fewer than 3) would cut; every rattler

@@ -9,6 +9,7 @@ import scipy.linalg as sl
 from conftest import COMM, REPO, assert_all, assert_close, jammed_packing, scene_of, with_random_stored_forces
 
 from solver import pipeline
+from solver.errors import InputError
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.spectrum import nonhermitian, slicing
@@ -97,3 +98,22 @@ def test_energies_on_a_symmetric_matrix_are_slicings(comm):
     for name in ("Kx", "Ky", "Q", "K"):
         assert_close(dense.energies[name], sliced.energies[name], rtol=0.0, atol=1e-7 / (2 * n), what=name)
     assert_close(dense.energies["participation"], sliced.energies["participation"], rtol=1e-6, what="participation")
+
+
+def test_a_scene_on_a_yade_frictional_packing_gives_its_spectrum(shared_tmp):
+    """The 3D frictional YADE packing with its contact file, read with YADE's lever and history
+    (a non-symmetric D even where stored forces would vanish): every mode of its 122 non-rattlers
+    is accounted for (6 DOF each; 8 zero modes: the 3 translations and one for each of the 5
+    spheres on 2 contacts, which the unstressed matrix lifts to 2e-4 to 2e-3), and a symmetric
+    method is refused."""
+    yade = {"file": str(DATA / "yade_3d_friction_uniform.spheres"),
+            "contacts": str(DATA / "yade_3d_friction_uniform.contacts"), "contacts_format": "yade", "friction": 0.5}
+    model = {"rho": 2 / 7, "lever": "contact", "history": "yade"}
+    scene = scene_of(shared_tmp / "yade.h5", cache="off", packing=yade, model=model,
+                     spectrum={"method": "nonhermitian"})
+    datasets, attrs = pipeline.run(scene, COMM, [])["units"]["spectra/r00_p0000"]
+    total = datasets["omega"].size + attrs["n_complex"] + attrs["n_negative_modes"] + attrs["n_zero_modes"]
+    assert_all(attrs["symmetric"] == 0 and attrs["n_zero_modes"] == 8 and total == 6 * 122, str(attrs))
+    with pytest.raises(InputError, match="model.history: yade takes YADE's tangential slip"):
+        scene_of(shared_tmp / "yade_counted.h5", cache="off", packing={"n": 64, "phi": 0.7, "dim": 3},
+                 model=model, spectrum={"method": "counting"})

@@ -16,7 +16,9 @@
 # is below 1e-9, and the files are written from that state (positions wrapped into the cell).
 # With the argument 'uniform' every sphere gets a material of its own, young = 1e5 * 0.5 / R, so that
 # E1 R1 = E2 R2 and every contact has the same kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2) = 5e4 (rotsound's
-# harmonic law: one kn); the files are then yade_3d_friction_uniform.spheres and .contacts.
+# harmonic law: one kn); the files are then yade_3d_friction_uniform.spheres and .contacts, and
+# yade_3d_friction_uniform.response: YADE's one-step Jacobian applied to two random moves (see
+# respond() below).
 import math
 import sys
 from yade import pack
@@ -98,6 +100,47 @@ O.engines = [
     PyRunner(command='settled()', iterPeriod=1000, dead=True, label='settle'),
     NewtonIntegrator(damping=0.4),
 ]
+RESPONSE_HEADER = """# YADE %s: one-step responses of the packing %s.spheres at rest (as written).
+# For each of 2 moves x (numpy default_rng(%d).normal, times 1e-7, every body; a move is the
+# translation and the rotation of each body), one step at dt = 1e-3, undamped, with every body
+# moved by +x and given the velocity x / dt (YADE's shear increment integrates velocities), and one
+# with -x; the forces and torques YADE computes in that step (O.forces), half their difference:
+# minus YADE's stiffness applied to x, to second order in x.
+# columns: move body dx dy dz rx ry rz fx fy fz tx ty tz
+"""
+
+
+def respond(seed=7):
+    """Write NAME.response (RESPONSE_HEADER) from the state at rest."""
+    import numpy as np
+
+    for engine in O.engines:
+        if isinstance(engine, NewtonIntegrator):
+            engine.damping = 0.0
+    settle.dead = True
+    O.dt = 1e-3
+    O.saveTmp('rest')
+    moves = 1e-7 * np.random.default_rng(seed).normal(size=(2, len(O.bodies), 6))
+    with open(NAME + '.response', 'w') as out:
+        out.write(RESPONSE_HEADER % (version, NAME, seed))
+        for r, move in enumerate(moves):
+            half = np.zeros((len(O.bodies), 6))
+            for sign in (1.0, -1.0):
+                O.loadTmp('rest')
+                for b in O.bodies:
+                    d = sign * move[b.id]
+                    b.state.pos = b.state.pos + Vector3(*d[:3])
+                    b.state.vel = Vector3(*(d[:3] / O.dt))
+                    b.state.angVel = Vector3(*(d[3:] / O.dt))
+                O.run(1, True)
+                for b in O.bodies:
+                    half[b.id] += 0.5 * sign * np.array(tuple(O.forces.f(b.id)) + tuple(O.forces.t(b.id)))
+            for k in range(len(O.bodies)):
+                out.write('%d %d ' % (r, k) + ' '.join('%.17g' % v for v in np.r_[move[k], half[k]]) + '\n')
+
+
 O.dt = 0.5 * PWaveTimeStep()
 O.run(5000000, True)
+if UNIFORM:
+    respond()
 sys.exit(0)
