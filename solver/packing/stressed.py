@@ -16,7 +16,10 @@ from ..errors import InputError
 from . import geometry
 
 NORMAL_PART_TOL = 1e-6  # largest |f_t . n| / |f_t| accepted: a stored force lies in the tangent plane
-COULOMB_SLACK = 1e-9    # relative: |f_t| <= mu f_n (1 + slack); at or above mu f_n (1 - slack): mobilised
+COULOMB_SLACK = 1e-9    # relative: |f_t| <= mu f_n (1 + slack) + COULOMB_FLOOR; at or above mu f_n (1 - slack): mobilised
+COULOMB_FLOOR = 1e-10   # kn d0: LAMMPS caps |f_t| by mu times the normal force with its damping, at the last step's
+                        # positions; at rest (forces below 1e-10, frictional packings' force_tol) that leaves
+                        # excesses of this size, which on a contact of tiny overlap are large relative to f_n
 
 
 @dataclass(frozen=True)
@@ -108,7 +111,7 @@ def build(pairs: np.ndarray, force: np.ndarray, positions: np.ndarray, diameters
     force = force - along[:, None] * normal
     if friction is not None:
         fn = _normal_force(pairs, overlap, diameters, law)
-        over = np.flatnonzero(size > friction * fn * (1.0 + COULOMB_SLACK))
+        over = np.flatnonzero(size > friction * fn * (1.0 + COULOMB_SLACK) + COULOMB_FLOOR)
         if over.size:
             k = over[0]
             raise InputError(f"{where}: {over.size} contact(s) carry a tangential force above the Coulomb limit "

@@ -208,3 +208,29 @@ def test_yade_contact_files_are_not_dump_locals_and_are_linear():
         contact_files.read(YADE[1], "lammps-local")
     with pytest.raises(InputError, match="model.law: harmonic"):
         hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", law="hertz", lever="contact")
+
+
+def test_the_coulomb_check_allows_the_noise_of_a_dem_code_at_rest():
+    """LAMMPS caps |f_t| by mu times its normal force with damping, at the last step's positions:
+    at rest that can exceed mu f_n (of the positions) by ~1e-12 kn d0, relatively large on a contact
+    of tiny overlap. The check allows 1e-9 relative plus 1e-10 kn d0 (stressed.COULOMB_FLOOR), and no
+    more."""
+    from solver import contact_law
+    from solver.packing import geometry, stressed
+
+    p = hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(DATA / "lammps_2d_friction.contacts"))[0]
+    pairs, force = p.tangential.pairs, p.tangential.force.copy()
+    _, _, overlap = geometry.pair_geometry(p.positions, p.diameters, p.box, pairs)
+    fn = contact_law.normal_force(overlap)
+    k = int(np.argmin(fn))  # the contact of smallest overlap, brought to mu f_n with mu = 0.5
+    direction = force[k] / np.linalg.norm(force[k])
+    for extra, refused in ((0.5e-10, False), (2e-10, True)):
+        trial = force.copy()
+        trial[k] = (0.5 * fn[k] + extra) * direction
+        scaled = np.linalg.norm(trial, axis=1) > 0.5 * fn  # the others below the cone
+        trial[scaled & (np.arange(len(fn)) != k)] *= 0.1
+        if refused:
+            with pytest.raises(InputError, match="above the Coulomb limit"):
+                stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test")
+        else:
+            stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test")
