@@ -16,6 +16,8 @@ from ..errors import InputError
 from . import geometry
 
 NORMAL_PART_TOL = 1e-6  # largest |f_t . n| / |f_t| accepted: a stored force lies in the tangent plane
+NORMAL_PART_FLOOR = 1e-14  # kn d0, allowed on top: a contact LAMMPS left at an overlap of 1e-12 carried
+                           # |f_t| = 1.4e-13 with a normal part of 2.7e-19, 2e-6 of it (round-off)
 COULOMB_SLACK = 1e-9    # relative: |f_t| <= mu f_n (1 + slack) + COULOMB_FLOOR; at or above mu f_n (1 - slack): mobilised
 COULOMB_FLOOR = 1e-10   # kn d0: LAMMPS caps |f_t| by mu times the normal force with its damping, at the last step's
                         # positions; at rest (forces below 1e-10, frictional packings' force_tol) that leaves
@@ -64,9 +66,9 @@ def build(pairs: np.ndarray, force: np.ndarray, positions: np.ndarray, diameters
     ``law`` and ``friction`` (mu, or None) make the Coulomb check.
     InputError naming ``where`` for: an index out of range, a pair listed twice or with itself, a
     pair that does not touch (overlap <= 0) but carries a force, a force with a normal part
-    (|f . n| > 1e-6 |f|), a force above mu f_n.  Pairs apart at exactly zero force are dropped
-    (LAMMPS's dump local lists every pair within the neighbour cutoff); the tiny normal part
-    allowed is projected away.
+    (|f . n| > 1e-6 |f| + 1e-14), a force above mu f_n (1 + 1e-9) + 1e-10.  Pairs apart at
+    exactly zero force are dropped (LAMMPS's dump local lists every pair within the neighbour
+    cutoff); the tiny normal part allowed is projected away.
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     force = np.asarray(force, dtype=float).reshape(pairs.shape[0], -1)
@@ -102,7 +104,7 @@ def build(pairs: np.ndarray, force: np.ndarray, positions: np.ndarray, diameters
                          f"same step")
     along = np.einsum("cd,cd->c", force, normal)
     size = np.linalg.norm(force, axis=1)
-    tilted = np.flatnonzero(np.abs(along) > NORMAL_PART_TOL * size)
+    tilted = np.flatnonzero(np.abs(along) > NORMAL_PART_TOL * size + NORMAL_PART_FLOOR)
     if tilted.size:
         k = tilted[0]
         raise InputError(f"{where}: the stored force of pair {pairs[k].tolist()} is not tangential: its part along the "

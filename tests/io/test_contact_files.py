@@ -234,3 +234,23 @@ def test_the_coulomb_check_allows_the_noise_of_a_dem_code_at_rest():
                 stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test")
         else:
             stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test")
+
+
+def test_the_normal_part_check_allows_round_off_on_a_vanishing_force():
+    """A stored force of 1e-13 kn d0 (LAMMPS left one on a contact of overlap 1e-12) may carry a
+    normal part of 1e-6 of itself plus 1e-14 kn d0 (stressed.NORMAL_PART_FLOOR); a force of 1e-3
+    with a normal part of 1e-5 of it is refused."""
+    from solver.packing import geometry, stressed
+
+    p = hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(DATA / "lammps_2d_friction.contacts"))[0]
+    pairs, force = p.tangential.pairs, p.tangential.force.copy()
+    normal, _, _ = geometry.pair_geometry(p.positions, p.diameters, p.box, pairs)
+    tangent = np.stack((-normal[:, 1], normal[:, 0]), axis=1)
+    for size, part, refused in ((1e-13, 5e-15, False), (1e-3, 1e-8, True)):
+        trial = force.copy()
+        trial[0] = size * tangent[0] + part * normal[0]
+        if refused:
+            with pytest.raises(InputError, match="is not tangential"):
+                stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", None, "test")
+        else:
+            stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", None, "test")
