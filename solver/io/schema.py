@@ -418,6 +418,22 @@ def build(cls, raw, where: str = ""):
     return obj
 
 
+DEM_CONVENTIONS = {"liggghts-local": ("contact", "lammps"), "yade": ("contact", "yade")}
+"""contacts_format -> (model.lever, model.history) of the code that writes it (docs/stressed_contacts.md)."""
+
+
+def _check_dem_convention(scene) -> None:
+    """A LIGGGHTS or YADE contact file read under another code's lever or history would give that
+    code's matrix of this packing, silently: InputError naming the keys to set.  Not collective."""
+    want = DEM_CONVENTIONS.get(scene.packing.contacts_format)
+    if want is None or (scene.model.lever, scene.model.history) == want:
+        return
+    raise InputError(f"packing.contacts_format = '{scene.packing.contacts_format}' holds a packing integrated with "
+                     f"the lever {want[0]} and {want[1]}'s history (docs/stressed_contacts.md), but model.lever = "
+                     f"'{scene.model.lever}' and model.history = '{scene.model.history}': set model.lever: {want[0]} "
+                     f"and model.history: {want[1]} (or model.stored_forces: drop for the unstressed matrix)")
+
+
 def _cross_check(obj, where):
     if isinstance(obj, PackingSpec) and obj.contacts is not None and (obj.file is None or obj.relax):
         raise InputError(f"{where}contacts: the stored tangential forces of packing.file's packings; they need "
@@ -453,6 +469,8 @@ def _cross_check(obj, where):
                          f"fewer than 4 samples in t_end = {obj.t_end}")
     if isinstance(obj, Scene) and obj.packing.file is None:
         check_dimension(obj, obj.packing.dim, f"packing.dim is {obj.packing.dim}")
+    if isinstance(obj, Scene) and obj.packing.contacts is not None and obj.model.stored_forces == "keep":
+        _check_dem_convention(obj)
     if isinstance(obj, Scene) and obj.model.mobilised == "slide" and obj.packing.friction is None:
         raise InputError("model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu: give "
                          "packing.friction (with packing.contacts, or packing.engine: lammps)")

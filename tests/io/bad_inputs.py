@@ -246,13 +246,19 @@ CASES = [
     ("stored force above the Coulomb limit", "packing: {file: '{file}', contacts: '{file}.contacts', friction: 0.1}\n",
      [], "above the Coulomb limit mu f_n with mu = packing.friction = 0.1", _stressed()),
     ("YADE contacts with more than one kn",
-     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\nmodel: {lever: contact}\n", [],
+     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\n"
+     "model: {lever: contact, history: yade}\nspectrum: {method: nonhermitian}\n", [],
      "kn = |normalForce| / overlap differs between contacts", _yade("yade_3d_friction")),
     ("YADE contacts under the Hertz law",
-     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\nmodel: {law: hertz}\n", [],
+     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\n"
+     "model: {law: hertz, lever: contact, history: yade}\nspectrum: {method: nonhermitian}\n", [],
      "YADE's FrictPhys contacts are linear", _yade("yade_3d_friction_uniform")),
+    ("YADE contacts under LAMMPS's history",
+     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\nmodel: {lever: contact}\n", [],
+     "set model.lever: contact and model.history: yade", _yade("yade_3d_friction_uniform")),
     ("LAMMPS contact file read as YADE's",
-     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\n", [],
+     "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: yade}\n"
+     "model: {lever: contact, history: yade}\nspectrum: {method: nonhermitian}\n", [],
      "is a LAMMPS/LIGGGHTS dump ('ITEM:' lines), not YADE's table", _stressed()),
     ("unknown stored-force history", GOOD + "model: {history: liggghts}\n", [],
      "model.history = 'liggghts': must be one of lammps, yade", None),
