@@ -247,16 +247,22 @@ def case(dim: int, law: str, n: int, args) -> dict:
     return row
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--n2", type=int, default=64)
-    parser.add_argument("--n3", type=int, default=64)
-    parser.add_argument("--seed", type=int, default=5)
+def add_wave_arguments(parser) -> None:
+    """The standing-wave options of a stressed cross-check (also scripts/crosscheck_yade.py): t <= --t-end,
+    --dt halved --halvings times, sampled every --sample, velocity amplitude --amplitude."""
     parser.add_argument("--t-end", type=float, default=10.0)
     parser.add_argument("--dt", type=float, default=0.002)
     parser.add_argument("--halvings", type=int, default=2)
     parser.add_argument("--sample", type=float, default=0.1)
     parser.add_argument("--amplitude", type=float, default=1e-6)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--n2", type=int, default=64)
+    parser.add_argument("--n3", type=int, default=64)
+    parser.add_argument("--seed", type=int, default=5)
+    add_wave_arguments(parser)
     parser.add_argument("--laws", nargs="+", default=["harmonic", "hertz"])
     parser.add_argument("--dims", nargs="+", type=int, default=[2, 3])
     args = parser.parse_args()

@@ -41,6 +41,7 @@ import time
 
 import numpy as np
 from benchlib import REPO, save
+from crosscheck_stressed import add_wave_arguments
 
 REFEREE = REPO / "scripts" / "yade_referee.py"
 
@@ -178,11 +179,7 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=64)
     parser.add_argument("--seed", type=int, default=5)
     parser.add_argument("--rho", type=float, default=1.0)
-    parser.add_argument("--t-end", type=float, default=10.0)
-    parser.add_argument("--dt", type=float, default=0.002)
-    parser.add_argument("--halvings", type=int, default=2)
-    parser.add_argument("--sample", type=float, default=0.1)
-    parser.add_argument("--amplitude", type=float, default=1e-6)
+    add_wave_arguments(parser)
     args = parser.parse_args()
     c = case(args)
     table = [{"N": c["n"], "seed": c["seed"], "rattlers": c["rattlers"], "contacts": c["contacts"],

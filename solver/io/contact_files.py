@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..packing import geometry
-from .dem_formats import number_table, read_text
+from .dem_formats import after_comments, number_table, read_text
 
 KIND = "contact file"
 LOCAL_COLUMNS = ("index", "patom1", "patom2", "fx", "fy", "fz")
@@ -49,13 +49,13 @@ LOCAL_LAYOUT = ("the dump's index, patom1 patom2 (compute property/local), then 
 class RawContacts:
     """ids (C, 2) int64 the two atoms of each contact (file ids); force (C, 3) float64 the
     tangential force on the first from the second, in the file's units; source: the format;
-    normal (C, 3) float64 or None: the normal force on the first from the second, when the
+    normal_force (C, 3) float64 or None: the normal force on the first from the second, when the
     file holds it (yade)."""
 
     ids: np.ndarray
     force: np.ndarray
     source: str
-    normal: np.ndarray | None = None
+    normal_force: np.ndarray | None = None
 
 
 def _fail(path, what: str):
@@ -136,11 +136,9 @@ def read_yade(path) -> RawContacts:
     if re.search(r"^ITEM:", text, re.M):
         _fail(path, "is a LAMMPS/LIGGGHTS dump ('ITEM:' lines), not YADE's table; set packing.contacts_format to "
                     "lammps-local or liggghts-local")
-    head = re.match(r"(?:[ \t]*(?:#[^\n]*)?(?:\n|\Z))*", text).group(0)  # leading comments, blank lines
-    rows = text[len(head):].rstrip().splitlines()
+    rows, first = after_comments(text)
     if not rows:
         return RawContacts(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3)), "yade", np.zeros((0, 3)))
-    first = head.count("\n") + 1
     table = number_table(path, rows, first, "the interaction lines", YADE_LAYOUT, KIND)
     if table.shape[1] != 8:
         _fail(path, f"interaction lines have {table.shape[1]} columns; packing.contacts_format yade reads 8: "
@@ -179,12 +177,15 @@ def yade_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.ndarr
     1e-3 of it is projected away here, a larger one refused.  Not collective."""
     if law != "harmonic":
         _fail(path, "YADE's FrictPhys contacts are linear (kn xi); read this file with model.law: harmonic")
+    if pairs.shape[0] == 0:
+        return found.force
     normal, _, overlap = geometry.pair_geometry(positions, diameters, box, pairs)
-    size = np.linalg.norm(found.normal, axis=1)
+    size = np.linalg.norm(found.normal_force, axis=1)
     touching = overlap > 0.0
     if not np.any(touching):
-        return found.force / unit
-    tilt = np.abs(np.einsum("cd,cd->c", found.normal, normal))
+        _fail(path, "no listed interaction touches in the packing file; the two files must be written at the same "
+                    "step")
+    tilt = np.abs(np.einsum("cd,cd->c", found.normal_force, normal))
     off = np.flatnonzero(touching & (tilt < (1.0 - 1e-9) * size))
     if off.size:
         _fail(path, f"the normal force of ids {found.ids[off[0]].tolist()} is not along their centre line in the "

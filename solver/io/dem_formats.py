@@ -112,6 +112,13 @@ def read_text(path, kind: str = "packing file") -> str:
     return text
 
 
+def after_comments(text: str) -> tuple[list[str], int]:
+    """(the lines after the leading '#' comments and blank lines, the file line of the first of
+    them, from 1) of a YADE-style text file; trailing blank lines dropped."""
+    head = re.match(r"(?:[ \t]*(?:#[^\n]*)?(?:\n|\Z))*", text).group(0)
+    return text[len(head):].rstrip().splitlines(), head.count("\n") + 1
+
+
 def number_table(path, lines: list[str], first: int, where: str, expect: str, kind: str = "packing file") -> np.ndarray:
     """(len(lines), C) float64 table of ``lines``, which start at line ``first`` (from 1) of the
     file; InputError naming the first bad line on blank lines, ragged rows, non-numeric or
@@ -371,12 +378,11 @@ def read_yade_text(path) -> RawPacking:
             _fail(path, f"the line '##PERIODIC::{cells[0]}' must give the periodic cell's three positive side "
                         f"lengths Lx Ly Lz")
         lo = np.zeros(3)
-    head = re.match(r"(?:[ \t]*(?:#[^\n]*)?(?:\n|\Z))*", text).group(0)  # leading comments, blank lines
-    rows = text[len(head):].rstrip().splitlines()
+    rows, first = after_comments(text)
     if not rows:
         _fail(path, "no sphere lines, only comments; a YADE export lists one sphere per line (x y z r ...)")
     expect = f"the columns of format {fmt}" if fmt else "x y z r (and clumpId), as SpherePack.save writes"
-    table = number_table(path, rows, head.count("\n") + 1, "the sphere lines", expect)
+    table = number_table(path, rows, first, "the sphere lines", expect)
     width = table.shape[1]
     if (columns is not None and width != columns) or width < 4 or (fmt is None and width > 5):
         _fail(path, f"sphere lines have {width} columns; {expect} "

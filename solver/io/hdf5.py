@@ -185,7 +185,7 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
         raise InputError(f"contact file {path}: atom id {found.ids.ravel()[missing[0]]} is not in the packing file "
                          f"({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe "
                          f"the same packing")
-    if found.normal is not None:  # YADE: kn from the file's normal forces
+    if found.normal_force is not None:  # YADE: kn from the file's normal forces
         force = contact_files.yade_forces(path, found, at, positions, diameters, box, unit, law)
     else:
         force = found.force / (unit if law == "harmonic" else unit ** 2)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from ..contact_law import HISTORIES, LEVERS, MOBILISED, STORED_FORCES, ContactModel
+from ..contact_law import HISTORIES, LAWS, LEVERS, MOBILISED, STORED_FORCES, ContactModel
 from ..errors import InputError
 
 
@@ -29,6 +29,12 @@ def _f(default, doc, check=None, kind=None):
     if isinstance(default, (list, dict)):
         return field(default_factory=lambda: copy.deepcopy(default), metadata=meta)  # never shared
     return field(default=default, metadata=meta)
+
+
+def _one_of(values, null: bool = False):
+    """Check: the value is one of ``values`` (or null, when ``null``: the checks see only non-null values)."""
+    allowed = ", ".join(values) + (", or null" if null else "")
+    return lambda v: None if v in values else f"must be one of {allowed}"
 
 
 def _range(lo=None, hi=None, lo_open=False, hi_open=False):
@@ -67,8 +73,7 @@ class PackingSpec:
                                             "export (see README)", None, "paths")
     format: str | None = _f(None, "format of packing.file: rotsound, lammps-data, lammps-dump or yade; null: "
                                   "detected from each file's content",
-                            lambda v: None if v in ("rotsound", "lammps-data", "lammps-dump", "yade") else
-                            "must be one of rotsound, lammps-data, lammps-dump, yade, or null", str)
+                            _one_of(("rotsound", "lammps-data", "lammps-dump", "yade"), null=True), str)
     force_tol: float = _f(1e-6, "FIRE stops when the largest net force per particle, divided by m, is below "
                                 "force_tol (kn d0/m)",
                           _range(0.0, 1e-2, True), float)
@@ -76,7 +81,7 @@ class PackingSpec:
     engine: str = _f("fire", "minimiser of generated packings: fire (rotsound's, one configuration per rank) or "
                              "lammps (LAMMPS's FIRE on all ranks, one configuration after another: the same start "
                              "and criterion, a different but equally valid minimum; needs scripts/setup_dem.sh)",
-                     lambda v: None if v in ("fire", "lammps") else "must be one of fire, lammps", str)
+                     _one_of(("fire", "lammps")), str)
     contacts: str | list[str] | None = _f(None, "with `file`: the contact file(s), one per packing file, holding "
                                                 "every contact's stored tangential force (a LAMMPS 'dump local' of "
                                                 "index, patom1 patom2, pair/local p1 p2 p3; see README, Stressed "
@@ -88,8 +93,7 @@ class PackingSpec:
                                               "it with model.lever: contact) or yade (the table id1 id2 shearForce "
                                               "normalForce a YADE script writes, see README; read it with "
                                               "model.lever: contact and model.history: yade)",
-                              lambda v: None if v in ("lammps-local", "liggghts-local", "yade") else
-                              "must be one of lammps-local, liggghts-local, yade", str)
+                              _one_of(("lammps-local", "liggghts-local", "yade")), str)
     friction: float | None = _f(None, "Coulomb coefficient mu. With engine: lammps, generated packings are "
                                       "frictional, as a DEM code leaves them: squeezed from 0.75 phi to phi in "
                                       "LAMMPS (gran/hooke/history or gran/hertz/history, kt = 2/7 kn, damped) until "
@@ -125,35 +129,35 @@ class ModelSpec:
                               "R_i R_j/(R_i + R_j), with every spring scaled by sqrt(a' xi) at the reference, as "
                               "LAMMPS's gran/hertz/history); generated packings are minimised under the same normal "
                               "law, and a file must be in equilibrium under it",
-                  lambda v: None if v in ("harmonic", "hertz") else "must be one of harmonic, hertz", str)
+                  _one_of(LAWS), str)
     masses: str = _f("equal", "equal: m = 1 for every particle (the paper's); density: the masses the packing "
                               "file holds, else m proportional to d^D; both scaled to a mean of 1. The inertia "
                               "is m d^2/8 (disk) or m d^2/10 (sphere)",
-                     lambda v: None if v in ("equal", "density") else "must be one of equal, density", str)
+                     _one_of(("equal", "density")), str)
 
     mobilised: str = _f("stick", "stressed packings: how a contact at the Coulomb limit (|f_t| = mu f_n, needs "
                                  "packing.friction) responds: stick (the stick stiffness, LAMMPS's for unloading "
                                  "increments) or slide (no tangential stiffness along the slip, LAMMPS's for loading "
                                  "ones; docs/stressed_contacts.md)",
-                        lambda v: None if v in MOBILISED else f"must be one of {', '.join(MOBILISED)}", str)
+                        _one_of(MOBILISED), str)
 
     lever: str = _f("radius", "where a contact's tangential force acts, for the slip of the contact point and "
                               "the torques: radius (R from each centre, LAMMPS's gran/*/history and rotsound's own "
                               "packings) or contact (R - xi/2, the middle of the overlap, as LIGGGHTS and YADE); a "
                               "stressed packing balances its torques only with the lever it was made with",
-                    lambda v: None if v in LEVERS else f"must be one of {', '.join(LEVERS)}", str)
+                    _one_of(LEVERS), str)
 
     stored_forces: str = _f("keep", "stressed packings: keep their stored tangential forces in the matrix "
                                     "(non-symmetric, as the DEM code integrates them), or drop them: unstressed "
                                     "springs on the same packing, symmetric, for comparison (the packing is then not "
                                     "at rest under the matrix's forces)",
-                            lambda v: None if v in STORED_FORCES else f"must be one of {', '.join(STORED_FORCES)}", str)
+                            _one_of(STORED_FORCES), str)
 
     history: str = _f("lammps", "stressed packings: the DEM code's update of a stored tangential force, which the "
                                 "matrix linearises: lammps (projected onto the tangent plane as the contact turns: "
                                 "LAMMPS's gran/*/history, LIGGGHTS, rotsound's own packings) or yade (YADE's ScGeom: "
                                 "also turned about the normal by the pair's mean spin); the two differ in 3D only",
-                      lambda v: None if v in HISTORIES else f"must be one of {', '.join(HISTORIES)}", str)
+                      _one_of(HISTORIES), str)
 
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
@@ -191,7 +195,7 @@ class SpectrumSpec:
                                 "and, with energies, binned K and Q); nonhermitian: every eigenvalue omega^2 of a "
                                 "matrix that need not be symmetric (a stressed packing's), complex ones counted as "
                                 "unstable, by dense LAPACK (up to 20000 DOF; no window; with energies: K, Q of the stable modes)",
-                     lambda v: None if v in METHODS else f"must be one of {', '.join(METHODS)}", str)
+                     _one_of(METHODS), str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
                          "half a bin", _range(0, 10**6), int)
@@ -228,10 +232,6 @@ def _kd0(v):
     return None
 
 
-def _integrator(v):
-    return None if v in INTEGRATORS else f"must be one of {', '.join(INTEGRATORS)}"
-
-
 @dataclass(frozen=True)
 class WavesSpec:
     """Section ``waves`` (absent: no standing waves)."""
@@ -253,7 +253,7 @@ class WavesSpec:
     t_end: float = _f(100.0, "run length (t0) (-waves_ts_max_time wins)", _range(0.0, 1e7, True), float)
     sample_every: int = _f(5, "steps between samples of the Fourier components", _range(1, 10**6), int)
     integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-waves_ts_type wins: "
-                                   "any PETSc TS type; python is verlet)", _integrator, str)
+                                   "any PETSc TS type; python is verlet)", _one_of(INTEGRATORS), str)
     method: str = _f("ts", "ts: integrate with PETSc TS; spectral: Lanczos on the matrix, no time "
                            "stepping (samples every dt x sample_every, r_i(0) phase only)",
                      lambda v: None if v in ("ts", "spectral") else "must be ts or spectral", str)
@@ -511,12 +511,10 @@ def check_stressed(scene: Scene, which: str | None) -> None:
     when ``model.stored_forces`` drops them.  Not collective."""
     model = scene.model
     held = which if model.stored_forces == "keep" else None
-    if held is None and model.history == "yade" and any(r > 0 for r in model.rho):
+    if held is None:
+        if model.history != "yade" or not any(r > 0 for r in model.rho):
+            return
         which = "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
-    elif held is None:
-        return
-    else:
-        which = held
     if scene.spectrum is not None and scene.spectrum.method != "nonhermitian":
         raise InputError(f"spectrum (method {scene.spectrum.method}): {which}, so the dynamical matrix is not "
                          f"symmetric (the DEM code's tangential update has no energy, docs/stressed_contacts.md); "

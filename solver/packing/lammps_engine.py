@@ -269,12 +269,11 @@ def settle_frictional(start: np.ndarray, diameters: np.ndarray, start_box, box, 
         held = pressure is not None
         if held:
             target = float(pressure)
-            axes = "iso" if dim == 3 else "couple xy"
-            barostat = " ".join(f"{a} {target!r} {target!r} {PRESSURE_DAMP!r}" for a in "xy") if dim == 2 else \
-                f"iso {target!r} {target!r} {PRESSURE_DAMP!r}"
+            setting = f"{target!r} {target!r} {PRESSURE_DAMP!r}"
+            barostat = f"x {setting} y {setting} couple xy" if dim == 2 else f"iso {setting}"  # 2D: z stays
             lmp.commands_string(f"""
                 compute virial all pressure NULL virial
-                fix baro all press/berendsen {barostat}{' couple xy' if axes == 'couple xy' else ''} modulus {KN!r} dilate all
+                fix baro all press/berendsen {barostat} modulus {KN!r} dilate all
                 fix_modify baro press virial
             """)
         while steps < max_steps:

@@ -254,3 +254,18 @@ def test_the_normal_part_check_allows_round_off_on_a_vanishing_force():
                 stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", None, "test")
         else:
             stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", None, "test")
+
+
+def test_a_yade_contact_file_whose_interactions_do_not_touch_is_refused(tmp_path):
+    """kn comes from the touching interactions; a file of pairs apart (another step's, or another
+    packing's) has none to give it: refused, naming both files' step."""
+    from solver.packing import geometry
+
+    p = hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", lever="contact")[0]
+    found = geometry.find_contacts(p.positions, p.diameters, p.box)
+    touching = set(zip(found.i.tolist(), found.j.tolist()))
+    apart = next((0, j) for j in range(1, p.n) if (0, j) not in touching)
+    path = tmp_path / "apart.contacts"
+    path.write_text(f"# one interaction\n{apart[0]} {apart[1]} 0 1 0 1 0 0\n")
+    with pytest.raises(InputError, match="no listed interaction touches"):
+        hdf5.read_packings(YADE[0], contacts=str(path), contacts_format="yade", lever="contact")
