@@ -21,3 +21,19 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   .venv/bin/python -m pip install -q --no-deps --no-build-isolation --disable-pip-version-check -e . >/dev/null
   touch "$stamp"
 fi
+
+# Debian's petsc4py/slepc4py live under /usr/lib/{petsc,slepc}dir/<version>/<arch>-real; the .pth
+# files they ship look for them through the /usr/lib/petsc and /usr/lib/slepc links, which only the
+# -dev packages (with compilers and every solver's headers) make.  A .pth of the venv names the
+# directories the real-scalar Python packages installed instead, read from dpkg.
+pth=$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')/rotsound-debian-petsc.pth
+real=$(dpkg-query -W -f='${Package} ${Status}\n' 'python3-petsc4py-real3*' 'python3-slepc4py-real3*' |
+       awk '/install ok installed/ {print $1}')
+dirs=$(dpkg -L $real | grep -E '/lib/python3/dist-packages$' || true)
+if [ "$(cat "$pth" 2>/dev/null)" != "$dirs" ]; then
+  printf '%s\n' "$dirs" > "$pth"
+fi
+.venv/bin/python -c 'import petsc4py, slepc4py' 2>/dev/null || {
+  echo "rotsound setup: petsc4py/slepc4py do not import from .venv (looked in: $dirs)" >&2
+  exit 1
+}

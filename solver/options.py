@@ -76,6 +76,8 @@ PREFIXES = {
     "spectrum_": "the spectrum-slicing EPS (-spectrum_eps_*, -spectrum_st_*, -spectrum_st_mat_mumps_icntl_*)",
     "inertia_": "the Sylvester-inertia factorisations that place windows and count modes "
                 "(-inertia_pc_factor_mat_solver_type, -inertia_mat_mumps_icntl_*)",
+    "nonhermitian_": "the shift-and-invert window EPS of spectrum.method nonhermitian with solver windows "
+                     "(-nonhermitian_eps_nev, -nonhermitian_eps_ncv, -nonhermitian_st_pc_factor_mat_solver_type)",
     "wmax_": "the Lanczos EPS for the largest eigenfrequency (-wmax_eps_*)",
     "waves_": "the standing-wave TS and its SNES/KSP (-waves_ts_*, -waves_ksp_*)",
 }
@@ -85,6 +87,7 @@ STAGE_PREFIXES = {
     ("spectra", "slicing"): ("spectrum_", "inertia_", "wmax_"),
     ("spectra", "counting"): ("inertia_", "wmax_"),
     ("spectra", "kpm"): ("wmax_",),
+    ("spectra", "nonhermitian"): ("nonhermitian_", "inertia_"),
     ("waves", "ts"): ("waves_", "wmax_"),
     ("waves", "spectral"): ("wmax_",),
 }

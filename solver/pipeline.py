@@ -209,7 +209,7 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                 elif scene.spectrum.method == "counting":
                     _counting_unit(scene, dm, spectrum, commit, comm)
                 elif scene.spectrum.method == "nonhermitian":
-                    _nonhermitian_unit(scene, dm, spectrum, commit, comm)
+                    _nonhermitian_unit(scene, dm, spectrum, commit, comm, checkpoint)
                 else:
                     _spectrum_unit(scene, dm, spectrum, commit, comm, checkpoint)
         if wave_todo:
@@ -251,30 +251,49 @@ def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
 
 def _check_dense_size(scene: Scene, particles: int, dim: int, which: str) -> None:
     """InputError if ``particles`` in ``dim`` dimensions (``which``: the packing, for the message)
-    make a matrix beyond the dense non-Hermitian solver's size at some rho. Not collective."""
+    make a matrix beyond the dense non-Hermitian solver's size at some rho, under
+    ``spectrum.solver`` dense. Not collective."""
     for rho in scene.model.rho:
         size = particles * dynmat.dof_per_particle(dim, scene.model.contact(rho))
-        if size > nonhermitian.MAX_DOF:
-            raise InputError(f"spectrum.method = 'nonhermitian': the {which} packing's {particles} particles make "
+        if nonhermitian.chosen_solver(scene.spectrum.solver, size) == "dense" and size > nonhermitian.MAX_DOF:
+            raise InputError(f"spectrum.solver = 'dense': the {which} packing's {particles} particles make "
                              f"{size} DOF at rho = {rho:g}, more than the {nonhermitian.MAX_DOF} the dense solver "
                              f"takes (a full non-symmetric eigensolve of that size needs hours and "
-                             f"{16 * size ** 2 / 2 ** 30:.0f} GiB); use a smaller packing.n")
+                             f"{16 * size ** 2 / 2 ** 30:.0f} GiB); use spectrum.solver: windows or a smaller packing.n")
 
 
-def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm) -> None:
-    """Every eigenvalue of one (rho, packing) matrix, symmetric or not (``nonhermitian``). Collective."""
+def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
+    """Every eigenvalue of one (rho, packing) matrix, symmetric or not (``nonhermitian``); the
+    windows solver's windows are checkpointed.  Collective."""
+    spec = scene.spectrum
     t = time.perf_counter()
-    result = nonhermitian.solve(dm, scene.spectrum.zero_tol, vectors=scene.spectrum.energies)
+
+    def progress(done, accepted, total):  # a large spectrum takes many minutes: say how far
+        if done % 20 == 0:
+            say(comm, f"  nonhermitian window {done}: {accepted}/{total} eigenvalues, "
+                      f"{time.perf_counter() - t:.0f} s")
+        check_interrupt(comm)
+
+    result = nonhermitian.solve(dm, spec.zero_tol, vectors=spec.energies, solver=spec.solver, tol=spec.tol,
+                                progress=progress, checkpoint=checkpoint)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
+    checks = result.checks or {}
     commit(unit, {"omega": result.omega, "omega2": result.omega2, **(result.energies or {})}, {
-        "rho": unit.rho, "packing": unit.p_index, "method": "nonhermitian", "n_zero_modes": result.n_zero_modes,
-        "n_complex": result.n_complex, "n_negative_modes": result.n_negative, "max_growth": result.max_growth,
-        "symmetric": int(dm.symmetric), "seconds": seconds, "window": "full", "dof": dm.size,
-        "n_disks": int(dm.active.sum())})
+        "rho": unit.rho, "packing": unit.p_index, "method": "nonhermitian", "solver": result.solver,
+        "n_zero_modes": result.n_zero_modes, "n_complex": result.n_complex, "n_negative_modes": result.n_negative,
+        "max_growth": result.max_growth, "symmetric": int(dm.symmetric), "seconds": seconds, "window": "full",
+        "dof": dm.size, "n_disks": int(dm.active.sum()),
+        **({"windows": checks["windows"], "max_backward_residual": checks["max_residual"],
+            "trace_error": checks["trace_error"], "trace2_error": checks["trace2_error"],
+            "solver_settings": json.dumps(checks["settings"])} if checks else {})})
+    if checkpoint is not None:
+        checkpoint.clear()
     unstable = result.n_complex + result.n_negative
+    how = (f"{checks['windows']} windows, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}"
+           if checks else "dense")
     say(comm, f"spectrum rho = {unit.rho:g}, packing {unit.p_index}: {result.omega.size} stable modes "
               f"(+{result.n_zero_modes} zero modes), {unstable} unstable ({result.n_complex} complex, "
-              f"{result.n_negative} negative; largest growth rate {result.max_growth:.2e} / t0), dense, "
+              f"{result.n_negative} negative; largest growth rate {result.max_growth:.2e} / t0), {how}, "
               f"{seconds:.1f} s")
 
 
@@ -388,7 +407,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
                 excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
-        if scene.spectrum is not None and scene.spectrum.method == "nonhermitian":  # dense: refuse before any solve
+        if scene.spectrum is not None and scene.spectrum.method == "nonhermitian":  # dense: refused before any solve
             for index, p in enumerate(packings):
                 _check_dense_size(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
         keys = unit_keys.scene_keys(scene, packings, petsc_argv)

@@ -172,6 +172,7 @@ def _window(v):
 
 
 METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian")
+SOLVERS = ("auto", "dense", "windows")  # spectrum.solver (nonhermitian only): spectrum/nonhermitian.py
 
 
 @dataclass(frozen=True)
@@ -194,8 +195,12 @@ class SpectrumSpec:
                                 "counts); kpm: stochastic vDOS (Chebyshev moments, no factorisation; vDOS, omega_c "
                                 "and, with energies, binned K and Q); nonhermitian: every eigenvalue omega^2 of a "
                                 "matrix that need not be symmetric (a stressed packing's), complex ones counted as "
-                                "unstable, by dense LAPACK (up to 20000 DOF; no window; with energies: K, Q of the stable modes)",
+                                "unstable (no window; with energies: K, Q of the stable modes), by spectrum.solver",
                      _one_of(METHODS), str)
+    solver: str = _f("auto", "nonhermitian only: dense (LAPACK on rank 0, up to 20000 DOF, time ~ DOF^3), windows "
+                             "(SLEPc shift-and-invert windows along the real axis, checked complete by the count and "
+                             "the trace moments; any size) or auto (dense up to 4000 DOF, windows above)",
+                     _one_of(SOLVERS), str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
                          "half a bin", _range(0, 10**6), int)
@@ -459,6 +464,9 @@ def _cross_check(obj, where):
     if isinstance(obj, SpectrumSpec) and obj.method != "slicing" and obj.window:
         raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
                          f"'slicing'")
+    if isinstance(obj, SpectrumSpec) and obj.method != "nonhermitian" and obj.solver != "auto":
+        raise InputError(f"{where}solver = {obj.solver!r} chooses how method nonhermitian finds every eigenvalue; "
+                         f"method {obj.method!r} has no such choice: drop {where}solver or use method 'nonhermitian'")
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")

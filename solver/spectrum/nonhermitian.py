@@ -2,12 +2,14 @@
 the stressed dynamical matrix of a frictional packing (docs/stressed_contacts.md section 4),
 whose omega^2 may be complex.
 
-Method [decision]: the eigenvalues lambda = omega^2 of A = M^-1/2 D M^-1/2 (similar to M^-1 D),
-all of them, by LAPACK's dense non-symmetric solver (``scipy.linalg.eigvals``: Hessenberg QR,
-backward stable) on rank 0, broadcast to every rank.  Dense is the tool for a full spectrum of a
-non-normal matrix at the sizes where one is wanted (up to MAX_DOF); a frequency window on a large
-non-symmetric matrix (SLEPc Krylov-Schur with shift-and-invert, ``EPS_NHEP``) needs a way to know
-that every eigenvalue in it was found, which inertia gave the symmetric methods: not built.
+Methods [decision] (``spectrum.solver``): the eigenvalues lambda = omega^2 of
+A = M^-1/2 D M^-1/2 (similar to M^-1 D), all of them,
+  dense    by LAPACK's dense non-symmetric solver (``scipy.linalg.eigvals``: Hessenberg QR,
+           backward stable) on rank 0, broadcast to every rank; up to MAX_DOF, time ~ n^3;
+  windows  by SLEPc shift-and-invert windows marched along the real axis, checked complete by
+           the count and the trace moments (``shifted_windows``); sparse, any size;
+  auto     dense up to AUTO_DENSE_DOF, windows above (scripts/bench_nonhermitian.py: the
+           windows overtake dense near there).
 
 Classification of the eigenvalues (``zero_tol`` as the other methods: omega below it is zero):
   zero      |lambda| < zero_tol^2 (the rigid modes);
@@ -25,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 MAX_DOF = 20000   # a dense n x n complex eigensolve: 20000 DOF take ~1 h and 6 GiB
+AUTO_DENSE_DOF = 4000  # scripts/bench_nonhermitian.py: dense is faster below (0.5x at 2937 DOF), slower above
 IMAG_TOL = 1e-9   # relative to max |lambda|: LAPACK's round-off is ~1e-15 of it
 
 
@@ -43,54 +46,80 @@ class Result:
     n_negative: int
     max_growth: float
     energies: dict | None = None
+    solver: str = "dense"
+    checks: dict | None = None  # windows: their number, residual, trace errors, settings
 
 
-def solve(dm, zero_tol: float, vectors: bool = False) -> Result:
+def chosen_solver(solver: str, size: int) -> str:  # solver: one of schema.SOLVERS
+    """dense or windows for ``spectrum.solver`` on a matrix of ``size`` DOF (auto: dense up to
+    AUTO_DENSE_DOF)."""
+    if solver == "auto":
+        return "dense" if size <= AUTO_DENSE_DOF else "windows"
+    return solver
+
+
+def solve(dm, zero_tol: float, vectors: bool = False, solver: str = "auto", tol: float = 1e-12,
+          progress=None, checkpoint=None) -> Result:
     """Every eigenvalue of A = M^-1/2 D M^-1/2 of ``dm`` (a :class:`~solver.model.dynmat.DynamicalMatrix`),
     classified (module docstring); with ``vectors``, also the K, Q and participation of each
     stable mode from its right eigenvector e of A, real for a real eigenvalue, scaled to |e| = 1
     (the definitions of ``modes``; for a non-symmetric A the right eigenvectors are not
-    orthogonal, and these are each mode's own shares).  Collective: rank 0 solves
-    (``parallel.owner_compute``: its result, or its error, reaches every rank); ValueError above
-    MAX_DOF."""
+    orthogonal, and these are each mode's own shares).  ``solver``: dense, windows or auto
+    (module docstring); ``tol``, ``progress`` and ``checkpoint`` are the windows' (as for
+    slicing).  Collective: dense solves on rank 0 (``parallel.owner_compute``: its result, or
+    its error, reaches every rank); ValueError for dense above MAX_DOF."""
     from .. import parallel
     from ..model import dynmat
+    from . import shifted_windows
 
+    particles = int(dm.active.sum())
+    if chosen_solver(solver, dm.size) == "windows":
+        lam, sums, checks = shifted_windows.solve(dm, zero_tol=zero_tol, vectors=vectors, tol=tol,
+                                                  progress=progress, checkpoint=checkpoint)
+        return _classify(lam, sums, zero_tol, particles, dm.dim, "windows", checks)
     if dm.size > MAX_DOF:
         raise ValueError(f"spectrum.method nonhermitian: {dm.size} DOF > {MAX_DOF}, the dense solver's limit")
     d = dynmat.gather_csr(dm.D)  # collective: every rank takes part
     mass = dynmat.gather_vec(dm.M)
-    dense = (d, mass, zero_tol, vectors, dm.dof, dm.dim, int(dm.active.sum()))
-    return parallel.owner_compute(dm.D.getComm().tompi4py(), [dense], _dense_solve)[0]
+    dense = (d, mass, vectors, dm.dof, dm.dim)
+    lam, sums = parallel.owner_compute(dm.D.getComm().tompi4py(), [dense], _dense_solve)[0]
+    return _classify(lam, sums, zero_tol, particles, dm.dim, "dense", None)
 
 
-def _dense_solve(task) -> Result:
-    """:func:`solve`'s work on one rank: task = (D as CSR, M (n,), zero_tol, vectors, dof, dim,
-    particles)."""
+def _dense_solve(task) -> tuple[np.ndarray, np.ndarray | None]:
+    """The dense solve on one rank: task = (D as CSR, M (n,), vectors, dof, dim) -> (lam (n,)
+    complex, the reduced K/Q sums (n, W) of each eigenvector's real part after its phase is
+    removed, scaled to unit length (a real eigenvalue's vector), or None)."""
     import scipy.linalg as sl
 
     from . import modes
 
-    d, mass, zero_tol, vectors, dof, dim, particles = task
+    d, mass, vectors, dof, dim = task
     scale = 1.0 / np.sqrt(mass)
     a = d.multiply(scale[:, None]).multiply(scale[None, :]).toarray()
-    if vectors:
-        lam, vec = sl.eig(a, overwrite_a=True, check_finite=False)
-    else:
-        lam = sl.eigvals(a, overwrite_a=True, check_finite=False)
+    if not vectors:
+        return sl.eigvals(a, overwrite_a=True, check_finite=False), None
+    lam, vec = sl.eig(a, overwrite_a=True, check_finite=False)
+    vec = vec * np.exp(-1j * np.angle(vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]))
+    real = vec.real / np.linalg.norm(vec.real, axis=0)
+    return lam, modes.local_sums(real.T, dof, dim)
+
+
+def _classify(lam: np.ndarray, sums: np.ndarray | None, zero_tol: float, particles: int, dim: int,
+              solver: str, checks: dict | None) -> Result:
+    """Sort and classify the eigenvalues ``lam`` (module docstring); the stable modes' energies
+    from their rows of ``sums`` (aligned with ``lam``). Not collective."""
+    from . import modes
+
     zero = np.abs(lam) < zero_tol ** 2
     order = np.flatnonzero(~zero)[np.argsort(lam[~zero].real, kind="stable")]
     rest = lam[order]
-    complex_ = np.abs(rest.imag) > IMAG_TOL * np.abs(lam).max()
+    complex_ = np.abs(rest.imag) > IMAG_TOL * np.abs(lam).max(initial=0.0)
     negative = ~complex_ & (rest.real < 0.0)
     stable = ~complex_ & ~negative
-    shares = None
-    if vectors:
-        kept = vec[:, order[stable]]
-        kept = kept * np.exp(-1j * np.angle(kept[np.argmax(np.abs(kept), axis=0), np.arange(kept.shape[1])]))
-        real = kept.real / np.linalg.norm(kept.real, axis=0)  # a real eigenvalue's vector, phase removed
-        shares = modes.energies(modes.local_sums(real.T, dof, dim), particles, dim)
+    shares = None if sums is None else modes.energies(sums[order[stable]], particles, dim)
     growth = np.sqrt(rest[~stable].astype(complex)).imag
     return Result(omega2=rest.astype(np.complex128), omega=np.sqrt(rest.real[stable]),
                   n_zero_modes=int(zero.sum()), n_complex=int(complex_.sum()), n_negative=int(negative.sum()),
-                  max_growth=float(np.abs(growth).max()) if growth.size else 0.0, energies=shares)
+                  max_growth=float(np.abs(growth).max()) if growth.size else 0.0, energies=shares,
+                  solver=solver, checks=checks)
