@@ -10,7 +10,8 @@ symmetric methods (a count of the eigenvalues below a shift) does not exist for 
 matrix; completeness rests instead on four things, all checked:
 
 1. A partition.  Window k accepts exactly the eigenvalues whose real part lies in
-   [x_k, x_{k+1}), x_{k+1} = sigma_k + h_k: no eigenvalue is counted twice.
+   [x_k, x_{k+1}), x_{k+1} <= sigma_k + h_k in the middle of a gap between its eigenvalues (none
+   within round-off of a cut, :func:`_cut`): no eigenvalue is counted twice or lost between two.
 2. Bendixson's theorem.  With S = (A + A^T)/2 and K = (A - A^T)/2, every eigenvalue has
    lambda_min(S) <= Re lambda <= lambda_max(S) and |Im lambda| <= ||K||_2 <= Y = ||K||_inf.  The
    march starts at x_0 <= lambda_min(S), placed by Sylvester inertias of S (MUMPS Cholesky,
@@ -54,6 +55,7 @@ PREFIX = "nonhermitian_"
 NEV = 200            # eigenvalues per window (-nonhermitian_eps_nev wins): ~1 s each at 24576 DOF
 STEP = 0.8           # next shift at x_k + STEP h_(k-1): the windows overlap by ~10 %
 FIRST_OFFSET = 1e-3  # the first shift this far (of the box) below the start: not beside the zero modes
+CUT_RANGE = 0.75     # a window's cut lies in the last quarter of the range its disk covers
 RETRIES = 8          # a window re-solved closer to x_k at most this often
 TRACE_TOL = 1e-10    # relative error allowed in sum lambda and sum lambda^2 (measured ~1e-15)
 
@@ -166,6 +168,21 @@ def _solve_window(A, sigma: float, tol: float, vectors: bool, dof: int, dim: int
     return lam, radius, residual, sums, used
 
 
+def _cut(real: np.ndarray, sigma: float, half: float) -> float:
+    """Where the window at ``sigma`` (covering up to sigma + ``half``) ends: the middle of the
+    widest gap between the real parts ``real`` of its eigenvalues in the last quarter of that
+    range, so that no eigenvalue lies within round-off of a cut.  (At sigma + half itself there is
+    often one: the window's farthest, when the box has no height; computed again in the next
+    window it fell on either side of the cut, and 31 of 24339 eigenvalues were lost.)  Not
+    collective."""
+    if not math.isfinite(half):
+        return math.inf
+    lo, hi = sigma + CUT_RANGE * half, sigma + half
+    points = np.concatenate(([lo], np.sort(real[(real > lo) & (real < hi)]), [hi]))
+    widest = int(np.argmax(np.diff(points)))
+    return float(points[widest] + points[widest + 1]) / 2
+
+
 def solve(dm, *, zero_tol: float, vectors: bool, tol: float = 1e-12, progress=None,
           checkpoint=None) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Every eigenvalue of A = M^-1/2 D M^-1/2 of ``dm`` (a
@@ -210,16 +227,17 @@ def solve(dm, *, zero_tol: float, vectors: bool, tol: float = 1e-12, progress=No
             else:
                 raise RuntimeError(f"nonhermitian windows: no shift near {x:.6g} gives a disk reaching "
                                    f"back to it in {RETRIES} tries; raise -nonhermitian_eps_nev")
-            keep = (lam.real >= x) & (lam.real < sigma + half)
+            cut = _cut(lam.real, sigma, half)
+            keep = (lam.real >= x) & (lam.real < cut)
             part = {"lam": lam[keep], "residual": np.float64(residual[keep].max(initial=0.0)),
-                    "x_next": np.float64(sigma + half), "h": np.float64(half), "sigma": np.float64(sigma)}
+                    "x_next": np.float64(cut), "h": np.float64(half), "sigma": np.float64(sigma)}
             if vectors:
                 part["sums"] = sums[keep]
             if checkpoint:
                 checkpoint.save(f"window{len(parts):04d}", part)
             parts.append(part)
             accepted += int(keep.sum())
-            x, h = sigma + half, half
+            x, h = cut, half
             if progress is not None:
                 progress(len(parts), accepted, n)
     finally:
