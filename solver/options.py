@@ -79,7 +79,8 @@ PREFIXES = {
     "nonhermitian_": "the shift-and-invert window EPS of spectrum.method nonhermitian with solver windows "
                      "(-nonhermitian_eps_nev, -nonhermitian_eps_ncv, -nonhermitian_st_pc_factor_mat_solver_type)",
     "wmax_": "the Lanczos EPS for the largest eigenfrequency (-wmax_eps_*)",
-    "waves_": "the standing-wave TS and its SNES/KSP (-waves_ts_*, -waves_ksp_*)",
+    "waves_": "the standing-wave TS and its SNES/KSP (-waves_ts_*, -waves_ksp_*), or the MFN of waves.method "
+              "exponential (-waves_mfn_*)",
 }
 """Options prefix of each solver object -> what it configures (README table)."""
 
@@ -90,6 +91,7 @@ STAGE_PREFIXES = {
     ("spectra", "nonhermitian"): ("nonhermitian_", "inertia_"),
     ("waves", "ts"): ("waves_", "wmax_"),
     ("waves", "spectral"): ("wmax_",),
+    ("waves", "exponential"): ("waves_", "wmax_"),
 }
 """(stage, method) -> prefixes of the options that can change that stage's units."""
 
@@ -127,8 +129,8 @@ GLOBAL_OPTIONS = frozenset((
 
 _OBJECT_WORDS = {  # leading word of an unprefixed solver option -> prefixes that take it
     "eps_": ("spectrum_", "wmax_"), "st_": ("spectrum_", "wmax_"), "bv_": ("spectrum_", "wmax_"),
-    "ds_": ("spectrum_", "wmax_"), "rg_": ("spectrum_", "wmax_"), "fn_": ("spectrum_", "wmax_"),
-    "ts_": ("waves_",), "snes_": ("waves_",), "ksp_": ("waves_",), "pc_": ("inertia_", "waves_"),
+    "ds_": ("spectrum_", "wmax_"), "rg_": ("spectrum_", "wmax_"), "fn_": ("spectrum_", "wmax_", "waves_"),
+    "ts_": ("waves_",), "mfn_": ("waves_",), "snes_": ("waves_",), "ksp_": ("waves_",), "pc_": ("inertia_", "waves_"),
     "mat_mumps_": ("spectrum_st_", "inertia_"),
 }
 
@@ -249,6 +251,16 @@ def ts_settings(ts) -> dict:
         out["snes_type"] = snes.getType()
         out.update(ksp_settings(snes.getKSP()))
     return out
+
+
+def mfn_settings(mfn) -> dict:
+    """What a configured SLEPc MFN uses, read back from it: prefix, type, tolerance, iteration
+    limit, Krylov dimension, and its function's type and scale (alpha, beta: f(x) = beta
+    exp(alpha x)). Not collective."""
+    tol, max_it = mfn.getTolerances()
+    fn = mfn.getFN()
+    return {"prefix": mfn.getOptionsPrefix(), "mfn_type": mfn.getType(), "mfn_tol": tol, "mfn_max_it": max_it,
+            "mfn_ncv": mfn.getDimensions(), "fn_type": fn.getType(), "fn_scale": tuple(fn.getScale())}
 
 
 def snapshot() -> dict[str, Any]:

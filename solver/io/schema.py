@@ -207,6 +207,7 @@ class SpectrumSpec:
 
 
 INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
+WAVE_METHODS = ("ts", "spectral", "exponential")  # waves.method: waves/schedule.py
 
 
 WAVE_MODES = ("L", "TR", "RT", "R")
@@ -260,9 +261,12 @@ class WavesSpec:
     integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-waves_ts_type wins: "
                                    "any PETSc TS type; python is verlet)", _one_of(INTEGRATORS), str)
     method: str = _f("ts", "ts: integrate with PETSc TS; spectral: Lanczos on the matrix, no time "
-                           "stepping (samples every dt x sample_every, r_i(0) phase only)",
-                     lambda v: None if v in ("ts", "spectral") else "must be ts or spectral", str)
-    tol: float = _f(1e-8, "spectral: relative accuracy of z(t) (Lanczos error estimate)",
+                           "stepping (samples every dt x sample_every, r_i(0) phase only, symmetric matrices); "
+                           "exponential: exp(h J) of the first-order system from sample to sample by SLEPc MFN "
+                           "(exact to tol, any matrix: the exact path for stressed packings)",
+                     _one_of(WAVE_METHODS), str)
+    tol: float = _f(1e-8, "spectral: relative accuracy of z(t) (Lanczos error estimate); exponential: the "
+                          "error bound of the samples, relative to |X(0)| (each MFN solve to tol / samples)",
                     _range(0.0, 1e-2, True), float)
 
 
@@ -530,7 +534,7 @@ def check_stressed(scene: Scene, which: str | None) -> None:
                          f"spectrum.method: nonhermitian (every eigenvalue, complex ones counted as unstable)")
     if scene.waves is not None and scene.waves.method == "spectral":
         raise InputError(f"waves.method = 'spectral': {which}, so the matrix is not symmetric and has no "
-                         f"orthogonal eigendecomposition: use waves.method: ts")
+                         f"orthogonal eigendecomposition: use waves.method: exponential (exact) or ts")
     if held is not None and 0.0 in model.rho:
         raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")
 

@@ -1,8 +1,9 @@
-"""How the standing waves of one matrix are run, decided once for both paths (``waves.method``):
+"""How the standing waves of one matrix are run, decided once for every path (``waves.method``):
 the time grid, and for time stepping the TS type, step and stability limit.
 
-:func:`plan` is the one place the method is chosen: ``spectral`` samples every
-``dt * sample_every`` to ``t_end`` with no time stepping (``spectral``); ``ts`` resolves the
+:func:`plan` is the one place the method is chosen: ``spectral`` and ``exponential`` sample
+every ``dt * sample_every`` to ``t_end`` with no time stepping (``spectral``, ``exponential``,
+``SAMPLED``); ``ts`` resolves the
 TS schedule and refuses one that cannot work (``integrators`` then follows it).  Either way the
 :class:`Schedule` carries the matrix's omega_max and the stability limit into the unit.
 
@@ -26,6 +27,8 @@ from ..errors import InputError
 from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
+SAMPLED = {"spectral": "spectral (Lanczos)", "exponential": "exponential (SLEPc MFN)"}
+"""The methods without time steps (waves.method -> integrator label): samples every dt * sample_every."""
 
 STABILITY = {("verlet", None): 2.0, ("rk", "4"): 2.0 * math.sqrt(2.0), ("rk", "3"): math.sqrt(3.0),
              ("rk", "3bs"): math.sqrt(3.0), ("rk", "1fe"): 0.0, ("euler", None): 0.0}
@@ -45,12 +48,12 @@ def stability_limit(integrator: str, omega_max: float, variant: str | None = Non
 @dataclass(frozen=True)
 class Schedule:
     """How the waves of one matrix run: for time stepping what the TS uses after the scene's
-    values and the ``-waves_ts_*`` options, and where each value came from; for the spectral path
-    the sample grid alone.
+    values and the ``-waves_ts_*`` options, and where each value came from; for the paths without
+    time steps the sample grid alone.
 
-    method : ``ts`` or ``spectral``;  integrator : ``verlet`` (TS type python), the PETSc TS type,
-    or ``spectral (Lanczos)``;  variant : the RK type of rk;  dt : step (t0; spectral: the
-    scene's, for the sample spacing);  steps : steps to take (spectral: 0);  t_end : last time
+    method : ``ts``, ``spectral`` or ``exponential``;  integrator : ``verlet`` (TS type python),
+    the PETSc TS type, or a ``SAMPLED`` label;  variant : the RK type of rk;  dt : step (t0;
+    without time steps: the scene's, for the sample spacing);  steps : steps to take (without: 0);  t_end : last time
     (t0);  sample_every : steps between samples;  adapt : TSAdapt type (``none`` is required);
     sources : {"dt", "t_end", "integrator"} -> the scene key or option that set it;
     omega_max : largest eigenfrequency of the matrix (1/t0), None until :func:`plan`;
@@ -70,7 +73,7 @@ class Schedule:
     limit: float | None = None
 
     def sample_times(self) -> np.ndarray:
-        """The spectral path's sample times (S,): every dt * sample_every from 0 to t_end."""
+        """The sample times (S,) of the paths without time steps: every dt * sample_every from 0 to t_end."""
         return np.arange(0.0, self.t_end * (1 + 1e-12), self.dt * self.sample_every)
 
     @property
@@ -178,12 +181,12 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float) -> float | 
 def plan(spec, omega_max: float, rho: float) -> Schedule:
     """The schedule of the waves section ``spec`` on a matrix whose largest eigenfrequency is
     ``omega_max`` (rho = kt/kn, for messages): the one place ``waves.method`` is decided.
-    ``spectral``: the sample grid; ``ts``: :func:`resolve_schedule`, refused by
+    ``spectral``, ``exponential``: the sample grid; ``ts``: :func:`resolve_schedule`, refused by
     :func:`check_schedule` (InputError, the same on every rank) if it cannot work.  Not collective.
     """
-    if spec.method == "spectral":
-        return Schedule(integrator="spectral (Lanczos)", variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
-                        sample_every=spec.sample_every, adapt="none", sources={}, method="spectral",
+    if spec.method in SAMPLED:
+        return Schedule(integrator=SAMPLED[spec.method], variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
+                        sample_every=spec.sample_every, adapt="none", sources={}, method=spec.method,
                         omega_max=omega_max)
     resolved = resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
                                 sample_every=spec.sample_every)

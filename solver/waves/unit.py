@@ -1,5 +1,6 @@
 """One unit of standing waves: every run (``excitation.runs``: 2 in 2D; 3 or 6 in 3D) and wave
-number of one (rho, mode, packing), integrated (``integrators``, or ``spectral``) and reduced to
+number of one (rho, mode, packing), integrated (``integrators``; or without time steps,
+``spectral`` and ``exponential``) and reduced to
 the datasets and attributes of the results file's ``waves/r<i>_<mode>_p<j>`` group (README,
 "Results file").
 
@@ -15,7 +16,7 @@ import json
 import numpy as np
 
 from ..analysis import correlations
-from . import excitation, integrators, spectral
+from . import excitation, exponential, integrators, spectral
 from .schedule import Schedule
 
 
@@ -28,7 +29,7 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     A run along axis a uses the k of that axis.
 
     ``spec``: the scene's waves section; ``schedule``: how the runs go (``schedule.plan``: the
-    spectral path samples every ``dt * sample_every`` to ``t_end``, time stepping follows the TS
+    spectral and exponential paths sample every ``dt * sample_every`` to ``t_end``, time stepping follows the TS
     schedule; it carries omega_max and the stability limit).  ``summary``: one line for the log.
     Raises StabilityError on every rank if a run blows up (nothing is returned then).
     """
@@ -41,6 +42,10 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
         series = [[spectral.spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times,
                                      tol=spec.tol, omega_max=schedule.omega_max) for k in ks[:, column[r]]]
                   for r in chosen]
+    elif schedule.method == "exponential":
+        flat = exponential.exponential_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
+                                           amplitude=spec.amplitude, times=schedule.sample_times(), tol=spec.tol)
+        series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
     else:  # Verlet: all runs and k at once, one MatMatMult per step
         flat = integrators.integrate_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
                                          amplitude=spec.amplitude, schedule=schedule)
@@ -58,11 +63,17 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     if not (same and np.all(ns == ns[:, :1])):  # sides that differ: each axis' own n and k (k: their mean)
         datasets.update(n_axes=ns, k_axes=ks)
     settings = {"wmax": dm.wmax_settings}
-    if schedule.method == "spectral":
+    if schedule.method in ("spectral", "exponential"):
         datasets["error_estimate"] = np.array([[r.error_estimate for r in row] for row in series])
+    if schedule.method == "spectral":
         settings["lanczos"] = {"tol": spec.tol, "max_steps": max(r.steps for row in series for r in row)}
         summary = (f"spectral, up to {settings['lanczos']['max_steps']} Lanczos steps, error estimate "
                    f"{np.nanmax(datasets['error_estimate']):.1e}")
+    elif schedule.method == "exponential":
+        settings["mfn"] = {**series[0][0].settings,
+                           "max_iterations": max(r.settings["max_iterations"] for row in series for r in row)}
+        summary = (f"exponential, {len(t) - 1} MFN solves each (up to {settings['mfn']['max_iterations']} "
+                   f"iterations), error estimate {np.nanmax(datasets['error_estimate']):.1e}")
     else:
         settings["ts"] = series[0][0].settings
         summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), max energy "

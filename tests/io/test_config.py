@@ -69,7 +69,7 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "integrator": "leapfrog"}}, ["waves.integrator", "verlet"]),
     ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "t_end": 1.0, "sample_every": 50}},
      ["waves.sample_every", "fewer than 4 samples"]),
-    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "method": "lanczos"}}, ["waves.method", "ts or spectral"]),
+    ({"packing": {"n": 64, "phi": 0.9}, "waves": {"n": [1], "method": "lanczos"}}, ["waves.method", "one of ts, spectral, exponential"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"window": [3, 2]}}, ["spectrum.window", "omega_lo < omega_hi"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"energies": "yes"}}, ["spectrum.energies", "true or false"]),
     ({"packing": {"n": 64, "phi": 0.9}, "spectrum": {"method": "kpm", "window": [1.0, 2.0]}}, ["window needs method 'slicing'"]),

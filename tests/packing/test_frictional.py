@@ -97,6 +97,25 @@ def test_a_frictional_scene_runs_its_waves_and_keeps_the_stored_forces(lammps_pr
     assert_all(np.array_equal(first[name][0]["C"], second[name][0]["C"]), "the resumed waves differ")
 
 
+def test_exact_waves_on_a_frictional_scene_agree_with_verlet(lammps_present, shared_tmp):
+    """waves.method exponential on LAMMPS's stressed packing (a non-symmetric matrix): the same C as
+    Verlet at dt = 0.01 to Verlet's step error (bounded by 1e-4 of C(0) = 1; measured 1.4e-5, as
+    Verlet's error against exp(tJ) in tests/run/test_crosscheck_stressed.py), and an error
+    estimate stored."""
+    base = dict(cache="off", packing={"n": 64, "phi": 0.82, "engine": "lammps", "friction": 0.5, "force_tol": 1e-10},
+                model={"rho": 1.0})
+    waves = {"modes": ["TR"], "n": [1], "t_end": 4.0, "dt": 0.01, "sample_every": 10}
+    c = {}
+    for method in ("ts", "exponential"):
+        scene = scene_of(shared_tmp / f"{method}.h5", **base, waves={**waves, "method": method})
+        units = pipeline.run(scene, COMM, [])["units"]
+        name = next(n for n in units if n.startswith("waves/"))
+        datasets, attrs = units[name]
+        c[method] = datasets["C"]
+    assert_all("error_estimate" in datasets and attrs["integrator"] == "exponential (SLEPc MFN)", str(attrs))
+    assert_all(np.abs(c["ts"] - c["exponential"]).max() < 1e-4, f"{np.abs(c['ts'] - c['exponential']).max()}")
+
+
 @pytest.mark.serial_only
 @pytest.mark.parametrize("sections, match", [
     ({"packing": {"n": 64, "phi": 0.82, "engine": "lammps", "friction": 0.5}, "spectrum": {}},
