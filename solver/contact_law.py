@@ -60,7 +60,8 @@ class ContactModel:
     slip taken at the lever: LAMMPS, LIGGGHTS) or ``yade`` (YADE's ScGeom: also turned about the
     normal with the pair's mean spin, :func:`stressed_blocks`, and its own slip,
     :func:`slip_blocks`).  The scene gives one per
-    rho (``ModelSpec.contact``); the dashpots of later physics join here.  A stressed packing's
+    rho (``ModelSpec.contact``).  ``gamma_n``, ``gamma_t``: the contact dashpots (1/t0), in
+    LAMMPS's gran/*/history convention (:func:`damping_blocks`; 0: none).  A stressed packing's
     stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
 
@@ -72,11 +73,19 @@ class ContactModel:
     lever: str = "radius"
     stored_forces: str = "keep"
     history: str = "lammps"
+    gamma_n: float = 0.0
+    gamma_t: float = 0.0
+
+    @property
+    def damped(self) -> bool:
+        """Whether a contact dashpot is on (``damping_blocks``; docs/damping.md)."""
+        return self.gamma_n > 0.0 or self.gamma_t > 0.0
 
     @property
     def rotations(self) -> bool:
-        """Whether some rotational spring is on (then the matrix keeps rotational DOF)."""
-        return self.rho > 0.0 or self.rho_roll > 0.0 or self.rho_twist > 0.0
+        """Whether some rotational spring, or the tangential dashpot, is on (then the matrix keeps
+        rotational DOF: the dashpot acts on the rotations through the contact point's velocity)."""
+        return self.rho > 0.0 or self.rho_roll > 0.0 or self.rho_twist > 0.0 or self.gamma_t > 0.0
 
 
 LEVERS = ("radius", "contact")      # ContactModel.lever
@@ -464,3 +473,29 @@ def sliding_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray
             rows[:, dim:] = radius[:, None, None] * turn[:, :, None] * w[:, None, :]
         blocks += [rows[:, :, :k], rows[:, :, k:]]
     return tuple(blocks)  # ii, ij, ji, jj
+
+
+def damping_blocks(normal: np.ndarray, overlap: np.ndarray, radius_i: np.ndarray, radius_j: np.ndarray,
+                   m_eff: np.ndarray, model: ContactModel,
+                   with_rotation: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Blocks (C_ii, C_ij, C_jj), each (C, k, k) like :func:`pair_blocks`' (C_ji = C_ij^T), of the
+    contact dashpots in LAMMPS's gran/hooke/history and gran/hertz/history convention
+    (docs/damping.md): the force on i is -s m_eff (gamma_n v_n + gamma_t v_t), with
+    m_eff = m_i m_j / (m_i + m_j) (``m_eff`` (C,)), v_n = n n^T (v_i - v_j), v_t = B_t (v_i, w_i,
+    v_j, w_j) the tangential spring's map (the contact point's relative tangential velocity, arms
+    :func:`lever_arms`), the torques from the tangential part through the same arms, and
+    s = :func:`spring_scale` (1, or LAMMPS's Hertz factor sqrt(a' xi)).  So
+    C = s m_eff (gamma_n B_n^T B_n + gamma_t B_t^T B_t), B_n = [n^T, 0, -n^T, 0]: symmetric,
+    positive semi-definite, with no geometric term (a dashpot carries no force at rest).
+    """
+    count, dim = normal.shape
+    c_n = _rotation_map(normal)
+    m = dim + c_n.shape[2]
+    b_n = np.zeros((count, 1, 2 * m))
+    b_n[:, 0, :dim], b_n[:, 0, m:m + dim] = normal, -normal
+    b_t = _tangential_map(normal, c_n, *lever_arms(radius_i, radius_j, overlap, model.lever))
+    scale = m_eff * spring_scale(overlap, model.law, radius_i * radius_j / (radius_i + radius_j))
+    full = scale[:, None, None] * (model.gamma_n * np.einsum("cki,ckj->cij", b_n, b_n)
+                                   + model.gamma_t * np.einsum("cki,ckj->cij", b_t, b_t))
+    k = m if with_rotation else dim
+    return full[:, :k, :k], full[:, :k, m:m + k], full[:, m:m + k, m:m + k]

@@ -123,22 +123,63 @@ def mass_diagonal(diameters: np.ndarray, masses: np.ndarray, dim: int, dof: int)
     return diag.ravel()
 
 
-def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]) -> tuple[sp.csr_matrix, int, int]:
-    """Rows of D owned by ``disk_range`` as a CSR (local rows x global columns).
+@dataclass
+class LocalContacts:
+    """The contacts that touch a rank's rows: ``found`` (``geometry.find_contacts`` among active
+    particles) restricted by ``touch`` (C,) bool; ``a``, ``b`` their particles' positions among
+    active particles; ``geometry_args`` (normal, distance, overlap, R_i, R_j) of those contacts."""
 
-    Returns (csr, dof, global number of contacts).  Not collective.
-    """
+    found: object
+    touch: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    geometry_args: tuple
+
+
+def local_contacts(packing: Packing, disk_range: tuple[int, int]) -> LocalContacts:
+    """The contacts touching the active particles ``disk_range`` owns. Not collective."""
     active = ~packing.rattler
-    dof = dof_per_particle(packing.dim, model)
     index = np.cumsum(active) - 1  # particle -> position among active particles
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     a, b = index[found.i], index[found.j]
     start, stop = disk_range
     touch = ((a >= start) & (a < stop)) | ((b >= start) & (b < stop))
-    a, b = a[touch], b[touch]
     radius = 0.5 * packing.diameters
-    geometry_args = (found.normal[touch], found.distance[touch], found.overlap[touch],
-                     radius[found.i[touch]], radius[found.j[touch]])
+    return LocalContacts(found, touch, a[touch], b[touch],
+                         (found.normal[touch], found.distance[touch], found.overlap[touch],
+                          radius[found.i[touch]], radius[found.j[touch]]))
+
+
+def blocks_csr(a: np.ndarray, b: np.ndarray, blocks: tuple, disk_range: tuple[int, int], dof: int,
+               n_active: int) -> sp.csr_matrix:
+    """The rows owned by ``disk_range`` (local rows x global columns) of the matrix summed from
+    per-contact blocks (X_ii, X_ij, X_ji, X_jj), each (C, dof, dof), of contacts (a, b) (positions
+    among the ``n_active`` active particles). Not collective."""
+    start, stop = disk_range
+    x_ii, x_ij, x_ji, x_jj = blocks
+    block_rows = np.concatenate((a, a, b, b))
+    block_cols = np.concatenate((a, b, b, a))
+    stacked = np.concatenate((x_ii, x_ij, x_jj, x_ji))
+    own = (block_rows >= start) & (block_rows < stop)
+    block_rows, block_cols, stacked = block_rows[own], block_cols[own], stacked[own]
+    k = np.arange(dof)
+    rows = ((block_rows - start)[:, None, None] * dof + k[:, None]).repeat(dof, axis=2)
+    cols = (block_cols[:, None, None] * dof + k[None, :]).repeat(dof, axis=1)
+    csr = sp.coo_matrix((stacked.ravel(), (rows.ravel(), cols.ravel())),
+                        shape=((stop - start) * dof, n_active * dof)).tocsr()
+    csr.sum_duplicates()
+    csr.sort_indices()
+    return csr
+
+
+def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]) -> tuple[sp.csr_matrix, int, int]:
+    """Rows of D owned by ``disk_range`` as a CSR (local rows x global columns).
+
+    Returns (csr, dof, global number of contacts).  Not collective.
+    """
+    dof = dof_per_particle(packing.dim, model)
+    contacts = local_contacts(packing, disk_range)
+    found, touch, geometry_args = contacts.found, contacts.touch, contacts.geometry_args
     h_ii, h_ij, h_jj = contact_law.pair_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
     h_ji = np.transpose(h_ij, (0, 2, 1))
     if contact_law.slip_differs(model):  # YADE's slip: not the transpose of the force's action
@@ -156,19 +197,7 @@ def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]
                                                with_rotation=dof > packing.dim)
             for block, extra in zip((h_ii, h_ij, h_ji, h_jj), slide):
                 block[limit] += extra
-    block_rows = np.concatenate((a, a, b, b))
-    block_cols = np.concatenate((a, b, b, a))
-    blocks = np.concatenate((h_ii, h_ij, h_jj, h_ji))
-    own = (block_rows >= start) & (block_rows < stop)
-    block_rows, block_cols, blocks = block_rows[own], block_cols[own], blocks[own]
-    k = np.arange(dof)
-    rows = ((block_rows - start)[:, None, None] * dof + k[:, None]).repeat(dof, axis=2)
-    cols = (block_cols[:, None, None] * dof + k[None, :]).repeat(dof, axis=1)
-    n_rows, n_cols = (stop - start) * dof, int(active.sum()) * dof
-    csr = sp.coo_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())),
-                        shape=(n_rows, n_cols)).tocsr()
-    csr.sum_duplicates()
-    csr.sort_indices()
+    csr = blocks_csr(contacts.a, contacts.b, (h_ii, h_ij, h_ji, h_jj), disk_range, dof, int((~packing.rattler).sum()))
     return csr, dof, len(found)
 
 

@@ -1,0 +1,45 @@
+"""The damping matrix C of a packing's contact dashpots (PETSc), on the layout of its dynamical
+matrix: M u'' = -D u - C u' (docs/damping.md).  Per contact the blocks of
+``contact_law.damping_blocks`` (LAMMPS's gran/*/history dashpots, gamma_n and gamma_t of the
+contact model, m_eff = m_i m_j / (m_i + m_j) from the particle masses), summed like D's
+(``dynmat.blocks_csr``): symmetric and positive semi-definite, with the rigid translations in its
+null space.  Collective where it says so.  Units: m = d0 = kn = 1, gamma in 1/t0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import contact_law, profiling
+from ..packing.jammed import Packing
+from . import dynmat
+
+
+def local_csr(packing: Packing, dm: dynmat.DynamicalMatrix, mass_rule: str = "equal"):
+    """Rows of C owned by ``dm.disk_range`` (local rows x global columns, scipy CSR) for the
+    dashpots of ``dm.model``, masses by ``mass_rule`` (``dynmat.particle_masses``).  Not collective."""
+    contacts = dynmat.local_contacts(packing, dm.disk_range)
+    masses = dynmat.particle_masses(packing, mass_rule)
+    m_i, m_j = masses[contacts.found.i[contacts.touch]], masses[contacts.found.j[contacts.touch]]
+    normal, _, overlap, radius_i, radius_j = contacts.geometry_args
+    c_ii, c_ij, c_jj = contact_law.damping_blocks(normal, overlap, radius_i, radius_j, m_i * m_j / (m_i + m_j),
+                                                  dm.model, with_rotation=dm.dof > dm.dim)
+    return dynmat.blocks_csr(contacts.a, contacts.b, (c_ii, c_ij, np.transpose(c_ij, (0, 2, 1)), c_jj),
+                             dm.disk_range, dm.dof, int(dm.active.sum()))
+
+
+@profiling.logged("rsAssembleDamping")
+def assemble(packing: Packing, dm: dynmat.DynamicalMatrix, mass_rule: str = "equal"):
+    """C (PETSc Mat, block size ``dm.dof``, flagged symmetric) of ``packing`` with the rows, columns
+    and communicator of ``dm`` (assembled from the same packing and ``mass_rule``). Collective."""
+    from petsc4py import PETSc
+
+    csr = local_csr(packing, dm, mass_rule)
+    sizes = dm.D.getSizes()
+    C = PETSc.Mat().createAIJ(size=sizes, bsize=dm.dof, csr=(csr.indptr.astype(PETSc.IntType),
+                                                             csr.indices.astype(PETSc.IntType), csr.data),
+                              comm=dm.D.getComm())
+    C.assemble()
+    C.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    C.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
+    return C
