@@ -22,7 +22,7 @@ import numpy as np
 
 from . import __version__, parallel
 from .analysis import dispersion
-from .model import dynmat
+from .model import damping, dynmat
 from .io import hdf5
 from .spectrum import counting, kpm, nonhermitian
 from .spectrum import modes
@@ -185,6 +185,8 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
     t = time.perf_counter()
     with profiling.stage("assembly"):
         dm = dynmat.assemble(p, scene.model.contact(rho), PETSc.Comm(comm), scene.model.masses)
+        if scene.model.damped:
+            dm.C = damping.assemble(p, dm, scene.model.masses)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     nnz = int(dm.D.getInfo()["nz_used"])  # PETSc's default is the global sum
     say(comm, f"matrix rho = {rho:g}, packing {p_index}: {dm.size} DOF "
@@ -193,7 +195,8 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
         wave_todo = [unit for unit in todo if unit.kind == "waves"]
         if wave_todo:  # how the waves run, refused here if it cannot work: before any other solve
             with profiling.stage("waves"):
-                plan = schedule.plan(scene.waves, operators.largest_omega(dm), rho)
+                plan = schedule.plan(scene.waves, operators.largest_omega(dm), rho,
+                                     operators.largest_damping_rate(dm))
         if matrix in todo:
             commit(matrix, {}, {
                 "rho": rho, "rho_roll": dm.model.rho_roll, "rho_twist": dm.model.rho_twist, "dim": dm.dim,

@@ -116,6 +116,18 @@ class PackingSpec:
 
 
 @dataclass(frozen=True)
+class DampingSpec:
+    """Section ``model.damping``: the contact dashpots (docs/damping.md)."""
+
+    gamma_n: float = _f(0.0, "normal dashpot rate (1/t0) in LAMMPS's gran/*/history convention: force "
+                             "-m_eff gamma_n v_n, m_eff = m_i m_j/(m_i + m_j) (times sqrt(a' xi) under hertz)",
+                        _range(0.0, 1e6), float)
+    gamma_t: float = _f(0.0, "tangential dashpot rate (1/t0): force -m_eff gamma_t v_t on the relative "
+                             "tangential velocity of the contact point (rotations included)",
+                        _range(0.0, 1e6), float)
+
+
+@dataclass(frozen=True)
 class ModelSpec:
     """Section ``model``: contact law parameters (kn = 1)."""
 
@@ -159,10 +171,21 @@ class ModelSpec:
                                 "also turned about the normal by the pair's mean spin); the two differ in 3D only",
                       _one_of(HISTORIES), str)
 
+    damping: DampingSpec | None = _f(None, "contact dashpots (docs/damping.md); absent or null: none. Damped "
+                                           "waves run by waves.method: exponential (exact) or a first-order "
+                                           "waves.integrator (rk, theta, ...); the damped spectrum is not built yet",
+                                     None, ("optional", DampingSpec))
+
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
+        gammas = (0.0, 0.0) if self.damping is None else (self.damping.gamma_n, self.damping.gamma_t)
         return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised, self.lever,
-                            self.stored_forces, self.history)
+                            self.stored_forces, self.history, *gammas)
+
+    @property
+    def damped(self) -> bool:
+        """Whether a dashpot is on."""
+        return self.damping is not None and (self.damping.gamma_n > 0.0 or self.damping.gamma_t > 0.0)
 
 
 def _window(v):
@@ -493,6 +516,8 @@ def _cross_check(obj, where):
                             f"stored tangential forces")
     if isinstance(obj, Scene):  # YADE's slip makes any packing's matrix non-symmetric
         check_stressed(obj, None)
+    if isinstance(obj, Scene) and obj.model.damped:
+        check_damped(obj)
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
 
@@ -537,6 +562,28 @@ def check_stressed(scene: Scene, which: str | None) -> None:
                          f"orthogonal eigendecomposition: use waves.method: exponential (exact) or ts")
     if held is not None and 0.0 in model.rho:
         raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")
+
+
+SECOND_ORDER = ("verlet", "alpha2")
+"""waves.integrator values that integrate M u'' = -D u without a velocity-dependent force."""
+
+
+def check_damped(scene: Scene) -> None:
+    """Raise InputError if a scene with contact dashpots (``model.damping``) asks for what cannot
+    take them yet (issue 29): any spectrum (the damped modes need SLEPc's PEP), spectral waves
+    (Lanczos on the undamped matrix), or a second-order integrator (verlet, alpha2: their force has
+    no velocity term). Not collective."""
+    if scene.spectrum is not None:
+        raise InputError(f"spectrum (method {scene.spectrum.method}) with model.damping: the damped modes "
+                         f"(lambda^2 M + lambda C + D) need a quadratic eigensolver, not built yet; the undamped "
+                         f"vDOS of the same packing: drop model.damping from this scene")
+    if scene.waves is not None and scene.waves.method == "spectral":
+        raise InputError("waves.method = 'spectral' with model.damping: Lanczos needs the undamped symmetric "
+                         "matrix; use waves.method: exponential (exact) or ts with a first-order integrator")
+    if scene.waves is not None and scene.waves.method == "ts" and scene.waves.integrator in SECOND_ORDER:
+        raise InputError(f"waves.integrator = {scene.waves.integrator!r} with model.damping: it integrates "
+                         f"M u'' = -D u and has no velocity-dependent force; use waves.method: exponential "
+                         f"(exact), or waves.integrator: rk (or theta, cn, beuler) on the first-order system")
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:

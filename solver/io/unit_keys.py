@@ -174,8 +174,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
     packing with equal contents share units, and 2D and 3D never do: the arrays' shapes are
     hashed); the rolling and twisting ratios join every key when they are not 0, and masses, law,
-    mobilised, lever, stored_forces and history when not their defaults (so units made before they existed keep their
-    keys); spectra and waves also by their section's settings and the PETSc options that act on
+    mobilised, lever, stored_forces and history when not their defaults, and the dashpots when on (so units made
+    before they existed keep their keys); spectra and waves also by their section's settings and the PETSc options that act on
     their stage (``options.acting_on``; ``-log_view`` and the like change no key); KPM's probes
     by their seed.  The rotsound version is part of every key, so a new version
     never reuses an older one's numbers.
@@ -187,6 +187,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
                           ("stored_forces", "keep"), ("history", "lammps")):
         if getattr(scene.model, name) != default:
             springs[name] = getattr(scene.model, name)
+    if scene.model.damped:  # likewise: undamped keys stay as before
+        springs["damping"] = dataclasses.asdict(scene.model.damping)
     for p_index, p in enumerate(packings):
         box = np.float64(p.box[0]) if np.all(p.box == p.box[0]) else p.box  # cubic: the keys of before
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before

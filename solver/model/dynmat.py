@@ -59,6 +59,8 @@ class DynamicalMatrix:
     omega_max: float | None = None  # cached by operators.largest_omega
     wmax_settings: dict | None = None  # what its wmax_ EPS used (operators.largest_omega)
     scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
+    C: object | None = None          # the dashpots' damping matrix (model.damping: model/damping.py)
+    damping_max: float | None = None  # largest eigenvalue of M^-1 C (1/t0), cached by operators
 
     @property
     def size(self) -> int:
@@ -86,8 +88,9 @@ class DynamicalMatrix:
         """Free the PETSc objects. Collective."""
         self.D.destroy()
         self.M.destroy()
-        if self.scaled is not None:
-            self.scaled.destroy()
+        for extra in (self.scaled, self.C):
+            if extra is not None:
+                extra.destroy()
 
 
 def dof_per_particle(dim: int, model: ContactModel) -> int:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..io.schema import SECOND_ORDER
 from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
@@ -39,9 +40,24 @@ RK (``ssp``, ``rk 2a``) grows every mode by ~(omega dt)^4 per step, and other RK
 tabulated: for those only the blow-up check applies."""
 
 
-def stability_limit(integrator: str, omega_max: float, variant: str | None = None) -> float | None:
-    """Largest stable dt (t0) of a tabulated explicit scheme (``STABILITY``), else None."""
-    ratio = STABILITY.get((integrator, variant if integrator == "rk" else None))
+STABILITY_DAMPED = {("rk", "4"): 2.6155876920, ("rk", "3"): math.sqrt(3.0), ("rk", "3bs"): math.sqrt(3.0),
+                    ("rk", "1fe"): 0.0, ("euler", None): 0.0}
+"""(integrator, RK variant) -> radius of the largest left half-disk inside the scheme's stability
+region, where a damped packing's eigenvalues lie (``operators.largest_damping_rate``): 2.6156 for
+RK4 (less than its 2.83 on the imaginary axis; tests/waves/test_damped_waves.py checks the
+number), sqrt(3) for RK3.  Verlet and alpha2 take no damping (``schema.SECOND_ORDER``)."""
+
+
+def stability_limit(integrator: str, omega_max: float, variant: str | None = None,
+                    damping_max: float = 0.0) -> float | None:
+    """Largest stable dt (t0) of a tabulated explicit scheme (``STABILITY``; with dashpots whose
+    fastest rate is ``damping_max`` > 0, ``STABILITY_DAMPED`` over max(omega_max, damping_max)),
+    else None."""
+    key = (integrator, variant if integrator == "rk" else None)
+    if damping_max > 0.0:
+        ratio = STABILITY_DAMPED.get(key)
+        return None if ratio is None else ratio / max(omega_max, damping_max)
+    ratio = STABILITY.get(key)
     return None if ratio is None else ratio / omega_max
 
 
@@ -158,11 +174,17 @@ def resolve_schedule(*, integrator: str, dt: float, t_end: float, sample_every: 
                  "integrator": _source("ts_type", f"waves.integrator = {integrator}")})
 
 
-def check_schedule(schedule: Schedule, omega_max: float, rho: float) -> float | None:
-    """Refuse (InputError) a variable step, fewer than 4 samples, or a dt at or above the
-    scheme's stability limit for this matrix, naming where each value came from; return the
-    limit (None if not tabulated).  Not collective (same verdict on every rank)."""
+def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max: float = 0.0) -> float | None:
+    """Refuse (InputError) a variable step, fewer than 4 samples, a dt at or above the scheme's
+    stability limit for this matrix (its dashpots' fastest rate ``damping_max``, 0 without), or,
+    with dashpots, a second-order integrator (the scene key is refused by ``schema.check_damped``;
+    this catches ``-waves_ts_type``), naming where each value came from; return the limit (None if
+    not tabulated).  Not collective (same verdict on every rank)."""
     src = schedule.sources
+    if damping_max > 0.0 and schedule.integrator in SECOND_ORDER:
+        raise InputError(f"{src['integrator']}: {schedule.integrator} has no velocity-dependent force, but the "
+                         f"model has dashpots (model.damping); use waves.method: exponential, or a first-order "
+                         f"integrator (rk, theta, cn, beuler)")
     if schedule.adapt != "none":
         raise InputError(f"{src['integrator']}: the TS adapts its step (TSAdapt {schedule.adapt}), but the "
                          f"waves are sampled every waves.sample_every steps and need a fixed step: add "
@@ -171,16 +193,18 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float) -> float | 
         raise InputError(f"waves.sample_every = {schedule.sample_every}: with dt = {schedule.dt:g} "
                          f"({src['dt']}) that leaves fewer than 4 samples in t_end = {schedule.t_end:g} "
                          f"({src['t_end']})")
-    limit = stability_limit(schedule.integrator, omega_max, schedule.variant)
+    limit = stability_limit(schedule.integrator, omega_max, schedule.variant, damping_max)
     if limit is not None and schedule.dt >= limit:
+        damped = f", fastest damping rate {damping_max:.4f}/t0" if damping_max > 0.0 else ""
         raise InputError(f"{src['dt']}: above the stability limit {limit:.4f} t0 of {schedule.label} for "
-                         f"this packing (omega_max = {omega_max:.4f}/t0, rho = {rho:g})")
+                         f"this packing (omega_max = {omega_max:.4f}/t0{damped}, rho = {rho:g})")
     return limit
 
 
-def plan(spec, omega_max: float, rho: float) -> Schedule:
+def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedule:
     """The schedule of the waves section ``spec`` on a matrix whose largest eigenfrequency is
-    ``omega_max`` (rho = kt/kn, for messages): the one place ``waves.method`` is decided.
+    ``omega_max`` and whose dashpots' fastest rate is ``damping_max`` (0: none; rho = kt/kn, for
+    messages): the one place ``waves.method`` is decided.
     ``spectral``, ``exponential``: the sample grid; ``ts``: :func:`resolve_schedule`, refused by
     :func:`check_schedule` (InputError, the same on every rank) if it cannot work.  Not collective.
     """
@@ -190,4 +214,5 @@ def plan(spec, omega_max: float, rho: float) -> Schedule:
                         omega_max=omega_max)
     resolved = resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
                                 sample_every=spec.sample_every)
-    return dataclasses.replace(resolved, omega_max=omega_max, limit=check_schedule(resolved, omega_max, rho))
+    return dataclasses.replace(resolved, omega_max=omega_max,
+                               limit=check_schedule(resolved, omega_max, rho, damping_max))

@@ -1,0 +1,165 @@
+"""Damped standing waves (model.damping, docs/damping.md): the exact path exp(hJ) with
+J = [[0, I], [-M^-1 D, -M^-1 C]] against a dense expm built here, the energy the dashpots take
+(dE/dt = -v^T C v <= 0), RK4 on the damped first-order system at its order, the step limits with
+dashpots (RK4's half-disk), and the scene: keys, refusals, a damped scene's waves on 1 and 2 ranks."""
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of, schedule
+
+from solver import pipeline
+from solver.contact_law import ContactModel
+from solver.errors import InputError
+from solver.model import damping, dynmat, operators
+from solver.waves import excitation, exponential, integrators
+from solver.waves.schedule import STABILITY_DAMPED, check_schedule, resolve_schedule
+
+AMPLITUDE = 1e-3
+TIMES = np.arange(0.0, 20.0 + 1e-9, 0.1)
+
+
+def _damped(dim, comm, gamma_n=0.5, gamma_t=0.2):
+    p = jammed_packing(48 if dim == 2 else 40, 0.86 if dim == 2 else 0.68, 9, dim)
+    dm = dynmat.assemble(p, ContactModel(0.6, gamma_n=gamma_n, gamma_t=gamma_t), comm, "density")
+    dm.C = damping.assemble(p, dm, "density")
+    return p, dm
+
+
+def _dense_flow(dm, v0_local, comm):
+    """X(t) (S, 2, N', dof) at TIMES from u = 0, v = v0 by scipy's expm of the damped first-order
+    matrix built here from the gathered D, C and M. Collective."""
+    d, c = dynmat.gather_csr(dm.D).toarray(), dynmat.gather_csr(dm.C).toarray()
+    m = dynmat.gather_vec(dm.M)
+    size = d.shape[0]
+    j = np.zeros((2 * size, 2 * size))
+    j[:size, size:] = np.eye(size)
+    j[size:, :size] = -d / m[:, None]
+    j[size:, size:] = -c / m[:, None]
+    x = np.concatenate((np.zeros(size), np.concatenate(comm.tompi4py().allgather(v0_local))))
+    step = sl.expm((TIMES[1] - TIMES[0]) * j)
+    out = []
+    for _ in TIMES:
+        out.append(x.reshape(2, -1, dm.dof))
+        x = step @ x
+    return np.array(out)
+
+
+@pytest.mark.parametrize("dim, mode", [(2, "L"), (2, "RT"), (3, "TR")])
+def test_exponential_damped_waves_equal_dense_expm(comm, dim, mode):
+    """z and z_fixed against dense exp(tJ) of the damped system to 1e-12 of max |z| (measured
+    9e-16); the premise: the dashpots take more than half of the energy by t = 20 (97 % in 2D L)."""
+    p, dm = _damped(dim, comm)
+    component, axis = excitation.runs(mode, dim)[0]
+    k = 2 * np.pi / float(p.box[axis])
+    (series,) = exponential.exponential_all(dm, p.positions, [(mode, 0, k)], amplitude=AMPLITUDE, times=TIMES,
+                                            tol=1e-8)
+    flow = _dense_flow(dm, excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE,
+                                                     comm.tompi4py()), comm)
+    dm.destroy()
+    r0 = p.positions[~p.rattler]
+    u, v = flow[:, 0], flow[:, 1]
+    z_fixed = v[:, :, component] @ np.exp(-1j * k * r0[:, axis])
+    z = np.sum(v[:, :, component] * np.exp(-1j * k * (r0[None, :, axis] + u[:, :, axis])), axis=1)
+    scale = np.abs(z_fixed).max()
+    assert_all(series.energy[-1] < 0.5 * series.energy[0], f"energy {series.energy[0]} -> {series.energy[-1]}")
+    assert_close(series.z_fixed, z_fixed, rtol=0.0, atol=1e-12 * scale, what=f"z_fixed, {dim}D {mode}")
+    assert_close(series.z, z, rtol=0.0, atol=1e-12 * scale, what=f"z, {dim}D {mode}")
+
+
+def test_dashpots_only_take_energy(comm):
+    """E(t) = (v^T M v + u^T D u)/2 never grows (dE/dt = -v^T C v <= 0; to 1e-13 of E(0) per
+    sample) and falls; with the tangential dashpot alone too."""
+    for gammas in ((0.5, 0.2), (0.0, 0.4)):
+        p, dm = _damped(2, comm, *gammas)
+        k = 2 * np.pi * 2 / float(p.box[0])
+        (series,) = exponential.exponential_all(dm, p.positions, [("TR", 0, k)], amplitude=AMPLITUDE,
+                                                times=TIMES, tol=1e-8)
+        dm.destroy()
+        steps = np.diff(series.energy)
+        assert_all(steps.max() < 1e-13 * series.energy[0] and series.energy[-1] < 0.9 * series.energy[0],
+                   f"gammas {gammas}: largest increase {steps.max()}, E {series.energy[0]} -> {series.energy[-1]}")
+
+
+def test_rk4_on_the_damped_system_converges_at_fourth_order(comm):
+    """PETSc's RK4 on the assembled damped J (waves.integrator: rk) against the exact path: the
+    error ratio between dt = 0.05 and 0.025 within 25 % of 16 (measured 7.3e-7 / 4.5e-8 = 16.2)."""
+    p, dm = _damped(2, comm)
+    k = 2 * np.pi * 2 / float(p.box[0])
+    (exact,) = exponential.exponential_all(dm, p.positions, [("L", 0, k)], amplitude=AMPLITUDE, times=TIMES,
+                                           tol=1e-10)
+    errors = []
+    for dt in (0.05, 0.025):
+        series = integrators.integrate(dm, p.positions, "L", 0, k, amplitude=AMPLITUDE,
+                                       schedule=schedule("rk", dt, TIMES[-1], int(round(0.1 / dt))))
+        errors.append(np.abs(series.z_fixed - exact.z_fixed).max() / np.abs(exact.z_fixed).max())
+    dm.destroy()
+    assert_all(abs(errors[0] / errors[1] / 16.0 - 1) < 0.25, f"errors {errors}")
+
+
+def test_rk4_half_disk_radius():
+    """STABILITY_DAMPED's RK4 entry: |R(z)| <= 1 on the left half-disk of that radius (its boundary
+    checked: the arc and the imaginary axis) and > 1 on the arc 1 % further out."""
+    r = STABILITY_DAMPED[("rk", "4")]
+
+    def amplification(z):
+        return np.abs(sum(z**n / math.factorial(n) for n in range(5)))
+
+    theta = np.linspace(np.pi / 2, np.pi, 4001)
+    edge = np.concatenate((r * np.exp(1j * theta), 1j * np.linspace(0, r, 200)))
+    assert_all(amplification(edge).max() <= 1 + 1e-9 and amplification(1.01 * r * np.exp(1j * theta)).max() > 1,
+               f"{amplification(edge).max()}")
+
+
+def test_damped_step_limits_and_second_order_integrators(comm):
+    """With dashpots: the RK4 limit is 2.6156 / max(omega_max, c_max) (c_max from Lanczos equals the
+    largest eigenvalue of the dense M^-1/2 C M^-1/2 to 1e-7), a dt above it and Verlet (which an
+    option could choose) are refused."""
+    p, dm = _damped(2, comm, gamma_n=6.0, gamma_t=3.0)
+    omega_max, c_max = operators.largest_omega(dm), operators.largest_damping_rate(dm)
+    m = dynmat.gather_vec(dm.M)
+    dense = dynmat.gather_csr(dm.C).toarray() / np.sqrt(np.outer(m, m))
+    dm.destroy()
+    assert_close(c_max, np.linalg.eigvalsh(dense).max(), rtol=1e-7, atol=0.0, what="c_max")
+    assert_all(c_max > omega_max, f"the premise: damping sets the limit ({c_max} vs {omega_max})")
+    limit = STABILITY_DAMPED[("rk", "4")] / c_max
+    ok = resolve_schedule(integrator="rk", dt=0.95 * limit, t_end=10.0, sample_every=1)
+    assert_close(check_schedule(ok, omega_max, 0.6, c_max), limit, rtol=1e-15, atol=0.0, what="limit")
+    with pytest.raises(InputError, match="fastest damping rate"):
+        check_schedule(resolve_schedule(integrator="rk", dt=1.05 * limit, t_end=10.0, sample_every=1),
+                       omega_max, 0.6, c_max)
+    with pytest.raises(InputError, match="no velocity-dependent force"):
+        check_schedule(resolve_schedule(integrator="verlet", dt=0.01, t_end=10.0, sample_every=1),
+                       omega_max, 0.6, c_max)
+
+
+@pytest.mark.parametrize("sections, match", [
+    ({"model": {"damping": {"gamma_n": 0.3}}, "spectrum": {}}, "need a quadratic eigensolver"),
+    ({"model": {"damping": {"gamma_n": 0.3}}, "waves": {"n": [1], "method": "spectral"}}, "Lanczos needs"),
+    ({"model": {"damping": {"gamma_t": 0.3}}, "waves": {"n": [1]}}, "waves.integrator = 'verlet' with model"),
+    ({"model": {"damping": {"gamma_n": -0.3}}}, r"model.damping.gamma_n = -0.3: must be in \[0.0"),
+])
+def test_damped_scenes_refuse_what_cannot_take_damping(tmp_path, sections, match):
+    with pytest.raises(InputError, match=match):
+        scene_of(tmp_path / "x.h5", packing={"n": 64, "phi": 0.9}, **sections)
+
+
+def test_a_damped_scene_runs_its_waves(shared_tmp):
+    """model.damping with exponential and rk waves: the same C(k, t) to RK4's error (below 1e-7 of
+    C(0) = 1 at dt = 0.02; measured 6e-9), and not the undamped twin's (its own unit keys; C(t_end)
+    0.24 against 0.30), on 1 and 2 ranks."""
+    base = dict(cache="off", packing={"n": 64, "phi": 0.9}, model={"rho": 0.5})
+    waves = {"modes": ["TR"], "n": [1], "t_end": 10.0, "dt": 0.02, "sample_every": 5}
+    damped = {"rho": 0.5, "damping": {"gamma_n": 0.4, "gamma_t": 0.1}}
+    results = {}
+    for name, model, extra in (("exact", damped, {"method": "exponential"}), ("rk", damped, {"integrator": "rk"}),
+                               ("undamped", base["model"], {"method": "exponential"})):
+        scene = scene_of(shared_tmp / f"{name}.h5", **{**base, "model": model}, waves={**waves, **extra})
+        units = pipeline.run(scene, COMM, [])["units"]
+        results[name] = units[next(n for n in units if n.startswith("waves/"))][0]["C"]
+    difference = np.abs(results["rk"] - results["exact"]).max()
+    decay = np.abs(results["exact"][:, -1]).max(), np.abs(results["undamped"][:, -1]).max()
+    assert_all(difference < 1e-7 and not np.allclose(results["exact"], results["undamped"], rtol=0.0, atol=1e-3),
+               f"rk vs exact {difference}, C(t_end) damped/undamped {decay}")
