@@ -318,3 +318,29 @@ def with_random_stored_forces(p, seed, ratio=0.5, zero=False):
     stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.box,
                             "harmonic", None, "test")
     return dataclasses.replace(p, tangential=stored)
+
+
+def dense_first_order_flow(dm, v0_local, comm, times):
+    """X(t) (S, 2, N', dof) at ``times`` (S,), equally spaced from 0, of M u'' = -D u - C u' (C =
+    ``dm.C``, or none) from u = 0, v = v0 (this rank's part ``v0_local``), by scipy's expm of the
+    first-order matrix built here from the gathered D, C and M (not from
+    ``model.operators.first_order_matrix``): the reference of the exact wave paths. Collective."""
+    import scipy.linalg as sl
+
+    from solver.model import dynmat
+
+    d = dynmat.gather_csr(dm.D).toarray()
+    m = dynmat.gather_vec(dm.M)
+    size = d.shape[0]
+    j = np.zeros((2 * size, 2 * size))
+    j[:size, size:] = np.eye(size)
+    j[size:, :size] = -d / m[:, None]
+    if dm.C is not None:
+        j[size:, size:] = -dynmat.gather_csr(dm.C).toarray() / m[:, None]
+    x = np.concatenate((np.zeros(size), np.concatenate(comm.tompi4py().allgather(v0_local))))
+    step = sl.expm((times[1] - times[0]) * j)
+    out = []
+    for _ in times:
+        out.append(x.reshape(2, -1, dm.dof))
+        x = step @ x
+    return np.array(out)

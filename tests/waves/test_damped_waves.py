@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 import pytest
-import scipy.linalg as sl
-from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of, schedule
+from conftest import COMM, assert_all, assert_close, dense_first_order_flow, jammed_packing, scene_of, schedule
 
 from solver import pipeline
 from solver.contact_law import ContactModel
@@ -28,25 +27,6 @@ def _damped(dim, comm, gamma_n=0.5, gamma_t=0.2):
     return p, dm
 
 
-def _dense_flow(dm, v0_local, comm):
-    """X(t) (S, 2, N', dof) at TIMES from u = 0, v = v0 by scipy's expm of the damped first-order
-    matrix built here from the gathered D, C and M. Collective."""
-    d, c = dynmat.gather_csr(dm.D).toarray(), dynmat.gather_csr(dm.C).toarray()
-    m = dynmat.gather_vec(dm.M)
-    size = d.shape[0]
-    j = np.zeros((2 * size, 2 * size))
-    j[:size, size:] = np.eye(size)
-    j[size:, :size] = -d / m[:, None]
-    j[size:, size:] = -c / m[:, None]
-    x = np.concatenate((np.zeros(size), np.concatenate(comm.tompi4py().allgather(v0_local))))
-    step = sl.expm((TIMES[1] - TIMES[0]) * j)
-    out = []
-    for _ in TIMES:
-        out.append(x.reshape(2, -1, dm.dof))
-        x = step @ x
-    return np.array(out)
-
-
 @pytest.mark.parametrize("dim, mode", [(2, "L"), (2, "RT"), (3, "TR")])
 def test_exponential_damped_waves_equal_dense_expm(comm, dim, mode):
     """z and z_fixed against dense exp(tJ) of the damped system to 1e-12 of max |z| (measured
@@ -56,8 +36,8 @@ def test_exponential_damped_waves_equal_dense_expm(comm, dim, mode):
     k = 2 * np.pi / float(p.box[axis])
     (series,) = exponential.exponential_all(dm, p.positions, [(mode, 0, k)], amplitude=AMPLITUDE, times=TIMES,
                                             tol=1e-8)
-    flow = _dense_flow(dm, excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE,
-                                                     comm.tompi4py()), comm)
+    start = excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE, comm.tompi4py())
+    flow = dense_first_order_flow(dm, start, comm, TIMES)
     dm.destroy()
     r0 = p.positions[~p.rattler]
     u, v = flow[:, 0], flow[:, 1]

@@ -6,8 +6,8 @@ and a wrong scale refused; on 1 and 2 ranks."""
 
 import numpy as np
 import pytest
-import scipy.linalg as sl
-from conftest import assert_all, assert_close, dense_eigen, exact_z_fixed, jammed_packing, with_random_stored_forces
+from conftest import (assert_all, assert_close, dense_eigen, dense_first_order_flow, exact_z_fixed, jammed_packing,
+                      with_random_stored_forces)
 
 from solver.contact_law import ContactModel
 from solver.errors import InputError
@@ -41,25 +41,6 @@ def test_exponential_equals_the_eigendecomposition(comm, dim, mode):
     assert_close(series.energy, np.full(len(TIMES), series.energy[0]), rtol=1e-12, atol=0.0, what="energy")
 
 
-def _dense_flow(dm, v0_local, comm):
-    """X(t) (S, 2, N', dof) at TIMES of M u'' = -D u from u = 0, v = v0, by scipy's expm of a J built
-    here from the gathered D and M (not model.operators.first_order_matrix). Collective."""
-    d = dynmat.gather_csr(dm.D).toarray()
-    m = dynmat.gather_vec(dm.M)
-    size = d.shape[0]
-    j = np.zeros((2 * size, 2 * size))
-    j[:size, size:] = np.eye(size)
-    j[size:, :size] = -d / m[:, None]
-    v0 = np.concatenate(comm.tompi4py().allgather(v0_local))
-    x = np.concatenate((np.zeros(size), v0))
-    step = sl.expm((TIMES[1] - TIMES[0]) * j)
-    out = []
-    for _ in TIMES:
-        out.append(x.reshape(2, -1, dm.dof))
-        x = step @ x
-    return np.array(out)
-
-
 @pytest.mark.parametrize("dim", [2, 3])
 def test_exponential_on_a_stressed_matrix_equals_dense_expm(comm, dim):
     """Non-symmetric D (stored forces 3 f_n: |D - D^T| / |D| about 0.1, complex pairs): z with the
@@ -73,7 +54,8 @@ def test_exponential_on_a_stressed_matrix_equals_dense_expm(comm, dim):
     mpi = comm.tompi4py()
     (series,) = exponential.exponential_all(dm, p.positions, [(mode, run, k)], amplitude=AMPLITUDE, times=TIMES,
                                             tol=1e-8)
-    flow = _dense_flow(dm, excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE, mpi), comm)
+    start = excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE, mpi)
+    flow = dense_first_order_flow(dm, start, comm, TIMES)
     dm.destroy()
     assert_all(np.abs(d - d.T).max() > 1e-2 * np.abs(d).max(), "the premise: D is far from symmetric")
     r0 = p.positions[~p.rattler]
