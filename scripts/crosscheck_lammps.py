@@ -51,14 +51,16 @@ PACKINGS = {2: 0.9, 3: 0.7}  # phi of the 2D and 3D packings (rotsound's default
 
 
 def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt: float, steps: int,
-                      every: int, comm, rho: float = 1.0, hold: bool = False) -> np.ndarray:
+                      every: int, comm, rho: float = 1.0, hold: bool = False, gamma_n: float = 0.0,
+                      gamma_t: float = 0.0) -> np.ndarray:
     """Velocities (S, N, dof) sampled every ``every`` steps (S = steps // every + 1, t = 0 first)
     of one LAMMPS run from v(0) = ``start`` (N, dof) in rotsound's DOF order (D velocities, then
     the angular velocity: 2D w_z, 3D w_x, w_y, w_z; dof = D + rotations) and zero displacement.
 
     Particles ``positions`` (N, D) with ``diameters`` (N,) in the periodic box ``box`` (D,) from
-    the origin, mass 1, radius d/2; ``pair_style`` of ``law`` with kn = 1, kt = rho, no damping,
-    friction coefficient ``FRICTION``; ``fix nve/sphere`` (2D: ``disc``, I = m d^2/8, and
+    the origin, mass 1, radius d/2; ``pair_style`` of ``law`` with kn = 1, kt = rho, dashpots
+    ``gamma_n`` and ``gamma_t`` (default none; LAMMPS's dampflag 1 when gamma_t > 0), friction
+    coefficient ``FRICTION``; ``fix nve/sphere`` (2D: ``disc``, I = m d^2/8, and
     ``enforce2d``; 3D: I = m d^2/10).  The tangential springs start unstressed (LAMMPS's shear
     history is zero at the start), as rotsound's matrix assumes.  ``hold``: a constant external
     force, minus LAMMPS's net force at the start, cancels the packing's residual forces.  LAMMPS
@@ -87,17 +89,21 @@ def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt
     def external(caller, step, nlocal, tag, x, force):
         force[:] = held[np.asarray(tag) - 1]
 
-    try:
-        ids = lammps_engine.create_particles(lmp, positions, diameters, box)
-        if ids is not None:  # None on a rank that owns no particle
-            mine = start[ids - 1]
+    def set_velocities(values):  # rotsound's order (N, dof) onto this rank's atoms, found by their ids
+        nlocal = lmp.extract_global("nlocal")
+        if nlocal:
+            mine = values[lmp.numpy.extract_atom("id")[:nlocal] - 1]
             v, w = lmp.numpy.extract_atom("v"), lmp.numpy.extract_atom("omega")
-            v[:], w[:] = 0.0, 0.0
-            v[:, :dim] = mine[:, :dim]
+            v[:nlocal], w[:nlocal] = 0.0, 0.0
+            v[:nlocal, :dim] = mine[:, :dim]
             if dof > dim:
-                w[:, 3 - (dof - dim):] = mine[:, dim:]
+                w[:nlocal, 3 - (dof - dim):] = mine[:, dim:]
+
+    try:
+        lammps_engine.create_particles(lmp, positions, diameters, box)
+        set_velocities(np.zeros_like(start))
         lmp.commands_string(f"""
-            pair_style {LAMMPS_PAIR[law]} 1.0 {float(rho)!r} 0.0 0.0 {FRICTION!r} 0
+            pair_style {LAMMPS_PAIR[law]} 1.0 {float(rho)!r} {float(gamma_n)!r} {float(gamma_t)!r} {FRICTION!r} {int(gamma_t > 0)}
             pair_coeff * *
             neighbor {lammps_engine.SKIN!r} bin
             neigh_modify every 1 delay 0 check yes
@@ -107,9 +113,11 @@ def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt
             timestep {float(dt)!r}
         """)
         lmp.set_fix_external_callback("hold", external, None)
-        lmp.command("run 0")  # forces at the start (the external force is still 0)
+        lmp.command("run 0")  # forces at rest at the start (the external force is still 0; no dashpot acts)
         if hold:
             held[:] = -gather("f")
+        set_velocities(start)
+        lmp.command("run 0")  # the first step's forces, with the dashpots' at v(0)
         samples = [sample()]
         for _ in range(steps // every):
             lmp.command(f"run {every} pre no post no")  # a run's setup leaves the shear history alone
@@ -122,7 +130,8 @@ def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt
 def lammps_z(p, dm, law: str, run: tuple[int, int], k: float, amplitude: float, dt: float, steps: int,
              every: int, comm, hold: bool = False) -> np.ndarray:
     """z_fixed(t) (S,) of one standing-wave run (excited component, axis of k) integrated by LAMMPS:
-    rotsound's start (``excitation.start_velocity`` on ``dm``, rattlers left out), run at
+    rotsound's start (``excitation.start_velocity`` on ``dm``, rattlers left out; the springs and
+    dashpots of ``dm.model``), run at
     +``amplitude`` and -``amplitude``, half the difference, projected on exp(-i k r_i,a(0)).
     ``comm``: mpi4py communicator of ``dm`` and of LAMMPS. Collective."""
     from solver.waves import excitation
@@ -132,7 +141,9 @@ def lammps_z(p, dm, law: str, run: tuple[int, int], k: float, amplitude: float, 
     start = np.concatenate(comm.allgather(local)).reshape(-1, dm.dof)
     active = dm.active
     x, d = p.positions[active], p.diameters[active]
-    plus, minus = (lammps_velocities(x, d, p.box, law, sign * start, dt, steps, every, comm, dm.model.rho, hold)
+    model = dm.model
+    plus, minus = (lammps_velocities(x, d, p.box, law, sign * start, dt, steps, every, comm, model.rho, hold,
+                                     model.gamma_n, model.gamma_t)
                    for sign in (1.0, -1.0))
     return 0.5 * (plus - minus)[:, :, component] @ np.exp(-1j * k * x[:, axis])
 

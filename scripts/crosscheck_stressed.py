@@ -149,8 +149,8 @@ def lammps_velocities(restart: str, dim: int, start: np.ndarray, dt: float, step
 
 def exact_velocities(dm, start: np.ndarray, sample: float, count: int, offset: float = 0.0) -> np.ndarray:
     """Velocities (count, N', dof) at t = offset, offset + sample, ... of M u'' = -D u from u = 0,
-    v = ``start`` (N', dof) at t = 0: X(t) = exp(t J) X(0), J = [[0, I], [-M^-1 D, 0]], dense.
-    Exact to round-off whatever D's symmetry.  One process."""
+    v = ``start`` (N', dof) at t = 0: X(t) = exp(t J) X(0), J = [[0, I], [-M^-1 D, -M^-1 C]], dense
+    (C = ``dm.C``, the dashpots, if any).  Exact to round-off whatever D's symmetry.  One process."""
     import scipy.linalg as sl
 
     from solver.model import dynmat
@@ -161,6 +161,8 @@ def exact_velocities(dm, start: np.ndarray, sample: float, count: int, offset: f
     j = np.zeros((2 * size, 2 * size))
     j[:size, size:] = np.eye(size)
     j[size:, :size] = -d / m[:, None]
+    if dm.C is not None:
+        j[size:, size:] = -dynmat.gather_csr(dm.C).toarray() / m[:, None]
     step = sl.expm(sample * j)
     x = np.concatenate((np.zeros(size), start.ravel()))
     if offset:
