@@ -27,7 +27,7 @@ import time
 import numpy as np
 from benchlib import save
 from crosscheck_lammps import PACKINGS, lammps_z, pooled_c
-from crosscheck_stressed import add_wave_arguments, exact_velocities
+from crosscheck_stressed import add_wave_arguments, convergence_columns, exact_velocities
 
 
 def case(dim: int, law: str, n: int, args) -> dict:
@@ -96,9 +96,7 @@ def main() -> None:
         for mode, m in c["modes"].items():
             row = {"D": c["dim"], "law": c["law"], "N": c["n"], "rattlers left out": c["rattlers"], "mode": mode,
                    "abs C(t_end)": f"{m['decay']:.2e}"}
-            for dt, e in zip(m["dt"], m["error"]):
-                row[f"LAMMPS - damped, dt={dt:g}"] = f"{e:.2e}"
-            row["order"] = " ".join(f"{np.log2(a / b):.2f}" for a, b in zip(m["error"][:-1], m["error"][1:]))
+            row.update(convergence_columns("LAMMPS - damped", m["dt"], m["error"]))
             row[f"LAMMPS - undamped, dt={m['dt'][-1]:g}"] = f"{m['undamped_error'][-1]:.2e}"
             row["LAMMPS s"] = f"{m['lammps_seconds']:.1f}"
             table.append(row)

@@ -249,6 +249,14 @@ def case(dim: int, law: str, n: int, args) -> dict:
     return row
 
 
+def convergence_columns(label: str, dts: list[float], errors: list[float]) -> dict:
+    """Table columns '<label>, dt=<dt>' (each error) and 'order' (log2 of successive ratios) of a
+    cross-check's errors at the halved steps ``dts`` (also scripts/crosscheck_damped.py)."""
+    columns = {f"{label}, dt={dt:g}": f"{e:.2e}" for dt, e in zip(dts, errors)}
+    columns["order"] = " ".join(f"{np.log2(a / b):.2f}" for a, b in zip(errors[:-1], errors[1:]))
+    return columns
+
+
 def add_wave_arguments(parser) -> None:
     """The standing-wave options of a stressed cross-check (also scripts/crosscheck_yade.py): t <= --t-end,
     --dt halved --halvings times, sampled every --sample, velocity amplitude --amplitude."""
@@ -275,9 +283,7 @@ def main() -> None:
             row = {"D": c["dim"], "law": c["law"], "N": c["n"], "seed": c["seed"], "contacts": c["contacts"],
                    "z": f"{c['z']:.3f}", "pressure": f"{c['pressure']:.2e}", "mean abs f_t": f"{c['mean_ft']:.2e}",
                    "mode": mode}
-            for dt, e in zip(m["dt"], m["error"]):
-                row[f"LAMMPS - stressed, dt={dt:g}"] = f"{e:.2e}"
-            row["order"] = " ".join(f"{np.log2(a / b):.2f}" for a, b in zip(m["error"][:-1], m["error"][1:]))
+            row.update(convergence_columns("LAMMPS - stressed", m["dt"], m["error"]))
             for dt, e in zip(m["dt"], m["unstressed_error"]):
                 row[f"LAMMPS - unstressed, dt={dt:g}"] = f"{e:.2e}"
             row["LAMMPS s"] = f"{m['lammps_seconds']:.1f}"
