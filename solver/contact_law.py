@@ -499,3 +499,14 @@ def damping_blocks(normal: np.ndarray, overlap: np.ndarray, radius_i: np.ndarray
                                    + model.gamma_t * np.einsum("cki,ckj->cij", b_t, b_t))
     k = m if with_rotation else dim
     return full[:, :k, :k], full[:, :k, m:m + k], full[:, m:m + k, m:m + k]
+
+
+def restitution_damping(restitution: float, m_eff: float = 0.5) -> float:
+    """gamma_n (1/t0) of the harmonic normal dashpot that gives a binary collision of reduced mass
+    ``m_eff`` (default: two particles of the mean mass 1) the normal coefficient of restitution
+    e = ``restitution`` in (0, 1], in LAMMPS's convention (docs/damping.md section 5): the overlap
+    obeys xi'' + gamma_n xi' + omega_0^2 xi = 0, omega_0^2 = kn / m_eff, the contact lasts half a
+    damped period pi / omega_d (LAMMPS lets the force turn attractive until xi = 0), so
+    e = exp(-gamma_n pi / (2 omega_d)) and gamma_n = 2 omega_0 (-ln e) / sqrt(pi^2 + ln^2 e)."""
+    log = np.log(restitution)
+    return float(2.0 * np.sqrt(KN / m_eff) * -log / np.sqrt(np.pi**2 + log**2))

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from ..contact_law import HISTORIES, LAWS, LEVERS, MOBILISED, STORED_FORCES, ContactModel
+from ..contact_law import HISTORIES, LAWS, LEVERS, MOBILISED, STORED_FORCES, ContactModel, restitution_damping
 from ..errors import InputError
 
 
@@ -176,16 +176,30 @@ class ModelSpec:
                                            "waves.integrator (rk, theta, ...); the damped spectrum is not built yet",
                                      None, ("optional", DampingSpec))
 
+    restitution: float | None = _f(None, "normal coefficient of restitution e of a binary collision of two "
+                                         "particles of the mean mass, instead of model.damping.gamma_n: gamma_n = "
+                                         "2 omega_0 (-ln e) / sqrt(pi^2 + ln^2 e), omega_0 = sqrt(2 kn / m) "
+                                         "(docs/damping.md section 5; harmonic law only: under hertz e depends on "
+                                         "the impact speed). null: none",
+                                   _range(0.0, 1.0, True), float)
+
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
-        gammas = (0.0, 0.0) if self.damping is None else (self.damping.gamma_n, self.damping.gamma_t)
         return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised, self.lever,
-                            self.stored_forces, self.history, *gammas)
+                            self.stored_forces, self.history, *self.dashpots)
+
+    @property
+    def dashpots(self) -> tuple[float, float]:
+        """(gamma_n, gamma_t) (1/t0): ``damping``'s, gamma_n from ``restitution`` when that is given."""
+        gamma_n, gamma_t = (0.0, 0.0) if self.damping is None else (self.damping.gamma_n, self.damping.gamma_t)
+        if self.restitution is not None:
+            gamma_n = restitution_damping(self.restitution)
+        return gamma_n, gamma_t
 
     @property
     def damped(self) -> bool:
         """Whether a dashpot is on."""
-        return self.damping is not None and (self.damping.gamma_n > 0.0 or self.damping.gamma_t > 0.0)
+        return any(gamma > 0.0 for gamma in self.dashpots)
 
 
 def _window(v):
@@ -516,6 +530,12 @@ def _cross_check(obj, where):
                             f"stored tangential forces")
     if isinstance(obj, Scene):  # YADE's slip makes any packing's matrix non-symmetric
         check_stressed(obj, None)
+    if isinstance(obj, ModelSpec) and obj.restitution is not None and (
+            obj.law != "harmonic" or (obj.damping is not None and obj.damping.gamma_n > 0.0)):
+        raise InputError(f"{where}restitution = {obj.restitution}: " + (
+            f"it sets {where}damping.gamma_n, which is given too: give one of them" if obj.law == "harmonic" else
+            f"under {where}law = {obj.law!r} the coefficient of restitution depends on the impact speed, so no "
+            f"single gamma_n gives it: give {where}damping.gamma_n"))
     if isinstance(obj, Scene) and obj.model.damped:
         check_damped(obj)
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):

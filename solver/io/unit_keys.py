@@ -188,7 +188,7 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
         if getattr(scene.model, name) != default:
             springs[name] = getattr(scene.model, name)
     if scene.model.damped:  # likewise: undamped keys stay as before
-        springs["damping"] = dataclasses.asdict(scene.model.damping)
+        springs["damping"] = dict(zip(("gamma_n", "gamma_t"), scene.model.dashpots))  # however it was given
     for p_index, p in enumerate(packings):
         box = np.float64(p.box[0]) if np.all(p.box == p.box[0]) else p.box  # cubic: the keys of before
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before

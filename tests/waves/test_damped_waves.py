@@ -120,10 +120,30 @@ def test_damped_step_limits_and_second_order_integrators(comm):
     ({"model": {"damping": {"gamma_n": 0.3}}, "waves": {"n": [1], "method": "spectral"}}, "Lanczos needs"),
     ({"model": {"damping": {"gamma_t": 0.3}}, "waves": {"n": [1]}}, "waves.integrator = 'verlet' with model"),
     ({"model": {"damping": {"gamma_n": -0.3}}}, r"model.damping.gamma_n = -0.3: must be in \[0.0"),
+    ({"model": {"restitution": 0.8, "damping": {"gamma_n": 0.3}}}, "which is given too: give one of them"),
+    ({"model": {"restitution": 0.8, "law": "hertz"}}, "depends on the impact speed"),
+    ({"model": {"restitution": 0.0}}, r"model.restitution = 0.0: must be in \(0.0, 1.0\]"),
 ])
 def test_damped_scenes_refuse_what_cannot_take_damping(tmp_path, sections, match):
     with pytest.raises(InputError, match=match):
         scene_of(tmp_path / "x.h5", packing={"n": 64, "phi": 0.9}, **sections)
+
+
+def test_restitution_is_gamma_n_by_another_name(tmp_path):
+    """model.restitution e gives the contact model gamma_n = restitution_damping(e), and a scene
+    given e has the unit keys of the same scene given that gamma_n."""
+    from solver.contact_law import restitution_damping
+    from solver.io import unit_keys
+
+    waves = {"n": [1], "method": "exponential"}
+    by_e = scene_of(tmp_path / "x.h5", packing={"n": 64, "phi": 0.9},
+                    model={"restitution": 0.8, "damping": {"gamma_t": 0.1}}, waves=waves)
+    gamma = restitution_damping(0.8)
+    by_gamma = scene_of(tmp_path / "x.h5", packing={"n": 64, "phi": 0.9},
+                        model={"damping": {"gamma_n": gamma, "gamma_t": 0.1}}, waves=waves)
+    p = jammed_packing(64, 0.9, 0)
+    assert_all(by_e.model.contact(1.0).gamma_n == gamma and 0 < gamma
+               and unit_keys.scene_keys(by_e, [p], []) == unit_keys.scene_keys(by_gamma, [p], []), str(gamma))
 
 
 def test_a_damped_scene_runs_its_waves(shared_tmp):
