@@ -346,15 +346,34 @@ class Scene:
         """Stable hash of what the scene asks for (not ``output``, not ``analysis``, which only
         post-processes units, not ``cache``, not ``petsc``: the options acting on a unit are part
         of that unit's own content key, so changing them recomputes just those units, whether they
-        come from this block or the command line)."""
-        data = dataclasses.asdict(self)
+        come from this block or the command line).  Only values that differ from their defaults
+        count (:func:`_explicit`), so a key added in a later version, at its default, leaves the
+        digest of an unfinished run, and its resume, alone."""
+        data = _explicit(self)
         for name in ("output", "analysis", "cache", "petsc"):
-            data.pop(name)
+            data.pop(name, None)
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
     def to_yaml(self) -> str:
         """The validated scene with all defaults filled in, as YAML."""
         return yaml.safe_dump(dataclasses.asdict(self), sort_keys=False)
+
+
+def _explicit(section) -> dict:
+    """The fields of a scene ``section`` that differ from their defaults, nested sections as
+    mappings of theirs; an optional section (spectrum, waves) counts when present, even empty."""
+    out = {}
+    for f in dataclasses.fields(section):
+        value = getattr(section, f.name)
+        if dataclasses.is_dataclass(value):
+            nested = _explicit(value)
+            if nested or isinstance(f.metadata["kind"], tuple):
+                out[f.name] = nested
+            continue
+        default = f.default_factory() if f.default is dataclasses.MISSING else f.default
+        if value != default:
+            out[f.name] = value
+    return out
 
 
 def _type_name(kind) -> str:

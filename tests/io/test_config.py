@@ -127,6 +127,19 @@ def test_digest_ignores_output_and_petsc_block_only():
     assert a.digest() == b.digest() == p.digest() != c.digest()
 
 
+def test_digest_counts_only_what_differs_from_the_defaults():
+    """A default written out gives the digest of the scene without it (so a
+    key added at its default by a later version keeps an unfinished run resumable); an optional
+    section counts when present; any value that differs changes it."""
+    a = build(GOOD)
+    spelled = build({**GOOD, "model": {**GOOD.get("model", {}), "law": "harmonic", "damping": None},
+                     "seed": a.seed})
+    waves = build({**GOOD, "waves": {"n": [1]}})
+    spelled_waves = build({**GOOD, "waves": {"n": [1], "method": "ts", "dt": 0.02}})
+    assert a.digest() == spelled.digest() != waves.digest() == spelled_waves.digest()
+    assert build({**GOOD, "model": {**GOOD.get("model", {}), "restitution": 0.9}}).digest() != a.digest()
+
+
 def test_read_yaml_errors(tmp_path):
     with pytest.raises(InputError, match="not found"):
         scenes.read_documents(str(tmp_path / "missing.yaml"))
