@@ -73,7 +73,8 @@ class Schedule:
     (t0);  sample_every : steps between samples;  adapt : TSAdapt type (``none`` is required);
     sources : {"dt", "t_end", "integrator"} -> the scene key or option that set it;
     omega_max : largest eigenfrequency of the matrix (1/t0), None until :func:`plan`;
-    limit : the scheme's stability limit on dt for it, None if none is tabulated.
+    limit : the scheme's stability limit on dt for it, None if none is tabulated;
+    damping_max : the dashpots' fastest rate c_max (1/t0; 0 without dashpots).
     """
 
     integrator: str
@@ -87,6 +88,7 @@ class Schedule:
     method: str = "ts"
     omega_max: float | None = None
     limit: float | None = None
+    damping_max: float = 0.0
 
     def sample_times(self) -> np.ndarray:
         """The sample times (S,) of the paths without time steps: every dt * sample_every from 0 to t_end."""
@@ -211,8 +213,8 @@ def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedu
     if spec.method in SAMPLED:
         return Schedule(integrator=SAMPLED[spec.method], variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
                         sample_every=spec.sample_every, adapt="none", sources={}, method=spec.method,
-                        omega_max=omega_max)
+                        omega_max=omega_max, damping_max=damping_max)
     resolved = resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
                                 sample_every=spec.sample_every)
-    return dataclasses.replace(resolved, omega_max=omega_max,
+    return dataclasses.replace(resolved, omega_max=omega_max, damping_max=damping_max,
                                limit=check_schedule(resolved, omega_max, rho, damping_max))

@@ -82,4 +82,6 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
              "omega_max": schedule.omega_max, "dt_limit": np.inf if schedule.limit is None else schedule.limit,
              "amplitude": spec.amplitude, "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
              "run_labels": json.dumps([excitation.run_label(c, a, dm.dim) for c, a in excited])}
+    if schedule.damping_max > 0.0:  # dashpots: their fastest rate, which the step limit also used
+        attrs["damping_max"] = schedule.damping_max
     return datasets, attrs, summary

@@ -158,7 +158,9 @@ def test_a_damped_scene_runs_its_waves(shared_tmp):
                                ("undamped", base["model"], {"method": "exponential"})):
         scene = scene_of(shared_tmp / f"{name}.h5", **{**base, "model": model}, waves={**waves, **extra})
         units = pipeline.run(scene, COMM, [])["units"]
-        results[name] = units[next(n for n in units if n.startswith("waves/"))][0]["C"]
+        datasets, attrs = units[next(n for n in units if n.startswith("waves/"))]
+        results[name] = datasets["C"]
+        assert_all(("damping_max" in attrs) == (name != "undamped"), f"{name}: {sorted(attrs)}")
     difference = np.abs(results["rk"] - results["exact"]).max()
     decay = np.abs(results["exact"][:, -1]).max(), np.abs(results["undamped"][:, -1]).max()
     assert_all(difference < 1e-7 and not np.allclose(results["exact"], results["undamped"], rtol=0.0, atol=1e-3),
