@@ -72,8 +72,10 @@ def exponential_case(tol: float) -> None:
     """The exponential path (waves.method: exponential) at tolerance ``tol``."""
     from solver.waves import exponential
 
+    from solver.model.operators import largest_omega
+
     _timed_l_wave(lambda dm, p, k, t: exponential.exponential_all(dm, p.positions, [("L", 0, k)], amplitude=1e-3,
-                                                                  times=t, tol=tol)[0])
+                                                                  times=t, tol=tol, rate=largest_omega(dm))[0])
 
 
 def scipy_case(dt: float) -> None:

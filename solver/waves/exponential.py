@@ -12,6 +12,8 @@ Units: d0 = m = kn = 1.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .. import profiling
@@ -27,15 +29,29 @@ TOL_FLOOR = 1e-14
 """Smallest tolerance asked of one MFN solve: round-off of exp(h J) b in double precision."""
 
 
+def krylov_dimension(norm: float, tol: float) -> int:
+    """Default Krylov dimension (MFN ncv) for exp(h J) b when |h J| <= ``norm``: the smallest m with
+    norm^m e^norm / m! <= ``tol`` (the bound of the degree-m Taylor remainder, which the Krylov
+    approximation beats), plus 2, between 6 and 60.  Too small a value costs restarts, not accuracy:
+    the MFN still stops at its tolerance."""
+    m, term = 1, norm * math.exp(norm)
+    while term > tol and m < 58:
+        m += 1
+        term *= norm / m
+    return min(max(m + 2, 6), 60)
+
+
 @profiling.logged("rsExponentialWave")
 def exponential_all(dm, positions, waves: list[tuple[str, int, float]], *, amplitude: float,
-                    times: np.ndarray, tol: float) -> list[WaveSeries]:
+                    times: np.ndarray, tol: float, rate: float | None = None) -> list[WaveSeries]:
     """One WaveSeries per wave (mode, run of ``excitation.runs(mode, dm.dim)``, k) at ``times``
     (S,), equally spaced from 0 (t0).  Collective.
 
     v(0) as for time stepping (eq:initial, zero modes projected out), u(0) = 0; every sample is
     exp(h J) of the one before, by an MFN with tolerance max(``tol`` / S, TOL_FLOOR) unless
-    ``-waves_mfn_tol`` says otherwise.  The errors of the S solves add, so each series carries
+    ``-waves_mfn_tol`` says otherwise, and Krylov dimension :func:`krylov_dimension` of
+    h ``rate`` (the spectral radius of J: max(omega_max, c_max); None: SLEPc's default 30) unless
+    ``-waves_mfn_ncv`` says otherwise.  The errors of the S solves add, so each series carries
     S x that tolerance as its error estimate (relative to |X(0)|; measured against dense
     exp(t J) in tests/waves/test_exponential.py).  z has the phase of r_i(t), z_fixed of r_i(0),
     as on the TS path.  Settings are read back from the MFN after setFromOptions; a scale of
@@ -57,7 +73,10 @@ def exponential_all(dm, positions, waves: list[tuple[str, int, float]], *, ampli
     fn = mfn.getFN()
     fn.setType(SLEPc.FN.Type.EXP)
     fn.setScale(step)
-    mfn.setTolerances(tol=max(tol / len(times), TOL_FLOOR))
+    step_tol = max(tol / len(times), TOL_FLOOR)
+    mfn.setTolerances(tol=step_tol)
+    if rate is not None:
+        mfn.setDimensions(krylov_dimension(step * rate, step_tol))
     mfn.setFromOptions()
     X, Y = J.createVecs()
     n = dm.M.getLocalSize()

@@ -44,7 +44,8 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
                   for r in chosen]
     elif schedule.method == "exponential":
         flat = exponential.exponential_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
-                                           amplitude=spec.amplitude, times=schedule.sample_times(), tol=spec.tol)
+                                           amplitude=spec.amplitude, times=schedule.sample_times(), tol=spec.tol,
+                                           rate=max(schedule.omega_max, schedule.damping_max))
         series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
     else:  # Verlet: all runs and k at once, one MatMatMult per step
         flat = integrators.integrate_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
