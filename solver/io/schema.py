@@ -236,7 +236,7 @@ class SpectrumSpec:
                      _one_of(METHODS), str)
     solver: str = _f("auto", "nonhermitian only: dense (LAPACK on rank 0, up to 20000 DOF, time ~ DOF^3), windows "
                              "(SLEPc shift-and-invert windows along the real axis, checked complete by the count and "
-                             "the trace moments; any size) or auto (dense up to 4000 DOF, windows above)",
+                             "the trace moments; any size) or auto (dense up to 3000 DOF, windows above)",
                      _one_of(SOLVERS), str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 MAX_DOF = 20000   # a dense n x n complex eigensolve: 20000 DOF take ~1 h and 6 GiB
-AUTO_DENSE_DOF = 4000  # scripts/bench_nonhermitian.py: dense is faster below (0.5x at 2937 DOF), slower above
+AUTO_DENSE_DOF = 3000  # scripts/bench_nonhermitian.py, one core each: they cross near 2900 DOF (dense 1.08x windows)
 IMAG_TOL = 1e-9   # relative to max |lambda|: LAPACK's round-off is ~1e-15 of it
 
 
