@@ -1,13 +1,17 @@
-"""Every row of the bad-input catalogue on 2 ranks: exit 2, the message once, no traceback,
-no output written, no rank left hanging (each run has a timeout)."""
+"""Every row of the bad-input catalogue, through ``solver.__main__.main`` in this process on every
+rank of the suite (1, then 2 under mpirun): exit code 2, the message once (rank 0), no traceback,
+no output written, no rank left hanging (a rank that went on alone would hang its collective: the
+test's timeout fails it).  A few rows also as real ``mpirun -n 2`` processes, for the exit status
+the shell sees.  [decision] In-process, because one subprocess per row (112 rows x ~3 s of
+interpreter, PETSc and MPI start-up) was half of ``make test``'s serial time."""
 
 import re
 
 import pytest
 from bad_inputs import CASES
-from conftest import REPO, run_cli
+from conftest import COMM, PETSc, REPO, assert_all, run_cli
 
-pytestmark = pytest.mark.serial_only  # launches its own mpirun
+from solver import __main__ as cli
 
 
 def materialise(tmp_path, case):
@@ -40,8 +44,48 @@ def test_readme_table_is_the_catalogue():
         assert case[3].replace("|", "/") in row[2], (case[0], row[2])
 
 
+def _restore_options(before: dict) -> None:
+    """Put PETSc's options database back as ``before`` (``getAll``): a row's options must not
+    reach the tests after it."""
+    database = PETSc.Options()
+    now = database.getAll()
+    for name in now:
+        if name not in before:
+            database.delValue(f"-{name}")
+    for name, value in before.items():
+        if now.get(name) != value:
+            database.setValue(f"-{name}", value)
+
+
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
-def test_bad_input(tmp_path, case):
+def test_bad_input(shared_tmp, case, capsys, monkeypatch):
+    if COMM.rank == 0:
+        args, out = materialise(shared_tmp, case)
+    args, out = COMM.bcast((args, out) if COMM.rank == 0 else None, root=0)
+    monkeypatch.chdir(shared_tmp)
+    before = PETSc.Options().getAll()
+    try:
+        code = cli.main(args)
+    finally:
+        _restore_options(before)
+    err = capsys.readouterr()
+    assert_all(code == 2, f"exit code {code}: {err.err}")
+    messages = err.err.count("rotsound: error:")
+    assert_all(messages == (1 if COMM.rank == 0 else 0), err.err)
+    assert_all(COMM.rank > 0 or case[3] in err.err, err.err)
+    assert_all("Traceback" not in err.err + err.out, err.err)
+    assert_all(not out.exists() and not (shared_tmp / "never.h5.partial").exists(), "an output was written")
+
+
+PROCESS_ROWS = ("unknown top-level key", "LAMMPS data file cut short", "bare solver option on the command line (-ts_dt)")
+
+
+@pytest.mark.serial_only  # launches its own mpirun
+@pytest.mark.parametrize("what", PROCESS_ROWS)
+def test_bad_input_as_a_process(tmp_path, what):
+    """The process's exit status on 2 ranks, the message once: rows of three kinds (scene,
+    packing file, command line)."""
+    case = next(c for c in CASES if c[0] == what)
     args, out = materialise(tmp_path, case)
     proc = run_cli(args, ranks=2, timeout=120, cwd=tmp_path)
     assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
