@@ -194,7 +194,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "keys":
             print("| key | default | meaning |\n|---|---|---|")
             for key, default, doc in schema.reference():
-                print(f"| `{key}` | `{default}` | {doc} |")
+                print(f"| `{key}` | `{default}` | {doc.replace('|', chr(92) + '|')} |")  # a Markdown cell
             return 0
         if args.command == "plot":
             _plot(args)

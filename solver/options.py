@@ -78,6 +78,9 @@ PREFIXES = {
                 "(-inertia_pc_factor_mat_solver_type, -inertia_mat_mumps_icntl_*)",
     "nonhermitian_": "the shift-and-invert window EPS of spectrum.method nonhermitian with solver windows "
                      "(-nonhermitian_eps_nev, -nonhermitian_eps_ncv, -nonhermitian_st_pc_factor_mat_solver_type)",
+    "pep_": "the window EPS of spectrum.method pep with solver windows (-pep_eps_nev, -pep_eps_ncv, -pep_eps_tol)",
+    "pep_shift_": "the complex-shift factorisation of each pep window (-pep_shift_pc_factor_mat_solver_type, "
+                  "-pep_shift_mat_mumps_icntl_*)",
     "wmax_": "the Lanczos EPS for the largest eigenfrequency (-wmax_eps_*)",
     "waves_": "the standing-wave TS and its SNES/KSP (-waves_ts_*, -waves_ksp_*), or the MFN of waves.method "
               "exponential (-waves_mfn_*)",
@@ -89,6 +92,7 @@ STAGE_PREFIXES = {
     ("spectra", "counting"): ("inertia_", "wmax_"),
     ("spectra", "kpm"): ("wmax_",),
     ("spectra", "nonhermitian"): ("nonhermitian_", "inertia_"),
+    ("spectra", "pep"): ("pep_", "wmax_"),
     ("waves", "ts"): ("waves_", "wmax_"),
     ("waves", "spectral"): ("wmax_",),
     ("waves", "exponential"): ("waves_", "wmax_"),

@@ -24,7 +24,7 @@ from . import __version__, parallel
 from .analysis import dispersion
 from .model import damping, dynmat
 from .io import hdf5
-from .spectrum import counting, kpm, nonhermitian
+from .spectrum import counting, kpm, nonhermitian, pep
 from .spectrum import modes
 from .packing import jammed
 from .packing import mechanics
@@ -213,6 +213,8 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                     _counting_unit(scene, dm, spectrum, commit, comm)
                 elif scene.spectrum.method == "nonhermitian":
                     _nonhermitian_unit(scene, dm, spectrum, commit, comm, checkpoint)
+                elif scene.spectrum.method == "pep":
+                    _pep_unit(scene, dm, spectrum, commit, comm, checkpoint)
                 else:
                     _spectrum_unit(scene, dm, spectrum, commit, comm, checkpoint)
         if wave_todo:
@@ -252,17 +254,24 @@ def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
     _warn_negative(comm, attrs["n_negative_modes"])
 
 
+DENSE_METHODS = {"nonhermitian": nonhermitian, "pep": pep}
+"""spectrum.method -> its module, for the methods with a dense solver (``chosen_solver``, MAX_DOF)."""
+
+
 def _check_dense_size(scene: Scene, particles: int, dim: int, which: str) -> None:
     """InputError if ``particles`` in ``dim`` dimensions (``which``: the packing, for the message)
-    make a matrix beyond the dense non-Hermitian solver's size at some rho, under
-    ``spectrum.solver`` dense. Not collective."""
+    make a matrix beyond the dense solver's size of ``spectrum.method`` (nonhermitian, pep) at
+    some rho, under ``spectrum.solver`` dense. Not collective."""
+    method = DENSE_METHODS[scene.spectrum.method]
     for rho in scene.model.rho:
         size = particles * dynmat.dof_per_particle(dim, scene.model.contact(rho))
-        if nonhermitian.chosen_solver(scene.spectrum.solver, size) == "dense" and size > nonhermitian.MAX_DOF:
+        if method.chosen_solver(scene.spectrum.solver, size) == "dense" and size > method.MAX_DOF:
+            order = size if method is nonhermitian else 2 * size  # pep: the first-order matrix
             raise InputError(f"spectrum.solver = 'dense': the {which} packing's {particles} particles make "
-                             f"{size} DOF at rho = {rho:g}, more than the {nonhermitian.MAX_DOF} the dense solver "
-                             f"takes (a full non-symmetric eigensolve of that size needs hours and "
-                             f"{16 * size ** 2 / 2 ** 30:.0f} GiB); use spectrum.solver: windows or a smaller packing.n")
+                             f"{size} DOF at rho = {rho:g}, more than the {method.MAX_DOF} the dense solver of "
+                             f"method {scene.spectrum.method} takes (a full non-symmetric eigensolve of order "
+                             f"{order} needs hours and {16 * order ** 2 / 2 ** 30:.0f} GiB); use spectrum.solver: "
+                             f"windows or a smaller packing.n")
 
 
 def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
@@ -298,6 +307,39 @@ def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> 
               f"(+{result.n_zero_modes} zero modes), {unstable} unstable ({result.n_complex} complex, "
               f"{result.n_negative} negative; largest growth rate {result.max_growth:.2e} / t0), {how}, "
               f"{seconds:.1f} s")
+
+
+def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
+    """Every damped mode of one (rho, packing) matrix with dashpots (``pep``); the windows
+    solver's windows are checkpointed.  Collective."""
+    spec = scene.spectrum
+    t = time.perf_counter()
+
+    def progress(done, accepted, total):  # a large spectrum takes many minutes: say how far
+        if done % 20 == 0:
+            say(comm, f"  pep window {done}: {accepted}/{total} eigenvalues, {time.perf_counter() - t:.0f} s")
+        check_interrupt(comm)
+
+    result = pep.solve(dm, spec.zero_tol, vectors=spec.energies, solver=spec.solver, tol=spec.tol,
+                       progress=progress, checkpoint=checkpoint)
+    seconds = parallel.global_max(comm, time.perf_counter() - t)
+    checks = result.checks or {}
+    underdamped = int((result.lam.imag > 0).sum())
+    commit(unit, {"lambda": result.lam, **(result.energies or {})}, {
+        "rho": unit.rho, "packing": unit.p_index, "method": "pep", "solver": result.solver,
+        "n_zero_modes": result.n_zero_modes, "n_overdamped": result.n_overdamped, "n_underdamped": underdamped,
+        "seconds": seconds, "window": "full", "dof": dm.size, "n_disks": int(dm.active.sum()),
+        **({"windows": checks["windows"], "max_backward_residual": checks["max_residual"],
+            "trace_error": checks["trace_error"], "trace2_error": checks["trace2_error"],
+            "solver_settings": json.dumps(checks["settings"])} if checks else {})})
+    if checkpoint is not None:
+        checkpoint.clear()
+    how = (f"{checks['windows']} windows, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}, "
+           f"backward error <= {checks['max_residual']:.1e}" if checks else "dense")
+    q = -result.lam.imag / (2 * result.lam.real) if underdamped else np.empty(0)
+    say(comm, f"damped modes rho = {unit.rho:g}, packing {unit.p_index}: {underdamped} underdamped (quality "
+              f"factor {np.nanmin(q, initial=np.inf):.3g} to {np.nanmax(q, initial=0.0):.3g}), "
+              f"{result.n_overdamped} overdamped roots, {result.n_zero_modes} zero, {how}, {seconds:.1f} s")
 
 
 def _warn_negative(comm, count: int) -> None:
@@ -397,7 +439,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     try:
         store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,
                           cache=cache_folder(scene))
-        if scene.spectrum is not None and scene.spectrum.method == "nonhermitian" and scene.packing.file is None:
+        if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS and scene.packing.file is None:
             _check_dense_size(scene, scene.packing.n, scene.packing.dim, "generated")  # before the packings
         with profiling.stage("packings"):
             packings = make_packings(scene, comm, store)
@@ -410,7 +452,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
                 excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
-        if scene.spectrum is not None and scene.spectrum.method == "nonhermitian":  # dense: refused before any solve
+        if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS:  # dense: refused before any solve
             for index, p in enumerate(packings):
                 _check_dense_size(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
         keys = unit_keys.scene_keys(scene, packings, petsc_argv)

@@ -173,7 +173,7 @@ class ModelSpec:
 
     damping: DampingSpec | None = _f(None, "contact dashpots (docs/damping.md); absent or null: none. Damped "
                                            "waves run by waves.method: exponential (exact) or a first-order "
-                                           "waves.integrator (rk, theta, ...); the damped spectrum is not built yet",
+                                           "waves.integrator (rk, theta, ...); damped modes by spectrum.method pep",
                                      None, ("optional", DampingSpec))
 
     restitution: float | None = _f(None, "normal coefficient of restitution e of a binary collision of two "
@@ -208,8 +208,8 @@ def _window(v):
     return None
 
 
-METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian")
-SOLVERS = ("auto", "dense", "windows")  # spectrum.solver (nonhermitian only): spectrum/nonhermitian.py
+METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian", "pep")
+SOLVERS = ("auto", "dense", "windows")  # spectrum.solver (nonhermitian, pep): spectrum/nonhermitian.py, pep.py
 
 
 @dataclass(frozen=True)
@@ -226,17 +226,20 @@ class SpectrumSpec:
                          float)
     max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
                                _range(10, 10**7), int)
-    method: str = _f("auto", "auto: counting when only counts are asked (no energies, no window), else "
-                             "slicing; slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
+    method: str = _f("auto", "auto: pep with model.damping, else counting when only counts are asked (no "
+                             "energies, no window), else slicing; slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
                                 "vDOS from Sylvester inertias at the bin edges (no eigenvalues: vDOS, omega_c, mode "
                                 "counts); kpm: stochastic vDOS (Chebyshev moments, no factorisation; vDOS, omega_c "
                                 "and, with energies, binned K and Q); nonhermitian: every eigenvalue omega^2 of a "
                                 "matrix that need not be symmetric (a stressed packing's), complex ones counted as "
-                                "unstable (no window; with energies: K, Q of the stable modes), by spectrum.solver",
+                                "unstable (no window; with energies: K, Q of the stable modes), by spectrum.solver; "
+                                "pep: every damped mode lambda = -sigma + i omega_d of (lambda^2 M + lambda C + D) x = 0 "
+                                "with model.damping (no window; with energies: K, Q of each), by spectrum.solver",
                      _one_of(METHODS), str)
-    solver: str = _f("auto", "nonhermitian only: dense (LAPACK on rank 0, up to 20000 DOF, time ~ DOF^3), windows "
-                             "(SLEPc shift-and-invert windows along the real axis, checked complete by the count and "
-                             "the trace moments; any size) or auto (dense up to 3000 DOF, windows above)",
+    solver: str = _f("auto", "nonhermitian and pep only: dense (LAPACK on rank 0, time ~ DOF^3: nonhermitian up to "
+                             "20000 DOF, auto up to 3000; pep on the 2 DOF first-order matrix, up to 8000, auto up to "
+                             "1500) or windows (SLEPc shift-and-invert windows, checked complete by the count and the "
+                             "trace moments; any size)",
                      _one_of(SOLVERS), str)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
@@ -477,10 +480,20 @@ def build(cls, raw, where: str = ""):
                 raise InputError(f"{key} = {raw[name]!r}: {problem}")
         values[name] = value
     obj = cls(**values)
-    if isinstance(obj, SpectrumSpec) and obj.method == "auto":  # the cheapest exact method for what is asked
-        obj = dataclasses.replace(obj, method="slicing" if obj.energies or obj.window else "counting")
+    if isinstance(obj, Scene) and obj.spectrum is not None and obj.spectrum.method == "auto":
+        obj = dataclasses.replace(obj, spectrum=dataclasses.replace(obj.spectrum, method=auto_method(obj)))
+        _cross_check(obj.spectrum, "spectrum.")
     _cross_check(obj, where)
     return obj
+
+
+def auto_method(scene: Scene) -> str:
+    """What ``spectrum.method: auto`` means for ``scene``: the cheapest exact method for what is
+    asked: pep for a damped model (the only one that takes dashpots), else counting when only
+    counts are asked (no energies, no window), else slicing."""
+    if scene.model.damped:
+        return "pep"
+    return "slicing" if scene.spectrum.energies or scene.spectrum.window else "counting"
 
 
 DEM_CONVENTIONS = {"liggghts-local": ("contact", "lammps"), "yade": ("contact", "yade")}
@@ -521,12 +534,13 @@ def _cross_check(obj, where):
         if obj.relax:
             raise InputError(f"{where}relax = true re-minimises the packings of packing.file; generated "
                              f"packings are minimised already: give packing.file or drop packing.relax")
-    if isinstance(obj, SpectrumSpec) and obj.method != "slicing" and obj.window:
+    if isinstance(obj, SpectrumSpec) and obj.method not in ("slicing", "auto") and obj.window:
         raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
                          f"'slicing'")
-    if isinstance(obj, SpectrumSpec) and obj.method != "nonhermitian" and obj.solver != "auto":
-        raise InputError(f"{where}solver = {obj.solver!r} chooses how method nonhermitian finds every eigenvalue; "
-                         f"method {obj.method!r} has no such choice: drop {where}solver or use method 'nonhermitian'")
+    if isinstance(obj, SpectrumSpec) and obj.method not in ("nonhermitian", "pep", "auto") and obj.solver != "auto":
+        raise InputError(f"{where}solver = {obj.solver!r} chooses how methods nonhermitian and pep find every "
+                         f"eigenvalue; method {obj.method!r} has no such choice: drop {where}solver or use method "
+                         f"'nonhermitian' (or 'pep' with model.damping)")
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")
@@ -557,6 +571,9 @@ def _cross_check(obj, where):
             f"single gamma_n gives it: give {where}damping.gamma_n"))
     if isinstance(obj, Scene) and obj.model.damped:
         check_damped(obj)
+    if isinstance(obj, Scene) and obj.spectrum is not None and obj.spectrum.method == "pep" and not obj.model.damped:
+        raise InputError("spectrum.method = 'pep': the damped modes need dashpots: give model.damping (gamma_n, "
+                         "gamma_t) or model.restitution; without them every mode is undamped: use method slicing")
     if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
 
@@ -591,7 +608,11 @@ def check_stressed(scene: Scene, which: str | None) -> None:
         if model.history != "yade" or not any(r > 0 for r in model.rho):
             return
         which = "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
-    if scene.spectrum is not None and scene.spectrum.method != "nonhermitian":
+    if scene.spectrum is not None and scene.spectrum.method == "pep" and scene.spectrum.solver != "dense":
+        raise InputError(f"spectrum.method = 'pep' with spectrum.solver = {scene.spectrum.solver!r}: {which}, so the "
+                         f"dynamical matrix is not symmetric and the windows' bounds on the damped modes do not hold: "
+                         f"give spectrum.solver: dense (up to 8000 DOF)")
+    if scene.spectrum is not None and scene.spectrum.method not in ("nonhermitian", "pep"):
         raise InputError(f"spectrum (method {scene.spectrum.method}): {which}, so the dynamical matrix is not "
                          f"symmetric (the DEM code's tangential update has no energy, docs/stressed_contacts.md); "
                          f"slicing, counting and kpm need a symmetric matrix and would give a wrong vDOS: use "
@@ -609,13 +630,13 @@ SECOND_ORDER = ("verlet", "alpha2")
 
 def check_damped(scene: Scene) -> None:
     """Raise InputError if a scene with contact dashpots (``model.damping``) asks for what cannot
-    take them yet (issue 29): any spectrum (the damped modes need SLEPc's PEP), spectral waves
+    take them: a spectrum method but pep (the others solve the undamped problem), spectral waves
     (Lanczos on the undamped matrix), or a second-order integrator (verlet, alpha2: their force has
     no velocity term). Not collective."""
-    if scene.spectrum is not None:
-        raise InputError(f"spectrum (method {scene.spectrum.method}) with model.damping: the damped modes "
-                         f"(lambda^2 M + lambda C + D) need a quadratic eigensolver, not built yet; the undamped "
-                         f"vDOS of the same packing: drop model.damping from this scene")
+    if scene.spectrum is not None and scene.spectrum.method != "pep":
+        raise InputError(f"spectrum.method = {scene.spectrum.method!r} with model.damping: it solves the undamped "
+                         f"problem; the damped modes (lambda^2 M + lambda C + D) x = 0 need spectrum.method: pep "
+                         f"(or auto); the undamped vDOS of the same packing: drop model.damping from this scene")
     if scene.waves is not None and scene.waves.method == "spectral":
         raise InputError("waves.method = 'spectral' with model.damping: Lanczos needs the undamped symmetric "
                          "matrix; use waves.method: exponential (exact) or ts with a first-order integrator")

@@ -99,7 +99,8 @@ def pooled_vdos(spectra: list[tuple[dict, dict]], bin_width: float
     """vDOS and omega_c of one rho from its configurations' spectrum units (datasets, attrs).
 
     Slicing units (dataset ``omega``): the histogram of the pooled modes (:func:`vdos`) and
-    :func:`cutoff`.  KPM units (datasets ``edges``, ``density``; attribute ``omega_max``): all
+    :func:`cutoff`; pep units (dataset ``lambda``) likewise with the underdamped modes' damped
+    frequencies Im lambda (the damped vDOS; overdamped modes have none).  KPM units (datasets ``edges``, ``density``; attribute ``omega_max``): all
     share the bins [0, w), [w, 2w), ... and differ only in how far they reach, so their densities
     are averaged on the longest grid (zero beyond a shorter one's top; unit area kept), and omega_c
     is the mean of the omega_max.  Returns (edges (B+1,), density (B,), omega_c, its std over
@@ -108,6 +109,9 @@ def pooled_vdos(spectra: list[tuple[dict, dict]], bin_width: float
     """
     if "omega" in spectra[0][0]:
         omegas = [datasets["omega"] for datasets, _ in spectra]
+        return (*vdos(omegas, bin_width), *cutoff(omegas))
+    if "lambda" in spectra[0][0]:  # damped modes (pep): the damped frequencies omega_d = Im lambda > 0
+        omegas = [datasets["lambda"].imag[datasets["lambda"].imag > 0] for datasets, _ in spectra]
         return (*vdos(omegas, bin_width), *cutoff(omegas))
     edges = max((datasets["edges"] for datasets, _ in spectra), key=len)
     density = np.zeros(edges.size - 1)

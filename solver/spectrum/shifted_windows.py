@@ -183,6 +183,61 @@ def _cut(real: np.ndarray, sigma: float, half: float) -> float:
     return float(points[widest] + points[widest + 1]) / 2
 
 
+def march(solve_window, box: dict, n: int, *, option: str, checkpoint=None, progress=None,
+          resumed=None) -> list[dict]:
+    """The march of the module docstring (items 1 and 3) over a spectrum of ``n`` eigenvalues in
+    Bendixson's ``box`` (lower, upper: bounds on every Re value; imag: on every |Im value|),
+    shared by every windowed solver.  ``solve_window(sigma)`` returns the window at a real shift:
+    a dict with ``values`` (complex, what the march partitions by real part), ``radius`` (of the
+    disk of the nev nearest, inf when they are all), ``residual`` (largest), ``sigma`` (the shift
+    it used), optionally ``half`` (the half-width of the range it covers, when the window knows
+    it better than the disk with y = min(imag, radius/2) does), ``aligned`` (a dict of arrays
+    aligned with ``values``, kept with them) and ``extra`` (a dict kept as it is).  ``option`` names what a failing window should raise (``-nonhermitian_eps_nev``).
+    Returns the windows (dicts: ``lam`` the accepted values, the aligned arrays and numbers,
+    residual, x_next, h, sigma), checkpointed as they finish (``checkpoint``: ``load``/``save`` of
+    dicts) and resumed from it (``resumed(part)`` is called for each window read back).
+    Collective as ``solve_window``; ``progress(windows_done, accepted, n)`` on every rank after
+    each window."""
+    parts = []
+    x, h = box["lower"], 0.0
+    while checkpoint and (part := checkpoint.load(f"window{len(parts):04d}")) is not None:
+        parts.append(part)
+        x, h = float(part["x_next"]), float(part["h"])
+        if resumed is not None:
+            resumed(part)
+    accepted = sum(p["lam"].size for p in parts)
+    while accepted < n and x <= box["upper"]:
+        sigma = x + STEP * h if parts else x - FIRST_OFFSET * (box["upper"] - x)
+        for _ in range(RETRIES):
+            window = solve_window(sigma)
+            sigma, radius = window["sigma"], window["radius"]
+            y = min(box["imag"], radius / 2)
+            half = window["half"] if "half" in window else math.sqrt(radius**2 - y**2)
+            if half <= 0.0:
+                raise RuntimeError(f"windows: the eigenvalues nearest {sigma:.6g} are all at it; raise {option}")
+            if sigma - half <= x:
+                break
+            sigma = x + STEP * half  # the disk misses [x, sigma - half): closer to x
+        else:
+            raise RuntimeError(f"windows: no shift near {x:.6g} gives a disk reaching back to it in "
+                               f"{RETRIES} tries; raise {option}")
+        values = window["values"]
+        cut = _cut(values.real, sigma, half)
+        keep = (values.real >= x) & (values.real < cut)
+        part = {"lam": values[keep], "residual": np.float64(window["residual"]),
+                "x_next": np.float64(cut), "h": np.float64(half), "sigma": np.float64(sigma)}
+        part.update({k: v[keep] for k, v in window.get("aligned", {}).items()})
+        part.update(window.get("extra", {}))
+        if checkpoint:
+            checkpoint.save(f"window{len(parts):04d}", part)
+        parts.append(part)
+        accepted += int(keep.sum())
+        x, h = cut, half
+        if progress is not None:
+            progress(len(parts), accepted, n)
+    return parts
+
+
 def solve(dm, *, zero_tol: float, vectors: bool, tol: float = 1e-12, progress=None,
           checkpoint=None) -> tuple[np.ndarray, np.ndarray | None, dict]:
     """Every eigenvalue of A = M^-1/2 D M^-1/2 of ``dm`` (a
@@ -198,7 +253,14 @@ def solve(dm, *, zero_tol: float, vectors: bool, tol: float = 1e-12, progress=No
     comm = dm.D.getComm()
     A = scaled_operator(dm)
     n = A.getSize()[0]
-    parts = []
+    used = {}
+
+    def window(sigma):
+        lam, radius, residual, sums, settings = _solve_window(A, sigma, tol, vectors, dm.dof, dm.dim)
+        used.update(settings)
+        return {"values": lam, "radius": radius, "residual": residual.max(initial=0.0), "sigma": sigma,
+                "aligned": {"sums": sums} if vectors else {}}
+
     try:
         box = checkpoint.load("plan") if checkpoint else None
         if box is None:
@@ -206,40 +268,7 @@ def solve(dm, *, zero_tol: float, vectors: bool, tol: float = 1e-12, progress=No
             if checkpoint:
                 checkpoint.save("plan", box)
         box = {k: (v if k == "inertia" else float(v)) for k, v in box.items()}
-        x, h = box["lower"], 0.0
-        while checkpoint and (part := checkpoint.load(f"window{len(parts):04d}")) is not None:
-            parts.append(part)
-            x, h = float(part["x_next"]), float(part["h"])
-        accepted = sum(p["lam"].size for p in parts)
-        used = {}
-        while accepted < n and x <= box["upper"]:
-            sigma = x + STEP * h if parts else x - FIRST_OFFSET * (box["upper"] - x)
-            for _ in range(RETRIES):
-                lam, radius, residual, sums, used = _solve_window(A, sigma, tol, vectors, dm.dof, dm.dim)
-                y = min(box["imag"], radius / 2)
-                half = math.sqrt(radius**2 - y**2)
-                if half <= 0.0:
-                    raise RuntimeError(f"nonhermitian windows: the {used['nev']} eigenvalues nearest {sigma:.6g} "
-                                       f"are all at it; raise -nonhermitian_eps_nev")
-                if sigma - half <= x:
-                    break
-                sigma = x + STEP * half  # the disk misses [x, sigma - half): closer to x
-            else:
-                raise RuntimeError(f"nonhermitian windows: no shift near {x:.6g} gives a disk reaching "
-                                   f"back to it in {RETRIES} tries; raise -nonhermitian_eps_nev")
-            cut = _cut(lam.real, sigma, half)
-            keep = (lam.real >= x) & (lam.real < cut)
-            part = {"lam": lam[keep], "residual": np.float64(residual[keep].max(initial=0.0)),
-                    "x_next": np.float64(cut), "h": np.float64(half), "sigma": np.float64(sigma)}
-            if vectors:
-                part["sums"] = sums[keep]
-            if checkpoint:
-                checkpoint.save(f"window{len(parts):04d}", part)
-            parts.append(part)
-            accepted += int(keep.sum())
-            x, h = cut, half
-            if progress is not None:
-                progress(len(parts), accepted, n)
+        parts = march(window, box, n, option="-nonhermitian_eps_nev", checkpoint=checkpoint, progress=progress)
     finally:
         A.destroy()
     lam = np.concatenate([p["lam"] for p in parts]) if parts else np.empty(0, complex)

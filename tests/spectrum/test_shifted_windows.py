@@ -201,7 +201,7 @@ def test_a_killed_solve_resumes_from_its_windows(comm, small_windows):
 def test_the_scene_key_and_its_rule(shared_tmp):
     """spectrum.solver is read by method nonhermitian only; another method with it is refused,
     naming the key; a scene with solver windows records what it did."""
-    with pytest.raises(InputError, match="spectrum.solver = 'windows' chooses how method nonhermitian"):
+    with pytest.raises(InputError, match="spectrum.solver = 'windows' chooses how methods nonhermitian and pep"):
         scene_of(shared_tmp / "bad.h5", cache="off", packing={"n": 32, "phi": 0.9},
                  spectrum={"method": "counting", "solver": "windows"})
     scene = scene_of(shared_tmp / "windows.h5", cache="off", packing={"n": 32, "phi": 0.9}, model={"rho": 0.5},

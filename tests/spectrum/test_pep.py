@@ -1,0 +1,191 @@
+"""``spectrum.method: pep`` (solver/spectrum/pep.py, quadratic_windows.py): every damped mode of
+(lambda^2 M + lambda C + D) x = 0.  The windows against the dense first-order solve (a thin band of
+damping rates, and a wide one with overdamped modes; 2D and 3D; 1 and 2 ranks), both against the
+two exact cases C = beta D (every mode on the circle |lambda + 1/beta| = 1/beta) and C = gamma M
+(every rate gamma/2) built from slicing's undamped frequencies, the classification's count, and
+a scene's datasets, vDOS and resume."""
+
+import numpy as np
+import pytest
+from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
+
+from solver import pipeline
+from solver.contact_law import ContactModel
+from solver.errors import Interrupted
+from solver.model import damping, dynmat
+from solver.spectrum import pep, quadratic_windows, slicing
+
+ZERO_TOL = 1e-4
+
+
+def _damped(comm, n, phi, seed, gamma_t, dim=2):
+    p = jammed_packing(n, phi, seed, dim)
+    dm = dynmat.assemble(p, ContactModel(0.5, gamma_n=0.3, gamma_t=gamma_t), comm)
+    dm.C = damping.assemble(p, dm)
+    return dm
+
+
+def _nearest(found: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """|lambda - nearest reference| / |lambda| for each found lambda."""
+    return np.abs(found[:, None] - reference[None, :]).min(axis=1) / np.maximum(np.abs(found), 1e-300)
+
+
+def _assert_same_spectrum(a: pep.Result, b: pep.Result, rtol: float, what: str) -> None:
+    assert_all(a.lam.size == b.lam.size and a.n_zero_modes == b.n_zero_modes and a.n_overdamped == b.n_overdamped,
+               f"{what}: counts {a.lam.size}/{a.n_zero_modes}/{a.n_overdamped} vs "
+               f"{b.lam.size}/{b.n_zero_modes}/{b.n_overdamped}")
+    error = max(_nearest(a.lam, b.lam).max(), _nearest(b.lam, a.lam).max())
+    assert_all(error <= rtol, f"{what}: eigenvalues differ by {error:.2e} (relative), allowed {rtol:g}")
+
+
+@pytest.mark.parametrize("gamma_t, dim", [(0.15, 2), (0.9, 2), (0.15, 3)])
+def test_windows_equal_the_dense_first_order_solve(comm, monkeypatch, gamma_t, dim):
+    """gamma_t = 0.15 puts the rates on a thin band sigma(omega) (C close to 0.15 D), 0.9 spreads
+    them from 0.01 to 2.3 at one frequency, with overdamped roots: one disk per column, then many.
+    Windows of 40 eigenvalues, so that the march crosses many; every lambda to 1e-8 relative,
+    the energies of each mode to 1e-8 (from eigenvectors of two different solvers)."""
+    monkeypatch.setattr(quadratic_windows, "NEV", 40)
+    dm = _damped(comm, 64 if dim == 2 else 48, 0.86 if dim == 2 else 0.7, 3, gamma_t, dim)
+    dense = pep.solve(dm, ZERO_TOL, vectors=True, solver="dense")
+    windows = pep.solve(dm, ZERO_TOL, vectors=True, solver="windows")
+    dm.destroy()
+    _assert_same_spectrum(windows, dense, 1e-8, "windows vs dense")
+    checks = windows.checks
+    assert_all(checks["windows"] > 3 and checks["max_residual"] < 1e-9, f"{checks['windows']} windows, "
+               f"backward error {checks['max_residual']:.1e}")
+    assert_all(checks["trace_error"] < 1e-10 and checks["trace2_error"] < 1e-10)
+    if gamma_t == 0.9:
+        assert_all(dense.n_overdamped > 0, "the wide band has overdamped roots")
+    # the same modes in the same order (sorted by Im, then Re): their energies
+    assert_close(windows.energies["K"], dense.energies["K"], rtol=1e-8, atol=1e-12, what="K per mode")
+    assert_close(windows.energies["Q"], dense.energies["Q"], rtol=1e-8, atol=1e-12, what="Q per mode")
+
+
+def test_the_count_adds_up_to_2n(comm):
+    """n_zero + 2 (complex kept) + (real kept) = 2n: no root lost or doubled by the classification."""
+    dm = _damped(comm, 64, 0.86, 3, 0.9)
+    result = pep.solve(dm, ZERO_TOL, solver="dense")
+    size = dm.size
+    dm.destroy()
+    complex_ = int((result.lam.imag > 0).sum())
+    assert_all(result.n_zero_modes + 2 * complex_ + result.n_overdamped == 2 * size)
+    assert_all(np.all(result.lam.real <= 1e-12), "a root with Re lambda > 0 (C and D are positive semi-definite)")
+
+
+def _exact_case(comm, kind: str, solver: str):
+    """(result, undamped omega by slicing, coefficient) for C = beta D or C = gamma M."""
+    from petsc4py import PETSc
+
+    p = jammed_packing(64, 0.86, 5)
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    omega = slicing.solve(dm, window=None, vectors=False, tol=1e-12, zero_tol=ZERO_TOL).omega
+    coefficient = 0.4 if kind == "beta_D" else 1.2
+    if kind == "beta_D":
+        dm.C = dm.D.copy()
+        dm.C.scale(coefficient)
+    else:
+        dm.C = PETSc.Mat().createAIJ(dm.D.getSizes(), nnz=1, comm=dm.D.getComm())
+        dm.C.setDiagonal(dm.M)
+        dm.C.assemble()
+        dm.C.scale(coefficient)
+    result = pep.solve(dm, ZERO_TOL, solver=solver)
+    dm.destroy()
+    return result, omega, coefficient
+
+
+@pytest.mark.parametrize("solver", ["dense", "windows"])
+def test_c_proportional_to_d_puts_every_mode_on_the_circle(comm, monkeypatch, solver):
+    """C = beta D: lambda^2 + beta omega^2 lambda + omega^2 = 0 for each undamped omega; complex
+    roots on |lambda + 1/beta| = 1/beta, modes above omega = 2/beta overdamped (beta = 0.4: from
+    omega = 5, none here, so every root is complex) and each lambda the exact root of slicing's
+    omega to 1e-9 relative."""
+    monkeypatch.setattr(quadratic_windows, "NEV", 40)
+    result, omega, beta = _exact_case(comm, "beta_D", solver)
+    circle = np.abs(np.abs(result.lam + 1 / beta) - 1 / beta)
+    assert_all(circle.max() < 1e-10 / beta, f"off the circle by {circle.max():.1e}")
+    exact = (-beta * omega**2 + np.sqrt((beta**2 * omega**4 - 4 * omega**2).astype(complex))) / 2
+    exact = np.where(exact.imag < 0, exact.conj(), exact)
+    assert_all(result.lam.size == exact.size, f"{result.lam.size} roots kept, {exact.size} undamped modes")
+    error = max(_nearest(result.lam, exact).max(), _nearest(exact, result.lam).max())
+    assert_all(error < 1e-9, f"roots differ from the exact ones by {error:.1e}")
+
+
+@pytest.mark.parametrize("solver", ["dense", "windows"])
+def test_c_proportional_to_m_damps_every_mode_at_gamma_over_2(comm, monkeypatch, solver):
+    """C = gamma M: lambda = -gamma/2 +- i sqrt(omega^2 - gamma^2/4) (gamma = 1.2: the lowest
+    undamped omega < gamma/2 give overdamped pairs -gamma/2 +- sqrt(gamma^2/4 - omega^2));
+    the rigid modes' pairs are 0 and -gamma."""
+    monkeypatch.setattr(quadratic_windows, "NEV", 40)
+    result, omega, gamma = _exact_case(comm, "gamma_M", solver)
+    under = omega > gamma / 2
+    exact = np.concatenate((-gamma / 2 + 1j * np.sqrt(omega[under] ** 2 - gamma**2 / 4),
+                            -gamma / 2 + np.sqrt(gamma**2 / 4 - omega[~under] ** 2) + 0j,
+                            -gamma / 2 - np.sqrt(gamma**2 / 4 - omega[~under] ** 2) + 0j,
+                            np.full(result.n_zero_modes, -gamma + 0j)))  # a rigid mode's roots: 0 and -gamma
+    assert_all(np.sum(~under) > 0, "no overdamped mode: lower the packing's phi or raise gamma")
+    complex_ = result.lam[result.lam.imag > 0]
+    assert_close(complex_.real, np.full(complex_.size, -gamma / 2), rtol=0.0, atol=1e-10, what="Re lambda")
+    assert_all(result.lam.size == exact.size, f"{result.lam.size} roots kept, {exact.size} exact")
+    error = max(_nearest(result.lam, exact).max(), _nearest(exact, result.lam).max())
+    assert_all(error < 1e-9, f"roots differ from the exact ones by {error:.1e}")
+
+
+@pytest.mark.mpi
+def test_windows_do_not_depend_on_the_rank_count(comm, monkeypatch):
+    """The same damped spectrum on 2 ranks as on 1 (rank 0 alone, on COMM_SELF), to 1e-10."""
+    from petsc4py import PETSc
+
+    monkeypatch.setattr(quadratic_windows, "NEV", 40)
+    both = pep.solve(_damped(comm, 64, 0.86, 3, 0.15), ZERO_TOL, solver="windows")
+    alone = None
+    if COMM.rank == 0:
+        alone = pep.solve(_damped(PETSc.COMM_SELF, 64, 0.86, 3, 0.15), ZERO_TOL, solver="windows")
+    alone = COMM.bcast(alone, root=0)
+    _assert_same_spectrum(both, alone, 1e-10, "2 ranks vs 1")
+
+
+def test_a_damped_scene_stores_lambda_and_its_vdos(shared_tmp):
+    """spectrum: {} with model.damping chooses pep; the spectrum groups hold every kept lambda
+    (Im >= 0), the counts, and the vDOS is that of the damped frequencies."""
+    scene = scene_of(shared_tmp / "damped.h5", cache="off", packing={"n": 32, "phi": 0.9, "count": 1},
+                     model={"rho": [0.5], "damping": {"gamma_n": 0.3, "gamma_t": 0.15}}, spectrum={"energies": True})
+    assert scene.spectrum.method == "pep"
+    units = pipeline.run(scene, COMM, [])["units"]
+    datasets, attrs = units["spectra/r00_p0000"]
+    lam = datasets["lambda"]
+    assert_all(attrs["method"] == "pep" and lam.dtype == np.complex128 and np.all(lam.imag >= 0))
+    assert_all(attrs["n_zero_modes"] + 2 * attrs["n_underdamped"] + attrs["n_overdamped"] == 2 * attrs["dof"])
+    assert_all(datasets["K"].size == lam.size)
+    edges, density = units["vdos/r00"][0]["edges"], units["vdos/r00"][0]["density"]
+    counts, _ = np.histogram(lam.imag[lam.imag > 0], bins=edges)
+    assert_close(density, counts / (counts.sum() * np.diff(edges)), rtol=1e-12, atol=0.0, what="damped vDOS")
+
+
+def test_windows_resume_after_a_stop(shared_tmp, monkeypatch):
+    """A pep spectrum stopped after 2 windows resumes from them: the windows are not solved again
+    and the result equals an uninterrupted run's."""
+    monkeypatch.setattr(quadratic_windows, "NEV", 40)
+    scene = scene_of(shared_tmp / "resume.h5", cache="off", packing={"n": 64, "phi": 0.86, "count": 1},
+                     model={"rho": [0.5], "damping": {"gamma_n": 0.3, "gamma_t": 0.15}}, spectrum={"solver": "windows"})
+    column, calls = quadratic_windows._column, []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            pipeline._TERMINATE[0] = True  # as the SIGTERM handler would
+        return column(*args, **kwargs)
+
+    monkeypatch.setattr(quadratic_windows, "_column", counted)
+    try:
+        with pytest.raises(Interrupted):
+            pipeline.run(scene, COMM, [])
+    finally:
+        pipeline._TERMINATE[0] = False
+    resumed = pipeline.run(scene, COMM, [])["units"]["spectra/r00_p0000"]
+    interrupted_and_resumed = len(calls)
+    fresh = pipeline.run(scene, COMM, [], fresh=True)["units"]["spectra/r00_p0000"]
+    assert_all(interrupted_and_resumed == len(calls) - interrupted_and_resumed,
+               f"{interrupted_and_resumed} columns solved with the stop, {len(calls) - interrupted_and_resumed} "
+               f"without: the resumed run solved finished windows again")
+    assert_all(resumed[1]["windows"] > 2)
+    assert_close(resumed[0]["lambda"], fresh[0]["lambda"], rtol=1e-13, atol=1e-13, what="resumed vs fresh")
