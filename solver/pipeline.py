@@ -321,14 +321,14 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
         check_interrupt(comm)
 
     result = pep.solve(dm, spec.zero_tol, vectors=spec.energies, solver=spec.solver, tol=spec.tol,
-                       progress=progress, checkpoint=checkpoint)
+                       window=tuple(spec.window) if spec.window else None, progress=progress, checkpoint=checkpoint)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     checks = result.checks or {}
     underdamped = int((result.lam.imag > 0).sum())
     commit(unit, {"lambda": result.lam, **(result.energies or {})}, {
         "rho": unit.rho, "packing": unit.p_index, "method": "pep", "solver": result.solver,
         "n_zero_modes": result.n_zero_modes, "n_overdamped": result.n_overdamped, "n_underdamped": underdamped,
-        "seconds": seconds, "window": "full", "dof": dm.size, "n_disks": int(dm.active.sum()),
+        "seconds": seconds, "window": window_label(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum()),
         **({"windows": checks["windows"], "max_backward_residual": checks["max_residual"],
             "trace_error": checks["trace_error"], "trace2_error": checks["trace2_error"],
             "solver_settings": json.dumps(checks["settings"])} if checks else {})})
@@ -336,6 +336,8 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
         checkpoint.clear()
     how = (f"{checks['windows']} windows, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}, "
            f"backward error <= {checks['max_residual']:.1e}" if checks else "dense")
+    if spec.window:
+        how += f", window omega_d in [{spec.window[0]:g}, {spec.window[1]:g})"
     q = -result.lam.imag / (2 * result.lam.real) if underdamped else np.empty(0)
     say(comm, f"damped modes rho = {unit.rho:g}, packing {unit.p_index}: {underdamped} underdamped (quality "
               f"factor {np.nanmin(q, initial=np.inf):.3g} to {np.nanmax(q, initial=0.0):.3g}), "

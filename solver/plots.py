@@ -399,4 +399,11 @@ def plot_results(path: str) -> list[str]:
         written += plot_transition(fits, lattice_fit, waves, f"{stem}_transition")
         written += plot_bands(lattice_fit, results.bands(f), f"{stem}_bands")
         written += plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
+        damped = results.damped_modes(f)
+    if damped:
+        from . import plots_damped  # its figures import this module's _save
+
+        written += plots_damped.plot_damped_modes(damped, f"{stem}_damped_modes")
+        written += plots_damped.plot_damped_vdos(damped, float(np.diff(vdos[next(iter(vdos))].edges[:2])[0]),
+                                                 f"{stem}_damped_vdos")
     return written

@@ -41,6 +41,15 @@ class BinnedEnergies(NamedTuple):
     Q: np.ndarray           # (C, B)
 
 
+class DampedModes(NamedTuple):
+    """Damped modes of one rho (``spectra/`` groups of method pep), every configuration pooled."""
+
+    lam: np.ndarray         # (M,) complex 1/t0: -sigma + i omega_d, Im >= 0 (module pep)
+    K: np.ndarray | None    # (M,) per mode, with spectrum.energies
+    Q: np.ndarray | None
+    dof: int                # of the first configuration
+
+
 class Waves(NamedTuple):
     """Sampled Fourier components of one (rho, mode), the runs of every configuration pooled."""
 
@@ -134,11 +143,27 @@ def mode_energies(f) -> dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]]:
             for rho, groups in per_rho.items()}
 
 
+def damped_modes(f) -> dict[float, DampedModes]:
+    """{rho: DampedModes} of the spectra groups holding ``lambda`` (spectrum.method pep)."""
+    per_rho: dict[float, list] = {}
+    for g in _groups(f, "spectra"):
+        if "lambda" in g:
+            per_rho.setdefault(float(g.attrs["rho"]), []).append(g)
+    out = {}
+    for rho, groups in per_rho.items():
+        energies = all("K" in g for g in groups)
+        out[rho] = DampedModes(np.concatenate([g["lambda"][()] for g in groups]),
+                               np.concatenate([g["K"][()] for g in groups]) if energies else None,
+                               np.concatenate([g["Q"][()] for g in groups]) if energies else None,
+                               int(groups[0].attrs["dof"]))
+    return out
+
+
 def binned_energies(f) -> dict[float, BinnedEnergies]:
     """{rho: BinnedEnergies} of KPM spectra with energies (bin averages, no per-mode data)."""
     per_rho: dict[float, list] = {}
     for g in _groups(f, "spectra"):
-        if "K" in g and "omega" not in g:
+        if "K" in g and "edges" in g:  # kpm: per-mode spectra (slicing, pep) have no bins
             per_rho.setdefault(float(g.attrs["rho"]), []).append(g)
     out = {}
     for rho, groups in per_rho.items():

@@ -234,7 +234,8 @@ class SpectrumSpec:
                                 "matrix that need not be symmetric (a stressed packing's), complex ones counted as "
                                 "unstable (no window; with energies: K, Q of the stable modes), by spectrum.solver; "
                                 "pep: every damped mode lambda = -sigma + i omega_d of (lambda^2 M + lambda C + D) x = 0 "
-                                "with model.damping (no window; with energies: K, Q of each), by spectrum.solver",
+                                "with model.damping (window: omega_d in [lo, hi); with energies: K, Q of each), by "
+                                "spectrum.solver",
                      _one_of(METHODS), str)
     solver: str = _f("auto", "nonhermitian and pep only: dense (LAPACK on rank 0, time ~ DOF^3: nonhermitian up to "
                              "20000 DOF, auto up to 3000; pep on the 2 DOF first-order matrix, up to 8000, auto up to "
@@ -534,9 +535,9 @@ def _cross_check(obj, where):
         if obj.relax:
             raise InputError(f"{where}relax = true re-minimises the packings of packing.file; generated "
                              f"packings are minimised already: give packing.file or drop packing.relax")
-    if isinstance(obj, SpectrumSpec) and obj.method not in ("slicing", "auto") and obj.window:
+    if isinstance(obj, SpectrumSpec) and obj.method not in ("slicing", "pep", "auto") and obj.window:
         raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
-                         f"'slicing'")
+                         f"'slicing' (or 'pep', whose window is in the damped frequency)")
     if isinstance(obj, SpectrumSpec) and obj.method not in ("nonhermitian", "pep", "auto") and obj.solver != "auto":
         raise InputError(f"{where}solver = {obj.solver!r} chooses how methods nonhermitian and pep find every "
                          f"eigenvalue; method {obj.method!r} has no such choice: drop {where}solver or use method "

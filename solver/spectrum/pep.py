@@ -53,11 +53,12 @@ def chosen_solver(solver: str, size: int) -> str:  # solver: one of schema.SOLVE
 
 
 def solve(dm, zero_tol: float, vectors: bool = False, solver: str = "auto", tol: float = 1e-12,
-          progress=None, checkpoint=None) -> Result:
+          window: tuple[float, float] | None = None, progress=None, checkpoint=None) -> Result:
     """The damped modes of ``dm`` (a :class:`~solver.model.dynmat.DynamicalMatrix` with ``dm.C``),
     classified (module docstring); with ``vectors`` also the K, Q and participation of each kept
-    mode.  ``solver``: dense, windows or auto; ``tol``, ``progress`` and ``checkpoint`` are the
-    windows'.  Collective: dense solves on rank 0 (``parallel.owner_compute``).  ValueError for
+    mode.  ``window`` = (lo, hi): only the modes with Im lambda in [lo, hi) (and the real ones
+    when lo = 0; the counts then of those only).  ``solver``: dense, windows or auto; ``tol``,
+    ``progress`` and ``checkpoint`` are the windows'.  Collective: dense solves on rank 0 (``parallel.owner_compute``).  ValueError for
     dense above MAX_DOF or windows on a non-symmetric D."""
     from .. import parallel
     from ..model import dynmat
@@ -68,13 +69,14 @@ def solve(dm, zero_tol: float, vectors: bool = False, solver: str = "auto", tol:
         if not dm.symmetric:
             raise ValueError("spectrum.method pep with solver windows needs a symmetric D; a stressed "
                              "packing's damped modes: spectrum.solver dense")
-        lam, sums, checks = quadratic_windows.solve(dm, zero_tol=zero_tol, tol=tol, progress=progress, checkpoint=checkpoint)
-        return _classify(lam, sums if vectors else None, zero_tol, particles, dm.dim, "windows", checks)
+        lam, sums, checks = quadratic_windows.solve(dm, zero_tol=zero_tol, tol=tol, window=window, progress=progress,
+                                                    checkpoint=checkpoint)
+        return _classify(lam, sums if vectors else None, zero_tol, particles, dm.dim, "windows", checks, window)
     if dm.size > MAX_DOF:
         raise ValueError(f"spectrum.method pep: {dm.size} DOF > {MAX_DOF}, the dense solver's limit")
     task = (dynmat.gather_csr(dm.D), dynmat.gather_csr(dm.C), dynmat.gather_vec(dm.M), vectors, dm.dof, dm.dim)
     lam, sums = parallel.owner_compute(dm.D.getComm().tompi4py(), [task], _dense_solve)[0]
-    return _classify(lam, sums, zero_tol, particles, dm.dim, "dense", None)
+    return _classify(lam, sums, zero_tol, particles, dm.dim, "dense", None, window)
 
 
 def first_order_dense(d, c, mass) -> np.ndarray:
@@ -107,12 +109,15 @@ def _dense_solve(task) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def _classify(lam: np.ndarray, sums: np.ndarray | None, zero_tol: float, particles: int, dim: int,
-              solver: str, checks: dict | None) -> Result:
-    """Keep, sort and count the 2n eigenvalues ``lam`` (module docstring); the kept modes'
-    energies from their rows of ``sums``.  RuntimeError when the complex ones are not in pairs.
-    Not collective."""
+              solver: str, checks: dict | None, window: tuple[float, float] | None = None) -> Result:
+    """Keep, sort and count the eigenvalues ``lam`` (module docstring; within ``window`` only);
+    the kept modes' energies from their rows of ``sums``.  RuntimeError when the complex ones are
+    not in pairs.  Not collective."""
     from . import modes
 
+    if window is not None:
+        inside = (np.abs(lam.imag) >= window[0]) & (np.abs(lam.imag) < window[1])
+        lam, sums = lam[inside], None if sums is None else sums[inside]
     zero = np.abs(lam) < zero_tol
     real = ~zero & (np.abs(lam.imag) <= IMAG_TOL * np.abs(lam).max(initial=0.0))
     upper = ~zero & ~real & (lam.imag > 0)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
 
-from solver import pipeline
+from solver import pipeline, plots
 from solver.contact_law import ContactModel
 from solver.errors import Interrupted
 from solver.model import damping, dynmat
@@ -146,7 +146,8 @@ def test_windows_do_not_depend_on_the_rank_count(comm, monkeypatch):
 
 def test_a_damped_scene_stores_lambda_and_its_vdos(shared_tmp):
     """spectrum: {} with model.damping chooses pep; the spectrum groups hold every kept lambda
-    (Im >= 0), the counts, and the vDOS is that of the damped frequencies."""
+    (Im >= 0), the counts, and the vDOS is that of the damped frequencies; rotsound plot draws
+    the damped figures."""
     scene = scene_of(shared_tmp / "damped.h5", cache="off", packing={"n": 32, "phi": 0.9, "count": 1},
                      model={"rho": [0.5], "damping": {"gamma_n": 0.3, "gamma_t": 0.15}}, spectrum={"energies": True})
     assert scene.spectrum.method == "pep"
@@ -159,6 +160,9 @@ def test_a_damped_scene_stores_lambda_and_its_vdos(shared_tmp):
     edges, density = units["vdos/r00"][0]["edges"], units["vdos/r00"][0]["density"]
     counts, _ = np.histogram(lam.imag[lam.imag > 0], bins=edges)
     assert_close(density, counts / (counts.sum() * np.diff(edges)), rtol=1e-12, atol=0.0, what="damped vDOS")
+    written = COMM.bcast(plots.plot_results(str(scene.output)) if COMM.rank == 0 else None, root=0)
+    assert_all(any(path.endswith("_damped_modes.png") for path in written)
+               and any(path.endswith("_damped_vdos.png") for path in written), written)
 
 
 def test_windows_resume_after_a_stop(shared_tmp, monkeypatch):
@@ -189,3 +193,20 @@ def test_windows_resume_after_a_stop(shared_tmp, monkeypatch):
                f"without: the resumed run solved finished windows again")
     assert_all(resumed[1]["windows"] > 2)
     assert_close(resumed[0]["lambda"], fresh[0]["lambda"], rtol=1e-13, atol=1e-13, what="resumed vs fresh")
+
+
+@pytest.mark.parametrize("window", [(0.8, 1.6), (0.0, 0.7)])
+def test_a_frequency_window_holds_exactly_the_dense_modes_in_it(comm, monkeypatch, window):
+    """spectrum.window for pep: the columns from lo to hi alone (no count or trace check) find
+    every mode dense finds with omega_d in [lo, hi), to 1e-8, on the wide band (gamma_t = 0.9);
+    from lo = 0 the real (overdamped) roots and the zeros too."""
+    monkeypatch.setattr(quadratic_windows, "NEV", 40)
+    dm = _damped(comm, 64, 0.86, 3, 0.9)
+    dense = pep.solve(dm, ZERO_TOL, solver="dense", window=window)
+    windows = pep.solve(dm, ZERO_TOL, solver="windows", window=window)
+    everything = pep.solve(dm, ZERO_TOL, solver="dense")
+    dm.destroy()
+    inside = (everything.lam.imag >= window[0]) & (everything.lam.imag < window[1])
+    assert_all(dense.lam.size == inside.sum() > 10, f"{dense.lam.size} modes in the window, {inside.sum()} expected")
+    _assert_same_spectrum(windows, dense, 1e-8, f"window {window}")
+    assert_all((window[0] > 0) == (dense.n_overdamped == 0), "overdamped roots belong to a window from 0 only")
