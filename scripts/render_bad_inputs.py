@@ -1,10 +1,13 @@
 """Render the bad-input catalogue (tests/io/bad_inputs.py) into README.md with the real messages.
 
     .venv/bin/python scripts/render_bad_inputs.py
-Runs every case once (1 process) and replaces the text between the README markers
-<!-- bad-inputs --> and <!-- /bad-inputs -->.
+Runs every case once, in this process (``solver.__main__.main``, as tests/io/test_bad_inputs.py
+does), and replaces the text between the README markers <!-- bad-inputs --> and <!-- /bad-inputs -->.
 """
 
+import contextlib
+import io
+import os
 import re
 import sys
 import tempfile
@@ -15,8 +18,10 @@ sys.path.insert(0, str(REPO / "tests"))
 sys.path.insert(0, str(REPO / "tests" / "io"))
 
 from bad_inputs import CASES  # noqa: E402
-from conftest import run_cli  # noqa: E402
-from test_bad_inputs import materialise  # noqa: E402
+from conftest import PETSc  # noqa: E402
+from test_bad_inputs import _restore_options, materialise  # noqa: E402
+
+from solver import __main__ as cli  # noqa: E402
 
 
 def main() -> None:
@@ -24,10 +29,18 @@ def main() -> None:
     for number, case in enumerate(CASES, 1):
         with tempfile.TemporaryDirectory() as tmp:
             args, _ = materialise(Path(tmp), case)
-            proc = run_cli(args, cwd=tmp)
-            message = proc.stderr.strip().splitlines()[0] if proc.stderr.strip() else "(none)"
+            before, here, err = PETSc.Options().getAll(), os.getcwd(), io.StringIO()
+            os.chdir(tmp)
+            try:
+                with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                    code = cli.main(args)
+            finally:
+                os.chdir(here)
+                _restore_options(before)
+            text = err.getvalue().strip()
+            message = text.splitlines()[0] if text else "(none)"
             message = message.replace(tmp, "DIR")
-        assert proc.returncode == 2, (case[0], proc.returncode)
+        assert code == 2, (case[0], code, text)
         rows.append(f"| {number} | {case[0]} | `{message.replace('|', '/')}` |")
     readme = (REPO / "README.md").read_text()
     block = "<!-- bad-inputs -->\n" + "\n".join(rows) + "\n<!-- /bad-inputs -->"

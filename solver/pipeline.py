@@ -309,6 +309,23 @@ def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> 
               f"{seconds:.1f} s")
 
 
+def pep_bands(spec) -> list[tuple[float, float]] | None:
+    """The bands of omega_d a pep spectrum keeps: spectrum.window, or one band of half-width
+    frequency_width about each of spectrum.frequencies (overlapping ones merged), or None."""
+    if spec.window:
+        return [tuple(spec.window)]
+    if not spec.frequencies:
+        return None
+    bands = []
+    for omega in sorted(spec.frequencies):
+        lo, hi = max(omega - spec.frequency_width, 0.0), omega + spec.frequency_width
+        if bands and lo <= bands[-1][1]:
+            bands[-1] = (bands[-1][0], max(hi, bands[-1][1]))
+        else:
+            bands.append((lo, hi))
+    return bands
+
+
 def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
     """Every damped mode of one (rho, packing) matrix with dashpots (``pep``); the windows
     solver's windows are checkpointed.  Collective."""
@@ -321,14 +338,15 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
         check_interrupt(comm)
 
     result = pep.solve(dm, spec.zero_tol, vectors=spec.energies, solver=spec.solver, tol=spec.tol,
-                       window=tuple(spec.window) if spec.window else None, progress=progress, checkpoint=checkpoint)
+                       window=pep_bands(spec), progress=progress, checkpoint=checkpoint)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     checks = result.checks or {}
     underdamped = int((result.lam.imag > 0).sum())
     commit(unit, {"lambda": result.lam, **(result.energies or {})}, {
         "rho": unit.rho, "packing": unit.p_index, "method": "pep", "solver": result.solver,
         "n_zero_modes": result.n_zero_modes, "n_overdamped": result.n_overdamped, "n_underdamped": underdamped,
-        "seconds": seconds, "window": window_label(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum()),
+        "seconds": seconds, "window": ";".join(window_label(b) for b in pep_bands(spec)) if pep_bands(spec) else "full",
+        "dof": dm.size, "n_disks": int(dm.active.sum()),
         **({"windows": checks["windows"], "max_backward_residual": checks["max_residual"],
             "trace_error": checks["trace_error"], "trace2_error": checks["trace2_error"],
             "solver_settings": json.dumps(checks["settings"])} if checks else {})})
@@ -336,8 +354,8 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
         checkpoint.clear()
     how = (f"{checks['windows']} windows, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}, "
            f"backward error <= {checks['max_residual']:.1e}" if checks else "dense")
-    if spec.window:
-        how += f", window omega_d in [{spec.window[0]:g}, {spec.window[1]:g})"
+    if pep_bands(spec):
+        how += ", omega_d in " + " u ".join(f"[{lo:g}, {hi:g})" for lo, hi in pep_bands(spec))
     q = -result.lam.imag / (2 * result.lam.real) if underdamped else np.empty(0)
     say(comm, f"damped modes rho = {unit.rho:g}, packing {unit.p_index}: {underdamped} underdamped (quality "
               f"factor {np.nanmin(q, initial=np.inf):.3g} to {np.nanmax(q, initial=0.0):.3g}), "

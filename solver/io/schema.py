@@ -208,6 +208,12 @@ def _window(v):
     return None
 
 
+def _frequencies(v):
+    if not v or not all(math.isfinite(x) and x > 0.0 for x in v):
+        return "must be a non-empty list of frequencies > 0 (1/t0), or null"
+    return None
+
+
 METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian", "pep")
 SOLVERS = ("auto", "dense", "windows")  # spectrum.solver (nonhermitian, pep): spectrum/nonhermitian.py, pep.py
 
@@ -242,6 +248,12 @@ class SpectrumSpec:
                              "1500) or windows (SLEPc shift-and-invert windows, checked complete by the count and the "
                              "trace moments; any size)",
                      _one_of(SOLVERS), str)
+    frequencies: list[float] | None = _f(None, "pep only: the damped modes with omega_d within frequency_width of "
+                                               "one of these frequencies (1/t0; e.g. the waves' omega(k), for "
+                                               "analysis.loss), each band marched on its own; null: every mode (or "
+                                               "the window)", _frequencies, "floats_list")
+    frequency_width: float = _f(0.05, "pep with frequencies: the half-width of each band (1/t0)",
+                                _range(0.0, 10.0, True), float)
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
                          "half a bin", _range(0, 10**6), int)
@@ -542,6 +554,9 @@ def _cross_check(obj, where):
         raise InputError(f"{where}solver = {obj.solver!r} chooses how methods nonhermitian and pep find every "
                          f"eigenvalue; method {obj.method!r} has no such choice: drop {where}solver or use method "
                          f"'nonhermitian' (or 'pep' with model.damping)")
+    if isinstance(obj, SpectrumSpec) and obj.frequencies is not None and (obj.method not in ("pep", "auto") or obj.window):
+        raise InputError(f"{where}frequencies = {obj.frequencies}: bands of damped modes, for method 'pep' without "
+                         f"{where}window" + ("" if obj.method in ("pep", "auto") else f" (method is {obj.method!r})"))
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")

@@ -56,8 +56,8 @@ def solve(dm, zero_tol: float, vectors: bool = False, solver: str = "auto", tol:
           window: tuple[float, float] | None = None, progress=None, checkpoint=None) -> Result:
     """The damped modes of ``dm`` (a :class:`~solver.model.dynmat.DynamicalMatrix` with ``dm.C``),
     classified (module docstring); with ``vectors`` also the K, Q and participation of each kept
-    mode.  ``window`` = (lo, hi): only the modes with Im lambda in [lo, hi) (and the real ones
-    when lo = 0; the counts then of those only).  ``solver``: dense, windows or auto; ``tol``,
+    mode.  ``window`` = (lo, hi), or a list of such bands (disjoint): only the modes with
+    Im lambda in them (and the real ones when a band starts at 0; the counts then of those only).  ``solver``: dense, windows or auto; ``tol``,
     ``progress`` and ``checkpoint`` are the windows'.  Collective: dense solves on rank 0 (``parallel.owner_compute``).  ValueError for
     dense above MAX_DOF or windows on a non-symmetric D."""
     from .. import parallel
@@ -65,18 +65,39 @@ def solve(dm, zero_tol: float, vectors: bool = False, solver: str = "auto", tol:
     from . import quadratic_windows
 
     particles = int(dm.active.sum())
+    bands = [tuple(window)] if window is not None and np.ndim(window[0]) == 0 else window
     if chosen_solver(solver, dm.size) == "windows":
         if not dm.symmetric:
             raise ValueError("spectrum.method pep with solver windows needs a symmetric D; a stressed "
                              "packing's damped modes: spectrum.solver dense")
-        lam, sums, checks = quadratic_windows.solve(dm, zero_tol=zero_tol, tol=tol, window=window, progress=progress,
-                                                    checkpoint=checkpoint)
-        return _classify(lam, sums if vectors else None, zero_tol, particles, dm.dim, "windows", checks, window)
+        found = []
+        for index, band in enumerate(bands or [None]):  # each band its own march, its own checkpoints
+            found.append(quadratic_windows.solve(
+                dm, zero_tol=zero_tol, tol=tol, window=band, progress=progress,
+                checkpoint=_Prefixed(checkpoint, f"band{index:03d}_") if checkpoint and bands else checkpoint))
+        lam = np.concatenate([f[0] for f in found])
+        sums = np.concatenate([f[1] for f in found])
+        checks = {**found[0][2], "windows": sum(f[2]["windows"] for f in found),
+                  "max_residual": max(f[2]["max_residual"] for f in found)}
+        return _classify(lam, sums if vectors else None, zero_tol, particles, dm.dim, "windows", checks, bands)
     if dm.size > MAX_DOF:
         raise ValueError(f"spectrum.method pep: {dm.size} DOF > {MAX_DOF}, the dense solver's limit")
     task = (dynmat.gather_csr(dm.D), dynmat.gather_csr(dm.C), dynmat.gather_vec(dm.M), vectors, dm.dof, dm.dim)
     lam, sums = parallel.owner_compute(dm.D.getComm().tompi4py(), [task], _dense_solve)[0]
-    return _classify(lam, sums, zero_tol, particles, dm.dim, "dense", None, window)
+    return _classify(lam, sums, zero_tol, particles, dm.dim, "dense", None, bands)
+
+
+class _Prefixed:
+    """A window checkpoint (``load``/``save``/``clear``) whose names carry ``prefix``: one per band."""
+
+    def __init__(self, checkpoint, prefix: str):
+        self.checkpoint, self.prefix = checkpoint, prefix
+
+    def load(self, name: str):
+        return self.checkpoint.load(self.prefix + name)
+
+    def save(self, name: str, datasets: dict) -> None:
+        self.checkpoint.save(self.prefix + name, datasets)
 
 
 def first_order_dense(d, c, mass) -> np.ndarray:
@@ -109,14 +130,16 @@ def _dense_solve(task) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def _classify(lam: np.ndarray, sums: np.ndarray | None, zero_tol: float, particles: int, dim: int,
-              solver: str, checks: dict | None, window: tuple[float, float] | None = None) -> Result:
-    """Keep, sort and count the eigenvalues ``lam`` (module docstring; within ``window`` only);
-    the kept modes' energies from their rows of ``sums``.  RuntimeError when the complex ones are
-    not in pairs.  Not collective."""
+              solver: str, checks: dict | None, bands: list | None = None) -> Result:
+    """Keep, sort and count the eigenvalues ``lam`` (module docstring; within the ``bands``
+    [(lo, hi), ...] of |Im lambda| only); the kept modes' energies from their rows of ``sums``.
+    RuntimeError when the complex ones are not in pairs.  Not collective."""
     from . import modes
 
-    if window is not None:
-        inside = (np.abs(lam.imag) >= window[0]) & (np.abs(lam.imag) < window[1])
+    if bands is not None:
+        inside = np.zeros(lam.size, dtype=bool)
+        for lo, hi in bands:
+            inside |= (np.abs(lam.imag) >= lo) & (np.abs(lam.imag) < hi)
         lam, sums = lam[inside], None if sums is None else sums[inside]
     zero = np.abs(lam) < zero_tol
     real = ~zero & (np.abs(lam.imag) <= IMAG_TOL * np.abs(lam).max(initial=0.0))

@@ -292,6 +292,8 @@ CASES = [
     ("damped windows on a stressed packing", "packing: {file: '{file}', contacts: '{file}.contacts'}\n"
      "model: {damping: {gamma_n: 0.3}}\nspectrum: {method: pep}\n", [],
      "give spectrum.solver: dense (up to 8000 DOF)", _stressed()),
+    ("damped-mode bands for another method", GOOD + "spectrum: {method: slicing, frequencies: [1.0]}\n", [],
+     "spectrum.frequencies = [1.0]: bands of damped modes, for method 'pep'", None),
     ("damped modes too large for the dense solver", "packing: {n: 4096, phi: 0.9}\nmodel: {damping: {gamma_n: 0.3}}\n"
      "spectrum: {solver: dense}\n", [], "more than the 8000 the dense solver of method pep takes", None),
     ("Verlet waves with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\nwaves: {n: [1]}\n", [],
