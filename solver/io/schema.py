@@ -245,7 +245,7 @@ class SpectrumSpec:
                      _one_of(METHODS), str)
     solver: str = _f("auto", "nonhermitian and pep only: dense (LAPACK on rank 0, time ~ DOF^3: nonhermitian up to "
                              "20000 DOF, auto up to 3000; pep on the 2 DOF first-order matrix, up to 8000, auto up to "
-                             "1500) or windows (SLEPc shift-and-invert windows, checked complete by the count and the "
+                             "4000) or windows (SLEPc shift-and-invert windows, checked complete by the count and the "
                              "trace moments; any size)",
                      _one_of(SOLVERS), str)
     frequencies: list[float] | None = _f(None, "pep only: the damped modes with omega_d within frequency_width of "

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 MAX_DOF = 8000          # L is 16000 x 16000: a dense complex eigensolve of ~1 h and 8 GiB with vectors
-AUTO_DENSE_DOF = 1500   # scripts/bench_damped.py: the windows overtake dense near here
+AUTO_DENSE_DOF = 4000   # scripts/bench_damped.py: dense 205 s, windows 265 s at 3033 DOF; ~DOF^3.3 and ^2.1 cross near 3800
 IMAG_TOL = 1e-10        # |Im lambda| below this times max |lambda| is real (LAPACK's round-off ~1e-15)
 
 

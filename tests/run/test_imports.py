@@ -8,7 +8,7 @@ import pytest
 
 NO_PETSC = ("solver", "solver.io.schema", "solver.io.scenes", "solver.io.results", "solver.analysis.correlations",
             "solver.analysis.fits", "solver.analysis.lattice", "solver.analysis.claims", "solver.analysis.dispersion",
-            "solver.spectrum.modes", "solver.plots", "solver.report")
+            "solver.spectrum.modes", "solver.plots", "solver.plots_damped", "solver.analysis.loss", "solver.report")
 NO_FILES = ("solver.analysis.lattice", "solver.analysis.claims")
 
 
