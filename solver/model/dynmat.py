@@ -61,6 +61,7 @@ class DynamicalMatrix:
     scaled: object | None = None     # M^-1/2 D M^-1/2, cached by waves.spectral
     C: object | None = None          # the dashpots' damping matrix (model.damping: model/damping.py)
     damping_max: float | None = None  # largest eigenvalue of M^-1 C (1/t0), cached by operators
+    range_planes: object | None = None  # half-planes about the numerical range of (A, C^), cached by pep windows
 
     @property
     def size(self) -> int:

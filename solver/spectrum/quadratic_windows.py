@@ -424,7 +424,9 @@ def solve(dm, *, zero_tol: float, tol: float = 1e-12, window: tuple[float, float
                 checkpoint.save("plan", box)
         box = {k: float(v) for k, v in box.items()}
         norms = (box["norm_a"], box["norm_c"])
-        planes = _range_planes(A, C)
+        if dm.range_planes is None:  # once per matrix: every band of pep_bands shares them
+            dm.range_planes = _range_planes(A, C)
+        planes = dm.range_planes
         state = {"centre": 0.0, "radius": 0.0}
 
         def bounds(w, r):
