@@ -3,40 +3,42 @@
 
 The damped modes are the eigenvalues lambda of (lambda^2 + lambda C^ + A) x = 0, with
 A = M^-1/2 D M^-1/2 and C^ = M^-1/2 C M^-1/2, i.e. of the first-order matrix
-L = [[0, I], [-A, -C^]] (2n x 2n): lambda = -sigma +- i omega_d, Re lambda <= 0.  They lie along
-a curve sigma(omega_d) (light damping: sigma ~ x^T C^ x / 2), spread about it by the modes'
-different damping: the march of ``shifted_windows`` is run along omega_d = |Im lambda|, each
-window's shift placed on that curve.
+L = [[0, I], [-A, -C^]] (2n x 2n): lambda = -sigma +- i omega_d, Re lambda <= 0.
 
 Method [decision]: SLEPc Krylov-Schur (``EPS_NHEP``, largest magnitude) on the real operator
-    T = Im (L - s)^-1 / w = ((L + a)^2 + w^2)^-1,   s = -a + i w  (w > 0, a >= 0),
+    T = Im (L - s)^-1 / w = ((L + a)^2 + w^2)^-1,   s = -a + i w  (w > 0),
 (Parlett and Saad's complex shift in real arithmetic), whose eigenvalues
 1 / ((lambda - s)(lambda - conj s)) are largest for the lambda nearest s and its conjugate.  One
 application of T is one solve with Q(s) = A + s C^ + s^2, written as the real system of size 2n
     G = [[Qr, -Qi], [Qi, Qr]],   Qr = A - a C^ + (a^2 - w^2),   Qi = w (C^ - 2a),
-factorised once per window (MUMPS LU, options prefix ``pep_shift_``).  Each theta gives two
-candidates lambda = -a +- sqrt(1/theta - w^2) (one the other's reflection through -a); the
-eigenvector of T, an eigenvector (u, v = lambda u) of L, picks the one nearest its quotient
-u^H v / u^H u.  A window's guaranteed disk: with R = 1/|theta| of its nev-th eigenvalue, every
-lambda with |lambda - s| <= rho = sqrt(w^2 + R) - w has |lambda - s||lambda - conj s| <= R, so it
-is among them.  The march partitions by omega_d, with y = rho/2 (the spread about the curve that
-each window is sure to cover: item 3 of ``shifted_windows``); the shift's a is the median sigma
-of the previous window's highest modes.
+factorised once per shift (MUMPS LU, options prefix ``pep_shift_``).  The lambda are the Ritz
+values of L on the invariant subspace SLEPc converged (``_solve_disk``).  A shift's guaranteed
+disk: with R = 1/|theta| of its nev-th eigenvalue, every lambda with
+|lambda - s| <= rho = sqrt(w^2 + R) - w has |lambda - s||lambda - conj s| <= R, so it is among
+them.
+
+Columns and the march: at one w, shifts are stacked in sigma (``_column``) until at a common
+half-width h their disks cover the rectangle omega_d in [w - h, w + h] x sigma in [lo, hi], where
+[lo, hi] bounds the damping rate of any mode there: with |x| = 1, lambda^2 + c lambda + a = 0 for
+(a, c) = (x^H A x, x^H C^ x) in the joint numerical range of A and C^, so an underdamped mode has
+(sigma^2 + omega_d^2, 2 sigma) in it; 24 half-planes cos t a + sin t c <= lambda_max(cos t A +
+sin t C^) (Lanczos) contain that range (``_range_planes``, ``_rate_bounds``).  A column that
+reaches the real axis also covers the real roots, sigma in [0, c_max].  The columns march along
+omega_d = |Im lambda| as the stressed windows march along the real axis (``shifted_windows.march``:
+cells in a gap, checkpoints).  Each column is complete by construction (up to the Lanczos
+tolerance); the full spectrum is checked again as the stressed windows are (their item 4): the
+march must accept exactly 2n eigenvalues, with sum lambda = tr L = -tr C^ and
+sum lambda^2 = tr L^2 = -2 tr A + ||C^||_F^2 to TRACE_TOL.  A frequency window (lo, hi) marches
+from lo to hi only and has no count to check.  The rigid modes (Jordan blocks of L at 0: their
+lambda come out ~1e-8) are set to 0 below ``zero_tol``.  Residuals: ||L z - lambda z|| /
+((||A|| + |lambda| ||C^|| + |lambda|^2) ||x||) for every mode (x the displacement half of z).
+Symmetric D only: ``pep`` refuses a stressed D before.
+
 Why not SLEPc's PEP object: in a real-scalar PETSc build (the one the rest of rotsound runs on)
 PEP's shift-and-invert takes only real targets, i.e. the modes nearest a point of the real axis,
 which for underdamped modes near -sigma +- i omega are the lowest frequencies only; its spectrum
 slicing (STOAR) counts real eigenvalues only (hyperbolic problems); a complex-scalar build is
 another petsc4py, which cannot live in the same process.
-
-Completeness, as for the stressed windows (item 4 of ``shifted_windows``): the march must
-accept exactly 2n eigenvalues, and they must have sum lambda = tr L = -tr C^ and
-sum lambda^2 = tr L^2 = -2 tr A + ||C^||_F^2 to TRACE_TOL (the first also checks the root each
-theta was given).  A mode farther from the curve than the windows reach, or an overdamped mode
-far out on the real axis, breaks the count: RuntimeError naming the option that helps.  The rigid
-modes (Jordan blocks of L at 0, defective in T: their lambda come out ~1e-8) are set to 0 below
-``zero_tol``.  Residuals: the backward error of the quadratic problem,
-||Q(lambda) x|| / ((||A|| + |lambda| ||C^|| + |lambda|^2) ||x||), for every mode.  Symmetric D
-only: ``pep`` refuses a stressed D before.
 
 Options: the EPS has the prefix ``pep_`` (``-pep_eps_nev``, ``-pep_eps_ncv``, ``-pep_eps_tol``),
 the factorisation ``pep_shift_`` (``-pep_shift_pc_factor_mat_solver_type``); defaults set in
@@ -57,7 +59,7 @@ from ..options import eps_settings, ksp_settings
 
 PREFIX = "pep_"
 SHIFT_PREFIX = "pep_shift_"
-NEV = 200          # mu per window (-pep_eps_nev wins)
+NEV = 200          # eigenvalues of T per shift (-pep_eps_nev wins)
 BOX_MARGIN = 1e-6  # relative margin on the Lanczos estimates of omega_max and c_max (tol 1e-8)
 FIRST = 0.01       # the lowest shift's w, as a fraction of omega_max: not beside the rigid modes at 0
 HALF_MIN = 0.5     # a column's half-width at least this times its smallest disk's radius (else more disks)
@@ -325,13 +327,13 @@ def _column(solve_disk, w: float, start: float, bound) -> dict:
     return {"values": np.abs(lam.imag) + 0j, "half": h, "sigma": w, "radius": min(d["radius"] for d in disks),
             "residual": max((d["residual"][k].max(initial=0.0) for d, k in zip(disks, keep)), default=0.0),
             "aligned": {"lambda": lam, "sums": np.concatenate([d["sums"][k] for d, k in zip(disks, keep)])},
-            "extra": {"disks": np.int64(len(disks)), "centre": np.float64(_centre(lam, w)),
+            "extra": {"disks": np.int64(len(disks)), "centre": np.float64(_centre(lam)),
                       "radius": np.float64(min(d["radius"] for d in disks))}}
 
 
-def _centre(lam: np.ndarray, w: float) -> float:
-    """The median damping rate of the modes above the real axis nearest in omega to the top of the
-    column at w (where the next column starts: its first disk's a).  Not collective."""
+def _centre(lam: np.ndarray) -> float:
+    """The median damping rate of the quarter of the modes above the real axis nearest in omega to
+    the highest of them (where the next column starts: its first disk's a).  Not collective."""
     upper = lam[lam.imag > 0]
     if not upper.size:
         return 0.0
