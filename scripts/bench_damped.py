@@ -80,7 +80,7 @@ def main() -> None:
                         np.abs(d.lam[:, None] - w.lam[None, :]).min(axis=1).max() / np.abs(d.lam).max())
             row.update({"dense s": f"{dense:.1f}", "dense / windows": f"{dense / windows:.2f}",
                         "dense peak MiB+": f"{max(_peak_mib() - before, 0.0):.0f}",
-                        "max |d lambda| / max |lambda|": f"{error:.1e}"})
+                        "max lambda error (rel. to max modulus)": f"{error:.1e}"})
         table.append(row)
         print(row, flush=True)
         dm.destroy()
