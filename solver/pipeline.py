@@ -352,8 +352,10 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
             "solver_settings": json.dumps(checks["settings"])} if checks else {})})
     if checkpoint is not None:
         checkpoint.clear()
-    how = (f"{checks['windows']} windows, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}, "
-           f"backward error <= {checks['max_residual']:.1e}" if checks else "dense")
+    how = (f"{checks['windows']} windows, " + (
+        "complete by their sigma bounds" if pep_bands(spec) else
+        f"trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}") +
+        f", backward error <= {checks['max_residual']:.1e}" if checks else "dense")
     if pep_bands(spec):
         how += ", omega_d in " + " u ".join(f"[{lo:g}, {hi:g})" for lo, hi in pep_bands(spec))
     q = -result.lam.imag / (2 * result.lam.real) if underdamped else np.empty(0)
