@@ -142,15 +142,17 @@ def run_cli(args: list[str], ranks: int = 1, timeout: float = 120, cwd=None):
                           cwd=cwd or REPO)
 
 
-def run_stopped_after_windows(monkeypatch, scene, windows: int = 2) -> list:
+def run_stopped_after_windows(monkeypatch, scene, windows: int = 2, solver=None, name: str = "_solve_window") -> list:
     """Run ``scene`` in-process until ``windows`` spectrum windows are solved, then stop it as
     SIGTERM would (pipeline raises Interrupted on every rank); the windows stay on disk.  Returns
-    the list that counts ``_solve_window`` calls, which keeps counting on a later run. Collective."""
+    the list that counts the calls of the window function ``name`` of module ``solver`` (default
+    slicing's ``_solve_window``), which keeps counting on a later run. Collective."""
     from solver import pipeline
     from solver.errors import Interrupted
     from solver.spectrum import slicing
 
-    solve_window, calls = slicing._solve_window, []
+    solver = solver or slicing
+    solve_window, calls = getattr(solver, name), []
 
     def counted(*args, **kwargs):
         calls.append(1)
@@ -158,7 +160,7 @@ def run_stopped_after_windows(monkeypatch, scene, windows: int = 2) -> list:
             pipeline._TERMINATE[0] = True  # as the SIGTERM handler would
         return solve_window(*args, **kwargs)
 
-    monkeypatch.setattr(slicing, "_solve_window", counted)
+    monkeypatch.setattr(solver, name, counted)
     try:
         with pytest.raises(Interrupted):
             pipeline.run(scene, COMM, [])

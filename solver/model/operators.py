@@ -2,6 +2,7 @@
 M u'' = -D u), shared by the spectrum, the KPM vDOS and the standing waves.
 
     A = M^-1/2 D M^-1/2           (symmetric standard form: eigenvalues omega^2 of M^-1 D)
+    C^ = M^-1/2 C M^-1/2          (the dashpots' damping matrix in the same form)
     omega_max = sqrt(lambda_max(A))  (Lanczos, SLEPc EPS with options prefix ``wmax_``)
     J = [[0, I], [-M^-1 D, -M^-1 C]]  (first-order form X' = J X of eq:motion, X = (u, v);
                                        C the dashpots' damping matrix, docs/damping.md, if any)
@@ -20,19 +21,29 @@ from ..options import eps_settings
 WMAX_PREFIX = "wmax_"
 
 
-def scaled_operator(dm):
-    """A = M^-1/2 D M^-1/2 as a new PETSc Mat (flagged symmetric when D is). Collective."""
+def _mass_scaled(dm, mat, symmetric: bool):
+    """M^-1/2 ``mat`` M^-1/2 as a new PETSc Mat, flagged ``symmetric``. Collective."""
     from petsc4py import PETSc
 
     scale = dm.M.copy()
     scale.sqrtabs()
     scale.reciprocal()
-    A = dm.D.copy()
-    A.diagonalScale(scale, scale)
-    A.setOption(PETSc.Mat.Option.SYMMETRIC, dm.symmetric)
-    A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
+    out = mat.copy()
+    out.diagonalScale(scale, scale)
+    out.setOption(PETSc.Mat.Option.SYMMETRIC, symmetric)
+    out.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     scale.destroy()
-    return A
+    return out
+
+
+def scaled_operator(dm):
+    """A = M^-1/2 D M^-1/2 as a new PETSc Mat (flagged symmetric when D is). Collective."""
+    return _mass_scaled(dm, dm.D, dm.symmetric)
+
+
+def scaled_damping(dm):
+    """C^ = M^-1/2 C M^-1/2 of the dashpots' C (``dm.C``) as a new PETSc Mat. Collective."""
+    return _mass_scaled(dm, dm.C, True)
 
 
 def _largest_eigenvalue(A, symmetric: bool) -> tuple[complex, dict]:
@@ -85,16 +96,11 @@ def largest_damping_rate(dm) -> float:
     if dm.C is None:
         return 0.0
     if dm.damping_max is None:
-        scale = dm.M.copy()
-        scale.sqrtabs()
-        scale.reciprocal()
-        scaled = dm.C.copy()
-        scaled.diagonalScale(scale, scale)
+        scaled = scaled_damping(dm)
         try:
             lam, _ = _largest_eigenvalue(scaled, True)
         finally:
             scaled.destroy()
-            scale.destroy()
         dm.damping_max = float(lam.real)
     return dm.damping_max
 

@@ -54,7 +54,7 @@ import numpy as np
 
 from . import modes, shifted_windows
 from .. import profiling
-from ..model.operators import largest_damping_rate, largest_omega, scaled_operator
+from ..model.operators import largest_damping_rate, largest_omega, scaled_damping, scaled_operator
 from ..options import eps_settings, ksp_settings
 
 PREFIX = "pep_"
@@ -70,20 +70,6 @@ RATE_GRID = 2001   # grid of sigma in [0, c_max / 2] on which the bounds are fou
 OMEGA_GRID = 17    # ... and of omega across a column
 MAX_DISKS = 64     # disks in one column at most
 TRACE_TOL = shifted_windows.TRACE_TOL
-
-
-def scaled_damping(dm):
-    """C^ = M^-1/2 C M^-1/2 as a new PETSc Mat (flagged symmetric). Collective."""
-    from petsc4py import PETSc
-
-    scale = dm.M.copy()
-    scale.sqrtabs()
-    scale.reciprocal()
-    C = dm.C.copy()
-    C.diagonalScale(scale, scale)
-    C.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-    scale.destroy()
-    return C
 
 
 def _shifted_system(A, C, a: float, w: float):

@@ -7,11 +7,10 @@ a scene's datasets, vDOS and resume."""
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
+from conftest import COMM, assert_all, assert_close, jammed_packing, run_stopped_after_windows, scene_of
 
 from solver import pipeline, plots
 from solver.contact_law import ContactModel
-from solver.errors import Interrupted
 from solver.model import damping, dynmat
 from solver.spectrum import pep, quadratic_windows, slicing
 
@@ -171,20 +170,7 @@ def test_windows_resume_after_a_stop(shared_tmp, monkeypatch):
     monkeypatch.setattr(quadratic_windows, "NEV", 40)
     scene = scene_of(shared_tmp / "resume.h5", cache="off", packing={"n": 64, "phi": 0.86, "count": 1},
                      model={"rho": [0.5], "damping": {"gamma_n": 0.3, "gamma_t": 0.15}}, spectrum={"solver": "windows"})
-    column, calls = quadratic_windows._column, []
-
-    def counted(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 2:
-            pipeline._TERMINATE[0] = True  # as the SIGTERM handler would
-        return column(*args, **kwargs)
-
-    monkeypatch.setattr(quadratic_windows, "_column", counted)
-    try:
-        with pytest.raises(Interrupted):
-            pipeline.run(scene, COMM, [])
-    finally:
-        pipeline._TERMINATE[0] = False
+    calls = run_stopped_after_windows(monkeypatch, scene, 2, quadratic_windows, "_column")
     resumed = pipeline.run(scene, COMM, [])["units"]["spectra/r00_p0000"]
     interrupted_and_resumed = len(calls)
     fresh = pipeline.run(scene, COMM, [], fresh=True)["units"]["spectra/r00_p0000"]
