@@ -25,13 +25,11 @@ from solver.io import results  # noqa: E402
 
 
 def _read(path: str) -> tuple[dict, dict, str]:
-    with results.open_results(path) as f:
-        damping = "none"
-        if "damping" in f.attrs["scene"]:
-            import yaml
+    import yaml
 
-            model = yaml.safe_load(f.attrs["scene"]).get("model", {})
-            damping = ", ".join(f"{k} = {v:g}" for k, v in (model.get("damping") or {}).items())
+    with results.open_results(path) as f:
+        dashpots = (yaml.safe_load(f.attrs["scene"]).get("model") or {}).get("damping") or {}
+        damping = ", ".join(f"{k} = {v:g}" for k, v in dashpots.items()) or "none"
         return results.fits(f), {rho: m.lam for rho, m in results.damped_modes(f).items()}, damping
 
 

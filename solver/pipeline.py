@@ -337,15 +337,16 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
             say(comm, f"  pep window {done}: {accepted}/{total} eigenvalues, {time.perf_counter() - t:.0f} s")
         check_interrupt(comm)
 
+    bands = pep_bands(spec)
     result = pep.solve(dm, spec.zero_tol, vectors=spec.energies, solver=spec.solver, tol=spec.tol,
-                       window=pep_bands(spec), progress=progress, checkpoint=checkpoint)
+                       window=bands, progress=progress, checkpoint=checkpoint)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     checks = result.checks or {}
     underdamped = int((result.lam.imag > 0).sum())
     commit(unit, {"lambda": result.lam, **(result.energies or {})}, {
         "rho": unit.rho, "packing": unit.p_index, "method": "pep", "solver": result.solver,
         "n_zero_modes": result.n_zero_modes, "n_overdamped": result.n_overdamped, "n_underdamped": underdamped,
-        "seconds": seconds, "window": ";".join(window_label(b) for b in pep_bands(spec)) if pep_bands(spec) else "full",
+        "seconds": seconds, "window": ";".join(window_label(b) for b in bands) if bands else "full",
         "dof": dm.size, "n_disks": int(dm.active.sum()),
         **({"windows": checks["windows"], "max_backward_residual": checks["max_residual"],
             "trace_error": checks["trace_error"], "trace2_error": checks["trace2_error"],
@@ -353,11 +354,11 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
     if checkpoint is not None:
         checkpoint.clear()
     how = (f"{checks['windows']} windows, " + (
-        "complete by their sigma bounds" if pep_bands(spec) else
+        "complete by their sigma bounds" if bands else
         f"trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}") +
         f", backward error <= {checks['max_residual']:.1e}" if checks else "dense")
-    if pep_bands(spec):
-        how += ", omega_d in " + " u ".join(f"[{lo:g}, {hi:g})" for lo, hi in pep_bands(spec))
+    if bands:
+        how += ", omega_d in " + " u ".join(f"[{lo:g}, {hi:g})" for lo, hi in bands)
     q = -result.lam.imag / (2 * result.lam.real) if underdamped else np.empty(0)
     say(comm, f"damped modes rho = {unit.rho:g}, packing {unit.p_index}: {underdamped} underdamped (quality "
               f"factor {np.nanmin(q, initial=np.inf):.3g} to {np.nanmax(q, initial=0.0):.3g}), "

@@ -46,7 +46,7 @@ def scaled_damping(dm):
     return _mass_scaled(dm, dm.C, True)
 
 
-def _largest_eigenvalue(A, symmetric: bool) -> tuple[complex, dict]:
+def largest_eigenvalue(A, symmetric: bool) -> tuple[complex, dict]:
     """(lambda, settings): the eigenvalue of largest real part (symmetric ``A``) or magnitude of
     ``A`` by SLEPc (options prefix ``wmax_``: Krylov-Schur, tol 1e-8 as defaults in code, then
     ``-wmax_eps_*``), and what the EPS used. Collective."""
@@ -81,7 +81,7 @@ def largest_omega(dm) -> float:
         return dm.omega_max
     A = scaled_operator(dm)
     try:
-        lam, dm.wmax_settings = _largest_eigenvalue(A, dm.symmetric)
+        lam, dm.wmax_settings = largest_eigenvalue(A, dm.symmetric)
     finally:
         A.destroy()
     dm.omega_max = float(np.sqrt(lam.real if dm.symmetric else abs(lam)))
@@ -98,7 +98,7 @@ def largest_damping_rate(dm) -> float:
     if dm.damping_max is None:
         scaled = scaled_damping(dm)
         try:
-            lam, _ = _largest_eigenvalue(scaled, True)
+            lam, _ = largest_eigenvalue(scaled, True)
         finally:
             scaled.destroy()
         dm.damping_max = float(lam.real)

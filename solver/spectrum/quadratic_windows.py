@@ -156,19 +156,22 @@ def _configure(T, tol: float):
     return eps
 
 
-def _first_order(A, C, V: np.ndarray, work) -> np.ndarray:
-    """L V for the local rows V (2 nloc, k) of real 2n-vectors: L (u, v) = (v, -A u - C^ v).
-    Collective (two products per column)."""
-    nloc = V.shape[0] // 2
+def _first_order(A, C, V: np.ndarray) -> np.ndarray:
+    """L V for the local rows V (2 nloc, k) of real 2n-vectors: L (u, v) = (v, -A u - C^ v), as two
+    sparse-times-dense products (PETSc MatMatMult).  Collective."""
+    from petsc4py import PETSc
+
+    nloc, k = V.shape[0] // 2, V.shape[1]
     out = np.empty_like(V)
     out[:nloc] = V[nloc:]
-    for j in range(V.shape[1]):
-        work[0].setArray(np.ascontiguousarray(V[:nloc, j]))
-        A.mult(work[0], work[1])
-        au = work[1].getArray(readonly=True).copy()
-        work[0].setArray(np.ascontiguousarray(V[nloc:, j]))
-        C.mult(work[0], work[1])
-        out[nloc:, j] = -au - work[1].getArray(readonly=True)
+    out[nloc:] = 0.0
+    for mat, half in ((A, V[:nloc]), (C, V[nloc:])):
+        block = np.asfortranarray(half)  # PETSc's dense storage: kept alive until X is destroyed
+        X = PETSc.Mat().createDense(((nloc, None), (None, k)), array=block, comm=A.getComm())
+        product = mat.matMult(X)
+        out[nloc:] -= product.getDenseArray()
+        for obj in (X, product):
+            obj.destroy()
     return out
 
 
@@ -210,12 +213,7 @@ def _solve_disk(A, C, norms, a: float, w: float, tol: float, zero_tol: float, do
         eps.destroy()
         T.destroy()
         inverse.free()
-    work = (A.createVecRight(), A.createVecRight())
-    try:
-        LV = _first_order(A, C, V, work)
-    finally:
-        for vec in work:
-            vec.destroy()
+    LV = _first_order(A, C, V)
     B = mpi.allreduce(V.T @ LV)
     lam, Y = sl.eig(B, check_finite=False)
     Z, LZ = V @ Y, LV @ Y
@@ -337,7 +335,7 @@ def _range_planes(A, C) -> np.ndarray:
     largest |m|.  Collective."""
     from petsc4py import PETSc
 
-    from ..model.operators import _largest_eigenvalue
+    from ..model.operators import largest_eigenvalue
 
     rows = []
     for t in 2 * np.pi * (np.arange(DIRECTIONS) + 0.5) / DIRECTIONS:
@@ -345,7 +343,7 @@ def _range_planes(A, C) -> np.ndarray:
         mixed.scale(math.cos(t))
         mixed.axpy(math.sin(t), C, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
         try:
-            top = _largest_eigenvalue(mixed, True)[0].real
+            top = largest_eigenvalue(mixed, True)[0].real
         except RuntimeError:  # Lanczos did not converge (clustered top): Gershgorin's bound, looser but sure
             top = mixed.norm(PETSc.NormType.INFINITY)
         finally:
