@@ -2,13 +2,16 @@
 spectrum slicing of the same matrix.
 
     python scripts/bench_damped.py [--ns 256 512 1024] [--gamma-t 0.15 0.9] [--dense-max 1024]
+                                   [--window-n 32768] [--band 0.2 0.26]
 For each N, a 2D jammed packing (rotsound's FIRE, phi = 0.86), D at rho = 0.5, LAMMPS-convention
 dashpots gamma_n = 0.3 and gamma_t (0.15 puts the rates on a thin band, C close to 0.15 D; 0.9
 spreads them and makes overdamped modes).  In one process, on the same matrix: slicing (every
 undamped omega, the issue's reference time), pep windows and, up to --dense-max, pep dense
 (LAPACK on the 2n first-order matrix): time, peak memory added (ru_maxrss), windows and shifts,
 largest backward error, trace errors, and the largest relative difference of lambda between the
-two.  One core (one BLAS thread), as a scene's rank runs it.
+two.  Then, at --window-n (gamma_t = 0.15), the damped modes of one frequency band only
+(``spectrum.window``, the large-N path) against the undamped slicing of the same band, with their
+energies (K/Q) both.  One core (one BLAS thread), as a scene's rank runs it.
 """
 
 from __future__ import annotations
@@ -29,9 +32,11 @@ def _peak_mib() -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--ns", type=int, nargs="+", default=[256, 512, 1024])
+    parser.add_argument("--ns", type=int, nargs="*", default=[256, 512, 1024])
     parser.add_argument("--gamma-t", type=float, nargs="+", default=[0.15, 0.9])
     parser.add_argument("--dense-max", type=int, default=1024, help="largest N solved dense too")
+    parser.add_argument("--window-n", type=int, nargs="*", default=[32768], help="N of the one-band runs")
+    parser.add_argument("--band", type=float, nargs=2, default=[0.2, 0.26], help="their band of omega (1/t0)")
     args = parser.parse_args()
 
     from mpi4py import MPI
@@ -84,14 +89,39 @@ def main() -> None:
         table.append(row)
         print(row, flush=True)
         dm.destroy()
+    band = tuple(args.band)
+    for n in args.window_n:
+        p = jammed.generate(n, 0.86, np.random.SeedSequence([3, 0]), comm=MPI.COMM_SELF)
+        dm = dynmat.assemble(p, ContactModel(0.5, gamma_n=0.3, gamma_t=0.15), PETSc.COMM_SELF)
+        t0 = time.perf_counter()
+        s = slicing.solve(dm, window=band, vectors=True, tol=1e-12, zero_tol=1e-4)
+        undamped = time.perf_counter() - t0
+        dm.C = damping.assemble(p, dm)
+        shifts.clear()
+        before = _peak_mib()
+        t0 = time.perf_counter()
+        w = pep.solve(dm, 1e-4, vectors=True, solver="windows", window=band)
+        windows = time.perf_counter() - t0
+        row = {"gamma_t": 0.15, "N": n, "DOF": dm.size, "2n": 2 * dm.size, "band": f"[{band[0]:g}, {band[1]:g})",
+               "modes (undamped / damped)": f"{len(s.omega)} / {len(w.lam)}",
+               "slicing s (undamped)": f"{undamped:.1f}", "windows s": f"{windows:.1f}",
+               "windows / slicing": f"{windows / undamped:.1f}", "windows": w.checks["windows"],
+               "shifts": len(shifts), "max backward error": f"{w.checks['max_residual']:.1e}",
+               "overdamped": w.n_overdamped, "windows peak MiB+": f"{_peak_mib() - before:.0f}"}
+        table.append(row)
+        print(row, flush=True)
+        dm.destroy()
     notes = (f"2D jammed packings (rotsound's FIRE, phi = 0.86, seed 3), D at rho = 0.5, dashpots gamma_n = 0.3, "
              f"gamma_t = {', '.join(map(str, args.gamma_t))} (LAMMPS convention); every damped mode by pep windows "
              f"(quadratic_windows.py: Parlett-Saad complex shifts, columns bounded by the numerical range) and dense "
              f"(LAPACK eig of the 2n first-order matrix), against the undamped spectrum slicing of the same D; one "
              f"core. 'peak MiB+' is the growth of the process's peak RSS during that solve (0 when an earlier solve "
              f"peaked higher). Target of issue 29: the damped full spectrum at N = 2048 at most 2x the undamped "
-             f"slicing time.")
-    save("damped", "python scripts/bench_damped.py", table, notes)
+             f"slicing time. Rows with a band: that band only, with K/Q (vectors) on both sides.")
+    command = " ".join(["python scripts/bench_damped.py", "--ns", *map(str, args.ns), "--gamma-t",
+                        *map(str, args.gamma_t), "--dense-max", str(args.dense_max), "--window-n",
+                        *map(str, args.window_n), "--band", *map(str, args.band)])
+    save("damped", command, table, notes, merge_by=("gamma_t", "N", "band"))
 
 
 if __name__ == "__main__":

@@ -53,11 +53,21 @@ def peak_rss_gib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 
 
-def save(name: str, command: str, table: list[dict], notes: str = "") -> None:
+def save(name: str, command: str, table: list[dict], notes: str = "", merge_by: tuple[str, ...] = ()) -> None:
+    """Write results/bench/<name>.json.  ``merge_by``: keep the rows of the record already there
+    whose values of these columns no new row has (a script run in parts, e.g. one N more); the
+    command and date then list every part's."""
     OUT.mkdir(parents=True, exist_ok=True)
-    record = {"name": name, "command": command, "machine": machine(),
-              "date": datetime.datetime.now().isoformat(timespec="minutes"),
-              "table": table, "notes": notes}
+    date = datetime.datetime.now().isoformat(timespec="minutes")
+    path = OUT / f"{name}.json"
+    if merge_by and path.exists():
+        old = json.loads(path.read_text())
+        new = {tuple(str(row.get(k)) for k in merge_by) for row in table}
+        kept = [row for row in old["table"] if tuple(str(row.get(k)) for k in merge_by) not in new]
+        if kept:
+            table = kept + table
+            command, date = f"{old['command']}; then {command}", f"{old['date']}; {date}"
+    record = {"name": name, "command": command, "machine": machine(), "date": date, "table": table, "notes": notes}
     (OUT / f"{name}.json").write_text(json.dumps(record, indent=1))
     print(json.dumps(record, indent=1))
 

@@ -313,12 +313,14 @@ class WavesSpec:
     sample_every: int = _f(5, "steps between samples of the Fourier components", _range(1, 10**6), int)
     integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-waves_ts_type wins: "
                                    "any PETSc TS type; python is verlet)", _one_of(INTEGRATORS), str)
-    method: str = _f("ts", "ts: integrate with PETSc TS; spectral: Lanczos on the matrix, no time "
-                           "stepping (samples every dt x sample_every, r_i(0) phase only, symmetric matrices); "
+    method: str = _f("ts", "ts: integrate with PETSc TS; spectral: no time stepping (samples every dt x "
+                           "sample_every, r_i(0) phase only, symmetric matrices): Lanczos on the matrix, or with "
+                           "model.damping the Chebyshev-Bessel series of exp(tJ); "
                            "exponential: exp(h J) of the first-order system from sample to sample by SLEPc MFN "
                            "(exact to tol, any matrix: the exact path for stressed packings)",
                      _one_of(WAVE_METHODS), str)
-    tol: float = _f(1e-8, "spectral: relative accuracy of z(t) (Lanczos error estimate); exponential: the "
+    tol: float = _f(1e-8, "spectral: relative accuracy of z(t) (Lanczos error estimate; with dashpots the "
+                          "series' error bound, relative to |X(0)|); exponential: the "
                           "error bound of the samples, relative to |X(0)| (each MFN solve to tol / samples)",
                     _range(0.0, 1e-2, True), float)
 
@@ -646,20 +648,16 @@ SECOND_ORDER = ("verlet", "alpha2")
 
 def check_damped(scene: Scene) -> None:
     """Raise InputError if a scene with contact dashpots (``model.damping``) asks for what cannot
-    take them: a spectrum method but pep (the others solve the undamped problem), spectral waves
-    (Lanczos on the undamped matrix), or a second-order integrator (verlet, alpha2: their force has
-    no velocity term). Not collective."""
+    take them: a spectrum method but pep (the others solve the undamped problem), or a second-order
+    integrator (verlet, alpha2: their force has no velocity term). Not collective."""
     if scene.spectrum is not None and scene.spectrum.method != "pep":
         raise InputError(f"spectrum.method = {scene.spectrum.method!r} with model.damping: it solves the undamped "
                          f"problem; the damped modes (lambda^2 M + lambda C + D) x = 0 need spectrum.method: pep "
                          f"(or auto); the undamped vDOS of the same packing: drop model.damping from this scene")
-    if scene.waves is not None and scene.waves.method == "spectral":
-        raise InputError("waves.method = 'spectral' with model.damping: Lanczos needs the undamped symmetric "
-                         "matrix; use waves.method: exponential (exact) or ts with a first-order integrator")
     if scene.waves is not None and scene.waves.method == "ts" and scene.waves.integrator in SECOND_ORDER:
         raise InputError(f"waves.integrator = {scene.waves.integrator!r} with model.damping: it integrates "
-                         f"M u'' = -D u and has no velocity-dependent force; use waves.method: exponential "
-                         f"(exact), or waves.integrator: rk (or theta, cn, beuler) on the first-order system")
+                         f"M u'' = -D u and has no velocity-dependent force; use waves.method: spectral or "
+                         f"exponential (exact), or waves.integrator: rk (or theta, cn, beuler) on the first-order system")
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:

@@ -29,7 +29,9 @@ from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
 SAMPLED = {"spectral": "spectral (Lanczos)", "exponential": "exponential (SLEPc MFN)"}
-"""The methods without time steps (waves.method -> integrator label): samples every dt * sample_every."""
+"""The methods without time steps (waves.method -> integrator label): samples every dt * sample_every.
+With dashpots, ``spectral`` is the Chebyshev-Bessel series (``DAMPED_SPECTRAL``)."""
+DAMPED_SPECTRAL = "spectral (Chebyshev-Bessel series)"
 
 STABILITY = {("verlet", None): 2.0, ("rk", "4"): 2.0 * math.sqrt(2.0), ("rk", "3"): math.sqrt(3.0),
              ("rk", "3bs"): math.sqrt(3.0), ("rk", "1fe"): 0.0, ("euler", None): 0.0}
@@ -211,7 +213,8 @@ def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedu
     :func:`check_schedule` (InputError, the same on every rank) if it cannot work.  Not collective.
     """
     if spec.method in SAMPLED:
-        return Schedule(integrator=SAMPLED[spec.method], variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
+        label = DAMPED_SPECTRAL if spec.method == "spectral" and damping_max > 0.0 else SAMPLED[spec.method]
+        return Schedule(integrator=label, variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
                         sample_every=spec.sample_every, adapt="none", sources={}, method=spec.method,
                         omega_max=omega_max, damping_max=damping_max)
     resolved = resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,

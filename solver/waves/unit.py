@@ -16,7 +16,7 @@ import json
 import numpy as np
 
 from ..analysis import correlations
-from . import excitation, exponential, integrators, spectral
+from . import chebyshev, excitation, exponential, integrators, spectral
 from .schedule import Schedule
 
 
@@ -37,7 +37,13 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     excited = [excitation.runs(mode, dm.dim)[r] for r in chosen]
     column = {r: axes.index(axis) for r, (_, axis) in zip(chosen, excited)}  # the k of the run's axis
     count = len(ks)
-    if schedule.method == "spectral":
+    if schedule.method == "spectral" and dm.C is not None:  # dashpots: the Chebyshev-Bessel series of exp(tJ)
+        times = schedule.sample_times()
+        series = [[chebyshev.damped_spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times,
+                                             tol=spec.tol, omega_max=schedule.omega_max,
+                                             damping_max=schedule.damping_max) for k in ks[:, column[r]]]
+                  for r in chosen]
+    elif schedule.method == "spectral":
         times = schedule.sample_times()
         series = [[spectral.spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times,
                                      tol=spec.tol, omega_max=schedule.omega_max) for k in ks[:, column[r]]]
@@ -56,7 +62,7 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     energy = np.array([[r.energy for r in row] for row in series])
     t = series[0][0].t
     vaf, omega, power = correlations.pooled(z, t[1] - t[0])
-    drift = np.abs(energy - energy[..., :1]).max(axis=2) / energy[..., 0]
+    drift = np.nanmax(np.abs(energy - energy[..., :1]), axis=2) / energy[..., 0]  # damped spectral: NaN between blocks
     same = bool(np.all(ks == ks[:, :1]))  # one k for every axis (a square or cubic box, or sides n L)
     datasets = {"k": ks[:, 0] if same else ks.mean(axis=1), "n": ns[:, 0], "t": t, "C": vaf, "omega": omega,
                 "S": power, "z": z, "z_fixed": z_fixed, "energy_drift": drift,
@@ -66,7 +72,12 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     settings = {"wmax": dm.wmax_settings}
     if schedule.method in ("spectral", "exponential"):
         datasets["error_estimate"] = np.array([[r.error_estimate for r in row] for row in series])
-    if schedule.method == "spectral":
+    if schedule.method == "spectral" and dm.C is not None:
+        settings["chebyshev"] = {**series[0][0].settings, "products": max(r.steps for row in series for r in row)}
+        summary = (f"spectral (Chebyshev-Bessel series, blocks of {settings['chebyshev']['block_samples']} samples, "
+                   f"{settings['chebyshev']['terms']} terms), up to {settings['chebyshev']['products']} products "
+                   f"with J, error bound {np.nanmax(datasets['error_estimate']):.1e}")
+    elif schedule.method == "spectral":
         settings["lanczos"] = {"tol": spec.tol, "max_steps": max(r.steps for row in series for r in row)}
         summary = (f"spectral, up to {settings['lanczos']['max_steps']} Lanczos steps, error estimate "
                    f"{np.nanmax(datasets['error_estimate']):.1e}")

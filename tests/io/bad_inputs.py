@@ -298,8 +298,6 @@ CASES = [
      "spectrum: {solver: dense}\n", [], "more than the 8000 the dense solver of method pep takes", None),
     ("Verlet waves with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\nwaves: {n: [1]}\n", [],
      "has no velocity-dependent force", None),
-    ("spectral waves with dashpots", GOOD + "model: {damping: {gamma_t: 0.3}}\nwaves: {n: [1], method: spectral}\n",
-     [], "Lanczos needs the undamped symmetric matrix", None),
     ("restitution and gamma_n both", GOOD + "model: {restitution: 0.8, damping: {gamma_n: 0.3}}\n", [],
      "model.restitution = 0.8: it sets model.damping.gamma_n, which is given too", None),
     ("restitution under Hertz", GOOD + "model: {restitution: 0.8, law: hertz}\n", [],

@@ -3,6 +3,7 @@ J = [[0, I], [-M^-1 D, -M^-1 C]] against a dense expm built here, the energy the
 (dE/dt = -v^T C v <= 0), RK4 on the damped first-order system at its order, the step limits with
 dashpots (RK4's half-disk), and the scene: keys, refusals, a damped scene's waves on 1 and 2 ranks."""
 
+import json
 import math
 
 import numpy as np
@@ -118,7 +119,6 @@ def test_damped_step_limits_and_second_order_integrators(comm):
 @pytest.mark.parametrize("sections, match", [
     ({"model": {"damping": {"gamma_n": 0.3}}, "spectrum": {"method": "kpm"}}, "it solves the undamped problem"),
     ({"spectrum": {"method": "pep"}}, "the damped modes need dashpots"),
-    ({"model": {"damping": {"gamma_n": 0.3}}, "waves": {"n": [1], "method": "spectral"}}, "Lanczos needs"),
     ({"model": {"damping": {"gamma_t": 0.3}}, "waves": {"n": [1]}}, "waves.integrator = 'verlet' with model"),
     ({"model": {"damping": {"gamma_n": -0.3}}}, r"model.damping.gamma_n = -0.3: must be in \[0.0"),
     ({"model": {"restitution": 0.8, "damping": {"gamma_n": 0.3}}}, "which is given too: give one of them"),
@@ -148,20 +148,29 @@ def test_restitution_is_gamma_n_by_another_name(tmp_path):
 
 
 def test_a_damped_scene_runs_its_waves(shared_tmp):
-    """model.damping with exponential and rk waves: the same C(k, t) to RK4's error (below 1e-7 of
-    C(0) = 1 at dt = 0.02; measured 6e-9), and not the undamped twin's (its own unit keys; C(t_end)
-    0.24 against 0.30), on 1 and 2 ranks."""
+    """model.damping with exponential, spectral (the Chebyshev-Bessel series) and rk waves: the same
+    C(k, t) to RK4's error (below 1e-7 of C(0) = 1 at dt = 0.02; measured 6e-9), and not the
+    undamped twin's (its own unit keys; C(t_end) 0.24 against 0.30), on 1 and 2 ranks; the two
+    exact paths give the same z_fixed (the r_i(0) phase: the spectral path's z) to 1e-9 of max |z|
+    (measured 1e-15), and the spectral unit records its series and a finite energy loss."""
     base = dict(cache="off", packing={"n": 64, "phi": 0.9}, model={"rho": 0.5})
     waves = {"modes": ["TR"], "n": [1], "t_end": 10.0, "dt": 0.02, "sample_every": 5}
     damped = {"rho": 0.5, "damping": {"gamma_n": 0.4, "gamma_t": 0.1}}
     results = {}
     for name, model, extra in (("exact", damped, {"method": "exponential"}), ("rk", damped, {"integrator": "rk"}),
+                               ("series", damped, {"method": "spectral"}),
                                ("undamped", base["model"], {"method": "exponential"})):
         scene = scene_of(shared_tmp / f"{name}.h5", **{**base, "model": model}, waves={**waves, **extra})
         units = pipeline.run(scene, COMM, [])["units"]
         datasets, attrs = units[next(n for n in units if n.startswith("waves/"))]
         results[name] = datasets["C"]
+        results[name + " z_fixed"] = datasets["z_fixed"]
         assert_all(("damping_max" in attrs) == (name != "undamped"), f"{name}: {sorted(attrs)}")
+        if name == "series":
+            settings = json.loads(attrs["solver_settings"])["chebyshev"]
+            assert_all(np.all(np.isfinite(datasets["energy_drift"])) and settings["terms"] > 0, str(settings))
+    assert_close(results["series z_fixed"], results["exact z_fixed"], rtol=0.0,
+                 atol=1e-9 * np.abs(results["exact z_fixed"]).max(), what="spectral against exponential")
     difference = np.abs(results["rk"] - results["exact"]).max()
     decay = np.abs(results["exact"][:, -1]).max(), np.abs(results["undamped"][:, -1]).max()
     assert_all(difference < 1e-7 and not np.allclose(results["exact"], results["undamped"], rtol=0.0, atol=1e-3),
