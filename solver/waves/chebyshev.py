@@ -99,7 +99,8 @@ def block_plan(samples: int, step: float, c: float, f: float, rho: float, tol: f
 def plan(omega_max: float, damping_max: float, step: float, count: int, tol: float) -> Plan:
     """The block (a number of sample spacings ``step``, of ``count`` in all) with the fewest
     products with J over the run whose errors, added over the run, stay below ``tol`` (relative to
-    |X(0)|_E): truncation and rounding below tol / 2 each, in all."""
+    |X(0)|_E): truncation and rounding below tol / 2 each, in all.  ValueError if no block can
+    (``schedule.plan`` turns it into the scene's InputError before any wave runs)."""
     c, f, rho = ellipse(omega_max, damping_max)
     best = None
     samples = 1
@@ -113,8 +114,8 @@ def plan(omega_max: float, damping_max: float, step: float, count: int, tol: flo
             break  # longer blocks only lose more digits
         samples = samples * 2 if samples < 8 else samples + max(samples // 4, 1)
     if best is None:
-        raise RuntimeError(f"waves (spectral, damped): no block reaches tol = {tol:g} (the rounding of one sample "
-                           f"spacing {step:g} with c_max = {damping_max:g} is above it); raise waves.tol")
+        raise ValueError(f"the damped spectral path cannot bound its error below {tol:g} over {count} samples "
+                         f"spacing {step:g} (its rounding bound, with c_max = {damping_max:g}, is above it)")
     return best
 
 

@@ -209,11 +209,21 @@ def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedu
     """The schedule of the waves section ``spec`` on a matrix whose largest eigenfrequency is
     ``omega_max`` and whose dashpots' fastest rate is ``damping_max`` (0: none; rho = kt/kn, for
     messages): the one place ``waves.method`` is decided.
-    ``spectral``, ``exponential``: the sample grid; ``ts``: :func:`resolve_schedule`, refused by
+    ``spectral``, ``exponential``: the sample grid (with dashpots, a ``waves.tol`` the damped spectral
+    path cannot bound is refused here); ``ts``: :func:`resolve_schedule`, refused by
     :func:`check_schedule` (InputError, the same on every rank) if it cannot work.  Not collective.
     """
     if spec.method in SAMPLED:
         label = DAMPED_SPECTRAL if spec.method == "spectral" and damping_max > 0.0 else SAMPLED[spec.method]
+        if label == DAMPED_SPECTRAL:
+            from . import chebyshev
+
+            try:
+                chebyshev.plan(omega_max, damping_max, spec.dt * spec.sample_every,
+                               int(round(spec.t_end / (spec.dt * spec.sample_every))), spec.tol)
+            except ValueError as err:
+                raise InputError(f"waves.tol = {spec.tol:g}: {err}; raise waves.tol, or use waves.method: "
+                                 f"exponential") from None
         return Schedule(integrator=label, variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
                         sample_every=spec.sample_every, adapt="none", sources={}, method=spec.method,
                         omega_max=omega_max, damping_max=damping_max)

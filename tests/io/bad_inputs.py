@@ -298,6 +298,9 @@ CASES = [
      "spectrum: {solver: dense}\n", [], "more than the 8000 the dense solver of method pep takes", None),
     ("Verlet waves with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\nwaves: {n: [1]}\n", [],
      "has no velocity-dependent force", None),
+    ("damped spectral waves asked for an unreachable tol", GOOD + "model: {damping: {gamma_n: 0.3}}\n"
+     "waves: {n: [1], method: spectral, tol: 1e-14, t_end: 400}\n", [],
+     "waves.tol = 1e-14: the damped spectral path cannot bound its error below 1e-14", None),
     ("restitution and gamma_n both", GOOD + "model: {restitution: 0.8, damping: {gamma_n: 0.3}}\n", [],
      "model.restitution = 0.8: it sets model.damping.gamma_n, which is given too", None),
     ("restitution under Hertz", GOOD + "model: {restitution: 0.8, law: hertz}\n", [],
