@@ -6,8 +6,9 @@ For each damped file (same packings as UNDAMPED, dashpots on): per mode and k, t
 gamma (damped) and gamma_s (undamped), the damped modes' mean rate <sigma>(omega(k))
 (``analysis.loss``, Gaussian width --width), the deviation (gamma - gamma_s - <sigma>) / gamma,
 and the phase speed's change omega / omega_s - 1; then the fitted exponents p of gamma ~ k^p
-(L, TR) with and without dashpots.  The figure: gamma, gamma_s and gamma_s + <sigma> against k for
-L and TR, log-log, k^2 and k^3 guides.
+(L, TR) with and without dashpots, and the phase speeds omega / k of L and TR by k for every file
+(Saitoh et al. 2023's transverse dip).  The figure: gamma, gamma_s and gamma_s + <sigma> against k
+for L and TR, log-log, a k^3 guide; and the TR phase speed against k for every file.
 """
 
 from __future__ import annotations
@@ -67,13 +68,25 @@ def main() -> None:
             err = found[0].get("power_law_p_err", np.nan) if found else np.nan
             cells.append(f"{p:.2f} +- {err:.2f}")
         print(f"| {damping} | {' | '.join(cells)} |")
+    print()
+    speeds = [("none", scattering)] + [(d, f) for d, f, _ in runs]
+    for mode in ("L", "TR"):
+        ref = next((fit for (rho, m), fit in scattering.items() if m == mode), None)
+        if ref is None:
+            continue
+        print(f"| {mode}: omega / k at k d0 = | " + " | ".join(f"{k:.3f}" for k in ref["k"]) + " |")
+        print("|---|" + "---|" * len(ref["k"]))
+        for damping, fits in speeds:
+            fit = next(fit for (rho, m), fit in fits.items() if m == mode)
+            print(f"| {damping} | " + " | ".join(f"{w / k:.4f}" for w, k in zip(fit["omega"], fit["k"])) + " |")
+        print()
 
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     colours = plt.cm.viridis(np.linspace(0, 0.8, len(runs)))
     for ax, mode in zip(axes, ("L", "TR")):
         ref = next((fit for (rho, m), fit in scattering.items() if m == mode), None)
@@ -91,6 +104,12 @@ def main() -> None:
         ax.loglog(k, scale * k**3, color="0.6", lw=0.8, label="k^3")
         ax.set(xlabel="k d0", ylabel="gamma (1/t0)", title=mode)
         ax.legend(fontsize=6)
+    speed_colours = ["k"] + list(colours)
+    for colour, (damping, fits) in zip(speed_colours, speeds):
+        fit = next(fit for (rho, m), fit in fits.items() if m == "TR")
+        axes[2].semilogx(fit["k"], fit["omega"] / fit["k"], "o-", color=colour, ms=4, label=damping)
+    axes[2].set(xlabel="k d0", ylabel="omega / k (d0/t0)", title="TR phase speed")
+    axes[2].legend(fontsize=6)
     fig.tight_layout()
     fig.savefig(args.figure, dpi=150)
     print(f"\nwrote {args.figure}")
