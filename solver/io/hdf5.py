@@ -89,6 +89,7 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
         fail(f"'box' = {box.tolist()} and 'box_length' = {group.attrs['box_length']} disagree")
     if stored is not None:
         _check_box(box, diameters, where, name)
+        _check_distinct(positions, diameters, box, where)
         stored = stressed.build(*stored, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
                                 stored[2], f"packing file {where}:/tangential")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
@@ -123,12 +124,34 @@ def _check_box(box, diameters, where: str, box_name: str) -> None:
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
 
 
+COINCIDENT = 1e-9
+"""Centres closer than this many smallest diameters (periodic distance) coincide: their contact
+normal is undefined."""
+
+
+def _check_distinct(positions, diameters, box, where: str) -> None:
+    """InputError naming the first pair (0-based, in the order read) of particles whose centres
+    coincide (``COINCIDENT``), under the periodic box."""
+    from scipy.spatial import cKDTree
+
+    sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
+    folded = np.mod(positions, sides)
+    folded[folded >= sides] = 0.0  # np.mod of a tiny negative value rounds up to the side
+    pairs = cKDTree(folded, boxsize=sides).query_pairs(COINCIDENT * diameters.min(), output_type="ndarray")
+    if len(pairs):
+        i, j = min(map(tuple, np.sort(pairs, axis=1)))
+        raise InputError(f"packing file {where}: particles {i} and {j} (0-based, in the order read) have the same "
+                         f"centre {positions[i].tolist()} (closer than {COINCIDENT:g} of the smallest diameter, "
+                         f"across the periodic box): their contact normal is undefined; move or remove one")
+
+
 def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
             check_equilibrium: bool, law: str, tangential=None, lever: str = "radius") -> Packing:
-    """The checks every format shares (box > 2 max d, not all rattlers, equilibrium under
+    """The checks every format shares (box > 2 max d, no two centres on one point, not all rattlers, equilibrium under
     ``law`` with the stored ``tangential`` forces if any), then the Packing.  ``info`` of a DEM
     file holds its ``length_unit`` (then a contact file is what a frictional packing lacks)."""
     _check_box(box, diameters, where, box_name)
+    _check_distinct(positions, diameters, box, where)
     if tangential is not None:
         sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
         info = {**info, "n_stored": len(tangential),
@@ -168,6 +191,7 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str, contacts: 
     stored = None
     if contacts is not None:
         _check_box(box, diameters, path, "box")
+        _check_distinct(positions, diameters, box, path)
         stored = _stored_forces(contacts, raw, positions, diameters, box, law, friction, unit, contacts_format)
         info.update(contacts=contacts)
     return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, law, stored,

@@ -105,6 +105,18 @@ def _rectangular(path):
         f.attrs["box"] = [2 * p.box_length, p.box_length]
 
 
+def _coincident(path, everywhere=False):
+    """Disks 4 and 9 on one centre (or, ``everywhere``, all 64 at the origin)."""
+    _valid(path)
+    with h5py.File(path, "r+") as f:
+        positions = f["positions"][()]
+        if everywhere:
+            positions[:] = 0.0
+        else:
+            positions[9] = positions[4]
+        f["positions"][...] = positions
+
+
 def _nan(path):
     _valid(path)
     with h5py.File(path, "r+") as f:
@@ -194,6 +206,10 @@ CASES = [
      "'positions' has shape (64, 4); need (64, 2) (disks) or (64, 3) (spheres)",
      lambda p: _valid(p, positions=np.zeros((64, 4)))),
     ("NaN positions", "packing: {file: '{file}'}\n", [], "'positions' contains NaN", _nan),
+    ("two particles on one centre", "packing: {file: '{file}'}\n", [],
+     "particles 4 and 9 (0-based, in the order read) have the same centre", _coincident),
+    ("every particle at one point", "packing: {file: '{file}'}\n", [],
+     "particles 0 and 1 (0-based, in the order read) have the same centre", lambda p: _coincident(p, True)),
     ("negative diameters", "packing: {file: '{file}'}\n", [], "'diameters' must be finite and > 0",
      lambda p: _valid(p, diameters=-np.ones(64))),
     ("box smaller than two diameters", "packing: {file: '{file}'}\n", [], "must be finite and > 2 max(diameters)",
