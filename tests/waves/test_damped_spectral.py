@@ -78,15 +78,18 @@ def test_the_bound_follows_tol_and_holds(comm):
 
 
 def test_the_ellipse_holds_the_numerical_range_rectangle():
-    """The ellipse of chebyshev.ellipse passes through the rectangle's corner (-c_max, omega_max)
-    (up to MARGIN) and reduces to the segment (rho = 1) without dashpots; the coefficients at
+    """The ellipses of chebyshev.ellipse pass through the rectangle's corner (-c_max, omega_max)
+    (up to MARGIN) for every focal stretch and reduce to the segment (rho = 1) without dashpots; the coefficients at
     t = 0 are (1, 0, 0, ...) and sum to e^(lambda t) P_k(lambda) at a point lambda = -0.3 + 2.1 i."""
     omega, rate = 3.0, 1.2
+    for stretch in chebyshev.STRETCHES:
+        c, f, rho = chebyshev.ellipse(omega, rate, stretch)
+        alpha = f * (rho - 1 / rho) / 2
+        beta = f * (rho + 1 / rho) / 2
+        corner = ((-rate - c) / alpha) ** 2 + (omega / beta) ** 2
+        assert_close(corner, 1.0, rtol=0.0, atol=5 * chebyshev.MARGIN, what=f"corner on the ellipse, {stretch}")
+        assert_close(f, stretch * omega, rtol=2 * chebyshev.MARGIN, atol=0.0, what="focal half-distance")
     c, f, rho = chebyshev.ellipse(omega, rate)
-    alpha = f * (rho - 1 / rho) / 2
-    beta = f * (rho + 1 / rho) / 2
-    corner = ((-rate - c) / alpha) ** 2 + (omega / beta) ** 2
-    assert_close(corner, 1.0, rtol=0.0, atol=5 * chebyshev.MARGIN, what="corner on the ellipse")
     assert_close(chebyshev.ellipse(omega, 0.0)[2], 1.0, rtol=0.0, atol=1e-15, what="rho without dashpots")
     coef = chebyshev.coefficients(60, c, f, np.array([0.0, 1.7]))
     assert_close(coef[:, 0], np.eye(61)[0], rtol=0.0, atol=0.0, what="t = 0")
