@@ -179,7 +179,6 @@ def damped_spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: 
     q, p, q_prev, p_prev, q_next, p_next, q_end, p_end, Aq, Cp = vecs
     q.zeroEntries()
     p.setArray(start_velocity(dm, positions, component, axis, k, amplitude, mpi) * root)
-    scale = 2.0 / chosen.f
 
     def energy() -> float:
         A.mult(q, Aq)
