@@ -15,5 +15,5 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 echo "rotsound setup: installing ${missing[*]}" >&2
 apt-get update -qq -o DPkg::Lock::Timeout=600 >/dev/null
-DEBIAN_FRONTEND=noninteractive apt-get install -y -qq -o DPkg::Lock::Timeout=600 --no-install-recommends \
+DEBIAN_FRONTEND=noninteractive DEBCONF_NOWARNINGS=yes apt-get install -y -qq -o DPkg::Lock::Timeout=600 --no-install-recommends \
   "${missing[@]}" >/dev/null

@@ -24,7 +24,7 @@ from . import __version__, parallel
 from .analysis import dispersion
 from .model import damping, dynmat
 from .io import hdf5
-from .spectrum import counting, kpm, nonhermitian, pep
+from .spectrum import counting, kpm, nonhermitian, pep, shapes
 from .spectrum import modes
 from .packing import jammed
 from .packing import mechanics
@@ -217,6 +217,11 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                     _pep_unit(scene, dm, spectrum, commit, comm, checkpoint)
                 else:
                     _spectrum_unit(scene, dm, spectrum, commit, comm, checkpoint)
+        shapes_unit = next((unit for unit in todo if unit.kind == "modes"), None)
+        if shapes_unit is not None:
+            check_interrupt(comm)
+            with profiling.stage("modes"):
+                _modes_unit(scene, dm, shapes_unit, commit, comm)
         if wave_todo:
             with profiling.stage("waves"):
                 _wave_units(scene, dm, p, wave_todo, commit, comm, plan)
@@ -363,6 +368,21 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
     say(comm, f"damped modes rho = {unit.rho:g}, packing {unit.p_index}: {underdamped} underdamped (quality "
               f"factor {np.nanmin(q, initial=np.inf):.3g} to {np.nanmax(q, initial=0.0):.3g}), "
               f"{result.n_overdamped} overdamped roots, {result.n_zero_modes} zero, {how}, {seconds:.1f} s")
+
+
+def _modes_unit(scene, dm, unit: Unit, commit, comm) -> None:
+    """The mode shapes of one (rho, packing) (``shapes.solve``) into ``units``. Collective."""
+    spec = scene.modes
+    t = time.perf_counter()
+    datasets, settings = shapes.solve(dm, spec.omega, spec.count, tol=spec.tol)
+    seconds = parallel.global_max(comm, time.perf_counter() - t)
+    commit(unit, datasets, {"rho": unit.rho, "packing": unit.p_index, "dof": dm.size, "dim": dm.dim,
+                            "n_disks": int(dm.active.sum()), "seconds": seconds,
+                            "solver_settings": json.dumps(settings)})
+    say(comm, f"modes rho = {unit.rho:g}, packing {unit.p_index}: omega = "
+              f"{', '.join(f'{w:.4f}' for w in datasets['omega'])}, participation "
+              f"{datasets['participation'].min():.3f} to {datasets['participation'].max():.3f}, "
+              f"residual <= {datasets['residual'].max():.1e}, {seconds:.1f} s")
 
 
 def _warn_negative(comm, count: int) -> None:
@@ -512,6 +532,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                          f"l = {lattice['l']:.3f} +- {lattice['l_err']:.3f} d0, a_t = {lattice['a_t']:.3f}/t0"
                          if lattice else ""))
         stages = ([("spectra", scene.spectrum.method)] if scene.spectrum else []) + (
+            [("modes", "shapes")] if scene.modes else []) + (
             [("waves", scene.waves.method)] if scene.waves else [])
         unused = options.unused(options.option_names(petsc_argv), stages)  # same on every rank
         for name in unused:

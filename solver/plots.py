@@ -41,27 +41,41 @@ def _save(fig, stem: str) -> list[str]:
     return paths
 
 
+def section(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(which (N,) bool, diameters (n,)) of the particles drawn in a plane picture: every disk in 2D;
+    for spheres (positions (N, 3)) those cut by the plane z = L_z/2, as disks of diameter
+    2 sqrt(R^2 - dz^2) (dz the periodic distance of the centre from the plane)."""
+    if positions.shape[1] == 2:
+        return np.ones(len(diameters), dtype=bool), diameters
+    dz = positions[:, 2] - 0.5 * box[2]
+    dz -= box[2] * np.rint(dz / box[2])
+    cut = np.abs(dz) < 0.5 * diameters
+    return cut, 2.0 * np.sqrt(0.25 * diameters[cut] ** 2 - dz[cut] ** 2)
+
+
+def disks(ax, centres: np.ndarray, diameters: np.ndarray, **style) -> EllipseCollection:
+    """Add disks of ``diameters`` at ``centres`` (n, 2) to ``ax`` as one collection, to scale (data
+    units); ``style``: the collection's facecolors, edgecolors, cmap, ... Returns it."""
+    collection = EllipseCollection(diameters, diameters, np.zeros_like(diameters), offsets=centres, units="xy",
+                                   offset_transform=ax.transData, **style)
+    ax.add_collection(collection)
+    return collection
+
+
 def plot_packing(packing: dict, stem: str) -> list[str]:
     """Disks of one configuration (``results.first_packing``), rattlers in red; units of d0.
-    Spheres (positions (N, 3)): their sections by the plane z = L_z/2, as disks of diameter
-    2 sqrt(R^2 - dz^2) (dz the periodic distance of the centre from the plane)."""
+    Spheres: their sections by the plane z = L_z/2 (:func:`section`)."""
     pos, diam = packing["positions"], packing["diameters"]
     rattler, box = packing["rattler"], packing["box"]
-    colors, section = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8")), ""
-    if pos.shape[1] == 3:
-        dz = pos[:, 2] - 0.5 * box[2]
-        dz -= box[2] * np.rint(dz / box[2])
-        cut = np.abs(dz) < 0.5 * diam
-        pos, rattler, colors = pos[cut, :2], rattler[cut], colors[cut]
-        diam = 2.0 * np.sqrt(0.25 * diam[cut] ** 2 - dz[cut] ** 2)
-        section = ", section z = L_z/2"
+    colors = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8"))
+    cut, diam = section(pos, diam, box)
+    pos, colors = pos[cut, :2], colors[cut]
+    plane = ", section z = L_z/2" if box.size == 3 else ""
     fig, ax = plt.subplots(figsize=(6, 6))
-    ax.add_collection(EllipseCollection(diam, diam, np.zeros_like(diam), offsets=pos,
-                                        units="xy", offset_transform=ax.transData,
-                                        facecolors=colors, edgecolors="k", linewidths=0.2))
+    disks(ax, pos, diam, facecolors=colors, edgecolors="k", linewidths=0.2)
     ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
            title=f"N = {packing['diameters'].size}, phi = {packing['phi']:.3f}, z = {packing['z']:.2f}, "
-                 f"rattlers in red ({int(packing['rattler'].sum())}){section}")
+                 f"rattlers in red ({int(packing['rattler'].sum())}){plane}")
     return _save(fig, stem)
 
 
@@ -400,6 +414,12 @@ def plot_results(path: str) -> list[str]:
         written += plot_bands(lattice_fit, results.bands(f), f"{stem}_bands")
         written += plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
         damped = results.damped_modes(f)
+        shapes = results.mode_shapes(f)
+        pictured = {group.packing: results.packing(f, group.packing) for group in shapes}
+    if shapes:
+        from . import plots_modes  # its figures import this module's helpers
+
+        written += plots_modes.plot_mode_shapes(pictured, shapes, stem)
     if damped:
         from . import plots_damped  # its figures import this module's _save
 

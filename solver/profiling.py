@@ -18,7 +18,7 @@ import contextlib
 import functools
 import sys
 
-STAGES = ("packings", "assembly", "spectrum", "kpm", "waves", "analysis", "output")
+STAGES = ("packings", "assembly", "spectrum", "kpm", "modes", "waves", "analysis", "output")
 
 
 def _petsc():

@@ -50,6 +50,21 @@ class DampedModes(NamedTuple):
     dof: int                # of the first configuration
 
 
+class ModeShapes(NamedTuple):
+    """``modes/r<i>_p<j>``: the modes of one (rho, packing) kept whole near target frequencies
+    (the scene's ``modes`` section; ``spectrum.shapes``), M modes, N particles."""
+
+    rho: float
+    packing: int                    # index of its configuration (``packings/<i>``)
+    target: np.ndarray              # (M,) 1/t0, the target each mode was found for
+    omega: np.ndarray               # (M,) 1/t0
+    displacement: np.ndarray        # (M, N, D) d0: u = M^-1/2 e, |e| = 1; zero on rattlers
+    rotation: np.ndarray | None     # (M, N, R) rad (R = 1 in 2D, 3 in 3D); None without rotations
+    K: np.ndarray                   # (M,) per mode, as spectra's
+    Q: np.ndarray                   # (M,)
+    participation: np.ndarray       # (M,)
+
+
 class Waves(NamedTuple):
     """Sampled Fourier components of one (rho, mode), the runs of every configuration pooled."""
 
@@ -94,7 +109,7 @@ def _groups(f, name: str) -> list:
 
 def contents(f) -> list[str]:
     """Which of the top-level result kinds the file holds, in a fixed order."""
-    return [name for name in ("vdos", "spectra", "waves", "analysis") if name in f]
+    return [name for name in ("vdos", "spectra", "modes", "waves", "analysis") if name in f]
 
 
 def packing_summary(f) -> tuple[float, int]:
@@ -116,14 +131,29 @@ def packing_friction(f) -> float | None:
 
 def first_packing(f) -> dict | None:
     """The first configuration: positions (N, D) (D = 2 or 3), diameters (N,), rattler (N,) bool and the
-    attributes box (D,) side lengths, phi, z (mean contact number; NaN if absent); None without packings."""
+    attributes box (D,) side lengths, phi, z (mean contact number; NaN if absent: a loaded packing
+    has none); None without packings."""
+    return packing(f, 0) if _groups(f, "packings") else None
+
+
+def packing(f, index: int) -> dict:
+    """Configuration ``index`` as :func:`first_packing` gives the first; InputError if the file has
+    no such configuration."""
     groups = _groups(f, "packings")
-    if not groups:
-        return None
-    g = groups[0]
+    if not 0 <= index < len(groups):
+        raise InputError(f"results file {f.filename}: no packing {index} (it has {len(groups)})")
+    g = groups[index]
     return {"positions": g["positions"][()], "diameters": g["diameters"][()], "rattler": g["rattler"][()],
             "box": hdf5.box_of(g, g["positions"].shape[1]), "phi": float(g.attrs["phi"]),
-            "z": float(g.attrs.get("z", np.nan))}  # a loaded packing has no z attribute
+            "z": float(g.attrs.get("z", np.nan))}
+
+
+def mode_shapes(f) -> list[ModeShapes]:
+    """Every ``modes/`` group, in (rho index, packing) order."""
+    return [ModeShapes(float(g.attrs["rho"]), int(g.attrs["packing"]), g["target"][()], g["omega"][()],
+                       g["displacement"][()], g["rotation"][()] if "rotation" in g else None,
+                       g["K"][()], g["Q"][()], g["participation"][()])
+            for g in _groups(f, "modes")]
 
 
 def vdos(f) -> dict[float, Vdos]:

@@ -259,6 +259,19 @@ class SpectrumSpec:
                          "half a bin", _range(0, 10**6), int)
 
 
+@dataclass(frozen=True)
+class ModesSpec:
+    """Section ``modes`` (absent: no mode shapes): whole eigenvectors near chosen frequencies, for
+    pictures (``rotsound plot``) and exports (``rotsound export``); spectrum/shapes.py."""
+
+    omega: list[float] | None = _f(None, "target frequencies (1/t0): the modes nearest each are kept whole "
+                                         "(needed)", _frequencies, "floats_list")
+    count: int = _f(1, "modes kept per target frequency (nearest in omega^2; zero modes left out)",
+                    _range(1, 100), int)
+    tol: float = _f(1e-10, "SLEPc relative tolerance of the shift-and-invert solve (-modes_eps_tol wins)",
+                    _range(0.0, 1e-2, True), float)
+
+
 INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
 WAVE_METHODS = ("ts", "spectral", "exponential")  # waves.method: waves/schedule.py
 
@@ -353,6 +366,8 @@ class Scene:
                                        ("optional", SpectrumSpec))
     waves: WavesSpec | None = _f(None, "see waves.*; absent or null: no standing waves", None,
                                  ("optional", WavesSpec))
+    modes: ModesSpec | None = _f(None, "see modes.*; absent or null: no mode shapes", None,
+                                 ("optional", ModesSpec))
     petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
                          "(-spectrum_eps_*, -waves_ts_*, -log_view, ...: see the option prefixes); the command line wins", None, dict)
     analysis: AnalysisSpec = _f(None, "see analysis.*; applies when the scene has waves", None, AnalysisSpec)
@@ -562,6 +577,9 @@ def _cross_check(obj, where):
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")
+    if isinstance(obj, ModesSpec) and obj.omega is None:
+        raise InputError(f"{where}omega is missing: give the target frequencies (1/t0) whose nearest modes to keep, "
+                         f"e.g. {where}omega: [0.1, 1.0]")
     if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
         raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
     if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:
@@ -616,7 +634,7 @@ def check_dimension(scene: Scene, dim: int, source: str) -> None:
 def check_stressed(scene: Scene, which: str | None) -> None:
     """Raise InputError if stressed packings (``which`` says whose stored tangential forces; None:
     none) or YADE's slip (``model.history: yade``, docs/stressed_contacts.md) meet what
-    needs a symmetric matrix (docs/stressed_contacts.md sections 2 and 4): any ``spectrum`` method
+    needs a symmetric matrix (docs/stressed_contacts.md sections 2 and 4): ``modes``, any ``spectrum`` method
     but nonhermitian (slicing, counting and kpm rest on symmetry), ``waves.method: spectral``, or,
     for stored forces, rho = 0 (the tangential spring holds them); stored forces count for nothing
     when ``model.stored_forces`` drops them.  Not collective."""
@@ -635,6 +653,9 @@ def check_stressed(scene: Scene, which: str | None) -> None:
                          f"symmetric (the DEM code's tangential update has no energy, docs/stressed_contacts.md); "
                          f"slicing, counting and kpm need a symmetric matrix and would give a wrong vDOS: use "
                          f"spectrum.method: nonhermitian (every eigenvalue, complex ones counted as unstable)")
+    if scene.modes is not None:
+        raise InputError(f"modes: {which}, so the dynamical matrix is not symmetric and its modes are not the "
+                         f"orthogonal eigenvectors that modes keeps; drop the modes section for this packing")
     if scene.waves is not None and scene.waves.method == "spectral":
         raise InputError(f"waves.method = 'spectral': {which}, so the matrix is not symmetric and has no "
                          f"orthogonal eigendecomposition: use waves.method: exponential (exact) or ts")
@@ -648,12 +669,17 @@ SECOND_ORDER = ("verlet", "alpha2")
 
 def check_damped(scene: Scene) -> None:
     """Raise InputError if a scene with contact dashpots (``model.damping``) asks for what cannot
-    take them: a spectrum method but pep (the others solve the undamped problem), or a second-order
+    take them: a spectrum method but pep (the others solve the undamped problem), mode shapes (undamped
+    eigenvectors), or a second-order
     integrator (verlet, alpha2: their force has no velocity term). Not collective."""
     if scene.spectrum is not None and scene.spectrum.method != "pep":
         raise InputError(f"spectrum.method = {scene.spectrum.method!r} with model.damping: it solves the undamped "
                          f"problem; the damped modes (lambda^2 M + lambda C + D) x = 0 need spectrum.method: pep "
                          f"(or auto); the undamped vDOS of the same packing: drop model.damping from this scene")
+    if scene.modes is not None:
+        raise InputError("modes with model.damping: modes keeps the undamped eigenvectors of D, not the damped "
+                         "modes of (lambda^2 M + lambda C + D) x = 0; drop model.damping from this scene to see "
+                         "the undamped modes of the same packing")
     if scene.waves is not None and scene.waves.method == "ts" and scene.waves.integrator in SECOND_ORDER:
         raise InputError(f"waves.integrator = {scene.waves.integrator!r} with model.damping: it integrates "
                          f"M u'' = -D u and has no velocity-dependent force; use waves.method: spectral or "

@@ -20,15 +20,16 @@ from .. import __version__
 from .. import options
 from ..waves.excitation import wave_modes
 
-FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "waves": "waves"}
+FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "modes": "modes", "waves": "waves"}
 """Where each kind of unit lives, in the units folder and the results file."""
 
 
 @dataclasses.dataclass(frozen=True)
 class Unit:
-    """One unit of a (rho, packing) task: its matrix summary, its spectrum, or one mode's waves.
+    """One unit of a (rho, packing) task: its matrix summary, its spectrum, its mode shapes, or one
+    mode's waves.
 
-    kind : ``matrix``, ``spectrum`` or ``waves``;  r_index, p_index : positions in ``model.rho``
+    kind : ``matrix``, ``spectrum``, ``modes`` or ``waves``;  r_index, p_index : positions in ``model.rho``
     and in the scene's packings;  rho : ``model.rho[r_index]`` (kt/kn);  mode : the waves' mode
     (L, TR, RT, R), None for the others.
     """
@@ -46,7 +47,7 @@ class Unit:
 
     @property
     def name(self) -> str:
-        """``matrices/<tag>``, ``spectra/<tag>`` or ``waves/r<i>_<mode>_p<j>``: the unit's file in the
+        """``matrices/<tag>``, ``spectra/<tag>``, ``modes/<tag>`` or ``waves/r<i>_<mode>_p<j>``: the unit's file in the
         units folder and its group in the results file."""
         if self.kind == "waves":
             return f"waves/r{self.r_index:02d}_{self.mode}_p{self.p_index:04d}"
@@ -54,13 +55,15 @@ class Unit:
 
 
 def task_units(scene, r_index: int, p_index: int) -> list[Unit]:
-    """The units of task (rho index, packing index): its matrix, its spectrum if the scene has
-    one, and the waves of each mode the matrix has (no RT or R without rotational springs:
+    """The units of task (rho index, packing index): its matrix, its spectrum and its mode shapes if
+    the scene has them, and the waves of each mode the matrix has (no RT or R without rotational springs:
     ``excitation.wave_modes``), in that order. Not collective."""
     rho = scene.model.rho[r_index]
     units = [Unit("matrix", r_index, p_index, rho)]
     if scene.spectrum is not None:
         units.append(Unit("spectrum", r_index, p_index, rho))
+    if scene.modes is not None:
+        units.append(Unit("modes", r_index, p_index, rho))
     if scene.waves is not None:
         rotations = scene.model.contact(rho).rotations
         units += [Unit("waves", r_index, p_index, rho, mode) for mode in wave_modes(scene.waves, rotations)]
@@ -168,7 +171,7 @@ def packing_key(scene, index: int) -> UnitKey:
 
 
 def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
-    """Content key of every matrix, spectrum and waves unit of the scene (``task_units``), by unit
+    """Content key of every matrix, spectrum, modes and waves unit of the scene (``task_units``), by unit
     name. Not collective.
 
     A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
@@ -202,7 +205,7 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
 
 
 def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
-    """Key of one matrix, spectrum or waves ``unit`` on the packing and springs of ``base``."""
+    """Key of one matrix, spectrum, modes or waves ``unit`` on the packing and springs of ``base``."""
     if unit.kind == "matrix":
         return UnitKey.of(unit="matrix", rho=unit.rho, options={}, **base)
     if unit.kind == "spectrum":
@@ -210,6 +213,9 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
         return UnitKey.of(unit="spectrum", rho=unit.rho, section="spectrum",
                           settings=dataclasses.asdict(scene.spectrum), seed=scene.seed + unit.p_index if method == "kpm" else None,
                           options=options.acting_on(petsc_argv, "spectra", method), **base)
+    if unit.kind == "modes":
+        return UnitKey.of(unit="modes", rho=unit.rho, section="modes", settings=dataclasses.asdict(scene.modes),
+                          options=options.acting_on(petsc_argv, "modes", "shapes"), **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not
                 if k != "modes" and not (k == "axes" and v is None)}   # depend on the others; keys of before axes
     return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,

@@ -23,6 +23,7 @@ cache: off
 packing: {{n: 64, phi: 0.9}}
 model: {{rho: 1}}
 spectrum: {{method: kpm, probes: 4}}
+modes: {{omega: [1.0]}}
 waves: {{n: [1], method: spectral, t_end: 10}}
 """
 EXPECTED = {  # stage -> events that must be counted inside it
@@ -30,6 +31,7 @@ EXPECTED = {  # stage -> events that must be counted inside it
     "assembly": ["rsAssemble"],
     "spectrum": ["rsInertia", "rsWindowSolve"],
     "kpm": ["rsKPMMoments"],
+    "modes": ["rsModeShapes"],
     "waves": ["rsOmegaMax", "rsVerletStep", "rsLanczosWave"],
     "analysis": ["rsAnalyse"],
     "output": ["rsWriteResults"],

@@ -1,0 +1,62 @@
+"""Pictures of single modes (the scene's ``modes`` section), from ``io.results.mode_shapes``: the
+particles to scale, each particle's displacement as an arrow and its rotation as its colour, with
+omega, K/Q and the participation ratio in the title.  Spheres: the particles cut by the plane
+z = L_z/2 (``plots.section``), their in-plane displacement and their rotation about z.
+
+Never imports petsc4py or mpi4py.  Each picture is ``<stem>_mode_rho<rho>_p<i>_<m>.png`` and
+``.pdf`` (rho, packing index, mode index m in the group).  Not collective.  Units: d0, rad, 1/t0.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import CenteredNorm  # noqa: E402
+
+from .io.results import ModeShapes  # noqa: E402
+from .plots import _save, disks, section  # noqa: E402
+
+ARROW = 1.0
+"""Length of the longest drawn arrow (d0): a mode's amplitude is arbitrary, only its shape counts."""
+
+
+def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]:
+    """Mode ``m`` of ``shapes`` on its ``packing`` (``results.packing``): disks coloured by the
+    rotation about z (blue-white-red, centred on 0; grey without rotations), arrows for the
+    displacement scaled so that the longest is ``ARROW`` d0, rattlers hollow."""
+    pos, box = packing["positions"], packing["box"]
+    cut, diam = section(pos, packing["diameters"], box)
+    centres, u = pos[cut, :2], shapes.displacement[m][cut, :2]
+    rattler = packing["rattler"][cut]
+    fig, ax = plt.subplots(figsize=(7, 6))
+    if shapes.rotation is not None:
+        turn = shapes.rotation[m][cut, -1]  # 2D: the one angle; 3D: about z, normal to the picture
+        drawn = disks(ax, centres, diam, cmap="coolwarm", norm=CenteredNorm(halfrange=max(np.abs(turn).max(), 1e-300)),
+                      edgecolors="k", linewidths=0.1)
+        drawn.set_array(np.where(rattler, np.nan, turn))
+        fig.colorbar(drawn, ax=ax, shrink=0.8, label="rotation about z (rad, |e| = 1)")
+    else:
+        disks(ax, centres, diam, facecolors=np.where(rattler, "none", "0.85"), edgecolors="k", linewidths=0.1)
+    if rattler.any():
+        disks(ax, centres[rattler], diam[rattler], facecolors="none", edgecolors="tab:red", linewidths=0.6)
+    longest = np.hypot(u[:, 0], u[:, 1]).max()
+    ax.quiver(centres[:, 0], centres[:, 1], u[:, 0], u[:, 1], angles="xy", scale_units="xy",
+              scale=longest / ARROW if longest > 0 else 1.0, width=0.002, color="k")
+    ratio = shapes.K[m] / shapes.Q[m] if shapes.Q[m] > 0 else np.inf
+    plane = ", section z = L_z/2" if box.size == 3 else ""
+    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
+           title=f"omega = {shapes.omega[m]:.4f}/t0 (target {shapes.target[m]:g}), K/Q = {ratio:.3g}, "
+                 f"participation = {shapes.participation[m]:.3f}\nrho = {shapes.rho:g}, packing {shapes.packing}, "
+                 f"N = {pos.shape[0]}{plane}; arrows: displacement (longest {ARROW:g} d0), rattlers red")
+    ax.title.set_fontsize(9)
+    return _save(fig, stem)
+
+
+def plot_mode_shapes(packings: dict[int, dict], groups: list[ModeShapes], stem: str) -> list[str]:
+    """Every mode of every group (``results.mode_shapes``), each on its packing (``packings``:
+    packing index -> ``results.packing``)."""
+    return [path for g in groups for m in range(g.omega.size)
+            for path in plot_mode(packings[g.packing], g, m, f"{stem}_mode_rho{g.rho:g}_p{g.packing}_{m}")]

@@ -1,0 +1,55 @@
+"""The ``modes`` section through a scene: only the shapes are computed (no spectrum), the results
+file holds them where the README says, a rerun loads them, the 3D slab picture and the 2D
+pictures are drawn, and the notebook reader gives the same arrays; 1 and 2 ranks."""
+
+import os
+
+import numpy as np
+from conftest import COMM, assert_all, assert_close, dense_eigen, jammed_packing, scene_of
+
+from solver import pipeline
+from solver.contact_law import ContactModel
+from solver.io import results
+from solver.model import dynmat
+
+
+def test_mode_shapes_scene_writes_reads_resumes_and_draws(comm, shared_tmp):
+    scene = scene_of(shared_tmp / "modes.h5", cache="off", seed=7, packing={"n": 64, "phi": 0.9},
+                     model={"rho": [0.5]}, modes={"omega": [0.3, 2.0], "count": 2})
+    pipeline.run(scene, COMM, [])
+    again = pipeline.run(scene, COMM, [])  # every unit is finished: loaded, not recomputed
+    with results.open_results(scene.output) as f:
+        assert_all("spectra" not in f and "vdos" not in f, "no spectrum solved for mode shapes alone")
+        (group,) = results.mode_shapes(f)
+        packing = results.packing(f, group.packing)
+    p = jammed_packing(64, 0.9, 7)  # the scene's configuration 0: SeedSequence([7, 0])
+    assert_close(packing["positions"], p.positions, rtol=0.0, what="the scene's packing")
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    lam, _ = dense_eigen(dm)
+    dm.destroy()
+    lam = lam[lam > 1e-8]
+    near = np.concatenate([np.sort(lam[np.argsort(np.abs(lam - t**2))[:2]]) for t in (0.3, 2.0)])
+    assert_close(group.omega, np.sqrt(near), rtol=1e-11, what="omega vs eigh")
+    assert_all(group.displacement.shape == (4, 64, 2) and group.rotation.shape == (4, 64, 1), "shapes")
+    unit = again["units"]["modes/r00_p0000"][0]
+    assert_close(unit["displacement"], group.displacement, rtol=0.0, what="resumed unit = file")
+    if COMM.rank == 0:
+        from solver import plots
+
+        written = plots.plot_results(scene.output)
+        pictures = [w for w in written if "_mode_" in os.path.basename(w) and w.endswith(".png")]
+        assert len(pictures) == 4 and all(os.path.getsize(w) > 10_000 for w in pictures), written
+
+
+def test_mode_shapes_of_spheres_draw_their_section(comm, shared_tmp):
+    scene = scene_of(shared_tmp / "modes3d.h5", cache="off", seed=5, packing={"n": 32, "phi": 0.68, "dim": 3},
+                     model={"rho": [0.5], "rho_roll": 0.2, "rho_twist": 0.1}, modes={"omega": [1.0]})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        (group,) = results.mode_shapes(f)
+    assert_all(group.displacement.shape == (1, 32, 3) and group.rotation.shape == (1, 32, 3), "3D shapes")
+    if COMM.rank == 0:
+        from solver import plots
+
+        written = plots.plot_results(scene.output)
+        assert any("_mode_rho0.5_p0_0.png" in w for w in written), written
