@@ -60,6 +60,7 @@ class ModeShapes(NamedTuple):
     omega: np.ndarray               # (M,) 1/t0
     displacement: np.ndarray        # (M, N, D) d0: u = M^-1/2 e, |e| = 1; zero on rattlers
     rotation: np.ndarray | None     # (M, N, R) rad (R = 1 in 2D, 3 in 3D); None without rotations
+    share: np.ndarray               # (M, N, 2): each particle's part of |e|^2 = 1, and its rotations' part
     K: np.ndarray                   # (M,) per mode, as spectra's
     Q: np.ndarray                   # (M,)
     participation: np.ndarray       # (M,)
@@ -151,7 +152,7 @@ def packing(f, index: int) -> dict:
 def mode_shapes(f) -> list[ModeShapes]:
     """Every ``modes/`` group, in (rho index, packing) order."""
     return [ModeShapes(float(g.attrs["rho"]), int(g.attrs["packing"]), g["target"][()], g["omega"][()],
-                       g["displacement"][()], g["rotation"][()] if "rotation" in g else None,
+                       g["displacement"][()], g["rotation"][()] if "rotation" in g else None, g["share"][()],
                        g["K"][()], g["Q"][()], g["participation"][()])
             for g in _groups(f, "modes")]
 

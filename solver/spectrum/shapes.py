@@ -9,7 +9,8 @@ target, whatever the size of the spectrum.  Two close targets can return the sam
 
 Fields of a mode, from the orthonormal e (|e| = 1) by u = M^-1/2 e (PHYSICS.md section 3):
 ``displacement`` (N, D) in d0 and ``rotation`` (N, R) in rad (R = 1 in 2D, the angle about z;
-3 in 3D; absent without rotational springs), over every particle of the packing in its order,
+3 in 3D; absent without rotational springs), and ``share`` (N, 2), each particle's part of
+|e|^2 (its share of the mode's kinetic energy) and the rotational part of that, over every particle of the packing in its order,
 zero on rattlers (not in the matrix).  The sign of an eigenvector is arbitrary: it is fixed so
 that the largest |e| component is positive, which makes the fields independent of the number of
 ranks.  K, Q and the participation ratio as ``modes.energies``.  omega is the Rayleigh quotient
@@ -56,13 +57,15 @@ def _configure(eps, A, target: float, nev: int, tol: float) -> None:
     eps.setFromOptions()
 
 
-def _fields(e: np.ndarray, dm, inv_sqrt_mass: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(displacement (N, D), rotation (N, dof - D)) of the whole eigenvector ``e`` (every active
-    particle's DOF, global order), zero on rattlers. Not collective."""
-    per = (e * inv_sqrt_mass).reshape(-1, dm.dof)
-    full = np.zeros((dm.active.size, dm.dof))
-    full[dm.active] = per
-    return full[:, :dm.dim], full[:, dm.dim:]
+def _fields(e: np.ndarray, dm, inv_sqrt_mass: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(displacement (N, D), rotation (N, dof - D), share (N, 2)) of the whole eigenvector ``e``
+    (every active particle's DOF, global order), zero on rattlers; share: each particle's
+    sum of e^2 over its DOF, and over its rotations alone. Not collective."""
+    full, share = np.zeros((dm.active.size, dm.dof)), np.zeros((dm.active.size, 2))
+    full[dm.active] = (e * inv_sqrt_mass).reshape(-1, dm.dof)
+    squares = (e**2).reshape(-1, dm.dof)
+    share[dm.active] = np.stack((squares.sum(axis=1), squares[:, dm.dim:].sum(axis=1)), axis=1)
+    return full[:, :dm.dim], full[:, dm.dim:], share
 
 
 @profiling.logged("rsModeShapes")
@@ -72,7 +75,9 @@ def solve(dm, targets: list[float], count: int, tol: float = 1e-10, zero_tol: fl
 
     Returns (datasets, settings): datasets ``target`` and ``omega`` (M,), M = len(targets) x count,
     sorted by omega within each target; ``displacement`` (M, N, D); ``rotation`` (M, N, R) when
-    the matrix has rotations; the ``modes.energies`` arrays (M,) each; ``residual`` (M,).
+    the matrix has rotations; ``share`` (M, N, 2): each particle's part of |e|^2 = 1 (its kinetic
+    energy share in the mode), and the part of that in its rotations; the ``modes.energies``
+    arrays (M,) each; ``residual`` (M,).
     ``settings``: what the EPS used (of the last target).  Raises RuntimeError on every rank if
     fewer than ``count`` non-zero modes converge.
     """
@@ -83,8 +88,8 @@ def solve(dm, targets: list[float], count: int, tol: float = 1e-10, zero_tol: fl
     A = scaled_operator(dm)
     inv_sqrt_mass = np.concatenate(mpi.allgather(1.0 / np.sqrt(dm.M.getArray(readonly=True))))
     n_zero = len(dm.rigid_modes())
-    out: dict[str, list] = {"target": [], "omega": [], "displacement": [], "rotation": [], "sums": [],
-                            "residual": []}
+    out: dict[str, list] = {"target": [], "omega": [], "displacement": [], "rotation": [], "share": [],
+                            "sums": [], "residual": []}
     settings: dict = {}
     vec, image = A.createVecRight(), A.createVecLeft()
     try:
@@ -114,18 +119,19 @@ def solve(dm, targets: list[float], count: int, tol: float = 1e-10, zero_tol: fl
                                    f"{target:g}; raise -modes_eps_max_it or -modes_eps_ncv")
             for _, lam, e, sums, residual in sorted(sorted(found, key=lambda f: f[0])[:count], key=lambda f: f[1]):
                 e = e if e[np.argmax(np.abs(e))] > 0 else -e
-                displacement, rotation = _fields(e, dm, inv_sqrt_mass)
+                displacement, rotation, share = _fields(e, dm, inv_sqrt_mass)
                 out["target"].append(target)
                 out["omega"].append(np.sqrt(lam))
                 out["displacement"].append(displacement)
                 out["rotation"].append(rotation)
+                out["share"].append(share)
                 out["sums"].append(sums)
                 out["residual"].append(residual)
     finally:
         vec.destroy()
         image.destroy()
         A.destroy()
-    datasets = {key: np.array(out[key]) for key in ("target", "omega", "displacement", "residual")}
+    datasets = {key: np.array(out[key]) for key in ("target", "omega", "displacement", "share", "residual")}
     if dm.rotations:
         datasets["rotation"] = np.array(out["rotation"])
     datasets.update(modes.energies(np.array(out["sums"]), int(dm.active.sum()), dm.dim))

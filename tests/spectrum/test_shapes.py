@@ -37,6 +37,12 @@ def _check(dm, p, targets, count):
         if dm.rotations:
             assert_close(data["rotation"][m], full[:, dm.dim:], rtol=0.0, atol=1e-8, what=f"rotation of mode {m}")
         assert_all(np.all(data["displacement"][m][p.rattler] == 0.0), "rattlers do not move")
+        squares = np.zeros((n, dm.dof))
+        squares[~p.rattler] = (e**2).reshape(-1, dm.dof)
+        assert_close(data["share"][m][:, 0], squares.sum(axis=1), rtol=0.0, atol=1e-10, what="energy share")
+        assert_close(data["share"][m][:, 1], squares[:, dm.dim:].sum(axis=1), rtol=0.0, atol=1e-10,
+                     what="rotational share")
+        assert_close(data["share"][m][:, 0].sum(), 1.0, rtol=1e-12, what="shares add up to |e|^2 = 1")
     reference = modes.energies(modes.local_sums(vec[:, picked].T, dm.dof, dm.dim), int((~p.rattler).sum()), dm.dim)
     for key in ("K", "Q", "participation"):
         assert_close(data[key], reference[key], rtol=1e-9, what=key)

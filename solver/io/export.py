@@ -1,0 +1,204 @@
+"""``rotsound export``: a packing of a results file, and optionally one of its kept modes, as
+files that OVITO and ParaView open.
+
+Formats (each by the library made for it, or the format's own conventions):
+  extxyz       extended XYZ by ASE (``ase.io.write``): one file, one frame per phase;
+  vtk          legacy VTK unstructured grid of vertices by meshio: one file per frame
+               (``<stem>_<frame>.vtk`` when there are several: a numbered series for ParaView);
+  lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``,
+               ``ITEM: ATOMS id type x y z ...``), written here: no maintained writer exists outside
+               LAMMPS; one file, one timestep per frame.
+
+Per-particle fields: ``type`` (1 small, 2 large), ``radius`` and ``diameter`` (d0), ``rattler``
+(0/1), ``contacts`` (contacts among non-rattlers); with a mode also ``displacement`` and
+``rotation`` (3-vectors: d0 and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share``
+(the particle's part of the mode's kinetic energy, sums to 1) and ``rotational_share`` (the part of
+that in its rotations; 0 where the share is 0).  2D packings get z = 0 and a box of height 1 in z.
+A mode is animated over ``frames`` phases of one period: frame f has positions r + a u sin(2 pi f /
+frames), a such that the largest displacement is ``amplitude`` d0; rotation vectors are scaled the
+same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
+phi, go into the extxyz comment line (``Atoms.info``) and into :func:`describe` (the command prints
+it); VTK (meshio writes no field data to legacy files) and the dump carry the per-particle fields
+only, the dump's TIMESTEP being the frame index.
+
+No PETSc, no MPI; not collective.  Units: d0, rad, 1/t0.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import InputError
+from ..packing import geometry
+from . import results
+from .atomic import atomic_write
+
+FORMATS = ("extxyz", "vtk", "lammps-dump")
+
+
+def particle_fields(packing: dict) -> dict[str, np.ndarray]:
+    """The packing's per-particle fields (N,) each: type, radius, diameter, rattler, contacts."""
+    d = packing["diameters"]
+    active = ~packing["rattler"]
+    contacts = geometry.find_contacts(packing["positions"], d, packing["box"], active)
+    return {"type": np.where(d > d.mean(), 2, 1), "radius": 0.5 * d, "diameter": d,
+            "rattler": packing["rattler"].astype(np.int64), "contacts": contacts.count_per_particle(d.size)}
+
+
+def mode_fields(shapes: results.ModeShapes, m: int) -> dict[str, np.ndarray]:
+    """Mode ``m``'s per-particle fields: displacement, rotation (N, 3), share, rotational_share (N,)."""
+    n, dim = shapes.displacement.shape[1:]
+    displacement = np.zeros((n, 3))
+    displacement[:, :dim] = shapes.displacement[m]
+    rotation = np.zeros((n, 3))
+    if shapes.rotation is not None:
+        rotation[:, 3 - shapes.rotation.shape[2]:] = shapes.rotation[m]  # 2D: the angle about z
+    share, rotational = shapes.share[m, :, 0], shapes.share[m, :, 1]
+    return {"displacement": displacement, "rotation": rotation, "share": share,
+            "rotational_share": np.divide(rotational, share, out=np.zeros_like(share), where=share > 0)}
+
+
+def _frames(positions3: np.ndarray, fields: dict, frames: int, amplitude: float) -> list[tuple[np.ndarray, dict]]:
+    """[(positions (N, 3), fields)] per frame: the mode's displacement and rotation at phase
+    2 pi f / frames scaled to ``amplitude``; the packing alone (one frame) without a mode."""
+    if "displacement" not in fields:
+        return [(positions3, fields)]
+    largest = np.linalg.norm(fields["displacement"], axis=1).max()
+    scale = amplitude / largest if largest > 0 else 0.0
+    out = []
+    for f in range(frames):
+        phase = np.sin(2.0 * np.pi * f / frames) if frames > 1 else 1.0
+        now = {**fields, "displacement": phase * scale * fields["displacement"],
+               "rotation": phase * scale * fields["rotation"]}
+        out.append((positions3 + now["displacement"], now))
+    return out
+
+
+def _extxyz(path: str, cell: np.ndarray, pbc, frames, info: dict) -> list[str]:
+    import ase
+    import ase.io
+
+    atoms = []
+    for positions, fields in frames:
+        a = ase.Atoms(["X"] * len(positions), positions=positions, cell=np.diag(cell), pbc=pbc, info=dict(info))
+        for name, value in fields.items():
+            a.new_array(name, np.asarray(value))
+        atoms.append(a)
+    with atomic_write(path) as partial:
+        ase.io.write(partial, atoms, format="extxyz")
+    return [path]
+
+
+def _vtk(path: str, frames) -> list[str]:
+    import meshio
+
+    stem = path[:-4] if path.endswith(".vtk") else path
+    paths = [path] if len(frames) == 1 else [f"{stem}_{f:04d}.vtk" for f in range(len(frames))]
+    for target, (positions, fields) in zip(paths, frames):
+        mesh = meshio.Mesh(positions, [("vertex", np.arange(len(positions))[:, None])],
+                           point_data={name: np.asarray(value, dtype=float) for name, value in fields.items()})
+        with atomic_write(target) as partial:  # legacy 4.2: read by VTK 9 and by older ParaView alike
+            meshio.vtk.write(partial, mesh, fmt_version="4.2", binary=True)
+    return paths
+
+
+def _dump_columns(fields: dict) -> tuple[list[str], list[str], np.ndarray]:
+    """LAMMPS dump column names (vectors as name_x, name_y, name_z), their printf formats (integers
+    as integers) and their values (N, C)."""
+    names, formats, columns = [], [], []
+    for name, value in fields.items():
+        value = np.asarray(value)
+        form = "%d" if value.dtype.kind in "iub" else "%.16e"
+        if value.ndim == 2:
+            names += [f"{name}_{axis}" for axis in "xyz"]
+            columns += list(value.T)
+            formats += [form] * 3
+        else:
+            names.append(name)
+            columns.append(value)
+            formats.append(form)
+    return names, formats, np.stack(columns, axis=1).astype(float)
+
+
+def _lammps_dump(path: str, cell: np.ndarray, dim: int, frames) -> list[str]:
+    lo = np.zeros(3)
+    if dim == 2:  # the disks' plane z = 0 inside the box, as LAMMPS's 2D boxes have it
+        lo[2] = -0.5 * cell[2]
+    with atomic_write(path) as partial, open(partial, "w", encoding="ascii") as out:
+        for step, (positions, fields) in enumerate(frames):
+            names, formats, values = _dump_columns({k: v for k, v in fields.items() if k != "type"})
+            out.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n{len(positions)}\n"
+                      "ITEM: BOX BOUNDS pp pp pp\n")
+            for axis in range(3):
+                out.write(f"{lo[axis]:.16e} {lo[axis] + cell[axis]:.16e}\n")
+            out.write("ITEM: ATOMS id type x y z " + " ".join(names) + "\n")
+            ids = np.arange(1, len(positions) + 1)
+            table = np.column_stack((ids, fields["type"], positions, values))
+            np.savetxt(out, table, fmt=["%d", "%d"] + ["%.16e"] * 3 + formats)
+    return [path]
+
+
+def describe(info: dict) -> str:
+    """One line of what an export holds (``info`` as the extxyz comment line has it)."""
+    text = f"packing {info['packing']} (phi = {info['phi']:.4f})"
+    if "omega" in info:
+        text += (f", mode {info['mode']} at rho = {info['rho']:g}: omega = {info['omega']:.6g}/t0, K/Q = "
+                 f"{info['K_over_Q']:.4g}, participation = {info['participation']:.4f}")
+    return text
+
+
+def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None = None, mode: int | None = None,
+           frames: int = 1, amplitude: float = 0.1) -> tuple[list[str], str]:
+    """Write configuration ``packing`` of results file ``path`` in ``fmt`` (``FORMATS``) to
+    ``output``; with ``mode`` (an index among the modes kept for ``packing`` at ``rho``; rho may be
+    omitted when one rho has modes) that mode too, over ``frames`` phases.  Returns the paths
+    written and :func:`describe`'s line.  InputError, naming the file or option, for an unknown format, a missing packing, rho
+    or mode, or a folder that cannot take the files."""
+    if fmt not in FORMATS:
+        raise InputError(f"export --format {fmt}: must be one of {', '.join(FORMATS)}")
+    if frames < 1 or not 0.0 < amplitude < 10.0:
+        raise InputError(f"export: --frames must be >= 1 and --amplitude in (0, 10) d0 (got {frames}, {amplitude})")
+    with results.open_results(path) as f:
+        config = results.packing(f, packing)
+        groups = [g for g in results.mode_shapes(f) if g.packing == packing]
+    fields = particle_fields(config)
+    info = {"packing": packing, "phi": config["phi"], "source": os.path.basename(path)}
+    if mode is not None:
+        rhos = sorted({g.rho for g in groups})
+        if not rhos:
+            raise InputError(f"results file {path}: no modes kept for packing {packing} (the scene needs a modes "
+                             f"section); export without --mode writes the packing alone")
+        if rho is None and len(rhos) > 1:
+            raise InputError(f"export: results file {path} has modes at rho = {', '.join(f'{r:g}' for r in rhos)}: "
+                             f"choose one with --rho")
+        chosen = [g for g in groups if rho is None or np.isclose(g.rho, rho, rtol=1e-12, atol=0.0)]
+        if not chosen:
+            raise InputError(f"export --rho {rho:g}: results file {path} has modes at rho = "
+                             f"{', '.join(f'{r:g}' for r in rhos)} only")
+        shapes = chosen[0]
+        if not 0 <= mode < shapes.omega.size:
+            raise InputError(f"export --mode {mode}: packing {packing} at rho = {shapes.rho:g} has modes 0 to "
+                             f"{shapes.omega.size - 1} (omega = {', '.join(f'{w:.4g}' for w in shapes.omega)})")
+        fields.update(mode_fields(shapes, mode))
+        ratio = shapes.K[mode] / shapes.Q[mode] if shapes.Q[mode] > 0 else np.inf
+        info.update(rho=shapes.rho, mode=mode, omega=float(shapes.omega[mode]), K=float(shapes.K[mode]),
+                    Q=float(shapes.Q[mode]), K_over_Q=float(ratio), participation=float(shapes.participation[mode]))
+    positions = config["positions"]
+    dim = positions.shape[1]
+    positions3 = np.zeros((len(positions), 3))
+    positions3[:, :dim] = positions
+    cell = np.ones(3)
+    cell[:dim] = config["box"]
+    steps = _frames(positions3, fields, frames if mode is not None else 1, amplitude)
+    try:
+        if fmt == "extxyz":
+            written = _extxyz(output, cell, [True] * dim + [False] * (3 - dim), steps, info)
+        elif fmt == "vtk":
+            written = _vtk(output, steps)
+        else:
+            written = _lammps_dump(output, cell, dim, steps)
+    except OSError as exc:
+        raise InputError(f"export --output {output}: cannot write ({exc})") from None
+    return written, describe(info)
