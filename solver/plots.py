@@ -401,6 +401,12 @@ def plot_results(path: str) -> list[str]:
         packing = results.first_packing(f)
         if packing is not None:
             written += plot_packing(packing, f"{stem}_packing")
+            from . import plots_packing  # its figure imports this module's helpers
+            from .io import hdf5
+
+            law = results.contact_law(f)
+            first = hdf5.read_packings(path, count=1, check_equilibrium=False, law=law)[0]
+            written += plots_packing.plot_force_network(first, law, f"{stem}_forces")
         vdos = results.vdos(f)
         written += plot_vdos(vdos, f"{stem}_vdos")
         written += plot_energies(vdos, results.mode_energies(f), results.binned_energies(f), f"{stem}_energies")

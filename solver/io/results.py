@@ -121,6 +121,14 @@ def packing_summary(f) -> tuple[float, int]:
     return float(groups[0].attrs["phi"]), int(groups[0]["diameters"].shape[0])
 
 
+def contact_law(f) -> str:
+    """The scene's ``model.law`` (harmonic or hertz) from the root attribute ``scene``."""
+    import yaml
+
+    scene = yaml.safe_load(f.attrs["scene"]) if "scene" in f.attrs else {}
+    return str((scene.get("model") or {}).get("law", "harmonic"))
+
+
 def packing_friction(f) -> float | None:
     """The Coulomb mu of the first configuration's stored tangential forces (a frictional packing:
     group ``tangential``, attribute ``friction``); None for an unstressed packing or mu unknown."""

@@ -1,0 +1,73 @@
+"""The force-chain picture of a packing: every contact between non-rattlers as a line between the
+two centres, its width proportional to the normal force (the scene's ``model.law``), and, for a
+stressed packing (stored tangential forces), the tangential force as a second, red line on top;
+particles to scale in light grey, rattlers outlined in red.  Spheres: the contacts between
+particles both cut by the plane z = L_z/2 (``plots.section``), in-plane.
+
+A contact across the periodic boundary is drawn as two halves, one from each centre towards the
+other's nearest image, so that every chord shows inside the box.  Never imports petsc4py or
+mpi4py.  Writes ``<stem>.png`` and ``.pdf``.  Not collective.  Units: d0, forces in kn d0.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+
+from . import contact_law  # noqa: E402
+from .packing import geometry  # noqa: E402
+from .plots import _save, disks, section  # noqa: E402
+
+WIDTH = 2.5
+"""Line width (points) of a contact carrying the mean normal force."""
+
+
+def contact_forces(packing, law: str) -> tuple[geometry.Contacts, np.ndarray, np.ndarray]:
+    """(contacts among non-rattlers, |f_n| (C,), |f_t| (C,)) of a ``jammed.Packing``: the normal
+    force of ``law`` and the stored tangential force (zero for an unstressed packing)."""
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, ~packing.rattler)
+    d = packing.diameters
+    f_n = contact_law.normal_force(found.overlap, law, contact_law.reduced_radius(d[found.i], d[found.j]))
+    stored = packing.tangential  # perpendicular to the normal by construction (packing.stressed.build)
+    f_t = np.zeros(len(found)) if stored is None else np.linalg.norm(stored.on(found.i, found.j), axis=1)
+    return found, f_n, f_t
+
+
+def _halves(positions: np.ndarray, found: geometry.Contacts) -> np.ndarray:
+    """(2C, 2, 2): per contact, the half chord from i towards j and from j towards i (in-plane)."""
+    half = 0.5 * found.distance[:, None] * found.normal[:, :2]  # n points from j to i
+    a, b = positions[found.i, :2], positions[found.j, :2]
+    return np.concatenate((np.stack((a, a - half), axis=1), np.stack((b, b + half), axis=1)))
+
+
+def plot_force_network(packing, law: str, stem: str) -> list[str]:
+    """The force-chain picture of ``packing`` (``jammed.Packing``) under the normal ``law``."""
+    found, f_n, f_t = contact_forces(packing, law)
+    cut, diam = section(packing.positions, packing.diameters, packing.box)
+    keep = cut[found.i] & cut[found.j]
+    fig, ax = plt.subplots(figsize=(7, 7))
+    rattler = packing.rattler[cut]
+    disks(ax, packing.positions[cut, :2], diam, facecolors="0.9", edgecolors=np.where(rattler, "tab:red", "0.6"),
+          linewidths=np.where(rattler, 0.8, 0.2))
+    scale = WIDTH / f_n.mean() if f_n.size else 0.0
+    chosen = geometry.Contacts(found.i[keep], found.j[keep], found.normal[keep], found.distance[keep],
+                               found.overlap[keep])
+    segments = _halves(packing.positions, chosen)
+    ax.add_collection(LineCollection(segments, linewidths=np.tile(scale * f_n[keep], 2), colors="k",
+                                     capstyle="round"))
+    stressed = packing.tangential is not None and f_t.max(initial=0.0) > 0.0
+    if stressed:
+        ax.add_collection(LineCollection(segments, linewidths=np.tile(scale * f_t[keep], 2), colors="tab:red",
+                                         capstyle="round", alpha=0.8))
+    plane = ", section z = L_z/2" if packing.dim == 3 else ""
+    tangential = (f"\nred: |f_t| on the same scale (largest |f_t|/|f_n| = {np.max(f_t / np.maximum(f_n, 1e-300)):.2f})"
+                  if stressed else "")
+    ax.set(xlim=(0, packing.box[0]), ylim=(0, packing.box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
+           title=f"force network: {len(found)} contacts, N = {packing.n}{plane}, rattlers outlined in red\n"
+                 f"black: |f_n| ({law}; mean {f_n.mean():.3g} kn d0 drawn {WIDTH:g} pt wide){tangential}")
+    ax.title.set_fontsize(9)
+    return _save(fig, stem)

@@ -1,0 +1,54 @@
+"""The force-chain picture's forces (``plots_packing.contact_forces``) against brute force: every
+contact between non-rattlers with its harmonic normal force; for a frictional packing written by
+LAMMPS, the tangential forces of its contact file; the figure drawn from a results file and from
+the stressed packing.  Serial: figures and file reading."""
+
+import os
+
+import numpy as np
+import pytest
+from conftest import COMM, REPO, all_pairs, jammed_packing, scene_of
+
+from solver import pipeline, plots
+from solver.io import hdf5
+from solver.packing import geometry
+from solver.plots_packing import contact_forces, plot_force_network
+
+pytestmark = pytest.mark.serial_only
+
+DATA = REPO / "tests" / "data" / "dem"
+
+
+def test_normal_forces_are_the_overlaps_of_every_contact():
+    p = jammed_packing(64, 0.9, 7)
+    found, f_n, f_t = contact_forces(p, "harmonic")
+    overlap, _, _ = all_pairs(p)
+    active = ~p.rattler
+    touching = np.triu((overlap > 0) & active[:, None] & active[None, :], 1)
+    i, j = np.nonzero(touching)
+    assert np.array_equal(np.sort(found.i * 64 + found.j), np.sort(i * 64 + j))
+    np.testing.assert_allclose(np.sort(f_n), np.sort(overlap[i, j]), rtol=1e-12, atol=0)  # kn = 1
+    assert np.all(f_t == 0.0)
+
+
+def test_tangential_forces_are_the_contact_files(tmp_path):
+    name = "lammps_2d_friction"
+    p = hdf5.read_packings(str(DATA / f"{name}.data"), law="harmonic", contacts=str(DATA / f"{name}.contacts"))[0]
+    found, f_n, f_t = contact_forces(p, "harmonic")
+    stored = p.tangential
+    active = ~p.rattler
+    among = active[stored.pairs[:, 0]] & active[stored.pairs[:, 1]]
+    magnitudes = np.linalg.norm(stored.force[among], axis=1)
+    assert np.count_nonzero(f_t) == np.count_nonzero(magnitudes) > 0
+    np.testing.assert_allclose(np.sort(f_t[f_t > 0]), np.sort(magnitudes[magnitudes > 0]), rtol=1e-12, atol=0)
+    reference = geometry.find_contacts(p.positions, p.diameters, p.box, active)
+    np.testing.assert_allclose(f_n, reference.overlap, rtol=1e-12, atol=0)  # harmonic, kn = 1
+    written = plot_force_network(p, "harmonic", str(tmp_path / "stressed"))
+    assert all(os.path.getsize(w) > 10_000 for w in written)
+
+
+def test_plot_results_draws_the_force_network(tmp_path):
+    out = tmp_path / "forces.h5"
+    pipeline.run(scene_of(out, cache="off", seed=7, packing={"n": 64, "phi": 0.9}, spectrum={}), COMM, [])
+    written = plots.plot_results(str(out))
+    assert str(tmp_path / "forces_forces.png") in written
