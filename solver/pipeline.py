@@ -173,13 +173,21 @@ def _solve_task(scene: Scene, p, task: list[Unit], keys, store: UnitStore, units
             units[unit.name] = found
     if todo:
         spectrum = next((unit.name for unit in task if unit.kind == "spectrum"), None)
-        _compute(scene, p, task[0], todo, commit, comm, WindowCheckpoint(store, task[0].tag, keys.get(spectrum)))
+        _compute(scene, p, task[0], todo, commit, comm, WindowCheckpoint(store, task[0].tag, keys.get(spectrum)),
+                 units.get(spectrum, (None,))[0])
 
 
-def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=None) -> None:
+def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=None, spectrum=None) -> None:
     """Assemble the matrix of task ``matrix`` (its matrix unit) on packing ``p`` and compute the
-    units of ``todo`` (``checkpoint``: the spectrum's window checkpoint, a :class:`WindowCheckpoint`)."""
+    units of ``todo`` (``checkpoint``: the spectrum's window checkpoint, a :class:`WindowCheckpoint`;
+    ``spectrum``: the datasets of the task's spectrum unit when it was loaded, not computed)."""
     from petsc4py import PETSc
+
+    made = {} if spectrum is None else {"spectrum": spectrum}
+
+    def keep(unit: Unit, datasets, attrs):  # the spectrum's datasets also feed modes.localised
+        made[unit.kind] = datasets
+        commit(unit, datasets, attrs)
 
     rho, p_index = matrix.rho, matrix.p_index
     t = time.perf_counter()
@@ -203,25 +211,25 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                 "masses": scene.model.masses, "law": dm.model.law, "packing": p_index,
                 "size": dm.size, "dof_per_disk": dm.dof,
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
-        spectrum = next((unit for unit in todo if unit.kind == "spectrum"), None)
-        if spectrum is not None:
+        spectrum_unit = next((unit for unit in todo if unit.kind == "spectrum"), None)
+        if spectrum_unit is not None:
             check_interrupt(comm)
             with profiling.stage("kpm" if scene.spectrum.method == "kpm" else "spectrum"):
                 if scene.spectrum.method == "kpm":
-                    _kpm_unit(scene, dm, spectrum, commit, comm)
+                    _kpm_unit(scene, dm, spectrum_unit, keep, comm)
                 elif scene.spectrum.method == "counting":
-                    _counting_unit(scene, dm, spectrum, commit, comm)
+                    _counting_unit(scene, dm, spectrum_unit, keep, comm)
                 elif scene.spectrum.method == "nonhermitian":
-                    _nonhermitian_unit(scene, dm, spectrum, commit, comm, checkpoint)
+                    _nonhermitian_unit(scene, dm, spectrum_unit, keep, comm, checkpoint)
                 elif scene.spectrum.method == "pep":
-                    _pep_unit(scene, dm, spectrum, commit, comm, checkpoint)
+                    _pep_unit(scene, dm, spectrum_unit, keep, comm, checkpoint)
                 else:
-                    _spectrum_unit(scene, dm, spectrum, commit, comm, checkpoint)
+                    _spectrum_unit(scene, dm, spectrum_unit, keep, comm, checkpoint)
         shapes_unit = next((unit for unit in todo if unit.kind == "modes"), None)
         if shapes_unit is not None:
             check_interrupt(comm)
             with profiling.stage("modes"):
-                _modes_unit(scene, dm, shapes_unit, commit, comm)
+                _modes_unit(scene, dm, shapes_unit, commit, comm, made.get("spectrum"))
         if wave_todo:
             with profiling.stage("waves"):
                 _wave_units(scene, dm, p, wave_todo, commit, comm, plan)
@@ -370,14 +378,23 @@ def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
               f"{result.n_overdamped} overdamped roots, {result.n_zero_modes} zero, {how}, {seconds:.1f} s")
 
 
-def _modes_unit(scene, dm, unit: Unit, commit, comm) -> None:
-    """The mode shapes of one (rho, packing) (``shapes.solve``) into ``units``. Collective."""
+def _modes_unit(scene, dm, unit: Unit, commit, comm, spectrum: dict | None) -> None:
+    """The mode shapes of one (rho, packing) (``shapes.solve``) into ``units``: the ``count`` nearest
+    each ``modes.omega``, then with ``modes.localised`` = n the n modes of lowest participation and
+    the n of highest from ``spectrum`` (the task's spectrum datasets), each found at its own omega.
+    Collective."""
     spec = scene.modes
     t = time.perf_counter()
-    datasets, settings = shapes.solve(dm, spec.omega, spec.count, tol=spec.tol)
+    parts = [shapes.solve(dm, spec.omega, spec.count, tol=spec.tol)] if spec.omega else []
+    if spec.localised:
+        order = np.argsort(spectrum["participation"], kind="stable")
+        picked = np.concatenate((order[:spec.localised], order[::-1][:spec.localised]))
+        parts.append(shapes.solve(dm, [float(w) for w in spectrum["omega"][picked]], 1, tol=spec.tol))
+    datasets = {key: np.concatenate([part[0][key] for part in parts]) for key in parts[0][0]}
+    settings = parts[-1][1]
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     commit(unit, datasets, {"rho": unit.rho, "packing": unit.p_index, "dof": dm.size, "dim": dm.dim,
-                            "n_disks": int(dm.active.sum()), "seconds": seconds,
+                            "n_disks": int(dm.active.sum()), "localised": spec.localised, "seconds": seconds,
                             "solver_settings": json.dumps(settings)})
     say(comm, f"modes rho = {unit.rho:g}, packing {unit.p_index}: omega = "
               f"{', '.join(f'{w:.4f}' for w in datasets['omega'])}, participation "

@@ -421,10 +421,12 @@ def plot_results(path: str) -> list[str]:
         written += plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
         damped = results.damped_modes(f)
         shapes = results.mode_shapes(f)
+        per_mode_participation = results.participation(f)
         pictured = {group.packing: results.packing(f, group.packing) for group in shapes}
-    if shapes:
+    if shapes or per_mode_participation:
         from . import plots_modes  # its figures import this module's helpers
 
+        written += plots_modes.plot_participation(per_mode_participation, shapes, f"{stem}_participation")
         written += plots_modes.plot_mode_shapes(pictured, shapes, stem)
     if damped:
         from . import plots_damped  # its figures import this module's _save

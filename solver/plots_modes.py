@@ -1,7 +1,9 @@
 """Pictures of single modes (the scene's ``modes`` section), from ``io.results.mode_shapes``: the
 particles to scale, each particle's displacement as an arrow and its rotation as its colour, with
 omega, K/Q and the participation ratio in the title.  Spheres: the particles cut by the plane
-z = L_z/2 (``plots.section``), their in-plane displacement and their rotation about z.
+z = L_z/2 (``plots.section``), their in-plane displacement and their rotation about z.  And the
+localisation of every mode: the participation ratio against omega (``io.results.participation``),
+``<stem>_participation``, with the kept modes marked.
 
 Never imports petsc4py or mpi4py.  Each picture is ``<stem>_mode_rho<rho>_p<i>_<m>.png`` and
 ``.pdf`` (rho, packing index, mode index m in the group).  Not collective.  Units: d0, rad, 1/t0.
@@ -17,6 +19,7 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import CenteredNorm  # noqa: E402
 
 from .io.results import ModeShapes  # noqa: E402
+from .spectrum.modes import bin_average  # noqa: E402
 from .plots import _save, disks, section  # noqa: E402
 
 ARROW = 1.0
@@ -60,3 +63,26 @@ def plot_mode_shapes(packings: dict[int, dict], groups: list[ModeShapes], stem: 
     packing index -> ``results.packing``)."""
     return [path for g in groups for m in range(g.omega.size)
             for path in plot_mode(packings[g.packing], g, m, f"{stem}_mode_rho{g.rho:g}_p{g.packing}_{m}")]
+
+
+def plot_participation(per_mode: dict[float, tuple[np.ndarray, np.ndarray]], kept: list[ModeShapes], stem: str,
+                       bin_width: float = 0.1) -> list[str]:
+    """Participation ratio P of every mode against omega, one colour per rho, with its mean per
+    ``bin_width`` bin as a line; the modes kept whole (``kept``) circled.  Log P axis: 1 for a
+    mode spread evenly over every particle, ~1/N on one particle."""
+    if not per_mode:
+        return []
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    colours = plt.cm.viridis(np.linspace(0, 0.85, len(per_mode)))
+    for colour, (rho, (omega, p)) in zip(colours, sorted(per_mode.items())):
+        ax.scatter(omega, p, s=2, color=colour, alpha=0.25, linewidths=0, rasterized=True)
+        edges = np.arange(0.0, omega.max() + bin_width, bin_width)
+        ax.plot(0.5 * (edges[1:] + edges[:-1]), bin_average(omega, p, edges), color=colour, lw=1.5,
+                label=f"rho = {rho:g} ({omega.size} modes)")
+    for g in kept:
+        ax.scatter(g.omega, g.participation, s=60, facecolors="none", edgecolors="tab:red", linewidths=1.2)
+    ax.set(yscale="log", xlabel="omega t0", ylabel="participation ratio P",
+           title="localisation: P of every mode (dots), bin means (lines)" + (", modes kept whole circled" if kept
+                                                                                else ""))
+    ax.legend(fontsize=8)
+    return _save(fig, stem)

@@ -182,6 +182,17 @@ def mode_energies(f) -> dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]]:
             for rho, groups in per_rho.items()}
 
 
+def participation(f) -> dict[float, tuple[np.ndarray, np.ndarray]]:
+    """{rho: (omega, participation ratio)} per mode (slicing spectra with energies), configurations
+    concatenated."""
+    per_rho: dict[float, list] = {}
+    for g in _groups(f, "spectra"):
+        if "participation" in g and "omega" in g:
+            per_rho.setdefault(float(g.attrs["rho"]), []).append(g)
+    return {rho: (np.concatenate([g["omega"][()] for g in groups]),
+                  np.concatenate([g["participation"][()] for g in groups])) for rho, groups in per_rho.items()}
+
+
 def damped_modes(f) -> dict[float, DampedModes]:
     """{rho: DampedModes} of the spectra groups holding ``lambda`` (spectrum.method pep)."""
     per_rho: dict[float, list] = {}

@@ -265,11 +265,14 @@ class ModesSpec:
     pictures (``rotsound plot``) and exports (``rotsound export``); spectrum/shapes.py."""
 
     omega: list[float] | None = _f(None, "target frequencies (1/t0): the modes nearest each are kept whole "
-                                         "(needed)", _frequencies, "floats_list")
+                                         "(give omega, localised or both)", _frequencies, "floats_list")
     count: int = _f(1, "modes kept per target frequency (nearest in omega^2; zero modes left out)",
                     _range(1, 100), int)
     tol: float = _f(1e-10, "SLEPc relative tolerance of the shift-and-invert solve (-modes_eps_tol wins)",
                     _range(0.0, 1e-2, True), float)
+    localised: int = _f(0, "also keep the n modes of lowest and the n of highest participation ratio of each "
+                            "(rho, packing), from its spectrum (needs spectrum.energies, method slicing)",
+                        _range(0, 100), int)
 
 
 INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
@@ -577,9 +580,15 @@ def _cross_check(obj, where):
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")
-    if isinstance(obj, ModesSpec) and obj.omega is None:
+    if isinstance(obj, ModesSpec) and obj.omega is None and not obj.localised:
         raise InputError(f"{where}omega is missing: give the target frequencies (1/t0) whose nearest modes to keep, "
-                         f"e.g. {where}omega: [0.1, 1.0]")
+                         f"e.g. {where}omega: [0.1, 1.0], or {where}localised")
+    if isinstance(obj, Scene) and obj.modes is not None and obj.modes.localised and (
+            obj.spectrum is None or obj.spectrum.method != "slicing" or not obj.spectrum.energies):
+        raise InputError(f"modes.localised = {obj.modes.localised}: the participation ratios of every mode come from "
+                         f"the spectrum: give spectrum: {{energies: true}} (method slicing)"
+                         + ("" if obj.spectrum is None else f"; spectrum.method is {obj.spectrum.method!r}, "
+                                                            f"energies {obj.spectrum.energies}"))
     if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
         raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
     if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:

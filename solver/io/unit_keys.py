@@ -213,9 +213,10 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
         return UnitKey.of(unit="spectrum", rho=unit.rho, section="spectrum",
                           settings=dataclasses.asdict(scene.spectrum), seed=scene.seed + unit.p_index if method == "kpm" else None,
                           options=options.acting_on(petsc_argv, "spectra", method), **base)
-    if unit.kind == "modes":
+    if unit.kind == "modes":  # modes.localised picks its modes from the spectrum: then its settings count too
+        spectrum = {"spectrum": dataclasses.asdict(scene.spectrum)} if scene.modes.localised else {}
         return UnitKey.of(unit="modes", rho=unit.rho, section="modes", settings=dataclasses.asdict(scene.modes),
-                          options=options.acting_on(petsc_argv, "modes", "shapes"), **base)
+                          options=options.acting_on(petsc_argv, "modes", "shapes"), **spectrum, **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not
                 if k != "modes" and not (k == "axes" and v is None)}   # depend on the others; keys of before axes
     return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,

@@ -325,6 +325,8 @@ CASES = [
      "modes.omega is missing: give the target frequencies", None),
     ("mode shapes at a zero frequency", GOOD + "modes: {omega: [0.0, 1.0]}\n", [],
      "modes.omega = [0.0, 1.0]: must be a non-empty list of frequencies > 0", None),
+    ("localised modes without per-mode energies", GOOD + "spectrum: {}\nmodes: {localised: 2}\n", [],
+     "modes.localised = 2: the participation ratios of every mode come from the spectrum", None),
     ("mode shapes with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\nmodes: {omega: [1.0]}\n", [],
      "modes with model.damping: modes keeps the undamped eigenvectors of D", None),
     ("mode shapes of a stressed packing", "packing: {file: '{file}', contacts: '{file}.contacts'}\n"

@@ -53,3 +53,32 @@ def test_mode_shapes_of_spheres_draw_their_section(comm, shared_tmp):
 
         written = plots.plot_results(scene.output)
         assert any("_mode_rho0.5_p0_0.png" in w for w in written), written
+
+
+def test_localised_modes_are_the_extremes_of_the_participation(comm, shared_tmp):
+    cache = str(shared_tmp / "cache")
+    scene = scene_of(shared_tmp / "localised.h5", cache=cache, seed=7, packing={"n": 64, "phi": 0.9},
+                     model={"rho": [0.5]}, spectrum={"energies": True}, modes={"localised": 2, "omega": [1.0]})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        (group,) = results.mode_shapes(f)
+        omega, participation = f["spectra/r00_p0000/omega"][()], f["spectra/r00_p0000/participation"][()]
+    order = np.argsort(participation, kind="stable")
+    picked = np.concatenate((order[:2], order[::-1][:2]))
+    assert_all(group.omega.size == 5, f"1 near omega = 1 and 2 + 2 extremes, got {group.omega}")
+    assert_close(group.omega[1:], omega[picked], rtol=1e-11, what="the extremes' omega")
+    assert_close(group.participation[1:], participation[picked], rtol=1e-8, what="their participation")
+    assert_close(group.target[1:], omega[picked], rtol=0.0, what="each found at its own omega")
+    if COMM.rank == 0:
+        from solver import plots
+
+        written = plots.plot_results(scene.output)
+        assert str(shared_tmp / "localised_participation.png") in written, written
+    # the spectrum from the cache, new modes: the modes unit takes the spectrum's datasets from the store
+    again = scene_of(shared_tmp / "again.h5", cache=cache, seed=7, packing={"n": 64, "phi": 0.9},
+                     model={"rho": [0.5]}, spectrum={"energies": True}, modes={"localised": 1})
+    summary = pipeline.run(again, COMM, [])
+    assert_all("spectra/r00_p0000" in summary["units"], "spectrum there")
+    with results.open_results(again.output) as f:
+        (group,) = results.mode_shapes(f)
+    assert_close(group.omega, omega[picked[[0, 2]]], rtol=1e-11, what="lowest and highest participation")
