@@ -26,16 +26,22 @@ ARROW = 1.0
 """Length of the longest drawn arrow (d0): a mode's amplitude is arbitrary, only its shape counts."""
 
 
+ROUND_OFF = 1e-12
+"""Q / K below which a mode has no rotation but round-off (frictionless: the rotations decouple)."""
+
+
 def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]:
     """Mode ``m`` of ``shapes`` on its ``packing`` (``results.packing``): disks coloured by the
-    rotation about z (blue-white-red, centred on 0; grey without rotations), arrows for the
+    rotation about z (blue-white-red, centred on 0; grey without rotations, or when Q / K is
+    round-off), arrows for the
     displacement scaled so that the longest is ``ARROW`` d0, rattlers hollow."""
     pos, box = packing["positions"], packing["box"]
     cut, diam = section(pos, packing["diameters"], box)
     centres, u = pos[cut, :2], shapes.displacement[m][cut, :2]
     rattler = packing["rattler"][cut]
     fig, ax = plt.subplots(figsize=(7, 6))
-    if shapes.rotation is not None:
+    rotating = shapes.rotation is not None and shapes.Q[m] > ROUND_OFF * shapes.K[m]
+    if rotating:
         turn = shapes.rotation[m][cut, -1]  # 2D: the one angle; 3D: about z, normal to the picture
         drawn = disks(ax, centres, diam, cmap="coolwarm", norm=CenteredNorm(halfrange=max(np.abs(turn).max(), 1e-300)),
                       edgecolors="k", linewidths=0.1)
@@ -47,8 +53,8 @@ def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]
         disks(ax, centres[rattler], diam[rattler], facecolors="none", edgecolors="tab:red", linewidths=0.6)
     longest = np.hypot(u[:, 0], u[:, 1]).max()
     ax.quiver(centres[:, 0], centres[:, 1], u[:, 0], u[:, 1], angles="xy", scale_units="xy",
-              scale=longest / ARROW if longest > 0 else 1.0, width=0.002, color="k")
-    ratio = shapes.K[m] / shapes.Q[m] if shapes.Q[m] > 0 else np.inf
+              scale=longest / ARROW if longest > 0 else 1.0, width=0.002, color="k", minlength=0)
+    ratio = shapes.K[m] / shapes.Q[m] if rotating else np.inf
     plane = ", section z = L_z/2" if box.size == 3 else ""
     ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
            title=f"omega = {shapes.omega[m]:.4f}/t0 (target {shapes.target[m]:g}), K/Q = {ratio:.3g}, "
