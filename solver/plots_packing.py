@@ -18,23 +18,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 
-from . import contact_law  # noqa: E402
-from .packing import geometry  # noqa: E402
+from .packing import geometry, mechanics  # noqa: E402
 from .plots import _save, disks, section  # noqa: E402
 
 WIDTH = 2.5
 """Line width (points) of a contact carrying the mean normal force."""
-
-
-def contact_forces(packing, law: str) -> tuple[geometry.Contacts, np.ndarray, np.ndarray]:
-    """(contacts among non-rattlers, |f_n| (C,), |f_t| (C,)) of a ``jammed.Packing``: the normal
-    force of ``law`` and the stored tangential force (zero for an unstressed packing)."""
-    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, ~packing.rattler)
-    d = packing.diameters
-    f_n = contact_law.normal_force(found.overlap, law, contact_law.reduced_radius(d[found.i], d[found.j]))
-    stored = packing.tangential  # perpendicular to the normal by construction (packing.stressed.build)
-    f_t = np.zeros(len(found)) if stored is None else np.linalg.norm(stored.on(found.i, found.j), axis=1)
-    return found, f_n, f_t
 
 
 def _halves(positions: np.ndarray, found: geometry.Contacts) -> np.ndarray:
@@ -46,7 +34,7 @@ def _halves(positions: np.ndarray, found: geometry.Contacts) -> np.ndarray:
 
 def plot_force_network(packing, law: str, stem: str) -> list[str]:
     """The force-chain picture of ``packing`` (``jammed.Packing``) under the normal ``law``."""
-    found, f_n, f_t = contact_forces(packing, law)
+    found, f_n, f_t = mechanics.force_magnitudes(packing, law)
     cut, diam = section(packing.positions, packing.diameters, packing.box)
     keep = cut[found.i] & cut[found.j]
     fig, ax = plt.subplots(figsize=(7, 7))

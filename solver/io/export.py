@@ -10,7 +10,9 @@ Formats (each by the library made for it, or the format's own conventions):
                LAMMPS; one file, one timestep per frame.
 
 Per-particle fields: ``type`` (1 small, 2 large), ``radius`` and ``diameter`` (d0), ``rattler``
-(0/1), ``contacts`` (contacts among non-rattlers); with a mode also ``displacement`` and
+(0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n| over them
+under the scene's ``model.law``, kn d0) and, for a stressed packing, ``force_tangential`` (the
+sum of the stored |f_t|); with a mode also ``displacement`` and
 ``rotation`` (3-vectors: d0 and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share``
 (the particle's part of the mode's kinetic energy, sums to 1) and ``rotational_share`` (the part of
 that in its rotations; 0 where the share is 0).  2D packings get z = 0 and a box of height 1 in z.
@@ -31,20 +33,25 @@ import os
 import numpy as np
 
 from ..errors import InputError
-from ..packing import geometry
-from . import results
+from ..packing import mechanics
+from . import hdf5, results
 from .atomic import atomic_write
 
 FORMATS = ("extxyz", "vtk", "lammps-dump")
 
 
-def particle_fields(packing: dict) -> dict[str, np.ndarray]:
-    """The packing's per-particle fields (N,) each: type, radius, diameter, rattler, contacts."""
-    d = packing["diameters"]
-    active = ~packing["rattler"]
-    contacts = geometry.find_contacts(packing["positions"], d, packing["box"], active)
-    return {"type": np.where(d > d.mean(), 2, 1), "radius": 0.5 * d, "diameter": d,
-            "rattler": packing["rattler"].astype(np.int64), "contacts": contacts.count_per_particle(d.size)}
+def particle_fields(packing, law: str) -> dict[str, np.ndarray]:
+    """The per-particle fields (N,) each of a ``jammed.Packing`` under the normal ``law``: type,
+    radius, diameter, rattler, contacts, force_normal (the sum of |f_n| over its contacts, kn d0)
+    and, for a stressed packing, force_tangential (the sum of its stored |f_t|)."""
+    d, n = packing.diameters, packing.n
+    found, f_n, f_t = mechanics.force_magnitudes(packing, law)
+    fields = {"type": np.where(d > d.mean(), 2, 1), "radius": 0.5 * d, "diameter": d,
+              "rattler": packing.rattler.astype(np.int64), "contacts": found.count_per_particle(n),
+              "force_normal": np.bincount(found.i, f_n, n) + np.bincount(found.j, f_n, n)}
+    if packing.tangential is not None:
+        fields["force_tangential"] = np.bincount(found.i, f_t, n) + np.bincount(found.j, f_t, n)
+    return fields
 
 
 def mode_fields(shapes: results.ModeShapes, m: int) -> dict[str, np.ndarray]:
@@ -161,10 +168,12 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
     if frames < 1 or not 0.0 < amplitude < 10.0:
         raise InputError(f"export: --frames must be >= 1 and --amplitude in (0, 10) d0 (got {frames}, {amplitude})")
     with results.open_results(path) as f:
-        config = results.packing(f, packing)
+        results.packing(f, packing)  # InputError if there is no such configuration
         groups = [g for g in results.mode_shapes(f) if g.packing == packing]
-    fields = particle_fields(config)
-    info = {"packing": packing, "phi": config["phi"], "source": os.path.basename(path)}
+        law = results.contact_law(f)
+    config = hdf5.read_packings(path, count=packing + 1, check_equilibrium=False, law=law)[packing]
+    fields = particle_fields(config, law)
+    info = {"packing": packing, "phi": config.phi, "source": os.path.basename(path)}
     if mode is not None:
         rhos = sorted({g.rho for g in groups})
         if not rhos:
@@ -185,12 +194,11 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
         ratio = shapes.K[mode] / shapes.Q[mode] if shapes.Q[mode] > 0 else np.inf
         info.update(rho=shapes.rho, mode=mode, omega=float(shapes.omega[mode]), K=float(shapes.K[mode]),
                     Q=float(shapes.Q[mode]), K_over_Q=float(ratio), participation=float(shapes.participation[mode]))
-    positions = config["positions"]
-    dim = positions.shape[1]
+    positions, dim = config.positions, config.dim
     positions3 = np.zeros((len(positions), 3))
     positions3[:, :dim] = positions
     cell = np.ones(3)
-    cell[:dim] = config["box"]
+    cell[:dim] = config.box
     steps = _frames(positions3, fields, frames if mode is not None else 1, amplitude)
     try:
         if fmt == "extxyz":

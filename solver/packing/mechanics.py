@@ -136,6 +136,18 @@ def contact_forces(found: geometry.Contacts, diameters: np.ndarray, law: str,
     return force if tangential is None else force + tangential.on(found.i, found.j)
 
 
+def force_magnitudes(packing: Packing, law: str) -> tuple[geometry.Contacts, np.ndarray, np.ndarray]:
+    """(contacts among non-rattlers, |f_n| (C,), |f_t| (C,)) of ``packing``: the normal force of
+    ``law`` and the stored tangential force (zero for an unstressed packing; perpendicular to the
+    normal by construction, ``stressed.build``), kn d0.  Not collective."""
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, ~packing.rattler)
+    d = packing.diameters
+    f_n = contact_law.normal_force(found.overlap, law, contact_law.reduced_radius(d[found.i], d[found.j]))
+    stored = packing.tangential
+    f_t = np.zeros(len(found)) if stored is None else np.linalg.norm(stored.on(found.i, found.j), axis=1)
+    return found, f_n, f_t
+
+
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential: TangentialForces | None = None,
                   law: str = "harmonic") -> np.ndarray:
     """Rattler mask (N,), applied until no new rattler appears.

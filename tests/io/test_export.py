@@ -13,7 +13,7 @@ from conftest import COMM, REPO, all_pairs, run_cli, scene_of
 
 from solver import pipeline
 from solver.errors import InputError
-from solver.io import export, results
+from solver.io import export, hdf5, results
 
 pytestmark = pytest.mark.serial_only
 
@@ -44,14 +44,15 @@ def _expected(path, m=1, rho=0.5, frames=4, amplitude=0.2):
     return r + phases * u, phases * u, phases * theta, group, p
 
 
-def _contacts(p):
-    """Contacts per particle among non-rattlers, by brute force over all pairs (conftest.all_pairs)."""
+def _contacts(p, forces=False):
+    """Contacts per particle among non-rattlers (and, with ``forces``, the sum of their harmonic
+    normal forces, kn = 1), by brute force over all pairs (conftest.all_pairs)."""
     class Cubic:  # all_pairs takes a packing object with a cubic box
         positions, diameters, box_length = p["positions"], p["diameters"], float(p["box"][0])
     overlap, _, _ = all_pairs(Cubic)
     active = ~p["rattler"]
     touching = (overlap > 0) & active[:, None] & active[None, :]
-    return touching.sum(axis=1)
+    return (touching.sum(axis=1), np.where(touching, overlap, 0.0).sum(axis=1)) if forces else touching.sum(axis=1)
 
 
 def test_extxyz_read_back_by_ase(mode_file, tmp_path):
@@ -69,7 +70,10 @@ def test_extxyz_read_back_by_ase(mode_file, tmp_path):
         np.testing.assert_allclose(atoms.cell.lengths(), [*p["box"], 1.0], rtol=1e-12, atol=0)
         assert list(atoms.pbc) == [True, True, False]
     first = frames[0]
-    np.testing.assert_array_equal(first.arrays["contacts"], _contacts(p))
+    count, force = _contacts(p, forces=True)
+    np.testing.assert_array_equal(first.arrays["contacts"], count)
+    np.testing.assert_allclose(first.arrays["force_normal"], force, rtol=0, atol=1e-8)  # 8 decimals in extxyz
+    assert "force_tangential" not in first.arrays  # an unstressed packing
     np.testing.assert_array_equal(first.arrays["rattler"], p["rattler"].astype(int))
     np.testing.assert_allclose(first.arrays["radius"], p["diameters"] / 2, rtol=1e-7, atol=0)
     np.testing.assert_allclose(first.arrays["share"], group.share[1, :, 0], rtol=0, atol=1e-7)
@@ -171,3 +175,15 @@ def test_command_line_export_imports_neither_petsc_nor_mpi(mode_file, tmp_path):
             "sys.exit(f'imported {loaded}' if loaded else 0)")
     proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_a_stressed_packing_exports_its_tangential_forces():
+    name = REPO / "tests" / "data" / "dem" / "lammps_2d_friction"
+    p = hdf5.read_packings(f"{name}.data", law="harmonic", contacts=f"{name}.contacts")[0]
+    fields = export.particle_fields(p, "harmonic")
+    stored, active = p.tangential, ~p.rattler
+    among = active[stored.pairs[:, 0]] & active[stored.pairs[:, 1]]
+    size = np.linalg.norm(stored.force[among], axis=1)
+    expected = np.bincount(stored.pairs[among, 0], size, p.n) + np.bincount(stored.pairs[among, 1], size, p.n)
+    np.testing.assert_allclose(fields["force_tangential"], expected, rtol=1e-12, atol=0)
+    assert fields["force_tangential"].sum() > 0 and np.all(fields["force_normal"][p.rattler] == 0)

@@ -1,4 +1,4 @@
-"""The force-chain picture's forces (``plots_packing.contact_forces``) against brute force: every
+"""The force-chain picture's forces (``mechanics.force_magnitudes``) against brute force: every
 contact between non-rattlers with its harmonic normal force; for a frictional packing written by
 LAMMPS, the tangential forces of its contact file; the figure drawn from a results file and from
 the stressed packing.  Serial: figures and file reading."""
@@ -12,7 +12,8 @@ from conftest import COMM, REPO, all_pairs, jammed_packing, scene_of
 from solver import pipeline, plots
 from solver.io import hdf5
 from solver.packing import geometry
-from solver.plots_packing import contact_forces, plot_force_network
+from solver.packing.mechanics import force_magnitudes
+from solver.plots_packing import plot_force_network
 
 pytestmark = pytest.mark.serial_only
 
@@ -21,7 +22,7 @@ DATA = REPO / "tests" / "data" / "dem"
 
 def test_normal_forces_are_the_overlaps_of_every_contact():
     p = jammed_packing(64, 0.9, 7)
-    found, f_n, f_t = contact_forces(p, "harmonic")
+    found, f_n, f_t = force_magnitudes(p, "harmonic")
     overlap, _, _ = all_pairs(p)
     active = ~p.rattler
     touching = np.triu((overlap > 0) & active[:, None] & active[None, :], 1)
@@ -34,7 +35,7 @@ def test_normal_forces_are_the_overlaps_of_every_contact():
 def test_tangential_forces_are_the_contact_files(tmp_path):
     name = "lammps_2d_friction"
     p = hdf5.read_packings(str(DATA / f"{name}.data"), law="harmonic", contacts=str(DATA / f"{name}.contacts"))[0]
-    found, f_n, f_t = contact_forces(p, "harmonic")
+    found, f_n, f_t = force_magnitudes(p, "harmonic")
     stored = p.tangential
     active = ~p.rattler
     among = active[stored.pairs[:, 0]] & active[stored.pairs[:, 1]]
