@@ -17,8 +17,8 @@ sum of the stored |f_t|); with a mode also ``displacement`` and
 (the particle's part of the mode's kinetic energy, sums to 1) and ``rotational_share`` (the part of
 that in its rotations; 0 where the share is 0).  2D packings get z = 0 and a box of height 1 in z.
 A mode is animated over ``frames`` phases of one period: frame f has positions r + a u sin(2 pi f /
-frames), a such that the largest displacement is ``amplitude`` d0; rotation vectors are scaled the
-same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
+frames), a such that the largest displacement is ``amplitude`` d0 (one frame: the phase of the
+largest displacement, sin = 1); rotation vectors are scaled the same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
 phi, go into the extxyz comment line (``Atoms.info``) and into :func:`describe` (the command prints
 it); VTK (meshio writes no field data to legacy files) and the dump carry the per-particle fields
 only, the dump's TIMESTEP being the frame index.

@@ -187,3 +187,16 @@ def test_a_stressed_packing_exports_its_tangential_forces():
     expected = np.bincount(stored.pairs[among, 0], size, p.n) + np.bincount(stored.pairs[among, 1], size, p.n)
     np.testing.assert_allclose(fields["force_tangential"], expected, rtol=1e-12, atol=0)
     assert fields["force_tangential"].sum() > 0 and np.all(fields["force_normal"][p.rattler] == 0)
+
+
+def test_one_frame_is_the_largest_displacement(mode_file, tmp_path):
+    import ase.io
+
+    (path,), _ = export.export(mode_file, "extxyz", str(tmp_path / "one.xyz"), rho=0.5, mode=1, frames=1,
+                               amplitude=0.3)
+    (atoms,) = ase.io.read(path, index=":", format="extxyz")
+    np.testing.assert_allclose(np.linalg.norm(atoms.arrays["displacement"], axis=1).max(), 0.3, rtol=1e-7, atol=0)
+    _, _, _, group, p = _expected(mode_file)
+    r = np.zeros((64, 3))
+    r[:, :2] = p["positions"]
+    np.testing.assert_allclose(atoms.positions - r, atoms.arrays["displacement"], rtol=0, atol=2e-8)
