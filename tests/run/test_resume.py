@@ -137,11 +137,14 @@ def test_damaged_unit_is_recomputed(tmp_path, reference):
     assert_same(out, reference)
 
 
-def test_different_scene_same_output_is_refused(tmp_path, reference):
-    path, out = scene(tmp_path, "first")
-    assert run_cli(["run", path]).returncode == 0
+def test_different_scene_same_output_is_refused(tmp_path):
+    small = "output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9}}\nmodel: {{rho: [0.5]}}\nspectrum: {{}}\n"
+    out = tmp_path / "first.h5"
+    path = tmp_path / "first.yaml"
+    path.write_text(small.format(out=out))
+    assert run_cli(["run", str(path)]).returncode == 0
     other = tmp_path / "other.yaml"
-    other.write_text(SCENE.format(out=out).replace("seed: 5", "seed: 6"))
+    other.write_text(small.format(out=out).replace("seed: 5", "seed: 6"))
     proc = run_cli(["run", str(other)], ranks=2)
     assert proc.returncode == 2 and "different scene" in proc.stderr and "--fresh" in proc.stderr, proc.stderr
     assert "Traceback" not in proc.stderr
