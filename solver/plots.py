@@ -422,12 +422,14 @@ def plot_results(path: str) -> list[str]:
         damped = results.damped_modes(f)
         shapes = results.mode_shapes(f)
         per_mode_participation = results.participation(f)
-        pictured = {group.packing: results.packing(f, group.packing) for group in shapes}
-    if shapes or per_mode_participation:
+        snapshots = results.wave_snapshots(f)
+        pictured = {i: results.packing(f, i) for i in {g.packing for g in shapes} | {w.packing for w in snapshots}}
+    if shapes or per_mode_participation or snapshots:
         from . import plots_modes  # its figures import this module's helpers
 
         written += plots_modes.plot_participation(per_mode_participation, shapes, f"{stem}_participation")
         written += plots_modes.plot_mode_shapes(pictured, shapes, stem)
+        written += plots_modes.plot_wave_snapshots(pictured, snapshots, stem)
     if damped:
         from . import plots_damped  # its figures import this module's _save
 

@@ -3,7 +3,9 @@ particles to scale, each particle's displacement as an arrow and its rotation as
 omega, K/Q and the participation ratio in the title.  Spheres: the particles cut by the plane
 z = L_z/2 (``plots.section``), their in-plane displacement and their rotation about z.  And the
 localisation of every mode: the participation ratio against omega (``io.results.participation``),
-``<stem>_participation``, with the kept modes marked.
+``<stem>_participation``, with the kept modes marked.  And snapshots of standing waves
+(``waves.snapshots``, ``io.results.wave_snapshots``) drawn the same way: velocity arrows,
+angular-velocity colour.
 
 Never imports petsc4py or mpi4py.  Each picture is ``<stem>_mode_rho<rho>_p<i>_<m>.png`` and
 ``.pdf`` (rho, packing index, mode index m in the group).  Not collective.  Units: d0, rad, 1/t0.
@@ -18,7 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import CenteredNorm  # noqa: E402
 
-from .io.results import ModeShapes  # noqa: E402
+from .io.results import ModeShapes, WaveSnapshot  # noqa: E402
 from .spectrum.modes import bin_average  # noqa: E402
 from .plots import _save, disks, section  # noqa: E402
 
@@ -30,23 +32,22 @@ ROUND_OFF = 1e-12
 """Q / K below which a mode has no rotation but round-off (frictionless: the rotations decouple)."""
 
 
-def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]:
-    """Mode ``m`` of ``shapes`` on its ``packing`` (``results.packing``): disks coloured by the
-    rotation about z (blue-white-red, centred on 0; grey without rotations, or when Q / K is
-    round-off), arrows for the
-    displacement scaled so that the longest is ``ARROW`` d0, rattlers hollow."""
+def _draw(packing: dict, arrows: np.ndarray, turn: np.ndarray | None, label: str, title: str, stem: str) -> list[str]:
+    """The particles of ``packing`` (``results.packing``) to scale with ``arrows`` (N, D) scaled so
+    that the longest is ``ARROW`` d0 and coloured by ``turn`` (N,), the rotation component about z
+    (blue-white-red, centred on 0; grey when None), rattlers outlined in red; spheres as their
+    section z = L_z/2 (``plots.section``).  ``label``: the colour bar's."""
     pos, box = packing["positions"], packing["box"]
     cut, diam = section(pos, packing["diameters"], box)
-    centres, u = pos[cut, :2], shapes.displacement[m][cut, :2]
+    centres, u = pos[cut, :2], arrows[cut, :2]
     rattler = packing["rattler"][cut]
     fig, ax = plt.subplots(figsize=(7, 6))
-    rotating = shapes.rotation is not None and shapes.Q[m] > ROUND_OFF * shapes.K[m]
-    if rotating:
-        turn = shapes.rotation[m][cut, -1]  # 2D: the one angle; 3D: about z, normal to the picture
+    if turn is not None:
+        turn = turn[cut]
         drawn = disks(ax, centres, diam, cmap="coolwarm", norm=CenteredNorm(halfrange=max(np.abs(turn).max(), 1e-300)),
                       edgecolors="k", linewidths=0.1)
         drawn.set_array(np.where(rattler, np.nan, turn))
-        fig.colorbar(drawn, ax=ax, shrink=0.8, label="rotation about z (rad, |e| = 1)")
+        fig.colorbar(drawn, ax=ax, shrink=0.8, label=label)
     else:
         disks(ax, centres, diam, facecolors=np.where(rattler, "none", "0.85"), edgecolors="k", linewidths=0.1)
     if rattler.any():
@@ -54,14 +55,35 @@ def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]
     longest = np.hypot(u[:, 0], u[:, 1]).max()
     ax.quiver(centres[:, 0], centres[:, 1], u[:, 0], u[:, 1], angles="xy", scale_units="xy",
               scale=longest / ARROW if longest > 0 else 1.0, width=0.002, color="k", minlength=0)
-    ratio = shapes.K[m] / shapes.Q[m] if rotating else np.inf
     plane = ", section z = L_z/2" if box.size == 3 else ""
     ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
-           title=f"omega = {shapes.omega[m]:.4f}/t0 (target {shapes.target[m]:g}), K/Q = {ratio:.3g}, "
-                 f"participation = {shapes.participation[m]:.3f}\nrho = {shapes.rho:g}, packing {shapes.packing}, "
-                 f"N = {pos.shape[0]}{plane}; arrows: displacement (longest {ARROW:g} d0), rattlers red")
+           title=f"{title}\nN = {pos.shape[0]}{plane}; arrows longest {ARROW:g} d0, rattlers red")
     ax.title.set_fontsize(9)
     return _save(fig, stem)
+
+
+def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]:
+    """Mode ``m`` of ``shapes`` on its ``packing``: arrows for the displacement, colour for the
+    rotation about z (grey without rotations, or when Q / K is round-off)."""
+    rotating = shapes.rotation is not None and shapes.Q[m] > ROUND_OFF * shapes.K[m]
+    ratio = shapes.K[m] / shapes.Q[m] if rotating else np.inf
+    return _draw(packing, shapes.displacement[m], shapes.rotation[m][:, -1] if rotating else None,
+                 "rotation about z (rad, |e| = 1)",  # 2D: the one angle; 3D: about z, normal to the picture
+                 f"omega = {shapes.omega[m]:.4f}/t0 (target {shapes.target[m]:g}), K/Q = {ratio:.3g}, participation = "
+                 f"{shapes.participation[m]:.3f}; rho = {shapes.rho:g}, packing {shapes.packing}, displacement", stem)
+
+
+def plot_wave_snapshots(packings: dict[int, dict], snapshots: list[WaveSnapshot], stem: str) -> list[str]:
+    """Each snapshot of each standing wave (``results.wave_snapshots``) on its packing: arrows for
+    the velocity, colour for the angular velocity about z; ``<stem>_wave_rho<rho>_<mode>_p<i>_t<t>``."""
+    written = []
+    for w in snapshots:
+        for i, t in enumerate(w.t):
+            spin = None if w.spin is None or not np.abs(w.spin[i]).max() > 0 else w.spin[i][:, -1]
+            written += _draw(packings[w.packing], w.velocity[i], spin, "angular velocity about z (1/t0)",
+                             f"standing wave {w.mode} ({w.run}), k d0 = {w.k:.4f}, t = {t:g} t0; rho = {w.rho:g}, "
+                             f"packing {w.packing}, velocity", f"{stem}_wave_rho{w.rho:g}_{w.mode}_p{w.packing}_t{t:g}")
+    return written
 
 
 def plot_mode_shapes(packings: dict[int, dict], groups: list[ModeShapes], stem: str) -> list[str]:

@@ -66,6 +66,20 @@ class ModeShapes(NamedTuple):
     participation: np.ndarray       # (M,)
 
 
+class WaveSnapshot(NamedTuple):
+    """The whole velocity field of one standing wave at chosen times (``waves.snapshots``): the
+    first run of a (rho, mode) at the smallest k, on its packing."""
+
+    rho: float
+    mode: str
+    packing: int
+    k: float                        # 1/d0
+    run: str                        # the run's label, e.g. "v_x, k || x"
+    t: np.ndarray                   # (T,) t0
+    velocity: np.ndarray            # (T, N, D) d0/t0, zero on rattlers
+    spin: np.ndarray | None         # (T, N, R) 1/t0; None without rotations
+
+
 class Waves(NamedTuple):
     """Sampled Fourier components of one (rho, mode), the runs of every configuration pooled."""
 
@@ -234,6 +248,14 @@ def waves(f, rhos=None) -> dict[tuple[float, str], Waves]:
                        np.concatenate([g["z"][()] for g in groups], axis=0),
                        max(float(g.attrs["omega_max"]) for g in groups))
             for key, groups in per_key.items()}
+
+
+def wave_snapshots(f) -> list[WaveSnapshot]:
+    """Every waves group holding ``snapshot_t``, in (rho index, mode, packing) order."""
+    return [WaveSnapshot(float(g.attrs["rho"]), str(g.attrs["mode"]), int(g.attrs["packing"]),
+                         float(g.attrs["snapshot_k"]), str(g.attrs["snapshot_run"]), g["snapshot_t"][()],
+                         g["snapshot_velocity"][()], g["snapshot_spin"][()] if "snapshot_spin" in g else None)
+            for g in _groups(f, "waves") if "snapshot_t" in g]
 
 
 def fits(f) -> dict[tuple[float, str], dict]:

@@ -214,6 +214,12 @@ def _frequencies(v):
     return None
 
 
+def _times(v):
+    if not v or not all(math.isfinite(x) and x >= 0.0 for x in v):
+        return "must be a non-empty list of times >= 0 (t0), or null"
+    return None
+
+
 METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian", "pep")
 SOLVERS = ("auto", "dense", "windows")  # spectrum.solver (nonhermitian, pep): spectrum/nonhermitian.py, pep.py
 
@@ -335,6 +341,9 @@ class WavesSpec:
                            "exponential: exp(h J) of the first-order system from sample to sample by SLEPc MFN "
                            "(exact to tol, any matrix: the exact path for stressed packings)",
                      _one_of(WAVE_METHODS), str)
+    snapshots: list[float] | None = _f(None, "times (t0, up to t_end) at which the whole velocity field of the "
+                                             "mode's first run at the smallest k is kept, for pictures (method "
+                                             "spectral without dashpots); null: none", _times, "floats_list")
     tol: float = _f(1e-8, "spectral: relative accuracy of z(t) (Lanczos error estimate; with dashpots the "
                           "series' error bound, relative to |X(0)|); exponential: the "
                           "error bound of the samples, relative to |X(0)| (each MFN solve to tol / samples)",
@@ -591,6 +600,11 @@ def _cross_check(obj, where):
                                                             f"energies {obj.spectrum.energies}"))
     if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
         raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
+    if isinstance(obj, WavesSpec) and obj.snapshots is not None and (
+            obj.method != "spectral" or max(obj.snapshots) > obj.t_end):
+        raise InputError(f"{where}snapshots = {obj.snapshots}: velocity fields of the spectral path, at times up to "
+                         f"{where}t_end = {obj.t_end}" + ("" if obj.method == "spectral" else
+                                                          f"; {where}method is {obj.method!r}: use spectral"))
     if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:
         raise InputError(f"{where}sample_every = {obj.sample_every}: with dt = {obj.dt} that leaves "
                          f"fewer than 4 samples in t_end = {obj.t_end}")
@@ -689,6 +703,9 @@ def check_damped(scene: Scene) -> None:
         raise InputError("modes with model.damping: modes keeps the undamped eigenvectors of D, not the damped "
                          "modes of (lambda^2 M + lambda C + D) x = 0; drop model.damping from this scene to see "
                          "the undamped modes of the same packing")
+    if scene.waves is not None and scene.waves.snapshots is not None:
+        raise InputError("waves.snapshots with model.damping: the snapshots come from the undamped Lanczos path; drop "
+                         "waves.snapshots, or model.damping to see the undamped wave")
     if scene.waves is not None and scene.waves.method == "ts" and scene.waves.integrator in SECOND_ORDER:
         raise InputError(f"waves.integrator = {scene.waves.integrator!r} with model.damping: it integrates "
                          f"M u'' = -D u and has no velocity-dependent force; use waves.method: spectral or "

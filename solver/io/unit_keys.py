@@ -217,7 +217,7 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
         spectrum = {"spectrum": dataclasses.asdict(scene.spectrum)} if scene.modes.localised else {}
         return UnitKey.of(unit="modes", rho=unit.rho, section="modes", settings=dataclasses.asdict(scene.modes),
                           options=options.acting_on(petsc_argv, "modes", "shapes"), **spectrum, **base)
-    settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not
-                if k != "modes" and not (k == "axes" and v is None)}   # depend on the others; keys of before axes
+    settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on
+                if k != "modes" and not (k in ("axes", "snapshots") and v is None)}  # the others; keys of before
     return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,
                       options=options.acting_on(petsc_argv, "waves", scene.waves.method), **base)

@@ -327,6 +327,12 @@ CASES = [
      "modes.omega = [0.0, 1.0]: must be a non-empty list of frequencies > 0", None),
     ("localised modes without per-mode energies", GOOD + "spectrum: {}\nmodes: {localised: 2}\n", [],
      "modes.localised = 2: the participation ratios of every mode come from the spectrum", None),
+    ("wave snapshots on the TS path", GOOD + "waves: {n: [1], snapshots: [1.0]}\n", [],
+     "waves.snapshots = [1.0]: velocity fields of the spectral path", None),
+    ("wave snapshots after t_end", GOOD + "waves: {n: [1], method: spectral, t_end: 10, snapshots: [20.0]}\n", [],
+     "at times up to waves.t_end = 10.0", None),
+    ("wave snapshots with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\n"
+     "waves: {n: [1], method: spectral, snapshots: [1.0]}\n", [], "waves.snapshots with model.damping", None),
     ("mode shapes with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\nmodes: {omega: [1.0]}\n", [],
      "modes with model.damping: modes keeps the undamped eigenvectors of D", None),
     ("mode shapes of a stressed packing", "packing: {file: '{file}', contacts: '{file}.contacts'}\n"
