@@ -201,6 +201,7 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
     cell[:dim] = config.box
     steps = _frames(positions3, fields, frames if mode is not None else 1, amplitude)
     try:
+        os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
         if fmt == "extxyz":
             written = _extxyz(output, cell, [True] * dim + [False] * (3 - dim), steps, info)
         elif fmt == "vtk":
