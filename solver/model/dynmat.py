@@ -249,6 +249,16 @@ def gather_csr(mat) -> sp.csr_matrix:
     return sp.vstack([sp.csr_matrix((d, i, p), shape=(p.size - 1, n_cols)) for p, i, d in parts]).tocsr()
 
 
+def over_particles(dm: DynamicalMatrix, rows: np.ndarray) -> np.ndarray:
+    """(..., N, dof): the rank-local rows ``rows`` (..., nloc) of vectors on ``dm``'s layout, gathered
+    and laid out over every particle of the packing in its order, zero on rattlers (not in the
+    matrix).  Collective."""
+    whole = np.concatenate(dm.D.getComm().tompi4py().allgather(np.asarray(rows)), axis=-1)
+    full = np.zeros(whole.shape[:-1] + (dm.active.size, dm.dof))
+    full[..., dm.active, :] = whole.reshape(whole.shape[:-1] + (-1, dm.dof))
+    return full
+
+
 def gather_vec(vec) -> np.ndarray:
     """The whole distributed ``vec`` as a numpy array on every rank. Collective."""
     comm = vec.getComm().tompi4py()

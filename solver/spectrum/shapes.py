@@ -28,6 +28,7 @@ import numpy as np
 
 from . import modes
 from .. import profiling
+from ..model import dynmat
 from ..model.operators import scaled_operator
 from ..options import eps_settings
 
@@ -57,17 +58,6 @@ def _configure(eps, A, target: float, nev: int, tol: float) -> None:
     eps.setFromOptions()
 
 
-def _fields(e: np.ndarray, dm, inv_sqrt_mass: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(displacement (N, D), rotation (N, dof - D), share (N, 2)) of the whole eigenvector ``e``
-    (every active particle's DOF, global order), zero on rattlers; share: each particle's
-    sum of e^2 over its DOF, and over its rotations alone. Not collective."""
-    full, share = np.zeros((dm.active.size, dm.dof)), np.zeros((dm.active.size, 2))
-    full[dm.active] = (e * inv_sqrt_mass).reshape(-1, dm.dof)
-    squares = (e**2).reshape(-1, dm.dof)
-    share[dm.active] = np.stack((squares.sum(axis=1), squares[:, dm.dim:].sum(axis=1)), axis=1)
-    return full[:, :dm.dim], full[:, dm.dim:], share
-
-
 @profiling.logged("rsModeShapes")
 def solve(dm, targets: list[float], count: int, tol: float = 1e-10, zero_tol: float = 1e-4) -> tuple[dict, dict]:
     """The ``count`` modes nearest each of ``targets`` (omega, 1/t0) of ``dm``. Collective; the
@@ -86,10 +76,8 @@ def solve(dm, targets: list[float], count: int, tol: float = 1e-10, zero_tol: fl
     comm = dm.D.getComm()
     mpi = comm.tompi4py()
     A = scaled_operator(dm)
-    inv_sqrt_mass = np.concatenate(mpi.allgather(1.0 / np.sqrt(dm.M.getArray(readonly=True))))
     n_zero = len(dm.rigid_modes())
-    out: dict[str, list] = {"target": [], "omega": [], "displacement": [], "rotation": [], "share": [],
-                            "sums": [], "residual": []}
+    chosen: dict[str, list] = {"target": [], "lam": [], "local": [], "sums": [], "residual": []}
     settings: dict = {}
     vec, image = A.createVecRight(), A.createVecLeft()
     try:
@@ -106,10 +94,9 @@ def solve(dm, targets: list[float], count: int, tol: float = 1e-10, zero_tol: fl
                     if lam < zero_tol**2:
                         continue
                     vec.normalize()
-                    local = vec.getArray(readonly=True)
-                    e = np.concatenate(mpi.allgather(local.copy()))
+                    local = vec.getArray(readonly=True).copy()
                     sums = mpi.allreduce(modes.local_sums(local[None, :], dm.dof, dm.dim))[0]
-                    found.append((abs(lam - target**2), lam, e, sums,
+                    found.append((abs(lam - target**2), lam, local, sums,
                                   eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE)))
                 settings = eps_settings(eps)
             finally:
@@ -117,22 +104,25 @@ def solve(dm, targets: list[float], count: int, tol: float = 1e-10, zero_tol: fl
             if len(found) < count:
                 raise RuntimeError(f"modes: {len(found)} of {count} non-zero modes converged near omega = "
                                    f"{target:g}; raise -modes_eps_max_it or -modes_eps_ncv")
-            for _, lam, e, sums, residual in sorted(sorted(found, key=lambda f: f[0])[:count], key=lambda f: f[1]):
-                e = e if e[np.argmax(np.abs(e))] > 0 else -e
-                displacement, rotation, share = _fields(e, dm, inv_sqrt_mass)
-                out["target"].append(target)
-                out["omega"].append(np.sqrt(lam))
-                out["displacement"].append(displacement)
-                out["rotation"].append(rotation)
-                out["share"].append(share)
-                out["sums"].append(sums)
-                out["residual"].append(residual)
+            for _, lam, local, sums, residual in sorted(sorted(found, key=lambda f: f[0])[:count],
+                                                        key=lambda f: f[1]):
+                for key, value in zip(("target", "lam", "local", "sums", "residual"),
+                                      (target, lam, local, sums, residual)):
+                    chosen[key].append(value)
     finally:
         vec.destroy()
         image.destroy()
         A.destroy()
-    datasets = {key: np.array(out[key]) for key in ("target", "omega", "displacement", "share", "residual")}
+    e = dynmat.over_particles(dm, np.array(chosen["local"]))  # (M, N, dof), only the modes kept
+    flat = e.reshape(len(e), -1)
+    e *= np.sign(flat[np.arange(len(e)), np.argmax(np.abs(flat), axis=1)])[:, None, None]
+    masses = dynmat.over_particles(dm, dm.M.getArray(readonly=True))  # 0 on rattlers
+    u = np.divide(e, np.sqrt(masses), out=np.zeros_like(e), where=masses > 0)  # u = M^-1/2 e
+    squares = e**2
+    datasets = {"target": np.array(chosen["target"]), "omega": np.sqrt(np.array(chosen["lam"])),
+                "displacement": u[..., :dm.dim], "residual": np.array(chosen["residual"]),
+                "share": np.stack((squares.sum(axis=2), squares[..., dm.dim:].sum(axis=2)), axis=2)}
     if dm.rotations:
-        datasets["rotation"] = np.array(out["rotation"])
-    datasets.update(modes.energies(np.array(out["sums"]), int(dm.active.sum()), dm.dim))
+        datasets["rotation"] = u[..., dm.dim:]
+    datasets.update(modes.energies(np.array(chosen["sums"]), int(dm.active.sum()), dm.dim))
     return datasets, mpi.bcast(settings, root=0)

@@ -16,6 +16,7 @@ import json
 import numpy as np
 
 from ..analysis import correlations
+from ..model import dynmat
 from . import chebyshev, excitation, exponential, integrators, spectral
 from .schedule import Schedule
 
@@ -90,20 +91,16 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
         settings["ts"] = series[0][0].settings
         summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), max energy "
                    f"drift {drift.max():.1e}")
-    if spec.snapshots:  # the schema allows them on the undamped spectral path only
-        smallest = float(ks[:, column[chosen[0]]].min())
-        datasets.update(_snapshots(dm, positions, spec, mode, chosen[0], smallest, schedule))
-        attrs_snapshot = {"snapshot_k": smallest,
-                          "snapshot_run": excitation.run_label(*excitation.runs(mode, dm.dim)[chosen[0]], dm.dim)}
-    else:
-        attrs_snapshot = {}
     attrs = {"rho": dm.model.rho, "mode": mode, "dt": schedule.dt, "integrator": schedule.integrator,
              "omega_max": schedule.omega_max, "dt_limit": np.inf if schedule.limit is None else schedule.limit,
              "amplitude": spec.amplitude, "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
              "run_labels": json.dumps([excitation.run_label(c, a, dm.dim) for c, a in excited])}
     if schedule.damping_max > 0.0:  # dashpots: their fastest rate, which the step limit also used
         attrs["damping_max"] = schedule.damping_max
-    attrs.update(attrs_snapshot)
+    if spec.snapshots:  # the schema allows them on the undamped spectral path only
+        smallest = float(ks[:, column[chosen[0]]].min())
+        datasets.update(_snapshots(dm, positions, spec, mode, chosen[0], smallest, schedule))
+        attrs.update(snapshot_k=smallest, snapshot_run=excitation.run_label(*excited[0], dm.dim))
     return datasets, attrs, summary
 
 
@@ -115,10 +112,7 @@ def _snapshots(dm, positions, spec, mode: str, run: int, k: float, schedule: Sch
     times = np.array(spec.snapshots, dtype=float)
     local, error = spectral.velocity_field(dm, positions, mode, run, k, amplitude=spec.amplitude, times=times,
                                            tol=spec.tol, omega_max=schedule.omega_max)
-    mpi = dm.D.getComm().tompi4py()
-    whole = np.concatenate(mpi.allgather(local), axis=1).reshape(len(times), -1, dm.dof)
-    full = np.zeros((len(times), dm.active.size, dm.dof))
-    full[:, dm.active] = whole
+    full = dynmat.over_particles(dm, local)  # (T, N, dof)
     out = {"snapshot_t": times, "snapshot_velocity": full[:, :, :dm.dim], "snapshot_error": np.float64(error)}
     if dm.rotations:
         out["snapshot_spin"] = full[:, :, dm.dim:]
