@@ -255,16 +255,33 @@ def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
     """Exact vDOS of one (rho, packing) by counting (``counting.solve``) into ``units``. Collective."""
     spec = scene.spectrum
     t = time.perf_counter()
-    datasets, attrs, settings = counting.solve(dm, bin_width=spec.bin_width, zero_tol=spec.zero_tol)
+    datasets, attrs, settings = counting.solve(dm, bin_width=spec.bin_width, zero_tol=spec.zero_tol,
+                                               factor_ranks=spec.factor_ranks)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     commit(unit, datasets,
            {"rho": unit.rho, "packing": unit.p_index, "method": "counting", **attrs, "seconds": seconds,
             "solver_settings": json.dumps(settings)})
     say(comm, f"counted vDOS rho = {unit.rho:g}, packing {unit.p_index}: {attrs['inertia_count']} modes "
               f"(+{attrs['n_zero_modes']} zero modes, {attrs['n_negative_modes']} negative) in "
-              f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias, omega_max = "
+              f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias "
+              f"({_factor_layout(settings['inertia'])}), omega_max = "
               f"{attrs['omega_max']:.4f}, {seconds:.1f} s")
     _warn_negative(comm, attrs["n_negative_modes"])
+
+
+def _factor_layout(inertia: dict) -> str:
+    """'a factor per rank' or 'factors shared by 2 ranks, 1 group' for a progress line."""
+    ranks, groups = inertia["factor_ranks"], inertia["factor_groups"]
+    return "a factor per rank" if ranks == 1 else f"factors shared by {ranks} ranks, {groups} group{'s' * (groups > 1)}"
+
+
+def check_factor_ranks(scene: Scene, unit_ranks: int, source: str) -> None:
+    """Refuse ``spectrum.factor_ranks`` not dividing the ``unit_ranks`` ranks a unit is solved on
+    (``source`` says where that number comes from). Not collective: the same on every rank."""
+    if scene.spectrum is not None and unit_ranks % scene.spectrum.factor_ranks:
+        raise InputError(f"spectrum.factor_ranks = {scene.spectrum.factor_ranks}: must divide the {unit_ranks} "
+                         f"rank{'s' * (unit_ranks > 1)} each (rho, packing) unit is solved on ({source}): choose "
+                         f"one of {[d for d in range(1, unit_ranks + 1) if unit_ranks % d == 0]}")
 
 
 DENSE_METHODS = {"nonhermitian": nonhermitian, "pep": pep}
@@ -495,6 +512,8 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     from petsc4py import PETSc
 
     t0 = time.perf_counter()
+    check_factor_ranks(scene, group_size or comm.size, f"--group-size {group_size}" if group_size else
+                       f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,

@@ -263,6 +263,11 @@ class SpectrumSpec:
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
                          "half a bin", _range(0, 10**6), int)
+    factor_ranks: int = _f(1, "counting: ranks that share each factorisation (MUMPS on their sub-communicator; "
+                              "must divide the ranks of a unit, mpirun -n or --group-size). 1: a sequential factor "
+                              "per rank, the fastest while one fits in a rank's memory; more: memory per rank falls "
+                              "as 1/factor_ranks. The counts are the same integers on any layout",
+                           _range(1, 10**6), int)
 
 
 @dataclass(frozen=True)
@@ -393,10 +398,14 @@ class Scene:
         of that unit's own content key, so changing them recomputes just those units, whether they
         come from this block or the command line).  Only values that differ from their defaults
         count (:func:`_explicit`), so a key added in a later version, at its default, leaves the
-        digest of an unfinished run, and its resume, alone."""
+        digest of an unfinished run, and its resume, alone.  ``spectrum.factor_ranks`` says how
+        the ranks share the work, not what is computed: left out too, so that a run is resumed
+        with another layout (say, after running out of memory with a factor per rank)."""
         data = _explicit(self)
         for name in ("output", "analysis", "cache", "petsc"):
             data.pop(name, None)
+        if isinstance(data.get("spectrum"), dict):
+            data["spectrum"].pop("factor_ranks", None)
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
     def to_yaml(self) -> str:
@@ -586,6 +595,9 @@ def _cross_check(obj, where):
     if isinstance(obj, SpectrumSpec) and obj.frequencies is not None and (obj.method not in ("pep", "auto") or obj.window):
         raise InputError(f"{where}frequencies = {obj.frequencies}: bands of damped modes, for method 'pep' without "
                          f"{where}window" + ("" if obj.method in ("pep", "auto") else f" (method is {obj.method!r})"))
+    if isinstance(obj, SpectrumSpec) and obj.method not in ("counting", "auto") and obj.factor_ranks != 1:
+        raise InputError(f"{where}factor_ranks = {obj.factor_ranks}: the ranks sharing each factorisation of method "
+                         f"'counting'; method {obj.method!r} has none to share: drop {where}factor_ranks")
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
         raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
                          f"'slicing' (per mode) or 'kpm' (bin averages)")

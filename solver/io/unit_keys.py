@@ -204,6 +204,17 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     return keys
 
 
+LAYOUT_KEYS = ("factor_ranks",)
+"""Spectrum keys that say how the work is laid out over ranks, not what is computed: the counts
+are the same integers on any layout, so they are left out of the keys (a unit made with one
+layout is resumed or reused with another, as on any rank count)."""
+
+
+def spectrum_settings(spec) -> dict:
+    """The spectrum section's settings that a spectrum unit's numbers depend on (LAYOUT_KEYS left out)."""
+    return {k: v for k, v in dataclasses.asdict(spec).items() if k not in LAYOUT_KEYS}
+
+
 def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
     """Key of one matrix, spectrum, modes or waves ``unit`` on the packing and springs of ``base``."""
     if unit.kind == "matrix":
@@ -211,10 +222,10 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
     if unit.kind == "spectrum":
         method = scene.spectrum.method
         return UnitKey.of(unit="spectrum", rho=unit.rho, section="spectrum",
-                          settings=dataclasses.asdict(scene.spectrum), seed=scene.seed + unit.p_index if method == "kpm" else None,
+                          settings=spectrum_settings(scene.spectrum), seed=scene.seed + unit.p_index if method == "kpm" else None,
                           options=options.acting_on(petsc_argv, "spectra", method), **base)
     if unit.kind == "modes":  # modes.localised picks its modes from the spectrum: then its settings count too
-        spectrum = {"spectrum": dataclasses.asdict(scene.spectrum)} if scene.modes.localised else {}
+        spectrum = {"spectrum": spectrum_settings(scene.spectrum)} if scene.modes.localised else {}
         return UnitKey.of(unit="modes", rho=unit.rho, section="modes", settings=dataclasses.asdict(scene.modes),
                           options=options.acting_on(petsc_argv, "modes", "shapes"), **spectrum, **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on

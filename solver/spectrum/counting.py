@@ -5,12 +5,18 @@ pivots of a Cholesky (LDL^T) factorisation of A - sigma I (Sylvester's law of in
 count of modes with omega in [w_a, w_b) is the difference of the inertias at w_b^2 and w_a^2:
 one sparse factorisation per bin edge, exact integers, no Krylov iterations (PHYSICS.md section 3).
 
-Cost [decision]: the pattern of A - sigma I never changes, so each rank keeps one factorisation
-object (``slicing.ShiftedInertia``) whose symbolic analysis (ordering, elimination tree) is done
-once and refactorises numerically only at every further shift.  Bin edges are independent: they
-are spread over the ranks of the communicator round-robin, each rank factorising its own
-sequential copy of A (so every rank holds one factor; memory per rank is that of one sequential
-factorisation).  The counts are integers gathered from their owners: identical on any rank count.
+Cost [decision]: the pattern of A - sigma I never changes, so each factorising group keeps one
+factorisation object (``slicing.ShiftedInertia``) whose symbolic analysis (ordering, elimination
+tree) is done once and refactorises numerically only at every further shift.  Bin edges are
+independent: they are dealt round-robin to groups of ``factor_ranks`` consecutive ranks
+(``parallel.Groups``), each group holding its own copy of A spread over its ranks
+(``MatCreateRedundantMatrix``) and factorising it in parallel with MUMPS on its sub-communicator.
+``factor_ranks`` = 1 (the default) gives every rank a sequential factor of its own: no
+communication inside a factorisation, the fastest while one whole factor fits in a rank's memory
+(memory per rank = one factor).  ``factor_ranks`` = the ranks of the communicator shares one factor
+among them all: memory per rank ~ factor / ranks, the way for matrices whose factor does not fit
+(3D fills in ~28x).  The inertia is a property of A - sigma I, not of how it is factorised, so the
+counts are the same integers on any layout; they are gathered from their owners.
 
 Edges: bins [0, w), [w, 2w), ... up to past omega_max (the Lanczos estimate of
 ``model.operators.largest_omega``, +1e-6 relative); if the inertia there misses any mode, more
@@ -31,37 +37,46 @@ from ..model.operators import largest_omega, scaled_operator
 from .slicing import ShiftedInertia
 
 
-def counts_below(A, shifts, comm) -> tuple[np.ndarray, dict]:
+def counts_below(A, shifts, comm, factor_ranks: int = 1) -> tuple[np.ndarray, dict]:
     """(number of eigenvalues of A below each of ``shifts`` (S,) int64, factorisation settings).
 
-    Collective on ``comm`` (mpi4py; A's communicator).  Shift i is counted by rank i % size on a
-    sequential copy of A with a reused :class:`ShiftedInertia`; every rank gets every count, and an
-    error on any rank is raised on all.
+    Collective on ``comm`` (mpi4py; A's communicator).  Shift i is counted by group i % G of the G
+    groups of ``factor_ranks`` consecutive ranks (``factor_ranks`` divides ``comm.size``), on the
+    group's copy of A with a reused :class:`ShiftedInertia`; every rank gets every count, and an
+    error on any rank is raised on all.  The settings add ``factor_ranks`` and ``factor_groups``.
     """
     from petsc4py import PETSc
 
-    n = A.getSize()[0]
-    everything = PETSc.IS().createStride(n, 0, 1, comm=PETSc.COMM_SELF)
-    local = A.createSubMatrices(everything)[0]  # this rank's own sequential copy of A
-    everything.destroy()
-    counter, error = None, None
-    try:
-        counter = ShiftedInertia(local)
-    except BaseException as exc:  # noqa: BLE001 - raised on every rank below
-        error = exc
-    try:
-        parallel.agree(comm, error)
-        counts = parallel.owner_compute(comm, [float(s) for s in shifts], counter.count_below)
-        settings = comm.bcast(counter.settings(), root=0)  # rank 0 always counts shift 0
-    finally:
-        if counter is not None:
-            counter.destroy()
-        local.destroy()
-    return np.array(counts, dtype=np.int64), settings
+    local, counter, error, mine = None, None, None, {}
+    with parallel.Groups(comm, factor_ranks) as groups:
+        try:
+            try:
+                local = A if groups.count == 1 else A.getRedundantMatrix(groups.count, PETSc.Comm(groups.local))
+                counter = ShiftedInertia(local)
+            except BaseException as exc:  # noqa: BLE001 - raised on every rank below
+                error = exc
+            parallel.agree(comm, error)
+            try:
+                for index in range(groups.index, len(shifts), groups.count):
+                    mine[index] = counter.count_below(float(shifts[index]))
+            except BaseException as exc:  # noqa: BLE001 - raised on every rank below
+                error = exc
+            groups.wait()  # a group done early sleeps instead of spinning in the collective below
+            parallel.agree(comm, error)
+            counts = groups.share(mine, {index: groups.owner(index) for index in range(len(shifts))})
+            settings = comm.bcast(counter.settings(), root=0)  # group 0 always counts shift 0
+        finally:
+            if counter is not None:
+                counter.destroy()
+            if local is not None and local is not A:
+                local.destroy()
+    settings.update(factor_ranks=groups.size, factor_groups=groups.count)
+    return np.array([counts[index] for index in range(len(shifts))], dtype=np.int64), settings
 
 
-def solve(dm, *, bin_width: float, zero_tol: float) -> tuple[dict, dict, dict]:
-    """The exact vDOS of ``dm`` by counting, as (datasets, attrs, solver settings). Collective.
+def solve(dm, *, bin_width: float, zero_tol: float, factor_ranks: int = 1) -> tuple[dict, dict, dict]:
+    """The exact vDOS of ``dm`` by counting, as (datasets, attrs, solver settings). Collective;
+    ``factor_ranks`` ranks share each factorisation (:func:`counts_below`).
 
     datasets: edges (B+1,) = 0, w, 2w, ... in 1/t0; counts (B,) int64, the modes with omega in each
     bin (zero modes excluded); density (B,) = counts / (sum(counts) w), unit area.
@@ -79,11 +94,11 @@ def solve(dm, *, bin_width: float, zero_tol: float) -> tuple[dict, dict, dict]:
         top = omega_max * (1 + 1e-6)
         edges = bin_width * np.arange(int(np.floor(top / bin_width)) + 2)
         lam0 = zero_tol**2
-        below, settings = counts_below(A, np.concatenate(([-lam0, lam0], edges[1:] ** 2)), comm)
+        below, settings = counts_below(A, np.concatenate(([-lam0, lam0], edges[1:] ** 2)), comm, factor_ranks)
         if below[-1] < n:  # modes above the Lanczos estimate: count on up to the Gershgorin bound
             bound = np.sqrt(A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9))
             more = bin_width * np.arange(edges.size, int(np.floor(bound / bin_width)) + 2)
-            below = np.concatenate((below, counts_below(A, more**2, comm)[0]))
+            below = np.concatenate((below, counts_below(A, more**2, comm, factor_ranks)[0]))
             edges = np.concatenate((edges, more))
     finally:
         A.destroy()

@@ -7,10 +7,11 @@ scene's pooled vDOS through the pipeline.  Runs on 1 and 2 ranks (edges spread o
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, scene_of
+from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
 
 from solver.contact_law import ContactModel
 from solver import pipeline
+from solver.io import unit_keys
 from solver.model import dynmat, operators
 from solver.spectrum import counting, slicing
 
@@ -92,3 +93,88 @@ def test_low_top_estimate_extends_the_bins(comm, small_packing, monkeypatch):
     expected, _ = np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), datasets["edges"])
     assert_all(datasets["edges"][-1] > true_top, "bins must reach past the true omega_max")
     assert_all(np.array_equal(datasets["counts"], expected), "counts differ from eigvalsh")
+
+
+def divisors(n: int) -> list[int]:
+    return [d for d in range(1, n + 1) if n % d == 0]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_shared_factorisations_count_like_dense(comm, small_packing, dim):
+    """Every layout of the factorisations on this run's ranks (a factor per rank, or shared by all)
+    gives the dense histogram; in 3D with rolling and twisting springs, whose factors fill in most."""
+    packing = small_packing if dim == 2 else jammed_packing(128, 0.7, 5, dim=3)
+    model = ContactModel(0.5) if dim == 2 else ContactModel(0.5, rho_roll=0.3, rho_twist=0.2)
+    dm = dynmat.assemble(packing, model, comm)
+    try:
+        lam = dense_eigenvalues(dm)
+        for ranks in divisors(COMM.size):
+            datasets, attrs, settings = counting.solve(dm, bin_width=0.2, zero_tol=1e-4, factor_ranks=ranks)
+            expected, _ = np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), datasets["edges"])
+            assert_all(np.array_equal(datasets["counts"], expected), f"factor_ranks {ranks}: counts differ from "
+                       f"eigvalsh in bins {np.nonzero(datasets['counts'] != expected)[0]}")
+            layout = (settings["inertia"]["factor_ranks"], settings["inertia"]["factor_groups"])
+            assert_all(layout == (ranks, COMM.size // ranks), f"{layout}")
+    finally:
+        dm.destroy()
+
+
+FOUR_RANKS = """
+import json, numpy as np
+from solver import petscenv
+PETSc = petscenv.init([])
+from solver.contact_law import ContactModel
+from solver.model import dynmat, operators
+from solver.packing import jammed
+from solver.spectrum import counting
+comm = PETSc.COMM_WORLD
+p = jammed.generate(128, 0.7, np.random.SeedSequence([5, 0]), dim=3)
+dm = dynmat.assemble(p, ContactModel(0.5, rho_roll=0.3, rho_twist=0.2), comm)
+counts = {r: counting.solve(dm, bin_width=0.2, zero_tol=1e-4, factor_ranks=r)[0]["counts"].tolist() for r in (1, 2, 4)}
+A = operators.scaled_operator(dm)
+lam = np.linalg.eigvalsh(dynmat.gather_csr(A).toarray())
+edges = 0.2 * np.arange(len(counts[1]) + 1)
+if comm.rank == 0:
+    print(json.dumps({"counts": counts, "dense": np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), edges)[0].tolist()}))
+"""
+
+
+@pytest.mark.serial_only
+def test_four_ranks_count_alike_in_every_layout():
+    """4 ranks (oversubscribed): factors per rank, shared by pairs, shared by all four: the same
+    integers as the dense histogram (128 spheres with rolling and twisting)."""
+    import json
+    import subprocess
+    import sys
+
+    from conftest import mpirun
+
+    env = {k: v for k, v in __import__("os").environ.items() if not k.startswith(("OMPI_COMM", "PMIX_", "OMPI_MCA_ess"))}
+    done = subprocess.run(mpirun(4) + [sys.executable, "-c", FOUR_RANKS], capture_output=True, text=True,
+                          timeout=180, env=env)
+    assert done.returncode == 0, done.stderr[-3000:]
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    for ranks, counts in out["counts"].items():
+        assert counts == out["dense"], (ranks, counts, out["dense"])
+
+
+def test_a_unit_counted_with_one_layout_is_reused_with_another(shared_tmp, monkeypatch, small_packing):
+    """factor_ranks is left out of the unit keys and the scene digest: the run resumes from the
+    units of a run with another layout, without counting again."""
+    path = shared_tmp / "layout.h5"
+    scenes = {ranks: scene_of(path, cache="off", seed=4, packing={"n": 64, "phi": 0.9}, model={"rho": [1.0]},
+                              spectrum={"method": "counting", "factor_ranks": ranks}) for ranks in (1, 2)}
+    assert scenes[1].digest() == scenes[2].digest()
+    keys = {ranks: unit_keys.scene_keys(scene, [small_packing], []) for ranks, scene in scenes.items()}
+    assert keys[1] == keys[2] and keys[1]
+    first = pipeline.run(scenes[1], COMM, [])
+    if COMM.rank == 0:
+        path.unlink()  # the units folder stays: the next run resumes from it
+    COMM.Barrier()
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("counted again")
+    monkeypatch.setattr(counting, "solve", refuse)
+    again = pipeline.run(scenes[COMM.size], COMM, [])
+    name = "spectra/r00_p0000"
+    assert_all(np.array_equal(first["units"][name][0]["counts"], again["units"][name][0]["counts"]), name)
