@@ -196,7 +196,7 @@ def scipy_verlet_l_wave(p, k, dt, t_end, sample):
     from solver.model import dynmat
     from solver.contact_law import ContactModel
 
-    D, _, _ = dynmat.local_csr(p, ContactModel(1.0), (0, int((~p.rattler).sum())))
+    D, _, _ = dynmat.local_csr(p, ContactModel(1.0), np.flatnonzero(~p.rattler), (0, int((~p.rattler).sum())))
     minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], dynmat.particle_masses(p)[~p.rattler], 2, 3)
     r0, v = _l_wave(p, k)
     v = v.ravel()

@@ -241,13 +241,14 @@ def all_pairs(p):
 
 
 def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:
-    """(lam, vec): the full eigendecomposition of A = M^-1/2 D M^-1/2, dense on every rank. Collective."""
+    """(lam, vec): the full eigendecomposition of A = M^-1/2 D M^-1/2, dense on every rank, with
+    its rows in the packing's order of the non-rattlers (``dynmat.in_packing_order``). Collective."""
     import scipy.linalg as sl
 
     from solver.model import dynmat, operators
 
     A = operators.scaled_operator(dm)
-    dense = dynmat.gather_csr(A).toarray()
+    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(A).toarray())  # rows as the packing lists them
     A.destroy()
     return sl.eigh(dense)
 
@@ -265,7 +266,7 @@ def modal_weights(p, dm, eig, run, k, amplitude):
     zero = np.abs(lam) < 1e-10 * lam.max()
     assert_all(zero.sum() == len(dm.rigid_modes()), f"{zero.sum()} zero modes, rigid modes {dm.rigid_modes()}")
     omega = np.sqrt(np.where(zero, 0.0, lam))
-    mass = dynmat.gather_vec(dm.M)
+    mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M))
     component, axis = run
     r0 = p.positions[~p.rattler]
     v0 = np.zeros((len(r0), dm.dof))

@@ -18,7 +18,7 @@ from . import dynmat
 def local_csr(packing: Packing, dm: dynmat.DynamicalMatrix, mass_rule: str = "equal"):
     """Rows of C owned by ``dm.disk_range`` (local rows x global columns, scipy CSR) for the
     dashpots of ``dm.model``, masses by ``mass_rule`` (``dynmat.particle_masses``).  Not collective."""
-    contacts = dynmat.local_contacts(packing, dm.disk_range)
+    contacts = dynmat.local_contacts(packing, dm.order, dm.disk_range)
     masses = dynmat.particle_masses(packing, mass_rule)
     m_i, m_j = masses[contacts.found.i[contacts.touch]], masses[contacts.found.j[contacts.touch]]
     normal, _, overlap, radius_i, radius_j = contacts.geometry_args

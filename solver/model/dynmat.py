@@ -4,13 +4,18 @@ with rolling and twisting springs, PHYSICS.md section 8) summed over contacts (b
 ``contact_law``), plus, on a packing made with friction, the non-symmetric terms of its stored
 tangential forces (docs/stressed_contacts.md).
 
-DOF order per non-rattler particle, in packing order: the D translations, then the rotations
-(D = 2: (u_x, u_y, theta); D = 3: (u_x, u_y, u_z, theta_x, theta_y, theta_z)).
+DOF order: the non-rattler particles in the matrix's order (:func:`matrix_order`: by cells in
+space, so that each rank's contiguous rows are a slab of the box and couple to its two
+neighbouring slabs only, whatever order a packing file lists its particles in; the packing's own
+order for rotsound's packings, which are stored in that order), each with its D translations,
+then its rotations (D = 2: (u_x, u_y, theta); D = 3: (u_x, u_y, u_z, theta_x, theta_y, theta_z)).
+``DynamicalMatrix.order`` maps matrix particles to packing particles; results laid over particles
+(mode shapes, snapshots) are in packing order (:func:`over_particles`).
 Decision: rotations are in the matrix whenever any rotational spring of the contact model is on
 (rho, rho_roll or rho_twist > 0: ``ContactModel.rotations``). With none (frictionless, rho = 0)
 they carry no stiffness, so they are dropped and the matrix is the D N' x D N' translational
 block -- the free rotations never appear as spurious zero modes. Rattlers are excluded. Each
-rank owns a contiguous range of particles (``dof`` rows each), computes the contact blocks
+rank owns a contiguous range of matrix particles (``dof`` rows each), computes the contact blocks
 touching its rows (vectorised) and inserts only its own rows, with exact preallocation from the
 local CSR pattern.
 Units: m = d0 = kn = 1; M = diag(m, ..., I_i, ...) with I_i = m d_i^2 / 8 (disk) or
@@ -30,7 +35,7 @@ from ..packing import geometry
 from .. import contact_law
 from ..contact_law import ContactModel
 from ..packing import stressed
-from ..packing.jammed import Packing
+from ..packing.jammed import Packing, spatial_order
 
 MASS = 1.0
 
@@ -39,9 +44,10 @@ MASS = 1.0
 class DynamicalMatrix:
     """D (PETSc Mat, block size ``dof``), M (PETSc Vec) and the DOF bookkeeping.
 
-    active : (N,) bool, particles in the matrix;  dim : D (2 or 3);  dof : DOF per particle,
+    active : (N,) bool, particles in the matrix;  order : (N_active,) int, the packing index of
+    each matrix particle (:func:`matrix_order`);  dim : D (2 or 3);  dof : DOF per particle,
     D translations then (with rotations) 1 (2D) or 3 (3D) rotations;  model : the contact model
-    it was assembled with;  disk_range : this rank's [start, stop) among active particles;
+    it was assembled with;  disk_range : this rank's [start, stop) among matrix particles;
     n_contacts : global count;  symmetric : False for a stressed packing (stored tangential
     forces) or under YADE's history, whose D has no symmetry (docs/stressed_contacts.md
     sections 2 and 4).
@@ -50,6 +56,7 @@ class DynamicalMatrix:
     D: object
     M: object
     active: np.ndarray
+    order: np.ndarray
     dof: int
     model: ContactModel
     disk_range: tuple[int, int]
@@ -140,10 +147,21 @@ class LocalContacts:
     geometry_args: tuple
 
 
-def local_contacts(packing: Packing, disk_range: tuple[int, int]) -> LocalContacts:
-    """The contacts touching the active particles ``disk_range`` owns. Not collective."""
+def matrix_order(packing: Packing) -> np.ndarray:
+    """The packing indices (N_active,) of the non-rattlers in the matrix's order: sorted by the cells
+    of ``jammed.spatial_order`` (2D: strips along y, by x in a strip; 3D: slabs along z, strips
+    along y, by x), rattlers dropped.  The identity on the non-rattlers for packings stored in that
+    order (every packing rotsound makes).  Not collective; the same on every rank."""
+    order = spatial_order(packing.positions, packing.box)
+    return order[~packing.rattler[order]]
+
+
+def local_contacts(packing: Packing, order: np.ndarray, disk_range: tuple[int, int]) -> LocalContacts:
+    """The contacts touching the matrix particles ``disk_range`` owns (of ``order``, :func:`matrix_order`);
+    their ends as matrix particles. Not collective."""
     active = ~packing.rattler
-    index = np.cumsum(active) - 1  # particle -> position among active particles
+    index = np.full(packing.n, -1)
+    index[order] = np.arange(order.size)  # packing particle -> matrix particle
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     a, b = index[found.i], index[found.j]
     start, stop = disk_range
@@ -176,13 +194,15 @@ def blocks_csr(a: np.ndarray, b: np.ndarray, blocks: tuple, disk_range: tuple[in
     return csr
 
 
-def local_csr(packing: Packing, model: ContactModel, disk_range: tuple[int, int]) -> tuple[sp.csr_matrix, int, int]:
-    """Rows of D owned by ``disk_range`` as a CSR (local rows x global columns).
+def local_csr(packing: Packing, model: ContactModel, order: np.ndarray, disk_range: tuple[int, int]
+              ) -> tuple[sp.csr_matrix, int, int]:
+    """Rows of D owned by ``disk_range`` of the matrix particles ``order`` as a CSR (local rows x
+    global columns).
 
     Returns (csr, dof, global number of contacts).  Not collective.
     """
     dof = dof_per_particle(packing.dim, model)
-    contacts = local_contacts(packing, disk_range)
+    contacts = local_contacts(packing, order, disk_range)
     found, touch, geometry_args = contacts.found, contacts.touch, contacts.geometry_args
     h_ii, h_ij, h_jj = contact_law.pair_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
     h_ji = np.transpose(h_ij, (0, 2, 1))
@@ -223,8 +243,9 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
     if stressed and model.rho == 0.0:
         raise ValueError("a stressed packing's tangential forces need the tangential spring: rho must be > 0")
     active = ~packing.rattler
-    disk_range = parallel.block_range(int(active.sum()), comm.tompi4py())
-    csr, dof, n_contacts = local_csr(packing, model, disk_range)
+    order = matrix_order(packing)
+    disk_range = parallel.block_range(order.size, comm.tompi4py())
+    csr, dof, n_contacts = local_csr(packing, model, order, disk_range)
     n_global = int(active.sum()) * dof
     n_local = csr.shape[0]
     D = PETSc.Mat().createAIJ(size=((n_local, n_global), (n_local, n_global)), bsize=dof,
@@ -235,9 +256,9 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
     D.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
     M = D.createVecLeft()
     start, stop = disk_range
-    masses = particle_masses(packing, mass_rule)[active][start:stop]
-    M.setArray(mass_diagonal(packing.diameters[active][start:stop], masses, packing.dim, dof))
-    return DynamicalMatrix(D, M, active, dof, model, disk_range, n_contacts, packing.dim, symmetric=symmetric)
+    mine = order[start:stop]
+    M.setArray(mass_diagonal(packing.diameters[mine], particle_masses(packing, mass_rule)[mine], packing.dim, dof))
+    return DynamicalMatrix(D, M, active, order, dof, model, disk_range, n_contacts, packing.dim, symmetric=symmetric)
 
 
 def gather_csr(mat) -> sp.csr_matrix:
@@ -255,8 +276,17 @@ def over_particles(dm: DynamicalMatrix, rows: np.ndarray) -> np.ndarray:
     matrix).  Collective."""
     whole = np.concatenate(dm.D.getComm().tompi4py().allgather(np.asarray(rows)), axis=-1)
     full = np.zeros(whole.shape[:-1] + (dm.active.size, dm.dof))
-    full[..., dm.active, :] = whole.reshape(whole.shape[:-1] + (-1, dm.dof))
+    full[..., dm.order, :] = whole.reshape(whole.shape[:-1] + (-1, dm.dof))
     return full
+
+
+def in_packing_order(dm: DynamicalMatrix, whole):
+    """``whole``, a gathered vector (n,) or matrix (n, n) on ``dm``'s rows (:func:`gather_vec`,
+    :func:`gather_csr`), with its rows (and columns) in the packing order of the non-rattlers
+    instead of the matrix's (:func:`matrix_order`): for checks against references built particle
+    by particle. Not collective."""
+    rows = (np.argsort(dm.order)[:, None] * dm.dof + np.arange(dm.dof)).ravel()
+    return whole[rows] if whole.ndim == 1 else whole[rows][:, rows]
 
 
 def gather_vec(vec) -> np.ndarray:

@@ -134,7 +134,7 @@ def start_velocity(dm, positions, mode_component, axis, k, amplitude, comm) -> n
     Then e_c^T M v(0) = 0 and no part of v(0) translates or spins forever.
     """
     start, stop = dm.disk_range
-    r0 = positions[dm.active][start:stop]
+    r0 = positions[dm.order[start:stop]]
     v0 = np.zeros((stop - start, dm.dof))
     v0[:, mode_component] = amplitude * np.sin(k * r0[:, axis])
     if any(slot == mode_component for slot, _ in dm.rigid_modes()):
@@ -148,7 +148,7 @@ def channel(dm, positions, mode_component, axis, k) -> np.ndarray:
     """Local part (nloc,) complex of b: b_i,c = exp(i k r_i,a(0)) in the channel component c, 0 in
     the others, so that z_fixed = b^H v = sum_i v_i,c exp(-i k r_i,a(0)). Not collective."""
     start, stop = dm.disk_range
-    r0 = positions[dm.active][start:stop]
+    r0 = positions[dm.order[start:stop]]
     b = np.zeros((stop - start, dm.dof), complex)
     b[:, mode_component] = np.exp(1j * k * r0[:, axis])
     return b.ravel()

@@ -232,8 +232,8 @@ def test_project_pair_along_100_becomes_the_lattice_model(comm):
         for rho in rhos:
             dm = dynmat.assemble(packing, ContactModel(rho), comm)
             try:
-                scale = 1.0 / np.sqrt(dynmat.gather_vec(dm.M))
-                a = dynmat.gather_csr(dm.D).multiply(scale[:, None]).multiply(scale[None, :]).tocsr()
+                scale = 1.0 / np.sqrt(dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M)))
+                a = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D)).multiply(scale[:, None]).multiply(scale[None, :]).tocsr()
             finally:
                 dm.destroy()
             for p in range(2 * n_cells):

@@ -78,7 +78,7 @@ def test_hessian_matches_finite_differences(comm, small_packing, dim, springs, l
     found = geometry.find_contacts(p.positions, p.diameters, p.box_length, ~p.rattler)
     assert found.overlap.min() > 5e-5, "h = 1e-5 steps must not open a contact"
     dm = dynmat.assemble(p, ContactModel(springs[0], rho_roll=springs[1], rho_twist=springs[2], law=law), comm)
-    dense = dynmat.gather_csr(dm.D).toarray()
+    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
     assert dm.dim == dim and dm.dof == dynmat.dof_per_particle(dim, ContactModel(*springs))
     dm.destroy()
     fd = finite_difference_matrix(p, springs, law=law)
@@ -96,7 +96,7 @@ def test_hessian_matches_finite_differences(comm, small_packing, dim, springs, l
 def test_sphere_mass_matrix(comm):
     p = spheres()
     dm = dynmat.assemble(p, ContactModel(1.0, rho_roll=0.1), comm)
-    mass = dynmat.gather_vec(dm.M).reshape(-1, 6)
+    mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M)).reshape(-1, 6)
     assert dm.D.getBlockSize() == 6
     # I = m d^2 / 10 of a uniform sphere of unit mass, on each of the three rotations
     assert_close(mass[:, 3:], np.repeat(p.diameters[:, None] ** 2 / 10.0, 3, axis=1),
@@ -120,7 +120,7 @@ def test_density_masses_follow_the_diameters_or_the_file(comm, small_packing, di
         dm_equal = dynmat.assemble(q, ContactModel(1.0), comm)
         m = (p.diameters ** dim if raw is None else raw)
         m = (m / m.mean())[active]
-        mass = dynmat.gather_vec(dm.M).reshape(-1, dm.dof)
+        mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M)).reshape(-1, dm.dof)
         inertia = m * p.diameters[active] ** 2 / (8.0 if dim == 2 else 10.0)
         assert_close(mass[:, :dim], np.repeat(m[:, None], dim, axis=1), rtol=4 * np.finfo(float).eps,
                      what="masses")

@@ -311,7 +311,7 @@ def test_assembled_stressed_matrix_is_the_summed_lammps_update(comm, dim):
     p = with_random_stored_forces(jammed_packing(32 if dim == 2 else 48, 0.9 if dim == 2 else 0.7, 3, dim), 11)
     model = ContactModel(0.8)
     dm = dynmat.assemble(p, model, comm)
-    dense = dynmat.gather_csr(dm.D).toarray()
+    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
     assert not dm.symmetric and np.abs(dense - dense.T).max() > 1e-4, "a stressed D came out symmetric"
     x = np.random.default_rng(2).normal(size=(int((~p.rattler).sum()), dm.dof))
     h = 1e-6
@@ -407,7 +407,7 @@ def test_assembled_matrix_slides_the_contacts_at_the_coulomb_limit(comm, dim):
              - (summed_lammps_forces(p, p.tangential, "harmonic", 0.8, 2 * h * x, mu) - base) / (2 * h))
     for mode, should_match in (("slide", True), ("stick", False)):
         dm = dynmat.assemble(p, ContactModel(0.8, mobilised=mode), comm)
-        dense = dynmat.gather_csr(dm.D).toarray()
+        dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
         dm.destroy()
         error = np.abs(slope.ravel() + dense @ x.ravel()).max() / np.abs(dense).max()
         # one-sided Richardson differences at h = 1e-6: ~1e-9; stick misses by the slip's stiffness
@@ -458,7 +458,7 @@ def test_assembled_yade_matrix_is_yades_own_one_step_response(comm):
                         ("lammps", ContactModel(rho, lever="contact")),
                         ("unstressed", ContactModel(rho, lever="contact", history="yade", stored_forces="drop"))):
         dm = dynmat.assemble(p, model, comm)
-        dense = dynmat.gather_csr(dm.D).toarray()
+        dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
         dm.destroy()
         predicted = np.array([-(dense @ x.ravel()).reshape(x.shape) for x in moves])
         errors[name] = np.abs(forces - predicted).max() / np.abs(forces).max()
@@ -497,7 +497,7 @@ def test_assembled_liggghts_matrix_is_liggghts_own_one_step_response(comm):
     for name, model in (("contact", ContactModel(2 / 7, lever="contact")), ("radius", ContactModel(2 / 7)),
                         ("unstressed", ContactModel(2 / 7, lever="contact", stored_forces="drop"))):
         dm = dynmat.assemble(p, model, comm)
-        dense = dynmat.gather_csr(dm.D).toarray()
+        dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
         dm.destroy()
         errors[name] = np.abs(forces + (dense @ moves.ravel()).reshape(moves.shape)).max(axis=0) / np.abs(forces).max(
             axis=0).clip(1e-300)

@@ -68,7 +68,7 @@ def test_a_files_masses_reach_the_matrix_under_density(comm):
     raw = dem_formats.read(DATA / "lammps_3d.data")
     for rule, expected in (("density", raw.masses / raw.masses.mean()), ("equal", np.ones(p.n))):
         dm = dynmat.assemble(p, ContactModel(0.5), comm, mass_rule=rule)
-        mass = dynmat.gather_vec(dm.M).reshape(-1, dm.dof)
+        mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M)).reshape(-1, dm.dof)
         dm.destroy()
         assert_close(mass[:, 0], expected[~p.rattler], rtol=4 * np.finfo(float).eps, what=f"masses ({rule})")
     assert_all(np.ptp(raw.masses / raw.masses.mean()) > 0.5, "the file's masses should differ")
