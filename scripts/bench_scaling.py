@@ -1,7 +1,12 @@
 """Where the memory and the time of the chain go as N grows (issue 26, "measure first").
 
     python scripts/bench_scaling.py N [N ...] [--ranks P [P ...]] [--skip STAGE ...] [--tag TAG]
+                                    [--shuffle] [--factor-ranks G]
     (e.g. 131072 262144 --ranks 1 2; --ranks 4 oversubscribes this 2-core machine: memory only)
+--shuffle lists the packing's particles in a random order (seed 11) before anything else, as a DEM
+file lists them (by id), so that the assembly row shows what the matrix's particle order makes of
+it; --factor-ranks G shares each counting factorisation among G ranks (``spectrum.factor_ranks``;
+without it, the code's default: a factor per rank).  Rows carry "shuffled" and "factor_ranks".
 
 One row per (N, ranks, stage), each (N, ranks) in its own fresh ``mpirun`` job on the packing of
 ``benchlib.load_packing(N)`` (2D disks, phi = 0.9, seed [1, 0], rotsound's FIRE on one core; the
@@ -61,13 +66,14 @@ def off_process_share(A) -> tuple[int, int]:
     return int(cols.size), int(np.count_nonzero((cols < start) | (cols >= stop)))
 
 
-def case(n: int, skip: set[str]) -> None:
+def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> None:
     """Every stage on the packing of n disks, on COMM_WORLD; rank 0 prints one JSON line."""
     from solver import petscenv
 
     LOGS.mkdir(parents=True, exist_ok=True)
     size = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
-    PETSc = petscenv.init(["-log_view", f":{LOGS / f'N{n}_p{size}.txt'}"])
+    tag = ("_shuffled" if shuffle else "") + (f"_g{factor_ranks}" if factor_ranks else "")
+    PETSc = petscenv.init(["-log_view", f":{LOGS / f'N{n}_p{size}{tag}.txt'}"])
     from mpi4py import MPI
 
     from solver import profiling
@@ -96,11 +102,17 @@ def case(n: int, skip: set[str]) -> None:
         peaks = mpi.gather(status_gib("VmHWM"), root=0)
         helds = mpi.gather(held_gib, root=0)
         if mpi.rank == 0:
-            rows.append({"stage": name, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
+            rows.append({"stage": name, "shuffled": shuffle, "factor_ranks": factor_ranks or 1, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
                          "held_max": max(helds), **extra})
 
     def read():
-        state["p"] = hdf5.read_packings(str(REPO / "cache" / f"bench_{n}.h5"))[0]
+        p = hdf5.read_packings(str(REPO / "cache" / f"bench_{n}.h5"))[0]
+        if shuffle:
+            from solver.packing import jammed
+
+            order = np.random.default_rng(11).permutation(p.n)
+            p = jammed.from_arrays(p.positions[order], p.diameters[order], p.box, p.rattler[order], dict(p.info))
+        state["p"] = p
 
     def assembly():
         dm = dynmat.assemble(state["p"], ContactModel(1.0), comm)
@@ -118,7 +130,8 @@ def case(n: int, skip: set[str]) -> None:
                 "omega_max": dm.omega_max}
 
     def count():
-        datasets, attrs, settings = counting.solve(state["dm"], bin_width=BIN, zero_tol=ZERO_TOL)
+        layout = {} if factor_ranks is None else {"factor_ranks": factor_ranks}
+        datasets, attrs, settings = counting.solve(state["dm"], bin_width=BIN, zero_tol=ZERO_TOL, **layout)
         return {"factorisations": attrs["factorisations"], "counts_sum": int(datasets["counts"].sum()),
                 "counts_digest": int(np.sum(datasets["counts"] * np.arange(1, datasets["counts"].size + 1)))}
 
@@ -145,7 +158,8 @@ def case(n: int, skip: set[str]) -> None:
     if "dm" in state:
         state["dm"].destroy()
     if mpi.rank == 0:
-        print(json.dumps({"rows": rows}))
+        print(json.dumps({"rows": [{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in row.items()}
+                                   for row in rows]}))
 
 
 def main() -> None:
@@ -154,10 +168,12 @@ def main() -> None:
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--skip", nargs="*", default=[], choices=STAGES)
     parser.add_argument("--tag", default="", help="suffix of the record's name (e.g. _after)")
+    parser.add_argument("--shuffle", action="store_true", help="list the particles in a random order first")
+    parser.add_argument("--factor-ranks", type=int, help="ranks sharing each counting factorisation")
     parser.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.case:
-        case(args.n[0], set(args.skip))
+        case(args.n[0], set(args.skip), args.shuffle, args.factor_ranks)
         return
     for n in args.n:
         packing_file = REPO / "cache" / f"bench_{n}.h5"
@@ -169,11 +185,13 @@ def main() -> None:
                           "fire_steps": p.info.get("fire_steps"), "rss_max": None})
         for ranks in args.ranks:
             cmd = mpirun(ranks) + (["--oversubscribe"] if ranks > (os.cpu_count() or 1) else []) + [
-                PY, ME, str(n), "--case", *(["--skip", *args.skip] if args.skip else [])]
+                PY, ME, str(n), "--case", *(["--skip", *args.skip] if args.skip else []),
+                *(["--shuffle"] if args.shuffle else []),
+                *(["--factor-ranks", str(args.factor_ranks)] if args.factor_ranks else [])]
             out = run_json(cmd, timeout=6 * 3600)
             table += [{"N": n, "ranks": ranks, **row} for row in out["rows"]]
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
-                 notes="", merge_by=("N", "ranks", "stage"))
+                 notes="", merge_by=("N", "ranks", "stage", "shuffled", "factor_ranks"))
 
 
 if __name__ == "__main__":

@@ -52,8 +52,7 @@ def case(dim: int, law: str, n: int, args) -> dict:
     row = {"dim": dim, "law": law, "n": n, "rattlers": int(p.rattler.sum()), "modes": {}}
     for mode in excitation.RUNS[dim]:
         runs = excitation.runs(mode, dim)
-        starts = [np.asarray(excitation.start_velocity(dm, p.positions, c, a, k, args.amplitude, comm))
-                  .reshape(-1, dm.dof) for c, a in runs]
+        starts = [excitation.whole_start(dm, p.positions, c, a, k, args.amplitude, comm) for c, a in runs]
 
         def pooled(velocities):
             return pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],

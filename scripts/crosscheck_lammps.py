@@ -137,8 +137,7 @@ def lammps_z(p, dm, law: str, run: tuple[int, int], k: float, amplitude: float, 
     from solver.waves import excitation
 
     component, axis = run
-    local = excitation.start_velocity(dm, p.positions, component, axis, k, amplitude, comm)
-    start = np.concatenate(comm.allgather(local)).reshape(-1, dm.dof)
+    start = excitation.whole_start(dm, p.positions, component, axis, k, amplitude, comm)
     active = dm.active
     x, d = p.positions[active], p.diameters[active]
     model = dm.model

@@ -150,19 +150,21 @@ def lammps_velocities(restart: str, dim: int, start: np.ndarray, dt: float, step
 def exact_velocities(dm, start: np.ndarray, sample: float, count: int, offset: float = 0.0) -> np.ndarray:
     """Velocities (count, N', dof) at t = offset, offset + sample, ... of M u'' = -D u from u = 0,
     v = ``start`` (N', dof) at t = 0: X(t) = exp(t J) X(0), J = [[0, I], [-M^-1 D, -M^-1 C]], dense
-    (C = ``dm.C``, the dashpots, if any).  Exact to round-off whatever D's symmetry.  One process."""
+    (C = ``dm.C``, the dashpots, if any).  Exact to round-off whatever D's symmetry.  ``start`` and
+    the velocities are over the non-rattlers in the packing's order (``excitation.whole_start``).
+    One process."""
     import scipy.linalg as sl
 
     from solver.model import dynmat
 
-    d = dynmat.gather_csr(dm.D).toarray()
-    m = dynmat.gather_vec(dm.M)
+    d = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
+    m = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M))
     size = d.shape[0]
     j = np.zeros((2 * size, 2 * size))
     j[:size, size:] = np.eye(size)
     j[size:, :size] = -d / m[:, None]
     if dm.C is not None:
-        j[size:, size:] = -dynmat.gather_csr(dm.C).toarray() / m[:, None]
+        j[size:, size:] = -dynmat.in_packing_order(dm, dynmat.gather_csr(dm.C).toarray()) / m[:, None]
     step = sl.expm(sample * j)
     x = np.concatenate((np.zeros(size), start.ravel()))
     if offset:
@@ -220,8 +222,7 @@ def case(dim: int, law: str, n: int, args) -> dict:
         row["mean_ft"] = float(fn.mean())
         for mode in excitation.RUNS[dim]:
             runs = excitation.runs(mode, dim)
-            starts = [np.asarray(excitation.start_velocity(dm, x, c, a, k, args.amplitude, comm)).reshape(-1, dm.dof)
-                      for c, a in runs]
+            starts = [excitation.whole_start(dm, x, c, a, k, args.amplitude, comm) for c, a in runs]
 
             def pooled(velocities):
                 return pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],

@@ -129,15 +129,14 @@ def case(args) -> dict:
         moved[..., :3] /= d0
         row["one_step"] = {}
         for name, m in matrices.items():
-            dense = dynmat.gather_csr(m.D).toarray()
+            dense = dynmat.in_packing_order(m, dynmat.gather_csr(m.D).toarray())
             predicted = np.array([-(dense @ x.ravel()).reshape(x.shape) for x in moved])
             row["one_step"][name] = float(np.abs(response - predicted).max() / np.abs(response).max())
         print("one step: " + ", ".join(f"|F_YADE + D_{name} x| / |F| {e:.2e}" for name, e in row["one_step"].items()),
               flush=True)
         for mode in excitation.RUNS[3]:
             runs = excitation.runs(mode, 3)
-            starts = [np.asarray(excitation.start_velocity(dm, p.positions, c, a, k, args.amplitude, comm))
-                      .reshape(-1, dm.dof) for c, a in runs]
+            starts = [excitation.whole_start(dm, p.positions, c, a, k, args.amplitude, comm) for c, a in runs]
 
             def pooled(velocities):
                 return pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],

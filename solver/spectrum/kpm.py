@@ -29,6 +29,26 @@ def jackson(m: int) -> np.ndarray:
     return ((m - n + 1) * np.cos(q * n) + np.sin(q * n) / np.tan(q)) / (m + 1)
 
 
+def probe_rows(seed: int, start: int, stop: int, probes: int) -> np.ndarray:
+    """Rows [start, stop) (stop - start, probes) of one global array of Rademacher signs (+-1).
+
+    Row i is made from Philox counter blocks [i w, (i + 1) w), w = ceil(probes / 256) (each block
+    is 4 x 64 random bits), so every rank draws only its own rows and any block of rows is the
+    same whatever the layout: the probes are rank-free without a whole-problem array anywhere.
+    Not collective."""
+    width = -(-probes // 256)
+    bits = np.random.Philox(np.random.SeedSequence([seed, 7]))
+    bits.advance(start * width)
+    raw = bits.random_raw((stop - start) * width * 4).reshape(stop - start, width * 4)
+    signs = np.unpackbits(raw.view(np.uint8), axis=1, bitorder="little")[:, :probes]
+    return 1.0 - 2.0 * signs
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """sum(a * b) of two equal-layout arrays without a temporary (BLAS dot). Not collective."""
+    return float(np.dot(a.ravel(order="K"), b.ravel(order="K")))
+
+
 @profiling.logged("rsKPMMoments")
 def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel: str | None = None
             ) -> tuple[np.ndarray, float, float]:
@@ -37,7 +57,8 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel:
     ``channel`` "translation" or "rotation" restricts the probes to those DOF (slots 0..dim-1 or
     dim..dof-1 of every particle), so the moments weigh mode q by |P e_q|^2 (its translational or
     rotational share, PHYSICS.md section 3); the two channels add up to the unrestricted moments
-    in expectation.
+    in expectation.  Memory per rank: five (nloc, probes) blocks (probes: :func:`probe_rows`).
+    One MatMatMult per step whose symbolic product is made once and reused.
     """
     from petsc4py import PETSc
 
@@ -46,47 +67,52 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel:
     lo, hi = -0.01 * lam_max, 1.01 * lam_max
     c, h = 0.5 * (hi + lo), 0.5 * (hi - lo)
     nloc, n = dm.D.getLocalSize()[0], dm.size
-    s = 1.0 / np.sqrt(dm.M.getArray())
-    # probes: Rademacher over all DOF, drawn from one global stream so results are rank-free
+    s = (1.0 / np.sqrt(dm.M.getArray()))[:, None]
     start = dm.D.getOwnershipRange()[0]
-    rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
-    full = rng.choice([-1.0, 1.0], size=(n, probes))
+    z = np.asfortranarray(probe_rows(seed, start, start + nloc, probes))
     if channel is not None:
-        rotation = (np.arange(n) % dm.dof) >= dm.dim
-        full[rotation if channel == "translation" else ~rotation] = 0.0
-    z = np.asfortranarray(full[start:start + nloc])
+        rotation = (np.arange(start, start + nloc) % dm.dof) >= dm.dim
+        z[rotation if channel == "translation" else ~rotation] = 0.0
     # project out the exact zero modes: slot s of every particle is M^1/2 (1 in slot s) in A's
     # space (e_x ~ M^1/2 (1, 0, 0, ...)); different slots, so they are orthogonal to each other
-    sq = 1.0 / s
     rigid = dm.rigid_modes()
     for slot, _ in rigid:
         e = np.zeros(nloc)
-        e[slot::dm.dof] = sq[slot::dm.dof]
+        e[slot::dm.dof] = 1.0 / s[slot::dm.dof, 0]
         norm2 = mpi.allreduce(float(e @ e))
         z -= np.outer(e, mpi.allreduce(e @ z) / norm2)
     n_modes = n - len(rigid)
-    size = ((nloc, n), (PETSc.DECIDE, probes))
-    X = PETSc.Mat().createDense(size, array=np.zeros((nloc, probes), order="F"), comm=comm)
-    Y = PETSc.Mat().createDense(size, array=np.zeros((nloc, probes), order="F"), comm=comm)
+    X = PETSc.Mat().createDense(((nloc, n), (PETSc.DECIDE, probes)), array=np.zeros((nloc, probes), order="F"),
+                                comm=comm)
     X.assemble()
-    Y.assemble()
+    x = X.getDenseArray()
+    Y = None
 
-    def apply_b(v):
-        X.getDenseArray()[:] = s[:, None] * v
-        dm.D.matMult(X, Y)
-        return (s[:, None] * Y.getDenseArray() - c * v) / h
+    def apply_b(v: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """out = B v = (s * D (s * v) - c v) / h, in place."""
+        nonlocal Y
+        np.multiply(s, v, out=x)
+        Y = dm.D.matMult(X) if Y is None else dm.D.matMult(X, Y)  # symbolic once, numeric after
+        np.multiply(s, Y.getDenseArray(), out=out)
+        out -= c * v
+        out /= h
+        return out
 
     half = (n_moments + 1) // 2
-    t_prev, t_curr = z, apply_b(z)
-    local = [np.sum(z * z), np.sum(t_curr * z)]
+    t_prev, t_curr = z, apply_b(z, np.empty_like(z, order="F"))
+    local = [_dot(z, z), _dot(t_curr, z)]
     pairs = []  # (<T_n, T_n>, <T_n+1, T_n>) for n = 1..half-1
+    spare = np.empty_like(z, order="F")
     for _ in range(1, half):
-        t_next = 2 * apply_b(t_curr) - t_prev
-        pairs.append((np.sum(t_curr * t_curr), np.sum(t_next * t_curr)))
-        t_prev, t_curr = t_curr, t_next
-    sums = mpi.allreduce(np.array(local + [x for p in pairs for x in p]))
+        t_next = apply_b(t_curr, spare)
+        t_next *= 2.0
+        t_next -= t_prev
+        pairs.append((_dot(t_curr, t_curr), _dot(t_next, t_curr)))
+        t_prev, t_curr, spare = t_curr, t_next, t_prev
+    sums = mpi.allreduce(np.array(local + [x_ for p in pairs for x_ in p]))
     X.destroy()
-    Y.destroy()
+    if Y is not None:
+        Y.destroy()
     mu0, mu1 = sums[0], sums[1]
     mu = np.zeros(2 * half)
     mu[0], mu[1] = mu0, mu1

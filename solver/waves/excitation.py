@@ -144,6 +144,16 @@ def start_velocity(dm, positions, mode_component, axis, k, amplitude, comm) -> n
     return v0.ravel()
 
 
+def whole_start(dm, positions, mode_component, axis, k, amplitude, comm) -> np.ndarray:
+    """v(0) of :func:`start_velocity` whole on every rank, (N', dof) over the non-rattlers in the
+    packing's order (not the matrix's): the start handed to a DEM code or a dense reference.
+    Collective."""
+    from ..model import dynmat
+
+    local = start_velocity(dm, positions, mode_component, axis, k, amplitude, comm)
+    return dynmat.in_packing_order(dm, np.concatenate(comm.allgather(local))).reshape(-1, dm.dof)
+
+
 def channel(dm, positions, mode_component, axis, k) -> np.ndarray:
     """Local part (nloc,) complex of b: b_i,c = exp(i k r_i,a(0)) in the channel component c, 0 in
     the others, so that z_fixed = b^H v = sum_i v_i,c exp(-i k r_i,a(0)). Not collective."""

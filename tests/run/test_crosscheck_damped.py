@@ -40,8 +40,7 @@ def test_lammps_damped_waves_converge_to_the_damped_matrix(lammps_present, comm)
         return crosscheck_lammps.pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
                                           SAMPLE)
 
-    starts = [np.concatenate(mpi.allgather(excitation.start_velocity(dm, p.positions, c, a, k, AMPLITUDE, mpi)))
-              .reshape(-1, dm.dof) for c, a in runs]
+    starts = [excitation.whole_start(dm, p.positions, c, a, k, AMPLITUDE, mpi) for c, a in runs]
     exact = pooled([crosscheck_stressed.exact_velocities(dm, s, SAMPLE, count) for s in starts])
     undamped = pooled([crosscheck_stressed.exact_velocities(plain, s, SAMPLE, count) for s in starts])
     errors, misses = [], []

@@ -42,8 +42,7 @@ def tr_waves(p, dm, comm):
     and the pooled C(k, t) of exp(tJ) on ``dm`` at t = 0, SAMPLE, ..., T_END."""
     k = 2 * np.pi / float(p.box[0])
     runs = excitation.runs("TR", 2)
-    starts = [np.asarray(excitation.start_velocity(dm, p.positions, c, a, k, AMPLITUDE, comm.tompi4py()))
-              .reshape(-1, dm.dof) for c, a in runs]
+    starts = [excitation.whole_start(dm, p.positions, c, a, k, AMPLITUDE, comm.tompi4py()) for c, a in runs]
     count = int(round(T_END / SAMPLE)) + 1
     exact = pooled([crosscheck_stressed.exact_velocities(dm, s, SAMPLE, count) for s in starts], runs, k, p.positions)
     return k, runs, starts, exact

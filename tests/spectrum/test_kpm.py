@@ -24,8 +24,7 @@ def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
     dense = dynmat.gather_csr(A).toarray()
     A.destroy()
     n = dense.shape[0]
-    rng = np.random.default_rng(np.random.SeedSequence([3, 7]))  # the documented probe stream
-    z = rng.choice([-1.0, 1.0], size=(n, 5))
+    z = kpm.probe_rows(3, 0, n, 5)  # the whole probe array, drawn at once (the ranks draw their rows)
     sq = np.sqrt(dynmat.gather_vec(dm.M))
     for axis in range(2):
         e = np.zeros(n)
@@ -41,6 +40,18 @@ def test_moments_equal_dense_chebyshev_with_same_probes(comm, packing256):
     # the three-term recurrence's round-off grows at most ~n^2 eps by n = 40 (measured 1.5e-16)
     assert_close(mu, ref, rtol=0, atol=1e-13 * ref[0], what="moments")
     dm.destroy()
+
+
+@pytest.mark.parametrize("probes", [5, 256, 300])
+def test_probe_rows_are_the_same_in_any_block(probes):
+    """Rows drawn block by block (as ranks draw theirs) equal the rows of one whole draw; the signs
+    are +-1, balanced, and the columns (probes) differ."""
+    whole = kpm.probe_rows(9, 0, 1000, probes)
+    blocks = np.concatenate([kpm.probe_rows(9, a, b, probes) for a, b in ((0, 1), (1, 333), (333, 1000))])
+    assert np.array_equal(blocks, whole)
+    assert set(np.unique(whole)) == {-1.0, 1.0}
+    assert abs(whole.mean()) < 5 / np.sqrt(whole.size)  # 5 sigma
+    assert len({col.tobytes() for col in whole.T}) == probes
 
 
 def test_vdos_against_exact_histogram(comm, packing256):
