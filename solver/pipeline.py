@@ -270,15 +270,20 @@ def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
 
 
 def _factor_layout(inertia: dict) -> str:
-    """'a factor per rank' or 'factors shared by 2 ranks, 1 group' for a progress line."""
+    """'a factor per rank' or 'factors shared by 2 ranks, 1 group' (and, chosen by auto, MUMPS's
+    estimate of the whole factorisation's memory) for a progress line."""
     ranks, groups = inertia["factor_ranks"], inertia["factor_groups"]
-    return "a factor per rank" if ranks == 1 else f"factors shared by {ranks} ranks, {groups} group{'s' * (groups > 1)}"
+    layout = "a factor per rank" if ranks == 1 else f"factors shared by {ranks} ranks, {groups} group{'s' * (groups > 1)}"
+    if "factor_estimate_gib" in inertia:
+        layout += (f"; auto: factor {inertia['factor_estimate_gib']:.2g} GiB, a rank may use "
+                   f"{inertia['factor_budget_gib']:.2g} GiB")
+    return layout
 
 
 def check_factor_ranks(scene: Scene, unit_ranks: int, source: str) -> None:
     """Refuse ``spectrum.factor_ranks`` not dividing the ``unit_ranks`` ranks a unit is solved on
     (``source`` says where that number comes from). Not collective: the same on every rank."""
-    if scene.spectrum is not None and unit_ranks % scene.spectrum.factor_ranks:
+    if scene.spectrum is not None and scene.spectrum.factor_ranks != "auto" and unit_ranks % scene.spectrum.factor_ranks:
         raise InputError(f"spectrum.factor_ranks = {scene.spectrum.factor_ranks}: must divide the {unit_ranks} "
                          f"rank{'s' * (unit_ranks > 1)} each (rho, packing) unit is solved on ({source}): choose "
                          f"one of {[d for d in range(1, unit_ranks + 1) if unit_ranks % d == 0]}")

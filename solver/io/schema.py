@@ -49,6 +49,11 @@ def _range(lo=None, hi=None, lo_open=False, hi_open=False):
     return check
 
 
+def _factor_ranks(v):
+    """Check of ``spectrum.factor_ranks``: auto or a whole number >= 1."""
+    return None if v == "auto" else _range(1, 10**6)(v)
+
+
 def _even_n(v):
     if v < 16 or v % 2:
         return "must be an even integer >= 16 (50:50 mixture; in 2D that also makes the box exceed two diameters)"
@@ -263,11 +268,13 @@ class SpectrumSpec:
     probes: int = _f(16, "kpm: random probe vectors", _range(1, 10**5), int)
     moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so the smearing at omega = 1/t0 is "
                          "half a bin", _range(0, 10**6), int)
-    factor_ranks: int = _f(1, "counting: ranks that share each factorisation (MUMPS on their sub-communicator; "
-                              "must divide the ranks of a unit, mpirun -n or --group-size). 1: a sequential factor "
-                              "per rank, the fastest while one fits in a rank's memory; more: memory per rank falls "
-                              "as 1/factor_ranks. The counts are the same integers on any layout",
-                           _range(1, 10**6), int)
+    factor_ranks: int | str = _f("auto", "counting: ranks that share each factorisation (MUMPS on their "
+                                         "sub-communicator; must divide the ranks of a unit, mpirun -n or "
+                                         "--group-size). 1: a sequential factor per rank, the fastest while one fits "
+                                         "in a rank's memory; more: memory per rank falls as 1/factor_ranks; auto: "
+                                         "the fewest ranks whose shared factor fits in half the memory available to "
+                                         "a rank (MUMPS's own estimate). The counts are the same integers on any "
+                                         "layout", _factor_ranks, "ranks")
 
 
 @dataclass(frozen=True)
@@ -435,7 +442,7 @@ def _type_name(kind) -> str:
             "floats": "a number or a list of numbers", "paths": "a path or a list of paths",
             bool: "true or false", "window": "a list [omega_lo, omega_hi]", "strs": "a list of names",
             "ints": "a list of integers", "floats_list": "a list of numbers",
-            "cache": "auto, a folder path, or off"}.get(
+            "cache": "auto, a folder path, or off", "ranks": "auto or a whole number"}.get(
         kind, "a mapping")
 
 
@@ -467,6 +474,13 @@ def _coerce(value, kind, where):
         if not isinstance(value, (int, float)):
             fail()
         return float(value)
+    if kind == "ranks":
+        if value == "auto":
+            return value
+        try:
+            return _coerce(value, int, where)
+        except InputError:
+            fail()
     if kind == "cache" and value is False:  # YAML reads a bare off/no/false as False
         return "off"
     if kind in (str, "cache"):
@@ -595,7 +609,7 @@ def _cross_check(obj, where):
     if isinstance(obj, SpectrumSpec) and obj.frequencies is not None and (obj.method not in ("pep", "auto") or obj.window):
         raise InputError(f"{where}frequencies = {obj.frequencies}: bands of damped modes, for method 'pep' without "
                          f"{where}window" + ("" if obj.method in ("pep", "auto") else f" (method is {obj.method!r})"))
-    if isinstance(obj, SpectrumSpec) and obj.method not in ("counting", "auto") and obj.factor_ranks != 1:
+    if isinstance(obj, SpectrumSpec) and obj.method not in ("counting", "auto") and obj.factor_ranks not in (1, "auto"):
         raise InputError(f"{where}factor_ranks = {obj.factor_ranks}: the ranks sharing each factorisation of method "
                          f"'counting'; method {obj.method!r} has none to share: drop {where}factor_ranks")
     if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:

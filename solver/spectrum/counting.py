@@ -11,12 +11,18 @@ tree) is done once and refactorises numerically only at every further shift.  Bi
 independent: they are dealt round-robin to groups of ``factor_ranks`` consecutive ranks
 (``parallel.Groups``), each group holding its own copy of A spread over its ranks
 (``MatCreateRedundantMatrix``) and factorising it in parallel with MUMPS on its sub-communicator.
-``factor_ranks`` = 1 (the default) gives every rank a sequential factor of its own: no
+``factor_ranks`` = 1 gives every rank a sequential factor of its own: no
 communication inside a factorisation, the fastest while one whole factor fits in a rank's memory
 (memory per rank = one factor).  ``factor_ranks`` = the ranks of the communicator shares one factor
 among them all: memory per rank ~ factor / ranks, the way for matrices whose factor does not fit
 (3D fills in ~28x).  The inertia is a property of A - sigma I, not of how it is factorised, so the
 counts are the same integers on any layout; they are gathered from their owners.
+``factor_ranks`` = "auto" (the scene's default) counts the first edge with one factor shared by
+all the communicator's ranks (the layout that always fits) and reads MUMPS's estimate of that
+factorisation's memory (INFOG(17), summed over its ranks: about one whole factor); then the fewest
+ranks G (a divisor of the communicator's size) with estimate / G within half the memory a rank may
+use (the node's MemAvailable shared by the communicator's ranks on that node) share each factor
+for the other edges; G = all ranks when none does.  On one rank: 1.
 
 Edges: bins [0, w), [w, 2w), ... up to past omega_max (the Lanczos estimate of
 ``model.operators.largest_omega``, +1e-6 relative); if the inertia there misses any mode, more
@@ -34,31 +40,84 @@ import numpy as np
 
 from .. import parallel
 from ..model.operators import largest_omega, scaled_operator
-from .slicing import ShiftedInertia
+from .slicing import INERTIA_PREFIX, ShiftedInertia, mumps_defaults
 
 
-def counts_below(A, shifts, comm, factor_ranks: int = 1) -> tuple[np.ndarray, dict]:
+def available_gib() -> float:
+    """MemAvailable of this node (Linux /proc/meminfo), GiB. Not collective."""
+    with open("/proc/meminfo") as f:
+        for line in f:
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) / 2**20
+    raise RuntimeError("/proc/meminfo has no MemAvailable")
+
+
+def auto_factor_ranks(A, comm, sigma: float) -> tuple[int, int, dict]:
+    """(G, the count below ``sigma``, what G was chosen from) by the rule of the module docstring
+    for ``factor_ranks: auto``: the count at ``sigma`` is made on all of ``comm``'s ranks (the
+    layout that always fits), and MUMPS's estimate comes with it.  Collective on ``comm`` (mpi4py;
+    A's communicator, more than one rank)."""
+    from mpi4py import MPI
+
+    counter = ShiftedInertia(A)
+    try:
+        below = counter.count_below(sigma)
+        factor = counter.pc.getFactorMatrix()
+        estimate = max(factor.getMumpsInfog(17), 1) / 1024.0  # whole MB summed over the ranks (0 below 1) -> GiB
+        factor.destroy()  # the wrapper's reference only
+    finally:
+        counter.destroy()
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    budget = comm.allreduce(0.5 * available_gib() / node.size, op=MPI.MIN)
+    node.Free()
+    ranks = next((g for g in range(1, comm.size + 1) if comm.size % g == 0 and estimate / g <= budget), comm.size)
+    return ranks, below, {"factor_estimate_gib": estimate, "factor_budget_gib": budget}
+
+
+def _group_copy(A, groups):
+    """A on ``groups``' sub-communicator: A itself for one group of all ranks, a sequential copy
+    (SEQAIJ, ``createSubMatrices``) for groups of one rank, else ``MatCreateRedundantMatrix``.
+    (A redundant copy on one rank is an MPIAIJ, which measured 6 % slower to factorise and 0.09 GiB
+    more per rank than the SEQAIJ at N = 131072: BENCHMARKS.md "scaling_after".)  Collective."""
+    from petsc4py import PETSc
+
+    if groups.count == 1:
+        return A
+    if groups.size == 1:
+        everything = PETSc.IS().createStride(A.getSize()[0], 0, 1, comm=PETSc.COMM_SELF)
+        try:
+            return A.createSubMatrices(everything)[0]
+        finally:
+            everything.destroy()
+    return A.getRedundantMatrix(groups.count, PETSc.Comm(groups.local))
+
+
+def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.ndarray, dict]:
     """(number of eigenvalues of A below each of ``shifts`` (S,) int64, factorisation settings).
 
     Collective on ``comm`` (mpi4py; A's communicator).  Shift i is counted by group i % G of the G
-    groups of ``factor_ranks`` consecutive ranks (``factor_ranks`` divides ``comm.size``), on the
-    group's copy of A with a reused :class:`ShiftedInertia`; every rank gets every count, and an
-    error on any rank is raised on all.  The settings add ``factor_ranks`` and ``factor_groups``.
+    groups of ``factor_ranks`` consecutive ranks (a divisor of ``comm.size``, or "auto":
+    :func:`auto_factor_ranks`), on the group's copy of A with a reused :class:`ShiftedInertia`;
+    every rank gets every count, and an error on any rank is raised on all.  The settings add
+    ``factor_ranks`` and ``factor_groups`` (and with auto, its estimate and budget, GiB).
     """
-    from petsc4py import PETSc
-
+    chosen, known = {}, {}
+    if factor_ranks == "auto" and comm.size == 1:
+        factor_ranks = 1
+    elif factor_ranks == "auto":  # shift 0 is counted on the way; it is group 0's in any layout
+        factor_ranks, known[0], chosen = auto_factor_ranks(A, comm, float(shifts[0]))
     local, counter, error, mine = None, None, None, {}
     with parallel.Groups(comm, factor_ranks) as groups:
         try:
             try:
-                local = A if groups.count == 1 else A.getRedundantMatrix(groups.count, PETSc.Comm(groups.local))
+                local = _group_copy(A, groups)
                 counter = ShiftedInertia(local)
             except BaseException as exc:  # noqa: BLE001 - raised on every rank below
                 error = exc
             parallel.agree(comm, error)
             try:
                 for index in range(groups.index, len(shifts), groups.count):
-                    mine[index] = counter.count_below(float(shifts[index]))
+                    mine[index] = known[index] if index in known else counter.count_below(float(shifts[index]))
             except BaseException as exc:  # noqa: BLE001 - raised on every rank below
                 error = exc
             groups.wait()  # a group done early sleeps instead of spinning in the collective below
@@ -70,11 +129,11 @@ def counts_below(A, shifts, comm, factor_ranks: int = 1) -> tuple[np.ndarray, di
                 counter.destroy()
             if local is not None and local is not A:
                 local.destroy()
-    settings.update(factor_ranks=groups.size, factor_groups=groups.count)
+    settings.update(factor_ranks=groups.size, factor_groups=groups.count, **chosen)
     return np.array([counts[index] for index in range(len(shifts))], dtype=np.int64), settings
 
 
-def solve(dm, *, bin_width: float, zero_tol: float, factor_ranks: int = 1) -> tuple[dict, dict, dict]:
+def solve(dm, *, bin_width: float, zero_tol: float, factor_ranks: int | str = "auto") -> tuple[dict, dict, dict]:
     """The exact vDOS of ``dm`` by counting, as (datasets, attrs, solver settings). Collective;
     ``factor_ranks`` ranks share each factorisation (:func:`counts_below`).
 

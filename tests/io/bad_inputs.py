@@ -163,6 +163,8 @@ CASES = [
      "spectrum.factor_ranks = 3: must divide the", None),
     ("factor ranks 0", GOOD + "spectrum: {method: counting, factor_ranks: 0}\n", [],
      "spectrum.factor_ranks = 0: must be in [1", None),
+    ("factor ranks a word", GOOD + "spectrum: {method: counting, factor_ranks: many}\n", [],
+     "spectrum.factor_ranks = 'many': must be auto or a whole number", None),
     ("KPM with a window", GOOD + "spectrum: {method: kpm, window: [1.0, 2.0]}\n", [], "window needs method 'slicing'", None),
     ("two documents, one output", GOOD + "---\n" + GOOD + "output: {out}\n", [],
      "two documents write output", None),

@@ -178,3 +178,26 @@ def test_a_unit_counted_with_one_layout_is_reused_with_another(shared_tmp, monke
     again = pipeline.run(scenes[COMM.size], COMM, [])
     name = "spectra/r00_p0000"
     assert_all(np.array_equal(first["units"][name][0]["counts"], again["units"][name][0]["counts"]), name)
+
+
+@pytest.mark.parametrize("memory_gib, shared", [(1e6, False), (1e-9, True)])
+def test_auto_shares_the_factor_only_when_a_whole_one_does_not_fit(comm, small_packing, monkeypatch, memory_gib,
+                                                                   shared):
+    """factor_ranks auto: with ample memory a factor per rank; with none, one factor shared by all
+    ranks (MUMPS's estimate against half the node's available memory per rank); the counts are the
+    dense histogram's either way.  On one rank: 1, without an estimate."""
+    monkeypatch.setattr(counting, "available_gib", lambda: memory_gib)
+    dm = dynmat.assemble(small_packing, ContactModel(0.5), comm)
+    try:
+        datasets, _, settings = counting.solve(dm, bin_width=BIN, zero_tol=1e-4, factor_ranks="auto")
+        lam = dense_eigenvalues(dm)
+    finally:
+        dm.destroy()
+    expected, _ = np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), datasets["edges"])
+    assert_all(np.array_equal(datasets["counts"], expected), "counts differ from eigvalsh")
+    inertia = settings["inertia"]
+    if COMM.size == 1:
+        assert_all(inertia["factor_ranks"] == 1 and "factor_estimate_gib" not in inertia, str(inertia))
+    else:
+        assert_all(inertia["factor_ranks"] == (COMM.size if shared else 1), str(inertia))
+        assert_all(0 < inertia["factor_estimate_gib"] < 0.1, str(inertia))  # 192 DOF: MB, not GB
