@@ -73,6 +73,29 @@ def colour_scale(values: np.ndarray) -> vtk.vtkColorTransferFunction:
     return scale
 
 
+def glyphs(scene: vtk.vtkRenderer, points: vtk.vtkPoints, arrays: dict[str, np.ndarray], source,
+           scale: str) -> vtk.vtkGlyph3DMapper:
+    """Draw ``source`` (a VTK source) at every one of ``points``, scaled by the magnitude of the
+    point array ``scale`` among ``arrays`` (name: (N,) or (N, 3)); black unless the caller colours
+    the returned mapper."""
+    cloud = vtk.vtkPolyData()
+    cloud.SetPoints(points)
+    for name, values in arrays.items():
+        array = numpy_support.numpy_to_vtk(np.ascontiguousarray(values, dtype=float), deep=True)
+        array.SetName(name)
+        cloud.GetPointData().AddArray(array)
+    mapper = vtk.vtkGlyph3DMapper()
+    mapper.SetInputData(cloud)
+    mapper.SetSourceConnection(source.GetOutputPort())
+    mapper.SetScaleArray(scale)
+    mapper.SetScaleModeToScaleByMagnitude()
+    actor = vtk.vtkActor()
+    actor.SetMapper(mapper)
+    actor.GetProperty().SetColor(0.0, 0.0, 0.0)
+    scene.AddActor(actor)
+    return mapper
+
+
 def render(path: str, output: str, colour: str, arrows: str | None, arrow_length: float, view: str,
            size: int, title: str) -> np.ndarray:
     """Write the PNG ``output`` of the file ``path`` (see the module docstring); return where each
@@ -83,29 +106,16 @@ def render(path: str, output: str, colour: str, arrows: str | None, arrow_length
     scene = vtk.vtkRenderer()
     scene.SetBackground(1.0, 1.0, 1.0)
 
-    spheres = vtk.vtkPolyData()
-    spheres.SetPoints(data.GetPoints())
-    for name, values in (("radius", radius), ("shade", shade)):
-        array = numpy_support.numpy_to_vtk(np.ascontiguousarray(values, dtype=float), deep=True)
-        array.SetName(name)
-        spheres.GetPointData().AddArray(array)
     ball = vtk.vtkSphereSource()
     ball.SetRadius(1.0)
     ball.SetThetaResolution(24)
     ball.SetPhiResolution(12)
-    mapper = vtk.vtkGlyph3DMapper()
-    mapper.SetInputData(spheres)
-    mapper.SetSourceConnection(ball.GetOutputPort())
-    mapper.SetScaleArray("radius")
-    mapper.SetScaleModeToScaleByMagnitude()
+    mapper = glyphs(scene, data.GetPoints(), {"radius": radius, "shade": shade}, ball, "radius")
     mapper.OrientOff()
     mapper.SetScalarModeToUsePointFieldData()
     mapper.SelectColorArray("shade")
     mapper.SetLookupTable(colour_scale(shade))
     mapper.UseLookupTableScalarRangeOn()
-    actor = vtk.vtkActor()
-    actor.SetMapper(mapper)
-    scene.AddActor(actor)
 
     bar = vtk.vtkScalarBarActor()
     bar.SetLookupTable(mapper.GetLookupTable())
@@ -122,29 +132,17 @@ def render(path: str, output: str, colour: str, arrows: str | None, arrow_length
         if vectors.ndim != 2:
             sys.exit(f"render_vtk: --arrows {arrows!r} is not a vector array")
         longest = float(np.linalg.norm(vectors, axis=1).max()) or 1.0
-        tips = vtk.vtkPolyData()
         points = numpy_support.vtk_to_numpy(data.GetPoints().GetData()).copy()
         points[:, 2] += 1.01 * radius.max()  # above the spheres seen from +z
-        tips.SetPoints(vtk.vtkPoints())
-        tips.GetPoints().SetData(numpy_support.numpy_to_vtk(points, deep=True))
-        array = numpy_support.numpy_to_vtk(np.ascontiguousarray(vectors * (arrow_length / longest)), deep=True)
-        array.SetName("arrow")
-        tips.GetPointData().AddArray(array)
+        tips = vtk.vtkPoints()
+        tips.SetData(numpy_support.numpy_to_vtk(points, deep=True))
         arrow = vtk.vtkArrowSource()
         arrow.SetTipLength(0.3)
         arrow.SetTipRadius(0.12)
         arrow.SetShaftRadius(0.04)
-        arrow_mapper = vtk.vtkGlyph3DMapper()
-        arrow_mapper.SetInputData(tips)
-        arrow_mapper.SetSourceConnection(arrow.GetOutputPort())
+        arrow_mapper = glyphs(scene, tips, {"arrow": vectors * (arrow_length / longest)}, arrow, "arrow")
         arrow_mapper.SetOrientationArray("arrow")
-        arrow_mapper.SetScaleArray("arrow")
-        arrow_mapper.SetScaleModeToScaleByMagnitude()
         arrow_mapper.ScalarVisibilityOff()
-        arrow_actor = vtk.vtkActor()
-        arrow_actor.SetMapper(arrow_mapper)
-        arrow_actor.GetProperty().SetColor(0.0, 0.0, 0.0)
-        scene.AddActor(arrow_actor)
 
     if title:
         caption = vtk.vtkTextActor()
