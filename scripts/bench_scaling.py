@@ -42,6 +42,8 @@ from benchlib import PY, REPO, load_packing, mpirun, run_json, save
 ME = str(REPO / "scripts" / "bench_scaling.py")
 LOGS = REPO / "results" / "bench" / "scaling_logs"
 STAGES = ("read", "assembly", "counting", "kpm", "waves")
+LOG_STAGES = {"read": "packings", "assembly": "assembly", "counting": "spectrum", "kpm": "kpm", "waves": "waves"}
+"""Each stage's PETSc log stage (``profiling.STAGES``) in -log_view."""
 BIN, ZERO_TOL, PROBES, T_END = 0.05, 1e-4, 16, 200.0
 
 
@@ -85,7 +87,7 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> Non
 
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
-    rows, held = [], {}
+    rows = []
     state: dict = {}
 
     def stage(name, work):
@@ -95,8 +97,7 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> Non
         held_gib = status_gib("VmRSS")
         reset_peak()
         t = time.perf_counter()
-        with profiling.stage("packings" if name == "read" else "spectrum" if name == "counting" else
-                             "assembly" if name == "assembly" else name):
+        with profiling.stage(LOG_STAGES[name]):
             extra = work() or {}
         seconds = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
         peaks = mpi.gather(status_gib("VmHWM"), root=0)

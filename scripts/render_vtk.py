@@ -6,8 +6,8 @@ what they say outside rotsound (OVITO is not packaged by Debian; ParaView's GUI 
 VTK renders through OpenGL and needs an X server: run under ``xvfb-run`` (Debian's ``xvfb``,
 installed by ``scripts/setup.sh``)::
 
-    rotsound export results/localisation.h5 --format vtk --rho 0 --mode 1 --frames 1 --output /tmp/m.vtk
-    xvfb-run -a .venv/bin/python scripts/render_vtk.py /tmp/m.vtk --color rotation_z \\
+    rotsound export results/localisation.h5 --format vtk --rho 0 --mode 1 --frames 1 --output results/localisation_mode.vtk
+    xvfb-run -a .venv/bin/python scripts/render_vtk.py results/localisation_mode.vtk --color share \\
         --arrows displacement --output docs/export_vtk_mode.png
 
 ``--color`` names a scalar point array, or a vector one with ``_x``, ``_y`` or ``_z`` appended for
