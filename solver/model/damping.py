@@ -20,7 +20,7 @@ def local_csr(packing: Packing, dm: dynmat.DynamicalMatrix, mass_rule: str = "eq
     dashpots of ``dm.model``, masses by ``mass_rule`` (``dynmat.particle_masses``).  Not collective."""
     contacts = dynmat.local_contacts(packing, dm.order, dm.disk_range)
     masses = dynmat.particle_masses(packing, mass_rule)
-    m_i, m_j = masses[contacts.found.i[contacts.touch]], masses[contacts.found.j[contacts.touch]]
+    m_i, m_j = masses[contacts.found.i], masses[contacts.found.j]
     normal, _, overlap, radius_i, radius_j = contacts.geometry_args
     c_ii, c_ij, c_jj = contact_law.damping_blocks(normal, overlap, radius_i, radius_j, m_i * m_j / (m_i + m_j),
                                                   dm.model, with_rotation=dm.dof > dm.dim)

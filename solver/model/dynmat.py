@@ -15,8 +15,9 @@ Decision: rotations are in the matrix whenever any rotational spring of the cont
 (rho, rho_roll or rho_twist > 0: ``ContactModel.rotations``). With none (frictionless, rho = 0)
 they carry no stiffness, so they are dropped and the matrix is the D N' x D N' translational
 block -- the free rotations never appear as spurious zero modes. Rattlers are excluded. Each
-rank owns a contiguous range of matrix particles (``dof`` rows each), computes the contact blocks
-touching its rows (vectorised) and inserts only its own rows, with exact preallocation from the
+rank owns a contiguous range of matrix particles (``dof`` rows each), finds the contacts touching
+its rows among its particles and their neighbouring cells only (``geometry.find_contacts_touching``:
+no rank searches the whole packing), computes their blocks (vectorised) and inserts only its own rows, with exact preallocation from the
 local CSR pattern.
 Units: m = d0 = kn = 1; M = diag(m, ..., I_i, ...) with I_i = m d_i^2 / 8 (disk) or
 m d_i^2 / 10 (sphere).
@@ -136,15 +137,16 @@ def mass_diagonal(diameters: np.ndarray, masses: np.ndarray, dim: int, dof: int)
 
 @dataclass
 class LocalContacts:
-    """The contacts that touch a rank's rows: ``found`` (``geometry.find_contacts`` among active
-    particles) restricted by ``touch`` (C,) bool; ``a``, ``b`` their particles' positions among
-    active particles; ``geometry_args`` (normal, distance, overlap, R_i, R_j) of those contacts."""
+    """The contacts that touch a rank's rows: ``found`` (``geometry.find_contacts_touching`` among
+    active particles: packing indices); ``a``, ``b`` their ends as matrix particles;
+    ``geometry_args`` (normal, distance, overlap, R_i, R_j) of those contacts; ``first`` (C,) bool:
+    the rank owns the contact's lower matrix particle (each contact is first on one rank only)."""
 
     found: object
-    touch: np.ndarray
     a: np.ndarray
     b: np.ndarray
     geometry_args: tuple
+    first: np.ndarray
 
 
 def matrix_order(packing: Packing) -> np.ndarray:
@@ -157,19 +159,20 @@ def matrix_order(packing: Packing) -> np.ndarray:
 
 
 def local_contacts(packing: Packing, order: np.ndarray, disk_range: tuple[int, int]) -> LocalContacts:
-    """The contacts touching the matrix particles ``disk_range`` owns (of ``order``, :func:`matrix_order`);
-    their ends as matrix particles. Not collective."""
-    active = ~packing.rattler
+    """The contacts touching the matrix particles ``disk_range`` owns (of ``order``, :func:`matrix_order`),
+    searched among those particles and their neighbours' cells only; their ends as matrix
+    particles. Not collective."""
+    start, stop = disk_range
+    owned = np.zeros(packing.n, dtype=bool)
+    owned[order[start:stop]] = True
+    found = geometry.find_contacts_touching(packing.positions, packing.diameters, packing.box, owned,
+                                            ~packing.rattler)
     index = np.full(packing.n, -1)
     index[order] = np.arange(order.size)  # packing particle -> matrix particle
-    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
     a, b = index[found.i], index[found.j]
-    start, stop = disk_range
-    touch = ((a >= start) & (a < stop)) | ((b >= start) & (b < stop))
     radius = 0.5 * packing.diameters
-    return LocalContacts(found, touch, a[touch], b[touch],
-                         (found.normal[touch], found.distance[touch], found.overlap[touch],
-                          radius[found.i[touch]], radius[found.j[touch]]))
+    return LocalContacts(found, a, b, (found.normal, found.distance, found.overlap, radius[found.i], radius[found.j]),
+                         (np.minimum(a, b) >= start) & (np.minimum(a, b) < stop))
 
 
 def blocks_csr(a: np.ndarray, b: np.ndarray, blocks: tuple, disk_range: tuple[int, int], dof: int,
@@ -199,30 +202,31 @@ def local_csr(packing: Packing, model: ContactModel, order: np.ndarray, disk_ran
     """Rows of D owned by ``disk_range`` of the matrix particles ``order`` as a CSR (local rows x
     global columns).
 
-    Returns (csr, dof, global number of contacts).  Not collective.
+    Returns (csr, dof, number of contacts whose lower matrix particle ``disk_range`` holds: summed
+    over the ranks, every contact once).  Not collective.
     """
     dof = dof_per_particle(packing.dim, model)
     contacts = local_contacts(packing, order, disk_range)
-    found, touch, geometry_args = contacts.found, contacts.touch, contacts.geometry_args
+    found, geometry_args = contacts.found, contacts.geometry_args
     h_ii, h_ij, h_jj = contact_law.pair_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
     h_ji = np.transpose(h_ij, (0, 2, 1))
     if contact_law.slip_differs(model):  # YADE's slip: not the transpose of the force's action
         s_ii, s_ij, s_ji, s_jj = contact_law.slip_blocks(*geometry_args, model, with_rotation=dof > packing.dim)
         h_ii, h_ij, h_ji, h_jj = h_ii + s_ii, h_ij + s_ij, h_ji + s_ji, h_jj + s_jj
     if packing.tangential is not None and model.stored_forces == "keep":  # the non-symmetric part
-        stored = packing.tangential.on(found.i[touch], found.j[touch])
+        stored = packing.tangential.on(found.i, found.j)
         s_ii, s_ij, s_ji, s_jj = contact_law.stressed_blocks(*geometry_args, stored, model,
                                                              with_rotation=dof > packing.dim)
         h_ii, h_ij, h_ji, h_jj = h_ii + s_ii, h_ij + s_ij, h_ji + s_ji, h_jj + s_jj
         if model.mobilised == "slide":  # contacts at the Coulomb limit take their sliding branch
-            limit = stressed.at_limit(stored, np.stack((found.i[touch], found.j[touch]), 1), found.overlap[touch],
+            limit = stressed.at_limit(stored, np.stack((found.i, found.j), 1), found.overlap,
                                       packing.diameters, model.law, packing.tangential.friction)
             slide = contact_law.sliding_blocks(*(a[limit] for a in geometry_args), stored[limit], model,
                                                with_rotation=dof > packing.dim)
             for block, extra in zip((h_ii, h_ij, h_ji, h_jj), slide):
                 block[limit] += extra
     csr = blocks_csr(contacts.a, contacts.b, (h_ii, h_ij, h_ji, h_jj), disk_range, dof, int((~packing.rattler).sum()))
-    return csr, dof, len(found)
+    return csr, dof, int(contacts.first.sum())
 
 
 @profiling.logged("rsAssemble")
@@ -245,7 +249,8 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
     active = ~packing.rattler
     order = matrix_order(packing)
     disk_range = parallel.block_range(order.size, comm.tompi4py())
-    csr, dof, n_contacts = local_csr(packing, model, order, disk_range)
+    csr, dof, mine = local_csr(packing, model, order, disk_range)
+    n_contacts = comm.tompi4py().allreduce(mine)
     n_global = int(active.sum()) * dof
     n_local = csr.shape[0]
     D = PETSc.Mat().createAIJ(size=((n_local, n_global), (n_local, n_global)), bsize=dof,
