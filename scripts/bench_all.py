@@ -13,7 +13,7 @@ import sys
 from benchlib import OUT, PY, REPO, machine
 
 ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_engines.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py",
-         "bench_spectral.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py", "crosscheck_lammps.py",
+         "bench_spectral.py", "bench_lanczos_batch.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py", "crosscheck_lammps.py",
          "crosscheck_stressed.py", "crosscheck_yade.py", "crosscheck_damped.py", "bench_stressed_spectrum.py",
          "bench_nonhermitian.py", "bench_damped.py", "bench_damped_waves.py", "bench_scaling.py"]
 ARGS = {"bench_vdos.py": ["--skip", "slicing:32768"],  # over an hour; the spectrum section has it with K/Q

@@ -13,103 +13,161 @@ from .excitation import channel, runs, start_velocity
 from .sampling import WaveSeries
 
 
-@profiling.logged("rsLanczosWave")
 def spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: float, times: np.ndarray,
              tol: float = 1e-8, omega_max: float | None = None) -> WaveSeries:
-    """A standing wave without time stepping: z(t) = b^H cos(sqrt(A) t) a by Lanczos, for run
-    ``run`` of ``excitation.runs(mode, dm.dim)``. Collective.
+    """One standing wave (run ``run`` of ``excitation.runs(mode, dm.dim)`` at ``k``):
+    :func:`spectral_all` of that wave alone. Collective."""
+    return spectral_all(dm, positions, [(mode, run, k)], amplitude=amplitude, times=times, tol=tol,
+                        omega_max=omega_max)[0]
+
+
+BATCH = 24
+"""Waves run side by side at most (scripts/bench_lanczos_batch.py: the time per wave stops falling
+by then, and memory is five (nloc, BATCH) blocks per rank)."""
+
+
+def spectral_all(dm, positions, waves: list[tuple[str, int, float]], *, amplitude: float, times: np.ndarray,
+                 tol: float = 1e-8, omega_max: float | None = None) -> list[WaveSeries]:
+    """Standing waves without time stepping: one WaveSeries per wave (mode, run of
+    ``excitation.runs(mode, dm.dim)``, k), :func:`_side_by_side` in chunks of :data:`BATCH`. Collective."""
+    if omega_max is None:
+        omega_max = largest_omega(dm)
+    return [series for i in range(0, len(waves), BATCH)
+            for series in _side_by_side(dm, positions, waves[i:i + BATCH], amplitude=amplitude, times=times, tol=tol,
+                                        omega_max=omega_max)]
+
+
+@profiling.logged("rsLanczosWave")
+def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitude: float, times: np.ndarray,
+                  tol: float, omega_max: float) -> list[WaveSeries]:
+    """Standing waves without time stepping: z(t) = b^H cos(sqrt(A) t) a by Lanczos, one
+    WaveSeries per wave (mode, run of ``excitation.runs(mode, dm.dim)``, k). Collective.
 
     With r_i(0) in the phase the dynamics is exactly linear (PHYSICS.md section 4):
     a = M^1/2 v0, b = M^-1/2 (exp(i k r_i(0)) in the channel), A = M^-1/2 D M^-1/2.  m Lanczos
     steps from a give A ~ Q T Q^T; w = Q^T b is accumulated on the way (one dot per step), so
     z(t) = |a| sum_j (w . s_j) s_j[0] cos(sqrt(theta_j) t) over the eigenpairs of T.
+    The W waves run as W independent recurrences side by side: one MatMatMult of A with the
+    (nloc, W) block of their current vectors per step (whose symbolic product is made once), and
+    one reduction for every wave's dots, then one for their norms -- the same arithmetic per wave
+    as W separate runs, with A's entries read once per step instead of W times.
     Loss of orthogonality: none is corrected, on purpose.  The plain three-term recurrence keeps
-    three vectors (memory O(n), cost one MatMult and two reductions per step); in floating point its
-    basis loses orthogonality and T grows spurious copies of converged Ritz values, but the
-    Lanczos approximation |a| Q f(T) e_1 of f(A) a stays as accurate as the best polynomial
-    approximation of f on a slightly enlarged spectral interval (Musco, Musco & Sidford, SODA
-    2018), and |b^H (f(A) a - approx)| <= |b| |f(A) a - approx|, so the bilinear form inherits
-    that bound.  Full reorthogonalisation costs m^2 n: it measured 23x slower at N = 8192
-    (8 waves to t = 200: 89.6 s against 3.9 s) for the same answer.
+    three vectors per wave (memory O(n W), cost one product and two reductions per step); in
+    floating point its basis loses orthogonality and T grows spurious copies of converged Ritz
+    values, but the Lanczos approximation |a| Q f(T) e_1 of f(A) a stays as accurate as the best
+    polynomial approximation of f on a slightly enlarged spectral interval (Musco, Musco & Sidford,
+    SODA 2018), and |b^H (f(A) a - approx)| <= |b| |f(A) a - approx|, so the bilinear form
+    inherits that bound.  Full reorthogonalisation costs m^2 n: it measured 23x slower at
+    N = 8192 (8 waves to t = 200: 89.6 s against 3.9 s) for the same answer.
     Steps: z is a bilinear form, so T_m must resolve cos(sqrt(lambda) t) as a polynomial of
     degree m - 1 (not 2m - 1 as a Gauss quadrature would): start at omega_max t_end / 2 + 40 and
-    grow by a fifth until z from T_m and from its leading (m - 10) block agree to ``tol``
-    relative -- the error estimate that is reported.  (Measured: 0.55-0.7 omega_max t_end steps
-    reach 1e-8 for t_end = 100-300.)
+    grow by a fifth until, for every wave, z from T_m and from its leading (m - 10) block agree to
+    ``tol`` relative -- the error estimate that is reported (a wave whose Krylov space closes
+    early, |v| at round-off, is exact from then on: estimate 0).  (Measured: 0.55-0.7
+    omega_max t_end steps reach 1e-8 for t_end = 100-300.)
     Returns samples at ``times`` with z = z_fixed (the r_i(t) phase needs the trajectory) and a
     constant energy (exactly conserved).
     """
     from mpi4py import MPI
-    from scipy.linalg import eigh_tridiagonal
+    from petsc4py import PETSc
 
     from .. import parallel
 
-    mpi = dm.D.getComm().tompi4py()
-    component, axis = runs(mode, dm.dim)[run]
+    comm = dm.D.getComm()
+    mpi = comm.tompi4py()
     s = 1.0 / np.sqrt(dm.M.getArray())
-    v0 = start_velocity(dm, positions, component, axis, k, amplitude, mpi)
-    a = v0 / s
-    b = channel(dm, positions, component, axis, k) * s  # z = b^H v = (M^-1/2 b)^H (M^1/2 v)
+    starts, channels = [], []
+    for mode, run, k in waves:
+        component, axis = runs(mode, dm.dim)[run]
+        starts.append(start_velocity(dm, positions, component, axis, k, amplitude, mpi) / s)
+        channels.append(channel(dm, positions, component, axis, k) * s)  # z = b^H v = (M^-1/2 b)^H (M^1/2 v)
+    a = np.asfortranarray(np.stack(starts, axis=1))  # (nloc, W)
+    b_re = np.asfortranarray(np.stack([c.real for c in channels], axis=1))
+    b_im = np.asfortranarray(np.stack([c.imag for c in channels], axis=1))
+    sq = mpi.allreduce(np.einsum("iw,iw->w", a, a), op=MPI.SUM)
+    norm_a, energy = np.sqrt(sq), 0.5 * sq
     if dm.scaled is None:
         dm.scaled = scaled_operator(dm)
     A = dm.scaled
-    # PETSc vectors: one MatMult and two reductions per step (alpha with b.q, then |v|)
-    q, v = A.createVecs()
-    q_prev = q.duplicate()
-    b_local = np.ascontiguousarray(np.stack([b.real, b.imag]))
-    sq = mpi.allreduce(float(a @ a), op=MPI.SUM)
-    norm_a, energy = np.sqrt(sq), 0.5 * sq
-    if omega_max is None:
-        omega_max = largest_omega(dm)
+    nloc, count = a.shape
+    X = PETSc.Mat().createDense(((nloc, A.getSize()[0]), (PETSc.DECIDE, count)),
+                                array=np.zeros((nloc, count), order="F"), comm=comm)
+    X.assemble()
+    q = X.getDenseArray()  # the current vectors, in the product's own storage
+    np.divide(a, norm_a, out=q)
+    del a, starts, channels  # from here on: q, q_prev, the product and b, five (nloc, W) blocks
+    q_prev = np.zeros_like(q, order="F")
+    Y = None
+    floor = 1e-13 * omega_max**2  # |v| at the round-off of A q (~1e-16 ||A||, ||A|| = omega_max^2)
     m_target = int(np.ceil(0.5 * omega_max * times[-1])) + 40
-    q.setArray(a / norm_a)
-    q_prev.zeroEntries()
-    alpha, beta, w = [], [], []
-    exhausted = False
-    while True:
-        while len(alpha) < m_target:
-            A.mult(q, v)
-            if beta:
-                v.axpy(-beta[-1], q_prev)
-            local = q.getArray(readonly=True)
-            dots = np.empty(3)  # q.v and b^H q (as its real and imaginary parts) in one reduction
-            mpi.Allreduce(np.array([local @ v.getArray(readonly=True), *(b_local @ local)]), dots, op=MPI.SUM)
-            alpha.append(float(dots[0]))
-            w.append(complex(dots[1], -dots[2]))
-            v.axpy(-alpha[-1], q)
-            nrm = v.norm()
-            # invariant subspace found, T is exact: |v| at the round-off of A q (~1e-16 ||A||,
-            # ||A|| = omega_max^2); relative to the last alpha, a small one missed it
-            if nrm < 1e-13 * omega_max**2:
-                exhausted = True
+    alpha, beta, w = [], [], []  # per step: (W,) each
+    length = np.full(count, -1)  # steps of a wave whose Krylov space closed (T exact), -1 while open
+    try:
+        while True:
+            while len(alpha) < m_target:
+                Y = A.matMult(X) if Y is None else A.matMult(X, Y)  # symbolic once, numeric after
+                v = Y.getDenseArray()
+                if beta:
+                    v -= beta[-1] * q_prev
+                dots = mpi.allreduce(np.concatenate([np.einsum("iw,iw->w", q, v), np.einsum("iw,iw->w", b_re, q),
+                                                     np.einsum("iw,iw->w", b_im, q)]), op=MPI.SUM)
+                alpha.append(dots[:count])
+                w.append(dots[count:2 * count] - 1j * dots[2 * count:])
+                v -= alpha[-1] * q
+                nrm = np.sqrt(mpi.allreduce(np.einsum("iw,iw->w", v, v), op=MPI.SUM))
+                closed = (nrm < floor) & (length < 0)
+                length[closed] = len(alpha)
+                if np.all(length >= 0):
+                    break
+                done = length >= 0  # a closed wave's vector becomes 0 and stays 0 (beta 0, never read)
+                nrm[done] = 0.0
+                beta.append(nrm)
+                np.copyto(q_prev, q)
+                np.divide(v, np.where(done, 1.0, nrm), out=q)
+                q[:, done] = 0.0
+            m = len(alpha)
+            alphas, betas, ws = np.array(alpha), np.array(beta).reshape(-1, count), np.array(w)
+
+            def evaluate(_):
+                return [_z_and_estimate(alphas[:, i], betas[:, i], ws[:, i], norm_a[i], times,
+                                        m if length[i] < 0 else length[i], length[i] >= 0) for i in range(count)]
+
+            # rank 0 evaluates and broadcasts, so every rank takes the same branch below
+            results = parallel.owner_compute(mpi, [0], evaluate)[0]
+            if all(estimate < tol for _, estimate in results) or np.all(length >= 0):
                 break
-            beta.append(nrm)
-            q_prev, q, v = q, v, q_prev  # rotate the three vectors, no copies
-            q.scale(1.0 / nrm)
-        m = len(alpha)
+            m_target = int(1.2 * m_target)
+    finally:
+        X.destroy()
+        if Y is not None:
+            Y.destroy()
+    out = []
+    for i, (z, estimate) in enumerate(results):
+        steps = int(m if length[i] < 0 else length[i])
+        settings = {"method": "lanczos", "tol": tol, "steps": steps, "omega_max": omega_max, "batch": count}
+        out.append(WaveSeries(np.asarray(times), z, z, np.full(len(times), energy[i]), steps, float(estimate),
+                              settings))
+    return out
 
-        def z_of(size):
-            a, b_ = np.array(alpha[:size]), np.array(beta[:size - 1])
-            try:  # MRRR: O(size^2); it can fail on the clustered Ritz values lost orthogonality makes
-                theta, S = eigh_tridiagonal(a, b_)
-            except np.linalg.LinAlgError:
-                theta, S = np.linalg.eigh(np.diag(a) + np.diag(b_, 1) + np.diag(b_, -1))
-            weights = (np.array(w[:size]) @ S) * S[0]
-            return norm_a * (weights @ np.cos(np.outer(np.sqrt(np.clip(theta, 0, None)), times)))
 
-        def evaluate():
-            z = z_of(m)
-            return z, 0.0 if exhausted else (np.abs(z - z_of(m - 10)).max() / np.abs(z).max() if m > 20 else np.inf)
+def _z_and_estimate(alpha, beta, w, norm_a: float, times, size: int, exact: bool) -> tuple[np.ndarray, float]:
+    """(z at ``times`` from the leading ``size`` steps of one wave's T, its error estimate: the
+    largest change of z from dropping the last 10 steps, relative to max |z|; 0 when ``exact``)."""
+    from scipy.linalg import eigh_tridiagonal
 
-        # rank 0 evaluates and broadcasts, so every rank takes the same branch below
-        z, estimate = parallel.owner_compute(mpi, [0], lambda _: evaluate())[0]
-        if estimate < tol or exhausted:
-            break
-        m_target = int(1.2 * m_target)
-    for vec in (q, v, q_prev):
-        vec.destroy()
-    settings = {"method": "lanczos", "tol": tol, "steps": m, "omega_max": omega_max}
-    return WaveSeries(np.asarray(times), z, z, np.full(len(times), energy), m, float(estimate), settings)
+    def z_of(m):
+        a, b = alpha[:m], beta[:m - 1]
+        try:  # MRRR: O(m^2); it can fail on the clustered Ritz values lost orthogonality makes
+            theta, S = eigh_tridiagonal(a, b)
+        except np.linalg.LinAlgError:
+            theta, S = np.linalg.eigh(np.diag(a) + np.diag(b, 1) + np.diag(b, -1))
+        weights = (w[:m] @ S) * S[0]
+        return norm_a * (weights @ np.cos(np.outer(np.sqrt(np.clip(theta, 0, None)), times)))
+
+    z = z_of(size)
+    if exact:
+        return z, 0.0
+    return z, (np.abs(z - z_of(size - 10)).max() / np.abs(z).max() if size > 20 else np.inf)
 
 
 def _lanczos_pass(A, start, steps: int, floor: float, visit=None) -> tuple[list, list]:

@@ -46,9 +46,9 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
                   for r in chosen]
     elif schedule.method == "spectral":
         times = schedule.sample_times()
-        series = [[spectral.spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times,
-                                     tol=spec.tol, omega_max=schedule.omega_max) for k in ks[:, column[r]]]
-                  for r in chosen]
+        flat = spectral.spectral_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
+                                     amplitude=spec.amplitude, times=times, tol=spec.tol, omega_max=schedule.omega_max)
+        series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
     elif schedule.method == "exponential":
         flat = exponential.exponential_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
                                            amplitude=spec.amplitude, times=schedule.sample_times(), tol=spec.tol,

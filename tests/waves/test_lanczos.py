@@ -95,3 +95,36 @@ def test_dense_fallback_gives_the_same_z_when_mrrr_fails(comm, monkeypatch):
     # the same T diagonalised by LAPACK's dense solver instead of MRRR: round-off apart
     scale = np.abs(reference.z).max()
     assert_close(fallback.z, reference.z, rtol=0.0, atol=1e-12 * scale, what="z with the dense fallback")
+
+
+def test_a_batch_of_waves_closing_at_different_steps_gives_each_its_exact_cosines(comm, crystal_packing):
+    """The four crystal waves in one spectral_all: their Krylov spaces close after 1 or 2 steps
+    while the others go on, so a closed wave must stay closed (zero vector, exact z, estimate 0)."""
+    closed_forms = [crystal_wave(comm, crystal_packing, mode, p)[1:] for mode, p, _ in WAVES]
+    dm = dynmat.assemble(crystal_packing, ContactModel(1.0), comm)
+    waves = [(mode, [axis for _, axis in runs(mode, 2)].index(0), 2 * np.pi * p / L) for mode, p, _ in WAVES]
+    batch = spectral.spectral_all(dm, crystal_packing.positions, waves, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
+    dm.destroy()
+    for series, (expected, z0), (mode, p, invariant) in zip(batch, closed_forms, WAVES):
+        assert_close(series.z, expected, rtol=0.0, atol=1e-12 * z0, what=f"{mode}, p = {p} in the batch")
+        assert_all(series.steps == invariant and series.error_estimate == 0.0, f"{mode}, p = {p}: {series.steps}")
+
+
+def test_a_batch_of_waves_is_each_wave_alone(comm):
+    """spectral_all over mixed modes, runs and k against spectral of each wave alone on a jammed
+    packing (no invariant subspace): the batch takes as many steps as its slowest wave, so each
+    agrees with its lone run to the tolerance both reach, not to round-off."""
+    p = jammed_packing(256, 0.9, 12)
+    dm = dynmat.assemble(p, ContactModel(1.0), comm)
+    k = 2 * np.pi / p.box_length
+    waves = [("L", 0, k), ("TR", 1, 3 * k), ("RT", 0, 2 * k), ("RT", 1, 5 * k)]
+    tol = 1e-9
+    batch = spectral.spectral_all(dm, p.positions, waves, amplitude=AMPLITUDE, times=TIMES, tol=tol)
+    alone = [spectral.spectral(dm, p.positions, *wave, amplitude=AMPLITUDE, times=TIMES, tol=tol) for wave in waves]
+    dm.destroy()
+    for wave, one, single in zip(waves, batch, alone):
+        scale = np.abs(single.z).max()
+        assert_all(one.error_estimate < tol and one.steps >= single.steps, f"{wave}: {one.steps} vs {single.steps}")
+        # both within their estimate (< tol relative) of the same exact z
+        assert_close(one.z, single.z, rtol=0.0, atol=2 * tol * scale, what=f"{wave} batch vs alone")
+        assert_close(one.energy, single.energy, rtol=1e-14, what=f"{wave} energy")
