@@ -1,8 +1,9 @@
 """Where the memory and the time of the chain go as N grows (issue 26, "measure first").
 
     python scripts/bench_scaling.py N [N ...] [--ranks P [P ...]] [--skip STAGE ...] [--tag TAG]
-                                    [--shuffle] [--factor-ranks G]
-    (e.g. 131072 262144 --ranks 1 2; --ranks 4 oversubscribes this 2-core machine: memory only)
+                                    [--shuffle] [--factor-ranks G] [--engine fire|lammps] [--dim 2|3]
+    (e.g. 131072 262144 --ranks 1 2; --ranks 4 oversubscribes this 2-core machine: memory only;
+     1000000 --engine lammps --skip counting: the 10^6-disk chain on LAMMPS's packing)
 --shuffle lists the packing's particles in a random order (seed 11) before anything else, as a DEM
 file lists them (by id), so that the assembly row shows what the matrix's particle order makes of
 it; --factor-ranks G shares each counting factorisation among G ranks (``spectrum.factor_ranks``;
@@ -11,9 +12,20 @@ without it, the code's default: a factor per rank).  Rows carry "shuffled" and "
 One row per (N, ranks, stage), each (N, ranks) in its own fresh ``mpirun`` job on the packing of
 ``benchlib.load_packing(N)`` (2D disks, phi = 0.9, seed [1, 0], rotsound's FIRE on one core; the
 time to make it is its own row, ranks = 1, stage "packing (FIRE)", measured once per N when the
-cached file is made).  rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
+cached file is made).  With ``--engine lammps`` the same start is minimised by LAMMPS on 2 ranks
+(``jammed.generate(engine="lammps")``, row "packing (LAMMPS)", cache/bench_<N>_lammps.h5); with
+``--dim 3`` the packing is of spheres at phi = 0.7 (LAMMPS only here; rotsound's FIRE makes
+bench_spheres' files) and the model has rolling and twisting springs (rho_roll = rho_twist = 0.1).
+rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
   read        every rank reads the packing file (``hdf5.read_packings``: the whole packing);
   assembly    ``dynmat.assemble`` (contacts, blocks, the PETSc matrix) and the Lanczos omega_max;
+  factorisation  two MUMPS Cholesky factorisations of A - sigma I (sigma = 0.25, 0.5 of the scaled
+              band), the counting method's unit of work, on groups of --factor-ranks ranks (default
+              one per rank, as counting's auto chooses while a whole factor fits): seconds of the
+              first (with the symbolic analysis) and of the second (numeric only), the factor's
+              entries (INFOG(29)) over A's lower triangle ("fill") and MUMPS's memory (INFOG(17)
+              estimated, INFOG(22) used; MB summed over a group's ranks); how many edges an hour
+              buys where counting itself is too long to run;
   counting    ``spectrum.counting.solve`` (bin 0.05/t0): the exact vDOS by Sylvester inertias;
   kpm         ``spectrum.kpm.solve`` with K/Q (16 probes, automatic moments, seed 1);
   waves       ``waves.spectral.spectral``: one L, one TR and one RT wave at the smallest k along x,
@@ -41,8 +53,9 @@ from benchlib import PY, REPO, load_packing, mpirun, run_json, save
 
 ME = str(REPO / "scripts" / "bench_scaling.py")
 LOGS = REPO / "results" / "bench" / "scaling_logs"
-STAGES = ("read", "assembly", "counting", "kpm", "waves")
-LOG_STAGES = {"read": "packings", "assembly": "assembly", "counting": "spectrum", "kpm": "kpm", "waves": "waves"}
+STAGES = ("read", "assembly", "factorisation", "counting", "kpm", "waves")
+LOG_STAGES = {"read": "packings", "assembly": "assembly", "factorisation": "spectrum", "counting": "spectrum",
+              "kpm": "kpm", "waves": "waves"}
 """Each stage's PETSc log stage (``profiling.STAGES``) in -log_view."""
 BIN, ZERO_TOL, PROBES, T_END = 0.05, 1e-4, 16, 200.0
 
@@ -68,18 +81,54 @@ def off_process_share(A) -> tuple[int, int]:
     return int(cols.size), int(np.count_nonzero((cols < start) | (cols >= stop)))
 
 
-def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> None:
-    """Every stage on the packing of n disks, on COMM_WORLD; rank 0 prints one JSON line."""
+PHI = {2: 0.9, 3: 0.7}
+"""The packings' area or volume fraction (benchlib.load_packing's and bench_spheres' values)."""
+
+
+def packing_file(n: int, engine: str, dim: int = 2):
+    """The cached packing of n disks or spheres made by ``engine`` (2D fire: benchlib.load_packing's file)."""
+    name = "bench" if dim == 2 else "bench_spheres"
+    return REPO / "cache" / (f"{name}_{n}.h5" if engine == "fire" else f"{name}_{n}_{engine}.h5")
+
+
+def model(dim: int):
+    """The contact model: rho = 1; in 3D also rolling and twisting springs (0.1 kn, as bench_spheres)."""
+    from solver.contact_law import ContactModel
+
+    return ContactModel(1.0) if dim == 2 else ContactModel(1.0, 0.1, 0.1)
+
+
+def make_lammps_packing(n: int, dim: int) -> None:
+    """jammed.generate's packing of n disks or spheres (PHI, seed [1, 0]) by LAMMPS on COMM_WORLD;
+    rank 0 writes it and prints one JSON line with the steps and the wall time."""
+    from mpi4py import MPI
+
+    from solver.io import hdf5
+    from solver.packing import jammed
+
+    comm = MPI.COMM_WORLD
+    comm.Barrier()
+    t = time.perf_counter()
+    p = jammed.generate(n, PHI[dim], np.random.SeedSequence([1, 0]), dim=dim, engine="lammps", comm=comm)
+    seconds = comm.allreduce(time.perf_counter() - t, op=MPI.MAX)
+    if comm.rank == 0:
+        hdf5.save_packings(str(packing_file(n, "lammps", dim)), [p])
+        print(json.dumps({"seconds": seconds, "fire_steps": p.info["fire_steps"], "z": p.info.get("z"),
+                          "rss_max": float(status_gib("VmHWM"))}))
+
+
+def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine: str, dim: int) -> None:
+    """Every stage on the packing of n disks or spheres, on COMM_WORLD; rank 0 prints one JSON line."""
     from solver import petscenv
 
     LOGS.mkdir(parents=True, exist_ok=True)
     size = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
-    tag = ("_shuffled" if shuffle else "") + (f"_g{factor_ranks}" if factor_ranks else "")
+    tag = ("_shuffled" if shuffle else "") + (f"_g{factor_ranks}" if factor_ranks else "") + (
+        "" if engine == "fire" else f"_{engine}") + ("" if dim == 2 else "_3d")
     PETSc = petscenv.init(["-log_view", f":{LOGS / f'N{n}_p{size}{tag}.txt'}"])
     from mpi4py import MPI
 
     from solver import profiling
-    from solver.contact_law import ContactModel
     from solver.io import hdf5
     from solver.model import dynmat, operators
     from solver.spectrum import counting, kpm
@@ -103,11 +152,11 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> Non
         peaks = mpi.gather(status_gib("VmHWM"), root=0)
         helds = mpi.gather(held_gib, root=0)
         if mpi.rank == 0:
-            rows.append({"stage": name, "shuffled": shuffle, "factor_ranks": factor_ranks or 1, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
+            rows.append({"stage": name, "dim": dim, "engine": engine, "shuffled": shuffle, "factor_ranks": factor_ranks or 1, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
                          "held_max": max(helds), **extra})
 
     def read():
-        p = hdf5.read_packings(str(REPO / "cache" / f"bench_{n}.h5"))[0]
+        p = hdf5.read_packings(str(packing_file(n, engine, dim)))[0]
         if shuffle:
             from solver.packing import jammed
 
@@ -116,7 +165,7 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> Non
         state["p"] = p
 
     def assembly():
-        dm = dynmat.assemble(state["p"], ContactModel(1.0), comm)
+        dm = dynmat.assemble(state["p"], model(dim), comm)
         operators.largest_omega(dm)
         state["dm"] = dm
         nnz, off = mpi.allreduce(np.array(off_process_share(dm.D)), op=MPI.SUM)
@@ -129,6 +178,35 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> Non
         matmult = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX) / 100
         return {"dof": dm.size, "nnz": int(nnz), "off_process": int(off) / int(nnz), "matmult_ms": 1e3 * matmult,
                 "omega_max": dm.omega_max}
+
+    def factorisation():
+        from solver import parallel
+        from solver.spectrum import slicing
+
+        A = operators.scaled_operator(state["dm"])
+        result = {}
+        with parallel.Groups(mpi, factor_ranks or 1) as groups:
+            local = counting._group_copy(A, groups)
+            counter = slicing.ShiftedInertia(local)
+            for label, sigma in (("first", 0.25), ("second", 0.5)):  # of the scaled band [0, 1]
+                groups.local.Barrier()
+                t = time.perf_counter()
+                counter.count_below(sigma)
+                result[f"{label}_s"] = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
+            factor = counter.pc.getFactorMatrix()
+            entries = factor.getMumpsInfog(29)  # entries in the factor (negative: millions)
+            result.update(factor_entries=float(entries if entries >= 0 else -entries * 1e6),
+                          factor_mb_estimate=factor.getMumpsInfog(17), factor_mb=factor.getMumpsInfog(22))
+            factor.destroy()
+            result["a_entries"] = float(local.getInfo()["nz_used"]) if groups.size == 1 else float(
+                A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"])
+            result["fill"] = result["factor_entries"] / (0.5 * (result["a_entries"] + state["dm"].size))
+            counter.destroy()
+            if local is not A:
+                local.destroy()
+            groups.wait()
+        result = mpi.bcast(result, root=0)
+        return {"factor_ranks": factor_ranks or 1, **result}
 
     def count():
         layout = {} if factor_ranks is None else {"factor_ranks": factor_ranks}
@@ -153,6 +231,7 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None) -> Non
 
     stage("read", read)
     stage("assembly", assembly)
+    stage("factorisation", factorisation)
     stage("counting", count)
     stage("kpm", stochastic)
     stage("waves", waves)
@@ -171,28 +250,46 @@ def main() -> None:
     parser.add_argument("--tag", default="", help="suffix of the record's name (e.g. _after)")
     parser.add_argument("--shuffle", action="store_true", help="list the particles in a random order first")
     parser.add_argument("--factor-ranks", type=int, help="ranks sharing each counting factorisation")
+    parser.add_argument("--engine", choices=("fire", "lammps"), default="fire",
+                        help="the packing's engine: rotsound's FIRE on one core, or LAMMPS on 2 ranks")
+    parser.add_argument("--dim", type=int, choices=(2, 3), default=2, help="disks (2) or spheres (3)")
     parser.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--make-packing", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.make_packing:
+        make_lammps_packing(args.n[0], args.dim)
+        return
     if args.case:
-        case(args.n[0], set(args.skip), args.shuffle, args.factor_ranks)
+        case(args.n[0], set(args.skip), args.shuffle, args.factor_ranks, args.engine, args.dim)
         return
     for n in args.n:
-        packing_file = REPO / "cache" / f"bench_{n}.h5"
         table = []
-        if not packing_file.exists():
+        if not packing_file(n, args.engine, args.dim).exists() and args.engine == "fire":
+            if args.dim == 3:
+                raise SystemExit("3D packings by rotsound's FIRE: make them with scripts/bench_spheres.py")
             t = time.perf_counter()
             p = load_packing(n)
             table.append({"N": n, "ranks": 1, "stage": "packing (FIRE)", "seconds": time.perf_counter() - t,
                           "fire_steps": p.info.get("fire_steps"), "rss_max": None})
+        elif not packing_file(n, args.engine, args.dim).exists():
+            t = time.perf_counter()
+            out = run_json(mpirun(2) + [PY, ME, str(n), "--make-packing", "--dim", str(args.dim)], timeout=6 * 3600)
+            table.append({"N": n, "ranks": 2, "stage": "packing (LAMMPS)", "dim": args.dim, "engine": "lammps",
+                          "seconds": out["seconds"],
+                          "job_seconds": time.perf_counter() - t, "fire_steps": out["fire_steps"],
+                          "z": out["z"], "rss_max": out["rss_max"]})
+            save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
+                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks"))
         for ranks in args.ranks:
             cmd = mpirun(ranks) + (["--oversubscribe"] if ranks > (os.cpu_count() or 1) else []) + [
                 PY, ME, str(n), "--case", *(["--skip", *args.skip] if args.skip else []),
                 *(["--shuffle"] if args.shuffle else []),
-                *(["--factor-ranks", str(args.factor_ranks)] if args.factor_ranks else [])]
+                *(["--factor-ranks", str(args.factor_ranks)] if args.factor_ranks else []),
+                "--engine", args.engine, "--dim", str(args.dim)]
             out = run_json(cmd, timeout=6 * 3600)
             table += [{"N": n, "ranks": ranks, **row} for row in out["rows"]]
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
-                 notes="", merge_by=("N", "ranks", "stage", "shuffled", "factor_ranks"))
+                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks"))
 
 
 if __name__ == "__main__":
