@@ -94,6 +94,7 @@ def main() -> None:
                       "speedup": None})
         for row in table:
             row["speedup"] = table[0]["seconds"] / row["seconds"]
+        table = [{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in row.items()} for row in table]
         save("lanczos_batch", "python scripts/bench_lanczos_batch.py " + " ".join(sys.argv[1:]), table,
              notes="", merge_by=("N", "batch"))
         print(json.dumps(table[-1]), flush=True)

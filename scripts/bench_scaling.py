@@ -242,6 +242,11 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
                                    for row in rows]}))
 
 
+def rounded(table: list[dict]) -> list[dict]:
+    """The rows with every float to 4 significant digits (as the case jobs print them)."""
+    return [{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in row.items()} for row in table]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("n", type=int, nargs="+")
@@ -278,6 +283,7 @@ def main() -> None:
                           "seconds": out["seconds"],
                           "job_seconds": time.perf_counter() - t, "fire_steps": out["fire_steps"],
                           "z": out["z"], "rss_max": out["rss_max"]})
+            table = rounded(table)
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
                  notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks"))
         for ranks in args.ranks:
@@ -287,7 +293,7 @@ def main() -> None:
                 *(["--factor-ranks", str(args.factor_ranks)] if args.factor_ranks else []),
                 "--engine", args.engine, "--dim", str(args.dim)]
             out = run_json(cmd, timeout=6 * 3600)
-            table += [{"N": n, "ranks": ranks, **row} for row in out["rows"]]
+            table = rounded(table + [{"N": n, "ranks": ranks, **row} for row in out["rows"]])
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
                  notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks"))
 

@@ -21,9 +21,11 @@ def spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: float, 
                         omega_max=omega_max)[0]
 
 
-BATCH = 24
-"""Waves run side by side at most (scripts/bench_lanczos_batch.py: the time per wave stops falling
-by then, and memory is five (nloc, BATCH) blocks per rank)."""
+BATCH = 4
+"""Waves run side by side at most.  Measured (scripts/bench_lanczos_batch.py, N = 131072, 2 ranks,
+24 waves): 5.14 s per wave one at a time with MatMult (the code before), 3.12 in chunks of 1,
+2.09 in chunks of 4, 2.41 of 12, 2.59 of 24, 2.84 of 48: past a few columns the per-step work on
+the (nloc, W) blocks outgrows what the shared reads of A save.  Memory: five (nloc, BATCH) blocks."""
 
 
 def spectral_all(dm, positions, waves: list[tuple[str, int, float]], *, amplitude: float, times: np.ndarray,

@@ -111,13 +111,15 @@ def test_a_batch_of_waves_closing_at_different_steps_gives_each_its_exact_cosine
 
 
 def test_a_batch_of_waves_is_each_wave_alone(comm):
-    """spectral_all over mixed modes, runs and k against spectral of each wave alone on a jammed
-    packing (no invariant subspace): the batch takes as many steps as its slowest wave, so each
+    """spectral_all over mixed modes, runs and k (more than one chunk of spectral.BATCH) against
+    spectral of each wave alone on a jammed packing (no invariant subspace): a chunk takes as many
+    steps as its slowest wave, so each
     agrees with its lone run to the tolerance both reach, not to round-off."""
     p = jammed_packing(256, 0.9, 12)
     dm = dynmat.assemble(p, ContactModel(1.0), comm)
     k = 2 * np.pi / p.box_length
-    waves = [("L", 0, k), ("TR", 1, 3 * k), ("RT", 0, 2 * k), ("RT", 1, 5 * k)]
+    waves = [("L", 0, k), ("TR", 1, 3 * k), ("RT", 0, 2 * k), ("RT", 1, 5 * k), ("L", 1, 4 * k), ("TR", 0, k)]
+    assert len(waves) > spectral.BATCH, "the waves must span more than one chunk"
     tol = 1e-9
     batch = spectral.spectral_all(dm, p.positions, waves, amplitude=AMPLITUDE, times=TIMES, tol=tol)
     alone = [spectral.spectral(dm, p.positions, *wave, amplitude=AMPLITUDE, times=TIMES, tol=tol) for wave in waves]
