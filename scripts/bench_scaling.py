@@ -27,7 +27,8 @@ rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
               estimated, INFOG(22) used; MB summed over a group's ranks); how many edges an hour
               buys where counting itself is too long to run;
   counting    ``spectrum.counting.solve`` (bin 0.05/t0): the exact vDOS by Sylvester inertias;
-  kpm         ``spectrum.kpm.solve`` with K/Q (16 probes, automatic moments, seed 1);
+  kpm         ``spectrum.kpm.solve`` with K/Q (16 probes, automatic moments, seed 1); with counting
+              in the same job, the L1 distance of its density from counting's ("l1_vs_counting");
   waves       ``waves.spectral.spectral``: one L, one TR and one RT wave at the smallest k along x,
               t_end = 200, samples every 1 t0 (tol 1e-8).
 Per stage: wall time (max over ranks, after a barrier) and peak RSS of each rank *during the
@@ -49,7 +50,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import PY, REPO, load_packing, mpirun, run_json, save
+from benchlib import PY, REPO, l1_error, load_packing, mpirun, run_json, save
 
 ME = str(REPO / "scripts" / "bench_scaling.py")
 LOGS = REPO / "results" / "bench" / "scaling_logs"
@@ -211,12 +212,15 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
     def count():
         layout = {} if factor_ranks is None else {"factor_ranks": factor_ranks}
         datasets, attrs, settings = counting.solve(state["dm"], bin_width=BIN, zero_tol=ZERO_TOL, **layout)
+        state["counting"] = datasets
         return {"factorisations": attrs["factorisations"], "counts_sum": int(datasets["counts"].sum()),
                 "counts_digest": int(np.sum(datasets["counts"] * np.arange(1, datasets["counts"].size + 1)))}
 
     def stochastic():
-        _, attrs = kpm.solve(state["dm"], bin_width=BIN, moments=None, probes=PROBES, with_energies=True, seed=1)
-        return {"moments": attrs["moments"]}
+        datasets, attrs = kpm.solve(state["dm"], bin_width=BIN, moments=None, probes=PROBES, with_energies=True, seed=1)
+        exact = state.get("counting")  # the accuracy target: L1 against exact counting
+        return {"moments": attrs["moments"], **({} if exact is None else {"l1_vs_counting": l1_error(
+            datasets["edges"], datasets["density"], exact["edges"], exact["density"], BIN)})}
 
     def waves():
         dm, p = state["dm"], state["p"]
