@@ -187,7 +187,7 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
         A = operators.scaled_operator(state["dm"])
         result = {}
         with parallel.Groups(mpi, factor_ranks or 1) as groups:
-            local = counting._group_copy(A, groups)
+            local = counting.group_copy(A, groups)
             counter = slicing.ShiftedInertia(local)
             for label, sigma in (("first", 0.25), ("second", 0.5)):  # of the scaled band [0, 1]
                 groups.local.Barrier()

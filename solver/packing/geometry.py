@@ -85,14 +85,15 @@ def find_contacts_touching(positions: np.ndarray, diameters: np.ndarray, box, ow
     end in ``owned`` ((N,) bool), found among the particles of :func:`cells_around` only: a rank's
     share of the contact search, in memory and time proportional to its own particles and their
     halo rather than to N."""
-    near = cells_around(positions, box, float(np.max(diameters)), owned)
+    cutoff = float(np.max(diameters))
+    near = cells_around(positions, box, cutoff, owned)
     if active is not None:
         near &= active
     subset = np.flatnonzero(near)  # increasing, so the pairs keep find_contacts' order and i < j
     if subset.size < 2:
         pairs = np.zeros((0, 2), dtype=np.int64)
     else:
-        pairs = subset[candidate_pairs(positions[subset], box, float(np.max(diameters)))]
+        pairs = subset[candidate_pairs(positions[subset], box, cutoff)]
     pairs = pairs[owned[pairs[:, 0]] | owned[pairs[:, 1]]]
     normal, distance, overlap = pair_geometry(positions, diameters, box, pairs)
     touching = overlap > 0.0

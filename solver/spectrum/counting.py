@@ -40,7 +40,7 @@ import numpy as np
 
 from .. import parallel
 from ..model.operators import largest_omega, scaled_operator
-from .slicing import INERTIA_PREFIX, ShiftedInertia, mumps_defaults
+from .slicing import ShiftedInertia
 
 
 def available_gib() -> float:
@@ -74,7 +74,7 @@ def auto_factor_ranks(A, comm, sigma: float) -> tuple[int, int, dict]:
     return ranks, below, {"factor_estimate_gib": estimate, "factor_budget_gib": budget}
 
 
-def _group_copy(A, groups):
+def group_copy(A, groups):
     """A on ``groups``' sub-communicator: A itself for one group of all ranks, a sequential copy
     (SEQAIJ, ``createSubMatrices``) for groups of one rank, else ``MatCreateRedundantMatrix``.
     (A redundant copy on one rank is an MPIAIJ, which measured 6 % slower to factorise and 0.09 GiB
@@ -110,7 +110,7 @@ def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.
     with parallel.Groups(comm, factor_ranks) as groups:
         try:
             try:
-                local = _group_copy(A, groups)
+                local = group_copy(A, groups)
                 counter = ShiftedInertia(local)
             except BaseException as exc:  # noqa: BLE001 - raised on every rank below
                 error = exc

@@ -65,7 +65,7 @@ class Spectrum:
     settings: dict | None = None  # what the solver objects used: {"spectrum": EPS, "inertia": PC}
 
 
-def mumps_defaults(pc) -> None:
+def _mumps_defaults(pc) -> None:
     """ICNTL(13) = 1 (the root node is not factorised by ScaLAPACK, so parallel inertias are
     right) and ICNTL(24) = 1 (null pivots detected instead of failing) on a PC that factorises
     with MUMPS; a no-op for another package.  Called after setFromOptions: the factor matrix reads
@@ -82,7 +82,7 @@ class ShiftedInertia:
     """Inertias of A - sigma I for many sigma with one factorisation object on A's communicator:
     the symbolic analysis is done at the first shift, later shifts refactorise numerically only
     (same pattern: A's values copied in place, then the diagonal shifted).  PC options prefix
-    ``inertia_`` (MUMPS Cholesky with ICNTL 13 and 24 by default, :func:`mumps_defaults`).
+    ``inertia_`` (MUMPS Cholesky with ICNTL 13 and 24 by default, :func:`_mumps_defaults`).
     Collective on A's communicator; call :meth:`destroy` when done."""
 
     def __init__(self, A):
@@ -97,7 +97,7 @@ class ShiftedInertia:
         self.pc.setFactorSolverType("mumps")
         self.pc.setOptionsPrefix(INERTIA_PREFIX)
         self.pc.setFromOptions()
-        mumps_defaults(self.pc)
+        _mumps_defaults(self.pc)
         self.factorisations = 0
 
     @profiling.logged("rsInertia")
@@ -261,7 +261,7 @@ def _configure(eps, A, edges, tol):
     ksp.getPC().setType(PETSc.PC.Type.CHOLESKY)
     ksp.getPC().setFactorSolverType("mumps")
     eps.setFromOptions()
-    mumps_defaults(eps.getKrylovSchurKSP().getPC())
+    _mumps_defaults(eps.getKrylovSchurKSP().getPC())
 
 
 @profiling.logged("rsWindowSolve")

@@ -152,17 +152,25 @@ def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitu
     return out
 
 
+def _tridiagonal_eigen(alpha, beta) -> tuple[np.ndarray, np.ndarray]:
+    """(theta, S): the eigenpairs of the symmetric tridiagonal T with diagonal ``alpha`` (m,) and
+    off-diagonal ``beta`` (m - 1,).  MRRR (O(m^2)); it can fail on the clustered Ritz values that
+    lost orthogonality makes, and T is then diagonalised densely."""
+    from scipy.linalg import eigh_tridiagonal
+
+    alpha, beta = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
+    try:
+        return eigh_tridiagonal(alpha, beta)
+    except np.linalg.LinAlgError:
+        return np.linalg.eigh(np.diag(alpha) + np.diag(beta, 1) + np.diag(beta, -1))
+
+
 def _z_and_estimate(alpha, beta, w, norm_a: float, times, size: int, exact: bool) -> tuple[np.ndarray, float]:
     """(z at ``times`` from the leading ``size`` steps of one wave's T, its error estimate: the
     largest change of z from dropping the last 10 steps, relative to max |z|; 0 when ``exact``)."""
-    from scipy.linalg import eigh_tridiagonal
 
     def z_of(m):
-        a, b = alpha[:m], beta[:m - 1]
-        try:  # MRRR: O(m^2); it can fail on the clustered Ritz values lost orthogonality makes
-            theta, S = eigh_tridiagonal(a, b)
-        except np.linalg.LinAlgError:
-            theta, S = np.linalg.eigh(np.diag(a) + np.diag(b, 1) + np.diag(b, -1))
+        theta, S = _tridiagonal_eigen(alpha[:m], beta[:m - 1])
         weights = (w[:m] @ S) * S[0]
         return norm_a * (weights @ np.cos(np.outer(np.sqrt(np.clip(theta, 0, None)), times)))
 
@@ -218,7 +226,6 @@ def velocity_field(dm, positions, mode: str, run: int, k: float, *, amplitude: f
     the polynomial degree the bilinear form z needs, measured 0.55-0.7 omega_max t).  Symmetric
     matrices without dashpots only (the caller checks)."""
     from mpi4py import MPI
-    from scipy.linalg import eigh_tridiagonal
 
     mpi = dm.D.getComm().tompi4py()
     times = np.asarray(times, dtype=float)
@@ -241,7 +248,7 @@ def velocity_field(dm, positions, mode: str, run: int, k: float, *, amplitude: f
             m = len(alpha)
             coefficients = []
             for size in (m, max(m - 10, 1)):
-                theta, S = eigh_tridiagonal(np.array(alpha[:size]), np.array(beta[:size - 1]))
+                theta, S = _tridiagonal_eigen(alpha[:size], beta[:size - 1])
                 c = np.zeros((len(times), m))
                 c[:, :size] = norm_a * (np.cos(np.outer(times, np.sqrt(np.clip(theta, 0, None)))) * S[0]) @ S.T
                 coefficients.append(c)
