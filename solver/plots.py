@@ -419,6 +419,10 @@ def plot_results(path: str) -> list[str]:
         written += plot_transition(fits, lattice_fit, waves, f"{stem}_transition")
         written += plot_bands(lattice_fit, results.bands(f), f"{stem}_bands")
         written += plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
+        from . import plots_attenuation  # its figure imports this module's helpers
+
+        dim = packing["positions"].shape[1] if packing is not None else 2
+        written += plots_attenuation.plot_attenuation_regimes(fits, f"{stem}_attenuation", dim=dim)
         damped = results.damped_modes(f)
         shapes = results.mode_shapes(f)
         per_mode_participation = results.participation(f)

@@ -1,0 +1,68 @@
+"""The Rayleigh-to-diffusive figure: attenuation gamma(k) of the L and TR waves and its local
+exponent (``analysis.attenuation``), from ``io.results.fits``.
+
+Never imports petsc4py or mpi4py.  Writes ``<stem>.png`` and ``<stem>.pdf`` and returns their
+paths ([] when it has nothing to draw).  Not collective.  Units: k in 1/d0, gamma in 1/t0.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .analysis import attenuation  # noqa: E402
+from .plots import _save  # noqa: E402
+
+_STYLE = {("L", 0): ("tab:blue", "o"), ("TR", 0): ("tab:red", "s"),
+          ("L", 1): ("navy", "o"), ("TR", 1): ("darkred", "s")}
+
+
+def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
+    """Left: gamma(k) of L and TR for every rho, filled where the run resolves the decay (gamma
+    t_end >= 1), open where it does not (an upper bound of the early loss); the level gamma =
+    1 / t_end dashed; guides ~ k^(d+1) (Rayleigh) and ~ k^2 (diffusive) through the first and last
+    resolved point; Ioffe-Regel k (omega = 2 pi gamma) as a star.  Right: the local exponent
+    d ln gamma / d ln k between neighbouring resolved points, with d + 1 and 2 marked."""
+    acoustic = sorted((rho, mode) for rho, mode in fits if mode in ("L", "TR"))
+    if not acoustic:
+        return []
+    rhos = sorted({rho for rho, _ in acoustic})
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.4))
+    resolved_k = []
+    for rho, mode in acoustic:
+        fit = fits[(rho, mode)]
+        k, gamma, omega, t_end = fit["k"], fit["gamma"], fit["omega"], float(fit["t_end"])
+        color, marker = _STYLE[(mode, min(rhos.index(rho), 1))]
+        ls = "-" if rho == rhos[-1] else ":"
+        label = f"{mode}, rho = {rho:g}"
+        resolved = attenuation.resolved(gamma, t_end)
+        with np.errstate(invalid="ignore"):
+            early = np.isfinite(gamma) & (gamma > 0) & ~resolved
+        ax.loglog(k[resolved], gamma[resolved], marker + ls, color=color, ms=4, lw=0.8, label=label)
+        ax.loglog(k[early], gamma[early], marker, color=color, ms=4, mfc="none", lw=0)
+        k_ir = attenuation.ioffe_regel_k(k, omega, gamma)
+        if np.isfinite(k_ir):
+            ax.loglog([k_ir], [np.interp(np.log(k_ir), np.log(k), omega) / (2 * np.pi)], "*", color=color, ms=11,
+                      mec="k", mew=0.5)
+        if resolved.sum() >= 2:
+            k_mid, p = attenuation.local_exponents(k[resolved], gamma[resolved])
+            bx.semilogx(k_mid, p, marker + ls, color=color, ms=4, lw=0.8, label=label)
+            resolved_k.append((k[resolved], gamma[resolved]))
+        ax.axhline(1.0 / t_end, color="0.6", ls="--", lw=0.6)
+    for k_r, g_r in resolved_k[:1]:  # guides through one resolved curve, for the eye
+        ax.loglog(k_r, g_r[0] * (k_r / k_r[0])**(dim + 1), "k-", lw=2, alpha=0.25, label=f"~ k^{dim + 1} (Rayleigh)")
+        ax.loglog(k_r, g_r[-1] * (k_r / k_r[-1])**2, "k--", lw=2, alpha=0.25, label="~ k^2 (diffusive)")
+    ax.set(xlabel="k d0", ylabel="gamma t0",
+           title="attenuation (open: gamma t_end < 1, not resolved; *: Ioffe-Regel)")
+    ax.legend(fontsize=6, ncol=2)
+    for level, text in ((dim + 1, f"d + 1 = {dim + 1}"), (2, "2")):
+        bx.axhline(level, color="0.5", lw=0.6)
+        bx.annotate(text, (0.01, level), xycoords=("axes fraction", "data"), fontsize=7, va="bottom")
+    bx.set(xlabel="k d0", ylabel="d ln gamma / d ln k", title="local exponent (resolved points)", ylim=(1, dim + 2))
+    if resolved_k:
+        bx.legend(fontsize=6)
+    fig.tight_layout()
+    return _save(fig, stem)
