@@ -179,7 +179,8 @@ def _which_name(eps) -> str:
 
 def pc_settings(pc) -> dict:
     """Type of a PETSc PC and, for a factorisation, the package that factorises and (MUMPS, once
-    factorised) ICNTL 13 and 24, read back from the object. Not collective."""
+    factorised) ICNTL 13 and 24, and the block low-rank settings ICNTL 35 (0: off) and CNTL 7 (the
+    dropping parameter), read back from the object. Not collective."""
     from petsc4py import PETSc
 
     out = {"pc_type": pc.getType()}
@@ -189,6 +190,7 @@ def pc_settings(pc) -> dict:
             try:  # the factor matrix exists once the PC is set up
                 factor = pc.getFactorMatrix()
                 out["mumps_icntl"] = {"13": factor.getMumpsIcntl(13), "24": factor.getMumpsIcntl(24)}
+                out["mumps_blr"] = {"icntl_35": factor.getMumpsIcntl(35), "cntl_7": factor.getMumpsCntl(7)}
             except PETSc.Error:  # not set up yet: no ICNTL to report
                 pass
     return out

@@ -266,6 +266,9 @@ def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
               f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias "
               f"({_factor_layout(settings['inertia'])}), omega_max = "
               f"{attrs['omega_max']:.4f}, {seconds:.1f} s")
+    if not attrs["counts_exact"]:
+        say(comm, f"  block low-rank factors (CNTL 7 = {attrs['blr_dropping']:g}): a count may be off by the modes "
+                  f"within omega^2 +- {attrs['count_window']:.3g} of a bin edge (counts_exact = False)")
     _warn_negative(comm, attrs["n_negative_modes"])
 
 

@@ -31,6 +31,16 @@ translations, and the uniform spins without tangential springs: ``dm.rigid_modes
 as zero modes and left out of the histogram, as in ``slicing``; those below -zero_tol^2 as
 negative modes.  A bin edge exactly on an eigenvalue counts it in the upper
 bin (the inertia counts lambda < sigma), as ``numpy.histogram`` does for [a, b).
+
+Block low-rank [decision]: MUMPS's BLR factorisation (``-inertia_mat_mumps_icntl_35 1
+-inertia_mat_mumps_cntl_7 eps``) is allowed but never silent.  It factorises A - sigma I + E with
+E of order eps ||A|| (MUMPS's dropping parameter on its scaled matrix), so by Weyl's inequality a
+count can be wrong only by eigenvalues within ||E|| of the shift: the result then says
+``counts_exact`` = False and gives ``count_window`` = eps ||A||_inf, the nominal half-width (in
+omega^2, 1/t0^2) around each edge's omega^2 inside which a mode may sit in the neighbouring bin.
+It is nominal, not a proof (MUMPS bounds E only up to a modest constant): BENCHMARKS.md measures
+the miscounts against exact counts.  Read back from the factorisation (``options.pc_settings``),
+whichever option or default set it.
 Units: omega in 1/t0.  Collective on the matrix's communicator.
 """
 
@@ -133,6 +143,13 @@ def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.
     return np.array([counts[index] for index in range(len(shifts))], dtype=np.int64), settings
 
 
+def blr_dropping(settings: dict) -> float:
+    """CNTL(7) of an inertia factorisation whose settings (``options.pc_settings``) say MUMPS
+    compressed it (ICNTL 35 = 1, 2 or 3 with CNTL 7 > 0), else 0.0 (the inertias are exact)."""
+    blr = settings.get("mumps_blr", {})
+    return float(blr.get("cntl_7", 0.0)) if blr.get("icntl_35", 0) in (1, 2, 3) else 0.0
+
+
 def solve(dm, *, bin_width: float, zero_tol: float, factor_ranks: int | str = "auto") -> tuple[dict, dict, dict]:
     """The exact vDOS of ``dm`` by counting, as (datasets, attrs, solver settings). Collective;
     ``factor_ranks`` ranks share each factorisation (:func:`counts_below`).
@@ -141,7 +158,9 @@ def solve(dm, *, bin_width: float, zero_tol: float, factor_ranks: int | str = "a
     bin (zero modes excluded); density (B,) = counts / (sum(counts) w), unit area.
     attrs: omega_max (Lanczos, 1/t0), n_zero_modes, n_negative_modes, inertia_count (non-zero
     modes counted), factorisations, dof (the matrix's size), n_disks (particles in the matrix,
-    disks or spheres).
+    disks or spheres), counts_exact (False with a block low-rank factorisation), blr_dropping
+    (its CNTL 7, else 0) and count_window (blr_dropping x ||A||_inf in 1/t0^2, else 0: see the
+    module docstring).
     """
     from petsc4py import PETSc
 
@@ -154,8 +173,9 @@ def solve(dm, *, bin_width: float, zero_tol: float, factor_ranks: int | str = "a
         edges = bin_width * np.arange(int(np.floor(top / bin_width)) + 2)
         lam0 = zero_tol**2
         below, settings = counts_below(A, np.concatenate(([-lam0, lam0], edges[1:] ** 2)), comm, factor_ranks)
+        norm = A.norm(PETSc.NormType.INFINITY)
         if below[-1] < n:  # modes above the Lanczos estimate: count on up to the Gershgorin bound
-            bound = np.sqrt(A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9))
+            bound = np.sqrt(norm * (1 + 1e-9))
             more = bin_width * np.arange(edges.size, int(np.floor(bound / bin_width)) + 2)
             below = np.concatenate((below, counts_below(A, more**2, comm, factor_ranks)[0]))
             edges = np.concatenate((edges, more))
@@ -171,5 +191,7 @@ def solve(dm, *, bin_width: float, zero_tol: float, factor_ranks: int | str = "a
     attrs = {"omega_max": omega_max, "n_zero_modes": below_zero_tol - n_negative,
              "n_negative_modes": n_negative, "inertia_count": int(counts.sum()),
              "factorisations": int(below.size), "dof": dm.size, "n_disks": int(dm.active.sum())}
+    dropping = blr_dropping(settings)
+    attrs.update(counts_exact=dropping == 0.0, blr_dropping=dropping, count_window=dropping * norm)
     return {"edges": edges, "counts": counts, "density": density}, attrs, {"inertia": settings,
                                                                            "wmax": dm.wmax_settings}

@@ -201,3 +201,39 @@ def test_auto_shares_the_factor_only_when_a_whole_one_does_not_fit(comm, small_p
     else:
         assert_all(inertia["factor_ranks"] == (COMM.size if shared else 1), str(inertia))
         assert_all(0 < inertia["factor_estimate_gib"] < 0.1, str(inertia))  # 192 DOF: MB, not GB
+
+
+def test_block_low_rank_counts_say_so_with_their_window(comm, small_packing):
+    """MUMPS's BLR factorisation (ICNTL 35 = 1, CNTL 7 = eps), set by PETSc options and read back
+    from the factor: counts_exact False and count_window = eps ||A||_inf; every bin that differs
+    from the dense histogram has a mode within that window of one of its edges (in omega^2).
+    Without BLR: counts_exact and a zero window.  At 64 disks MUMPS compresses no front (they are
+    below its BLR block size), so the counts stay exact here even at eps = 0.3: the miscounts of
+    real compression are measured on spheres in BENCHMARKS.md ("blr")."""
+    from petsc4py import PETSc
+
+    dm = dynmat.assemble(small_packing, ContactModel(0.5), comm)
+    opts = PETSc.Options()
+    try:
+        lam = dense_eigenvalues(dm)
+        _, exact_attrs, _ = counting.solve(dm, bin_width=BIN, zero_tol=1e-4)
+        assert_all(exact_attrs["counts_exact"] is True and exact_attrs["blr_dropping"] == 0.0
+                   and exact_attrs["count_window"] == 0.0, str(exact_attrs))
+        A = operators.scaled_operator(dm)
+        norm = A.norm(PETSc.NormType.INFINITY)
+        A.destroy()
+        for eps in (1e-10, 0.3):
+            opts.setValue("inertia_mat_mumps_icntl_35", 1)
+            opts.setValue("inertia_mat_mumps_cntl_7", eps)
+            datasets, attrs, settings = counting.solve(dm, bin_width=BIN, zero_tol=1e-4)
+            assert_all(settings["inertia"]["mumps_blr"] == {"icntl_35": 1, "cntl_7": eps}, str(settings["inertia"]))
+            assert_all(attrs["counts_exact"] is False and attrs["blr_dropping"] == eps, str(attrs))
+            assert_close(attrs["count_window"], eps * norm, rtol=1e-14, what="count_window = eps ||A||_inf")
+            expected, _ = np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), datasets["edges"])
+            for b in np.nonzero(datasets["counts"] != expected)[0]:
+                near = [np.min(np.abs(lam - e**2)) <= attrs["count_window"] for e in datasets["edges"][b:b + 2]]
+                assert_all(any(near), f"eps {eps}: bin {b} miscounted with no mode within the window of its edges")
+    finally:
+        opts.delValue("inertia_mat_mumps_icntl_35")
+        opts.delValue("inertia_mat_mumps_cntl_7")
+        dm.destroy()
