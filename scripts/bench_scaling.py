@@ -1,13 +1,16 @@
 """Where the memory and the time of the chain go as N grows (issue 26, "measure first").
 
     python scripts/bench_scaling.py N [N ...] [--ranks P [P ...]] [--skip STAGE ...] [--tag TAG]
-                                    [--shuffle] [--factor-ranks G] [--engine fire|lammps] [--dim 2|3]
+                                    [--shuffle] [--factor-ranks G] [--engine fire|lammps] [--dim 2|3] [--blr EPS]
     (e.g. 131072 262144 --ranks 1 2; --ranks 4 oversubscribes this 2-core machine: memory only;
      1000000 --engine lammps --skip counting: the 10^6-disk chain on LAMMPS's packing)
 --shuffle lists the packing's particles in a random order (seed 11) before anything else, as a DEM
 file lists them (by id), so that the assembly row shows what the matrix's particle order makes of
 it; --factor-ranks G shares each counting factorisation among G ranks (``spectrum.factor_ranks``;
-without it, the code's default: a factor per rank).  Rows carry "shuffled" and "factor_ranks".
+without it, the code's default: a factor per rank); --blr EPS factorises with MUMPS's block low-rank
+compression at dropping parameter EPS (the factorisation stage then also reports the compressed
+factor's entries, INFOG 35; counts are no longer exact: ``counting`` module docstring).  Rows carry
+"shuffled", "factor_ranks" and "blr".
 
 One row per (N, ranks, stage), each (N, ranks) in its own fresh ``mpirun`` job on the packing of
 ``benchlib.load_packing(N)`` (2D disks, phi = 0.9, seed [1, 0], rotsound's FIRE on one core; the
@@ -118,15 +121,16 @@ def make_lammps_packing(n: int, dim: int) -> None:
                           "rss_max": float(status_gib("VmHWM"))}))
 
 
-def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine: str, dim: int) -> None:
+def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine: str, dim: int,
+         blr: float | None) -> None:
     """Every stage on the packing of n disks or spheres, on COMM_WORLD; rank 0 prints one JSON line."""
     from solver import petscenv
 
     LOGS.mkdir(parents=True, exist_ok=True)
     size = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
     tag = ("_shuffled" if shuffle else "") + (f"_g{factor_ranks}" if factor_ranks else "") + (
-        "" if engine == "fire" else f"_{engine}") + ("" if dim == 2 else "_3d")
-    PETSc = petscenv.init(["-log_view", f":{LOGS / f'N{n}_p{size}{tag}.txt'}"])
+        "" if engine == "fire" else f"_{engine}") + ("" if dim == 2 else "_3d") + (f"_blr{blr:g}" if blr else "")
+    PETSc = petscenv.init(["-log_view", f":{LOGS / f'N{n}_p{size}{tag}.txt'}", *blr_options(blr)])
     from mpi4py import MPI
 
     from solver import profiling
@@ -153,7 +157,8 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
         peaks = mpi.gather(status_gib("VmHWM"), root=0)
         helds = mpi.gather(held_gib, root=0)
         if mpi.rank == 0:
-            rows.append({"stage": name, "dim": dim, "engine": engine, "shuffled": shuffle, "factor_ranks": factor_ranks or 1, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
+            rows.append({"stage": name, "dim": dim, "engine": engine, "shuffled": shuffle, "factor_ranks": factor_ranks or 1,
+                         "blr": blr, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
                          "held_max": max(helds), **extra})
 
     def read():
@@ -196,7 +201,9 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
                 result[f"{label}_s"] = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
             factor = counter.pc.getFactorMatrix()
             entries = factor.getMumpsInfog(29)  # entries in the factor (negative: millions)
+            compressed = factor.getMumpsInfog(35)  # the same after BLR compression (= INFOG 29 without)
             result.update(factor_entries=float(entries if entries >= 0 else -entries * 1e6),
+                          factor_entries_blr=float(compressed if compressed >= 0 else -compressed * 1e6),
                           factor_mb_estimate=factor.getMumpsInfog(17), factor_mb=factor.getMumpsInfog(22))
             factor.destroy()
             result["a_entries"] = float(local.getInfo()["nz_used"]) if groups.size == 1 else float(
@@ -211,9 +218,10 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
 
     def count():
         layout = {} if factor_ranks is None else {"factor_ranks": factor_ranks}
-        datasets, attrs, settings = counting.solve(state["dm"], bin_width=BIN, zero_tol=ZERO_TOL, **layout)
+        datasets, attrs, _ = counting.solve(state["dm"], bin_width=BIN, zero_tol=ZERO_TOL, **layout)
         state["counting"] = datasets
-        return {"factorisations": attrs["factorisations"], "counts_sum": int(datasets["counts"].sum()),
+        return {"factorisations": attrs["factorisations"], "count_window": attrs["count_window"],
+                "counts_sum": int(datasets["counts"].sum()),
                 "counts_digest": int(np.sum(datasets["counts"] * np.arange(1, datasets["counts"].size + 1)))}
 
     def stochastic():
@@ -246,6 +254,11 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
                                    for row in rows]}))
 
 
+def blr_options(blr: float | None) -> list[str]:
+    """PETSc options for counting's factorisations with MUMPS's block low-rank compression."""
+    return ["-inertia_mat_mumps_icntl_35", "1", "-inertia_mat_mumps_cntl_7", f"{blr:g}"] if blr else []
+
+
 def rounded(table: list[dict]) -> list[dict]:
     """The rows with every float to 4 significant digits (as the case jobs print them)."""
     return [{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in row.items()} for row in table]
@@ -262,6 +275,8 @@ def main() -> None:
     parser.add_argument("--engine", choices=("fire", "lammps"), default="fire",
                         help="the packing's engine: rotsound's FIRE on one core, or LAMMPS on 2 ranks")
     parser.add_argument("--dim", type=int, choices=(2, 3), default=2, help="disks (2) or spheres (3)")
+    parser.add_argument("--blr", type=float, help="MUMPS block low-rank factorisations with this dropping parameter "
+                        "(ICNTL 35 = 1, CNTL 7): counts then carry counting's count_window")
     parser.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--make-packing", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -269,7 +284,7 @@ def main() -> None:
         make_lammps_packing(args.n[0], args.dim)
         return
     if args.case:
-        case(args.n[0], set(args.skip), args.shuffle, args.factor_ranks, args.engine, args.dim)
+        case(args.n[0], set(args.skip), args.shuffle, args.factor_ranks, args.engine, args.dim, args.blr)
         return
     for n in args.n:
         table = []
@@ -289,17 +304,18 @@ def main() -> None:
                           "z": out["z"], "rss_max": out["rss_max"]})
             table = rounded(table)
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
-                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks"))
+                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks", "blr"))
         for ranks in args.ranks:
             cmd = mpirun(ranks) + (["--oversubscribe"] if ranks > (os.cpu_count() or 1) else []) + [
                 PY, ME, str(n), "--case", *(["--skip", *args.skip] if args.skip else []),
                 *(["--shuffle"] if args.shuffle else []),
                 *(["--factor-ranks", str(args.factor_ranks)] if args.factor_ranks else []),
+                *(["--blr", str(args.blr)] if args.blr else []),
                 "--engine", args.engine, "--dim", str(args.dim)]
             out = run_json(cmd, timeout=6 * 3600)
             table = rounded(table + [{"N": n, "ranks": ranks, **row} for row in out["rows"]])
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
-                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks"))
+                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks", "blr"))
 
 
 if __name__ == "__main__":
