@@ -37,7 +37,9 @@ rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
 Per stage: wall time (max over ranks, after a barrier) and peak RSS of each rank *during the
 stage* (the kernel's high-water mark VmHWM, reset by writing 5 to /proc/self/clear_refs before it;
 "rss max/rank" is the largest rank's, "rss sum" the job's), and the RSS each rank holds when the
-stage starts ("held").  The matrix's row for assembly also gives the off-process share of its
+stage starts ("held"), and the largest rank's RSS in mapped files at the stage's end ("file":
+the libraries' pages, one physical copy per node however many ranks map them, so rss - file is
+what a rank holds privately).  The matrix's row for assembly also gives the off-process share of its
 non-zeros (columns outside the rank's own rows, summed over ranks) and MatMult time (100 products).
 ``-log_view`` of every job goes to results/bench/scaling_logs/N<N>_p<P>.txt (log stages per
 stage above: PETSc's own count of flops, messages and time).
@@ -71,7 +73,7 @@ def reset_peak() -> None:
 
 
 def status_gib(key: str) -> float:
-    """VmHWM or VmRSS of this process, GiB."""
+    """VmHWM, VmRSS, RssAnon or RssFile of this process, GiB."""
     for line in open("/proc/self/status"):
         if line.startswith(key + ":"):
             return int(line.split()[1]) / 2**20
@@ -156,10 +158,11 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
         seconds = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
         peaks = mpi.gather(status_gib("VmHWM"), root=0)
         helds = mpi.gather(held_gib, root=0)
+        files = mpi.gather(status_gib("RssFile"), root=0)  # mapped files: libraries, shared by a node's ranks
         if mpi.rank == 0:
             rows.append({"stage": name, "dim": dim, "engine": engine, "shuffled": shuffle, "factor_ranks": factor_ranks or 1,
                          "blr": blr, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
-                         "held_max": max(helds), **extra})
+                         "held_max": max(helds), "file_max": max(files), **extra})
 
     def read():
         p = hdf5.read_packings(str(packing_file(n, engine, dim)))[0]
