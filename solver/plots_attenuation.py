@@ -23,8 +23,8 @@ _STYLE = {("L", 0): ("tab:blue", "o"), ("TR", 0): ("tab:red", "s"),
 def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
     """Left: gamma(k) of L and TR for every rho, filled where the run resolves the decay (gamma
     t_end >= 1), open where it does not (an upper bound of the early loss); the level gamma =
-    1 / t_end dashed; guides ~ k^(d+1) (Rayleigh) and ~ k^2 (diffusive) through the first and last
-    resolved point; Ioffe-Regel k (omega = 2 pi gamma) as a star.  Right: the local exponent
+    1 / t_end dashed; guides ~ k^(d+1) (Rayleigh) and ~ k^2 (diffusive) from the first resolved
+    point of the first curve; Ioffe-Regel k (omega = 2 pi gamma) as a star.  Right: the local exponent
     d ln gamma / d ln k between neighbouring resolved points, with d + 1 and 2 marked."""
     acoustic = sorted((rho, mode) for rho, mode in fits if mode in ("L", "TR"))
     if not acoustic:
@@ -52,9 +52,10 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
             bx.semilogx(k_mid, p, marker + ls, color=color, ms=4, lw=0.8, label=label)
             resolved_k.append((k[resolved], gamma[resolved]))
         ax.axhline(1.0 / t_end, color="0.6", ls="--", lw=0.6)
-    for k_r, g_r in resolved_k[:1]:  # guides through one resolved curve, for the eye
-        ax.loglog(k_r, g_r[0] * (k_r / k_r[0])**(dim + 1), "k-", lw=2, alpha=0.25, label=f"~ k^{dim + 1} (Rayleigh)")
-        ax.loglog(k_r, g_r[-1] * (k_r / k_r[-1])**2, "k--", lw=2, alpha=0.25, label="~ k^2 (diffusive)")
+    for k_r, g_r in resolved_k[:1]:  # slopes from the first resolved point of one curve, over a factor 4 in k
+        guide = np.geomspace(k_r[0], 4 * k_r[0], 8)
+        ax.loglog(guide, g_r[0] * (guide / k_r[0])**(dim + 1), "k-", lw=2, alpha=0.25, label=f"~ k^{dim + 1} (Rayleigh)")
+        ax.loglog(guide, g_r[0] * (guide / k_r[0])**2, "k--", lw=2, alpha=0.25, label="~ k^2 (diffusive)")
     ax.set(xlabel="k d0", ylabel="gamma t0",
            title="attenuation (open: gamma t_end < 1, not resolved; *: Ioffe-Regel)")
     ax.legend(fontsize=6, ncol=2)
