@@ -132,7 +132,9 @@ def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitu
 
             def evaluate(_):
                 return [_z_and_estimate(alphas[:, i], betas[:, i], ws[:, i], norm_a[i], times,
-                                        m if length[i] < 0 else length[i], length[i] >= 0) for i in range(count)]
+                                        m if length[i] < 0 else length[i], length[i] >= 0,
+                                        omega_max**2 * (1 + 1e-6))  # above the Lanczos estimate's error
+                        for i in range(count)]
 
             # rank 0 evaluates and broadcasts, so every rank takes the same branch below
             results = parallel.owner_compute(mpi, [0], evaluate)[0]
@@ -165,12 +167,65 @@ def _tridiagonal_eigen(alpha, beta) -> tuple[np.ndarray, np.ndarray]:
         return np.linalg.eigh(np.diag(alpha) + np.diag(beta, 1) + np.diag(beta, -1))
 
 
-def _z_and_estimate(alpha, beta, w, norm_a: float, times, size: int, exact: bool) -> tuple[np.ndarray, float]:
+def _z_chebyshev(alpha, beta, w, norm_a: float, times, lam_max: float) -> np.ndarray:
+    """z(t) = norm_a w^T cos(sqrt(T) t) e_1 without eigenvectors, O(m^2 + S m log m) for the m x m
+    tridiagonal T (diagonal ``alpha`` (m,), off-diagonal ``beta`` (m - 1,)) whose spectrum lies in
+    [0, ``lam_max``]: the Chebyshev series of cos(t sqrt(lambda)) on that interval to degree m - 1
+    (the degrees m Lanczos steps make exact for the bilinear form).  With lambda = lam_max
+    cos^2(phi / 2), x = cos(phi), the coefficients are 2 (-1)^n J_2n(sqrt(lam_max) t) (Jacobi-Anger):
+    negligible past n ~ sqrt(lam_max) t / 2, where the step count starts; they are taken by a DCT at
+    m + 64 nodes.  Moments mu_n = w^T T_n(X) e_1, X = 2 T / lam_max - I, by the three-term
+    recurrence (|mu_n| <= |w| while the spectrum is inside: checked)."""
+    from scipy.fft import dct
+
+    m = alpha.size
+    diag, off = 2.0 * np.asarray(alpha) / lam_max - 1.0, 2.0 * np.asarray(beta) / lam_max
+
+    def x_times(v):
+        out = diag * v
+        out[:-1] += off * v[1:]
+        out[1:] += off * v[:-1]
+        return out
+
+    mu = np.empty(m, dtype=complex)
+    previous, current = np.zeros(m), np.zeros(m)
+    current[0] = 1.0
+    mu[0] = w[0]
+    for n in range(1, m):  # degree n of T_n(X) e_1: one tridiagonal product each (m ~ omega_max t_end / 2)
+        nxt = x_times(current) if n == 1 else 2.0 * x_times(current) - previous
+        previous, current = current, nxt
+        mu[n] = w @ current
+    if np.abs(mu).max() > 10.0 * np.linalg.norm(w):
+        raise RuntimeError(f"spectral: T has Ritz values above omega_max^2 = {lam_max:.6g} (Chebyshev moments grow)")
+    nodes = m + 64
+    frequency = np.sqrt(lam_max) * np.cos(0.5 * np.pi * (np.arange(nodes) + 0.5) / nodes)  # sqrt(lambda) at the nodes
+    z = np.empty(len(times), dtype=complex)
+    for start in range(0, len(times), 256):  # (256, nodes) samples at a time
+        block = np.asarray(times[start:start + 256])
+        c = dct(np.cos(np.outer(block, frequency)), type=2, axis=1)[:, :m] / nodes
+        c[:, 0] *= 0.5
+        z[start:start + 256] = norm_a * (c @ mu)
+    return z
+
+
+def _z_and_estimate(alpha, beta, w, norm_a: float, times, size: int, exact: bool,
+                    lam_max: float) -> tuple[np.ndarray, float]:
     """(z at ``times`` from the leading ``size`` steps of one wave's T, its error estimate: the
-    largest change of z from dropping the last 10 steps, relative to max |z|; 0 when ``exact``)."""
+    largest change of z from dropping the last 10 steps, relative to max |z|; 0 when ``exact``).
+    z from T's eigenpairs (MRRR); where MRRR fails on the clustered Ritz values of a long open run,
+    from Chebyshev moments (:func:`_z_chebyshev`, T's spectrum in [0, ``lam_max``]) instead of a
+    dense O(m^3) eigensolver: at m ~ 8600 (t_end = 3000, omega_max = 4.75) the dense one had not
+    finished one chunk of four waves in 45 min (README, "Rayleigh to diffusive")."""
+    from scipy.linalg import eigh_tridiagonal
 
     def z_of(m):
-        theta, S = _tridiagonal_eigen(alpha[:m], beta[:m - 1])
+        if exact:  # a closed Krylov space: T_m is exact at every degree, the eigenpairs are needed
+            theta, S = _tridiagonal_eigen(alpha[:m], beta[:m - 1])
+        else:
+            try:
+                theta, S = eigh_tridiagonal(np.asarray(alpha[:m], dtype=float), np.asarray(beta[:m - 1], dtype=float))
+            except np.linalg.LinAlgError:
+                return _z_chebyshev(alpha[:m], beta[:m - 1], w[:m], norm_a, times, lam_max)
         weights = (w[:m] @ S) * S[0]
         return norm_a * (weights @ np.cos(np.outer(np.sqrt(np.clip(theta, 0, None)), times)))
 
