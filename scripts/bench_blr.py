@@ -76,7 +76,7 @@ def main() -> None:
     parser.add_argument("--orderings", type=int, nargs="+", default=[4])
     parser.add_argument("--factor-ranks", type=int, nargs="+", default=[1])
     parser.add_argument("--case", nargs=2, type=float, help=argparse.SUPPRESS)
-    args, petsc = parser.parse_known_args()
+    args, _ = parser.parse_known_args()  # the rest: PETSc options, read by a case from sys.argv
     if args.case:
         case(args.n, args.case[0], int(args.case[1]))
         return

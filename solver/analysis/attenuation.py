@@ -1,8 +1,8 @@
 """Regimes of the acoustic attenuation gamma(k) of L and TR waves: which fitted points a run
 resolves, the local exponent, and the Ioffe-Regel wave number.
 
-* A point is resolved when its fitted decay is visible in the run: gamma t_end >= 1 (the rule
-  ``dispersion`` uses for its power law).  Below that the damped-cosine fit sees at most the first
+* A point is resolved when its fitted decay is visible in the run: gamma t_end >= 1 (``dispersion``'s
+  power law uses this rule).  Below that the damped-cosine fit sees at most the first
   few per cent of the decay, where the loss of a plane wave to the other modes is not yet
   exponential: such gamma are an upper bound of the early loss, not an attenuation.
 * Local exponent p(k) = d ln gamma / d ln k between neighbouring resolved k: d + 1 for Rayleigh

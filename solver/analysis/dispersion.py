@@ -38,7 +38,7 @@ import warnings
 
 import numpy as np
 
-from . import correlations, lattice
+from . import attenuation, correlations, lattice
 from . import fits
 
 _WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT|R)_p(\d+)$")
@@ -83,7 +83,7 @@ def averaged_waves(units: dict) -> dict:
 
 def _power_law(k, fitted, t_end, kd0_max):
     gamma = fitted["gamma"]
-    use = (k <= kd0_max) & np.isfinite(gamma) & (gamma * t_end >= 1.0) & (gamma > 0)
+    use = (k <= kd0_max) & attenuation.resolved(gamma, t_end)
     if use.sum() < 3:
         return np.nan, np.nan, int(use.sum())
     p, err = fits.power_law(k[use], gamma[use])
