@@ -2,6 +2,7 @@
 
     python scripts/bench_scaling.py N [N ...] [--ranks P [P ...]] [--skip STAGE ...] [--tag TAG]
                                     [--shuffle] [--factor-ranks G] [--engine fire|lammps] [--dim 2|3] [--blr EPS]
+                                    [--ordering ICNTL7]
     (e.g. 131072 262144 --ranks 1 2; --ranks 4 oversubscribes this 2-core machine: memory only;
      1000000 --engine lammps --skip counting: the 10^6-disk chain on LAMMPS's packing)
 --shuffle lists the packing's particles in a random order (seed 11) before anything else, as a DEM
@@ -10,7 +11,8 @@ it; --factor-ranks G shares each counting factorisation among G ranks (``spectru
 without it, the code's default: a factor per rank); --blr EPS factorises with MUMPS's block low-rank
 compression at dropping parameter EPS (the factorisation stage then also reports the compressed
 factor's entries, INFOG 35; counts are no longer exact: ``counting`` module docstring).  Rows carry
-"shuffled", "factor_ranks" and "blr".
+"shuffled", "factor_ranks" and "blr"; --ordering sets MUMPS's ordering (ICNTL 7: 2 AMF, 4 PORD, ...; row
+"ordering", empty for MUMPS's own choice).
 
 One row per (N, ranks, stage), each (N, ranks) in its own fresh ``mpirun`` job on the packing of
 ``benchlib.load_packing(N)`` (2D disks, phi = 0.9, seed [1, 0], rotsound's FIRE on one core; the
@@ -25,10 +27,14 @@ rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
   factorisation  two MUMPS Cholesky factorisations of A - sigma I (sigma = 0.25, 0.5 of the scaled
               band), the counting method's unit of work, on groups of --factor-ranks ranks (default
               one per rank, as counting's auto chooses while a whole factor fits): seconds of the
-              first (with the symbolic analysis) and of the second (numeric only), the factor's
+              first (with the symbolic analysis) and of the second (numeric only), the counts below
+              them (first_below, second_below: equal in every exact layout), the factor's
               entries (INFOG(29)) over A's lower triangle ("fill") and MUMPS's memory (INFOG(17)
               estimated, INFOG(22) used; MB summed over a group's ranks); how many edges an hour
-              buys where counting itself is too long to run;
+              buys where counting itself is too long to run.  MUMPS's working memory is capped at
+              80 % of the node's available memory per rank (ICNTL 23): a factor that would not fit
+              stops after the analysis, and the row has fits = False with the analysis's estimates
+              (INFOG 20 entries, INFOG 16 / 17 MB on the largest rank / in all);
   counting    ``spectrum.counting.solve`` (bin 0.05/t0): the exact vDOS by Sylvester inertias;
   kpm         ``spectrum.kpm.solve`` with K/Q (16 probes, automatic moments, seed 1); with counting
               in the same job, the L1 distance of its density from counting's ("l1_vs_counting");
@@ -125,15 +131,17 @@ def make_lammps_packing(n: int, dim: int) -> None:
 
 
 def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine: str, dim: int,
-         blr: float | None) -> None:
+         blr: float | None, ordering: int | None = None) -> None:
     """Every stage on the packing of n disks or spheres, on COMM_WORLD; rank 0 prints one JSON line."""
     from solver import petscenv
 
     LOGS.mkdir(parents=True, exist_ok=True)
     size = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
     tag = ("_shuffled" if shuffle else "") + (f"_g{factor_ranks}" if factor_ranks else "") + (
-        "" if engine == "fire" else f"_{engine}") + ("" if dim == 2 else "_3d") + (f"_blr{blr:g}" if blr else "")
-    PETSc = petscenv.init(["-log_view", f":{LOGS / f'N{n}_p{size}{tag}.txt'}", *blr_options(blr)])
+        "" if engine == "fire" else f"_{engine}") + ("" if dim == 2 else "_3d") + (f"_blr{blr:g}" if blr else "") + (
+        f"_o{ordering}" if ordering is not None else "")
+    PETSc = petscenv.init(["-log_view", f":{LOGS / f'N{n}_p{size}{tag}.txt'}", *blr_options(blr),
+                           *([] if ordering is None else ["-inertia_mat_mumps_icntl_7", str(ordering)])])
     from mpi4py import MPI
 
     from solver import profiling
@@ -162,7 +170,7 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
         files = mpi.gather(status_gib("RssFile"), root=0)  # mapped files: libraries, shared by a node's ranks
         if mpi.rank == 0:
             rows.append({"stage": name, "dim": dim, "engine": engine, "shuffled": shuffle, "factor_ranks": factor_ranks or 1,
-                         "blr": blr, "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
+                         "blr": blr, **({} if ordering is None else {"ordering": ordering}), "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
                          "held_max": max(helds), "file_max": max(files), **extra})
 
     def read():
@@ -198,21 +206,32 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
         with parallel.Groups(mpi, factor_ranks or 1) as groups:
             local = counting.group_copy(A, groups)
             counter = slicing.ShiftedInertia(local)
-            for label, sigma in (("first", 0.25), ("second", 0.5)):  # of the scaled band [0, 1]
-                groups.local.Barrier()
-                t = time.perf_counter()
-                counter.count_below(sigma)
-                result[f"{label}_s"] = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
             factor = counter.pc.getFactorMatrix()
-            entries = factor.getMumpsInfog(29)  # entries in the factor (negative: millions)
-            compressed = factor.getMumpsInfog(35)  # the same after BLR compression (= INFOG 29 without)
-            result.update(factor_entries=float(entries if entries >= 0 else -entries * 1e6),
-                          factor_entries_blr=float(compressed if compressed >= 0 else -compressed * 1e6),
-                          factor_mb_estimate=factor.getMumpsInfog(17), factor_mb=factor.getMumpsInfog(22))
+            cap = int(0.8 * 1024 * counting.available_gib() / groups.count / groups.size)  # MB per rank
+            factor.setMumpsIcntl(23, cap)  # over it, MUMPS stops after its analysis (-19) instead of the OOM killer
+            result["cap_mb_per_rank"] = cap
+            try:
+                for label, sigma in (("first", 0.25), ("second", 0.5)):  # of the scaled band [0, 1]
+                    groups.local.Barrier()
+                    t = time.perf_counter()
+                    result[f"{label}_below"] = counter.count_below(sigma)  # to compare layouts and BLR
+                    result[f"{label}_s"] = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
+            except RuntimeError as exc:  # the analysis's estimates are what a factor that does not fit leaves
+                estimated = factor.getMumpsInfog(20)  # estimated entries in the factor (negative: millions)
+                result.update(fits=False, error=str(exc).split(";")[0],
+                              factor_entries_estimate=float(estimated if estimated >= 0 else -estimated * 1e6),
+                              factor_mb_estimate=factor.getMumpsInfog(17),
+                              factor_mb_estimate_max_rank=factor.getMumpsInfog(16))
+            else:
+                entries = factor.getMumpsInfog(29)  # entries in the factor (negative: millions)
+                compressed = factor.getMumpsInfog(35)  # the same after BLR compression (= INFOG 29 without)
+                result.update(fits=True, factor_entries=float(entries if entries >= 0 else -entries * 1e6),
+                              factor_entries_blr=float(compressed if compressed >= 0 else -compressed * 1e6),
+                              factor_mb_estimate=factor.getMumpsInfog(17), factor_mb=factor.getMumpsInfog(22))
+                result["a_entries"] = float(local.getInfo()["nz_used"]) if groups.size == 1 else float(
+                    A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"])
+                result["fill"] = result["factor_entries"] / (0.5 * (result["a_entries"] + state["dm"].size))
             factor.destroy()
-            result["a_entries"] = float(local.getInfo()["nz_used"]) if groups.size == 1 else float(
-                A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"])
-            result["fill"] = result["factor_entries"] / (0.5 * (result["a_entries"] + state["dm"].size))
             counter.destroy()
             if local is not A:
                 local.destroy()
@@ -258,6 +277,9 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
                                    for row in rows]}))
 
 
+MERGE_BY = ("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks", "blr", "ordering")
+
+
 def blr_options(blr: float | None) -> list[str]:
     """PETSc options for counting's factorisations with MUMPS's block low-rank compression."""
     return ["-inertia_mat_mumps_icntl_35", "1", "-inertia_mat_mumps_cntl_7", f"{blr:g}"] if blr else []
@@ -281,6 +303,7 @@ def main() -> None:
     parser.add_argument("--dim", type=int, choices=(2, 3), default=2, help="disks (2) or spheres (3)")
     parser.add_argument("--blr", type=float, help="MUMPS block low-rank factorisations with this dropping parameter "
                         "(ICNTL 35 = 1, CNTL 7): counts then carry counting's count_window")
+    parser.add_argument("--ordering", type=int, help="MUMPS's ordering for counting's factorisations (ICNTL 7)")
     parser.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--make-packing", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -288,7 +311,7 @@ def main() -> None:
         make_lammps_packing(args.n[0], args.dim)
         return
     if args.case:
-        case(args.n[0], set(args.skip), args.shuffle, args.factor_ranks, args.engine, args.dim, args.blr)
+        case(args.n[0], set(args.skip), args.shuffle, args.factor_ranks, args.engine, args.dim, args.blr, args.ordering)
         return
     for n in args.n:
         table = []
@@ -311,18 +334,19 @@ def main() -> None:
                           "z": out["z"], "rss_max": out["rss_max"]})
             table = rounded(table)
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
-                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks", "blr"))
+                 notes="", merge_by=MERGE_BY)
         for ranks in args.ranks:
             cmd = mpirun(ranks) + (["--oversubscribe"] if ranks > (os.cpu_count() or 1) else []) + [
                 PY, ME, str(n), "--case", *(["--skip", *args.skip] if args.skip else []),
                 *(["--shuffle"] if args.shuffle else []),
                 *(["--factor-ranks", str(args.factor_ranks)] if args.factor_ranks else []),
                 *(["--blr", str(args.blr)] if args.blr else []),
+                *(["--ordering", str(args.ordering)] if args.ordering is not None else []),
                 "--engine", args.engine, "--dim", str(args.dim)]
             out = run_json(cmd, timeout=6 * 3600)
             table = rounded(table + [{"N": n, "ranks": ranks, **row} for row in out["rows"]])
             save(f"scaling{args.tag}", "python scripts/bench_scaling.py " + " ".join(sys.argv[1:]), table,
-                 notes="", merge_by=("N", "ranks", "stage", "dim", "engine", "shuffled", "factor_ranks", "blr"))
+                 notes="", merge_by=MERGE_BY)
 
 
 if __name__ == "__main__":

@@ -78,6 +78,29 @@ def _mumps_defaults(pc) -> None:
         factor.setMumpsIcntl(24, 1)
 
 
+MUMPS_MEMORY_ERRORS = (-8, -9, -11, -13, -14, -15, -17, -19, -20)  # MUMPS 5 user guide, section 8
+
+
+def _check_mumps(factor, pc, sigma: float) -> None:
+    """Raise if MUMPS failed to factorise (INFOG(1) < 0): PETSc then leaves the factor's inertia
+    at whatever MUMPS last wrote (0 measured after error -19), a silent wrong count otherwise.
+    The message says what MUMPS estimated (INFOG 16: MB on the largest rank; INFOG 17: summed over
+    the ranks).  A no-op for another package.  INFOG is global on the factor's communicator, so
+    every rank raises alike.  Collective-safe (no communication)."""
+    if pc.getFactorSolverType() != "mumps":
+        return
+    code = factor.getMumpsInfog(1)
+    if code >= 0:
+        return
+    detail = factor.getMumpsInfog(2)
+    what = ("it ran out of memory" if code in MUMPS_MEMORY_ERRORS else "see the MUMPS user guide for this code")
+    raise RuntimeError(
+        f"MUMPS failed to factorise A - sigma I at sigma = {sigma:.6g} (INFOG(1) = {code}, INFOG(2) = {detail}: "
+        f"{what}); it estimated {factor.getMumpsInfog(16)} MB on the largest rank and {factor.getMumpsInfog(17)} MB "
+        "in all. Share the factor over more ranks (spectrum.factor_ranks), or ask for the vDOS by "
+        "spectrum.method: kpm, which needs no factor")
+
+
 class ShiftedInertia:
     """Inertias of A - sigma I for many sigma with one factorisation object on A's communicator:
     the symbolic analysis is done at the first shift, later shifts refactorise numerically only
@@ -109,8 +132,11 @@ class ShiftedInertia:
         self.shifted.shift(-sigma)
         self.pc.setUp()  # same nonzero pattern: numeric factorisation only after the first
         factor = self.pc.getFactorMatrix()
-        negative = int(factor.getInertia()[0])
-        factor.destroy()  # drops the wrapper's reference only; the PC keeps its factor
+        try:
+            _check_mumps(factor, self.pc, sigma)
+            negative = int(factor.getInertia()[0])
+        finally:
+            factor.destroy()  # drops the wrapper's reference only; the PC keeps its factor
         self.factorisations += 1
         return negative
 

@@ -237,3 +237,39 @@ def test_block_low_rank_counts_say_so_with_their_window(comm, small_packing):
         opts.delValue("inertia_mat_mumps_icntl_35")
         opts.delValue("inertia_mat_mumps_cntl_7")
         dm.destroy()
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_a_failed_factorisation_raises_instead_of_counting_zero(comm, shared):
+    """A MUMPS factorisation that fails (here: error -19, its working memory capped at 1 MB per
+    rank by ICNTL 23 through PETSc options) leaves PETSc's inertia at 0; counting must raise on
+    every rank, naming the MUMPS error and its memory estimate, whether each rank factorises its
+    own copy or all share one.  Matrix: the 5-point Laplacian of a 150 x 150 grid (22 500 rows,
+    a factor of ~11 MB), rows split over ``comm``."""
+    import scipy.sparse as sp
+    from petsc4py import PETSc
+
+    mpi, m = comm.tompi4py(), 150
+    line = sp.diags([-np.ones(m - 1), 2 * np.ones(m), -np.ones(m - 1)], [-1, 0, 1])
+    whole = (sp.kron(line, sp.eye(m)) + sp.kron(sp.eye(m), line)).tocsr()
+    lo, hi = whole.shape[0] * comm.rank // comm.size, whole.shape[0] * (comm.rank + 1) // comm.size
+    rows = whole[lo:hi]
+    A = PETSc.Mat().createAIJ(size=((hi - lo, None), (hi - lo, None)), csr=(rows.indptr, rows.indices, rows.data),
+                              comm=PETSc.Comm(comm))
+    opts = PETSc.Options()
+    opts.setValue("inertia_mat_mumps_icntl_23", 1)
+    try:
+        with pytest.raises(RuntimeError, match=r"INFOG\(1\) = -19.*out of memory.*MB in all.*factor_ranks"):
+            counting.counts_below(A, np.array([1.0, 2.0]), mpi, factor_ranks=comm.size if shared else 1)
+    finally:
+        opts.delValue("inertia_mat_mumps_icntl_23")
+        A.destroy()
+    A = PETSc.Mat().createAIJ(size=((hi - lo, None), (hi - lo, None)), csr=(rows.indptr, rows.indices, rows.data),
+                              comm=PETSc.Comm(comm))
+    try:  # the same matrix, uncapped: the count is the exact one (2 - 2 cos terms below 1)
+        theta = np.pi * np.arange(1, m + 1) / (m + 1)
+        lam = (2 - 2 * np.cos(theta))[:, None] + (2 - 2 * np.cos(theta))[None, :]
+        below, _ = counting.counts_below(A, np.array([1.0]), mpi, factor_ranks=comm.size if shared else 1)
+        assert_all(int(below[0]) == int(np.sum(lam < 1.0)), f"{below} against {np.sum(lam < 1.0)}")
+    finally:
+        A.destroy()
