@@ -43,9 +43,10 @@ rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
 Per stage: wall time (max over ranks, after a barrier) and peak RSS of each rank *during the
 stage* (the kernel's high-water mark VmHWM, reset by writing 5 to /proc/self/clear_refs before it;
 "rss max/rank" is the largest rank's, "rss sum" the job's), and the RSS each rank holds when the
-stage starts ("held"), and the largest rank's RSS in mapped files at the stage's end ("file":
-the libraries' pages, one physical copy per node however many ranks map them, so rss - file is
-what a rank holds privately).  The matrix's row for assembly also gives the off-process share of its
+stage starts ("held", after glibc's malloc_trim returned the heap's free pages: a stage's freed
+temporaries are not held, the next stage would reuse them), and the largest rank's RSS in mapped
+files at the stage's end ("file": the libraries' pages, one physical copy per node however many
+ranks map them, so rss - file is what a rank holds privately).  The matrix's row for assembly also gives the off-process share of its
 non-zeros (columns outside the rank's own rows, summed over ranks) and MatMult time (100 products).
 ``-log_view`` of every job goes to results/bench/scaling_logs/N<N>_p<P>.txt (log stages per
 stage above: PETSc's own count of flops, messages and time).
@@ -55,6 +56,8 @@ Writes results/bench/scaling<TAG>.json (merged by N, ranks and stage) after ever
 from __future__ import annotations
 
 import argparse
+import ctypes
+import gc
 import json
 import os
 import sys
@@ -74,7 +77,11 @@ BIN, ZERO_TOL, PROBES, T_END = 0.05, 1e-4, 16, 200.0
 
 
 def reset_peak() -> None:
-    """Start a new high-water mark of this process's RSS (Linux: clear_refs 5)."""
+    """Return the heap's free pages to the system (glibc malloc_trim: what the stages before freed,
+    which glibc otherwise keeps, so that "held" is what the rank holds), then start a new
+    high-water mark of this process's RSS (Linux: clear_refs 5)."""
+    gc.collect()
+    ctypes.CDLL("libc.so.6").malloc_trim(0)
     with open("/proc/self/clear_refs", "w") as f:
         f.write("5")
 
@@ -159,8 +166,8 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
         if name in skip:
             return
         mpi.Barrier()
-        held_gib = status_gib("VmRSS")
         reset_peak()
+        held_gib = status_gib("VmRSS")
         t = time.perf_counter()
         with profiling.stage(LOG_STAGES[name]):
             extra = work() or {}
