@@ -24,9 +24,9 @@ bench_spheres' files) and the model has rolling and twisting springs (rho_roll =
 rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
   read        every rank reads the packing file (``hdf5.read_packings``: the whole packing);
   assembly    ``dynmat.assemble`` (contacts, blocks, the PETSc matrix) and the Lanczos omega_max;
-  factorisation  two MUMPS Cholesky factorisations of A - sigma I (sigma = 0.25, 0.5 of the scaled
-              band), the counting method's unit of work, on groups of --factor-ranks ranks (default
-              one per rank, as counting's auto chooses while a whole factor fits): seconds of the
+  factorisation  two MUMPS Cholesky factorisations of A - sigma I (A = M^-1/2 D M^-1/2; sigma =
+              0.25 and 0.5 /t0^2), the counting method's unit of work, on groups of --factor-ranks
+              ranks (default one per rank, as counting's auto chooses while a whole factor fits): seconds of the
               first (with the symbolic analysis) and of the second (numeric only), the counts below
               them (first_below, second_below: equal in every exact layout), the factor's
               entries (INFOG(29)) over A's lower triangle ("fill") and MUMPS's memory (INFOG(17)
@@ -46,8 +46,9 @@ stage* (the kernel's high-water mark VmHWM, reset by writing 5 to /proc/self/cle
 stage starts ("held", after glibc's malloc_trim returned the heap's free pages: a stage's freed
 temporaries are not held, the next stage would reuse them), and the largest rank's RSS in mapped
 files at the stage's end ("file": the libraries' pages, one physical copy per node however many
-ranks map them, so rss - file is what a rank holds privately).  The matrix's row for assembly also gives the off-process share of its
-non-zeros (columns outside the rank's own rows, summed over ranks) and MatMult time (100 products).
+ranks map them, so rss - file is what a rank holds privately).  The matrix's row for assembly
+also gives the off-process share of its non-zeros (columns outside the rank's own rows, summed
+over ranks) and MatMult time (100 products).
 ``-log_view`` of every job goes to results/bench/scaling_logs/N<N>_p<P>.txt (log stages per
 stage above: PETSc's own count of flops, messages and time).
 Writes results/bench/scaling<TAG>.json (merged by N, ranks and stage) after every job.
@@ -177,7 +178,8 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
         files = mpi.gather(status_gib("RssFile"), root=0)  # mapped files: libraries, shared by a node's ranks
         if mpi.rank == 0:
             rows.append({"stage": name, "dim": dim, "engine": engine, "shuffled": shuffle, "factor_ranks": factor_ranks or 1,
-                         "blr": blr, **({} if ordering is None else {"ordering": ordering}), "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
+                         "blr": blr, **({} if ordering is None else {"ordering": ordering}),
+                         "seconds": seconds, "rss_max": max(peaks), "rss_sum": sum(peaks),
                          "held_max": max(helds), "file_max": max(files), **extra})
 
     def read():
@@ -214,11 +216,12 @@ def case(n: int, skip: set[str], shuffle: bool, factor_ranks: int | None, engine
             local = counting.group_copy(A, groups)
             counter = slicing.ShiftedInertia(local)
             factor = counter.pc.getFactorMatrix()
-            cap = int(0.8 * 1024 * counting.available_gib() / groups.count / groups.size)  # MB per rank
+            # MB per rank, the same on every rank (every group fails alike, or none: the loop's allreduce)
+            cap = int(mpi.allreduce(0.8 * 1024 * counting.available_gib() / groups.count / groups.size, op=MPI.MIN))
             factor.setMumpsIcntl(23, cap)  # over it, MUMPS stops after its analysis (-19) instead of the OOM killer
             result["cap_mb_per_rank"] = cap
             try:
-                for label, sigma in (("first", 0.25), ("second", 0.5)):  # of the scaled band [0, 1]
+                for label, sigma in (("first", 0.25), ("second", 0.5)):  # omega^2 in 1/t0^2 (omega = 0.5 and 0.71/t0)
                     groups.local.Barrier()
                     t = time.perf_counter()
                     result[f"{label}_below"] = counter.count_below(sigma)  # to compare layouts and BLR

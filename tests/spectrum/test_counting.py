@@ -254,8 +254,12 @@ def test_a_failed_factorisation_raises_instead_of_counting_zero(comm, shared):
     whole = (sp.kron(line, sp.eye(m)) + sp.kron(sp.eye(m), line)).tocsr()
     lo, hi = whole.shape[0] * comm.rank // comm.size, whole.shape[0] * (comm.rank + 1) // comm.size
     rows = whole[lo:hi]
-    A = PETSc.Mat().createAIJ(size=((hi - lo, None), (hi - lo, None)), csr=(rows.indptr, rows.indices, rows.data),
-                              comm=PETSc.Comm(comm))
+
+    def laplacian():
+        return PETSc.Mat().createAIJ(size=((hi - lo, None), (hi - lo, None)),
+                                     csr=(rows.indptr, rows.indices, rows.data), comm=PETSc.Comm(comm))
+
+    A = laplacian()
     opts = PETSc.Options()
     opts.setValue("inertia_mat_mumps_icntl_23", 1)
     try:
@@ -264,8 +268,7 @@ def test_a_failed_factorisation_raises_instead_of_counting_zero(comm, shared):
     finally:
         opts.delValue("inertia_mat_mumps_icntl_23")
         A.destroy()
-    A = PETSc.Mat().createAIJ(size=((hi - lo, None), (hi - lo, None)), csr=(rows.indptr, rows.indices, rows.data),
-                              comm=PETSc.Comm(comm))
+    A = laplacian()
     try:  # the same matrix, uncapped: the count is the exact one (2 - 2 cos terms below 1)
         theta = np.pi * np.arange(1, m + 1) / (m + 1)
         lam = (2 - 2 * np.cos(theta))[:, None] + (2 - 2 * np.cos(theta))[None, :]
