@@ -2,7 +2,7 @@
 and write BENCHMARKS.md.
 
     make bench          # or: python scripts/bench_all.py [--render-only]
-Each benchmark leaves a JSON record in results/bench/; this script renders them all, then appends
+Each benchmark leaves a JSON record in scripts/records/ (committed: BENCHMARKS.md's source); this script renders them all, then appends
 the measured runs of whole scenes, written by hand from their logs (``HAND_WRITTEN``).
 """
 
@@ -10,7 +10,7 @@ import json
 import subprocess
 import sys
 
-from benchlib import OUT, PY, REPO, machine
+from benchlib import PY, RECORDS, REPO, machine
 
 ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_engines.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py",
          "bench_spectral.py", "bench_lanczos_batch.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py", "bench_blr.py",
@@ -22,13 +22,13 @@ ARGS = {"bench_vdos.py": ["--skip", "slicing:32768"],  # over an hour; the spect
         "bench_scaling.py": ["131072", "262144", "--ranks", "1", "2", "4", "--tag", "_after"]}  # the code as it is now
 ALSO = {"bench_scaling.py": ["scaling"]}  # records rendered before the script's own: the scaling before issue 26's changes
 HAND_WRITTEN = ["bench_paper_programme.md"]  # configs/paper.yaml, timed from its own log
-RECORDS = {"crosscheck_lammps.py": "crosscheck", "crosscheck_stressed.py": "crosscheck_stressed",
+RECORD_NAMES = {"crosscheck_lammps.py": "crosscheck", "crosscheck_stressed.py": "crosscheck_stressed",
            "crosscheck_yade.py": "crosscheck_yade", "crosscheck_damped.py": "crosscheck_damped"}  # record names of scripts not called bench_<name>.py
 
 
 def _record(script: str) -> str:
-    """Name of ``script``'s record: results/bench/<name>.json and BENCHMARKS.md's '## name'."""
-    return RECORDS.get(script, script[6:-3] + ("_after" if script == "bench_scaling.py" else ""))
+    """Name of ``script``'s record: scripts/records/<name>.json and BENCHMARKS.md's '## name'."""
+    return RECORD_NAMES.get(script, script[6:-3] + ("_after" if script == "bench_scaling.py" else ""))
 
 
 def _sections(text: str) -> dict[str, str]:
@@ -38,16 +38,16 @@ def _sections(text: str) -> dict[str, str]:
 
 
 def render() -> None:
-    """Write BENCHMARKS.md from results/bench/*.json; a benchmark with no record here (measured
+    """Write BENCHMARKS.md from scripts/records/*.json; a benchmark with no record here (measured
     on another checkout, or not rerun) keeps its section from the existing BENCHMARKS.md."""
     old = _sections((REPO / "BENCHMARKS.md").read_text()) if (REPO / "BENCHMARKS.md").exists() else {}
     lines = ["# Benchmarks", "",
              "Regenerate with `make bench` (runs `scripts/bench_*.py` one after another, then "
-             "renders this file from `results/bench/*.json`). Every comparison is measured in the "
+             "renders this file from `scripts/records/*.json`). Every comparison is measured in the "
              "same run, on the same machine, with the machine otherwise idle.", "",
              f"Rendered on: {machine()}. Each section names the machine it was measured on.", ""]
     for script, name in [(script, name) for script in ORDER for name in ALSO.get(script, []) + [_record(script)]]:
-        path = OUT / f"{name}.json"
+        path = RECORDS / f"{name}.json"
         if not path.exists():
             kept = old.get(name)
             missing = [f"## {name}", "", f"not run yet (`python scripts/{script}`)", ""]

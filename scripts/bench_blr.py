@@ -13,7 +13,7 @@ Per case: wall time, factorisations, time per factorisation, MUMPS's full-rank f
 at the middle shift with the ordering MUMPS used (INFOG 7), counting's count_window (omega^2),
 and against the exact counts of the same layout: how many edges count a different number of modes
 below them, the largest and the summed difference (modes on the wrong side of an edge).
-Writes results/bench/blr.json after every case.
+Writes scripts/records/blr.json after every case.
 """
 
 from __future__ import annotations

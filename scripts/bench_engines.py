@@ -11,7 +11,7 @@ process with one BLAS thread: rotsound's FIRE on one core (``fire.minimize`` wit
 rotsound's own force evaluation (max |F| (rotsound)), its rattlers and contact number z, and
 compared with rotsound's packing of the same start and with LAMMPS's on the first rank count
 (largest minimum-image displacement: near round-off if they reached the same minimum, of order a
-diameter if not).  Writes results/bench/engines.json.
+diameter if not).  Writes scripts/records/engines.json.
 """
 
 import argparse

@@ -11,7 +11,7 @@ thread each, every case in its own fresh mpirun job (omega_max computed once per
   batch B    ``spectral_all`` on chunks of B waves: one MatMatMult of A with (nloc, B) per step.
 Per case: wall time, time per wave, Lanczos steps, peak RSS per rank, and the largest difference of
 z from the previous code's, relative to max |z| (both reach tol = 1e-8, so ~1e-8 is agreement).
-Writes results/bench/lanczos_batch.json.
+Writes scripts/records/lanczos_batch.json.
 """
 
 from __future__ import annotations

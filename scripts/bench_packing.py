@@ -1,6 +1,6 @@
 """FIRE packing time and peak memory, N = 2048 and 32768 at phi = 0.9 (one process each).
 
-    python scripts/bench_packing.py            # all cases, writes results/bench/packing.json
+    python scripts/bench_packing.py            # all cases, writes scripts/records/packing.json
 Each case runs in a fresh process so its peak RSS is its own.  Also saves the N = 32768
 packing to cache/bench_32768.h5 for bench_assembly.py.
 """

@@ -7,7 +7,7 @@ in a fresh process (its peak RSS is its own) with one BLAS thread: FIRE is seria
 configuration.  Wall time of the call alone; ms/step = time / FIRE steps (the neighbour list's
 rebuilds and partial refreshes included).  --profile runs each case under cProfile and prints
 where the time goes (the table then holds profiled, slower times: do not record them).
-Writes results/bench/packing3d.json and prints the table.
+Writes scripts/records/packing3d.json and prints the table.
 """
 
 import argparse

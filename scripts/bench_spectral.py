@@ -10,7 +10,7 @@
    spectral, RK4 and Verlet at a few settings, 2 ranks.
 3. 1 vs 2 ranks at N = 32768: 200 MatMults, 500 Verlet TS steps, one spectral wave (t = 100);
    assembly is in the assembly benchmark.
-Writes results/bench/spectral.json and docs/bench_spectral.png.  omega_max (needed by both the
+Writes scripts/records/spectral.json and docs/bench_spectral.png.  omega_max (needed by both the
 spectral step count and the TS stability check) is computed once per case and not timed.
 """
 

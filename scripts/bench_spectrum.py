@@ -13,7 +13,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import (OUT, PY, REPO, NpzCheckpoint, file_sha, mpirun, peak_rss_gib, run_json, save,
+from benchlib import (PY, RECORDS, REPO, SCRATCH, NpzCheckpoint, file_sha, mpirun, peak_rss_gib, run_json, save,
                       save_exact_spectrum)
 
 REPEATS_SMALL = 3
@@ -48,7 +48,8 @@ def slepc_case(path: str, vectors: bool, window: str) -> None:
     checkpoint = NpzCheckpoint(REPO / "cache" / f"bench_spectrum_windows_{tag}", comm.rank)
     mpi.Barrier()
     t = checkpoint.last = time.perf_counter()
-    log = OUT / "spectrum_progress.log"  # follow a long run with tail -f
+    log = SCRATCH / "spectrum_progress.log"  # follow a long run with tail -f
+    SCRATCH.mkdir(parents=True, exist_ok=True)
 
     def progress(done, total, modes):
         if comm.rank == 0:
@@ -117,8 +118,8 @@ def main() -> None:
                         help="keep the rows of the last record that this run does not re-measure")
     args = parser.parse_args()
     table = []
-    if args.merge and (OUT / "spectrum.json").exists():
-        last = json.loads((OUT / "spectrum.json").read_text())
+    if args.merge and (RECORDS / "spectrum.json").exists():
+        last = json.loads((RECORDS / "spectrum.json").read_text())
         COMMAND[0] = f"{last['command']} (rows of {last['date']}) + {COMMAND[0]}"
         table = last["table"]
     env_eigh = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "2"}

@@ -15,7 +15,7 @@ takes is scripts/bench_packing3d.py's table); 2D comparisons use benchlib.load_p
             error against the counting density of the same N where it was run.
   wave      waves.spectral.spectral: one L standing wave at N, k = 2 pi / L along x, t_end = 100,
             samples every 0.1 t0: wall time, Lanczos steps, error estimate.
-Writes results/bench/spheres.json after every row and prints the table.
+Writes scripts/records/spheres.json after every row and prints the table.
 """
 
 from solver.contact_law import ContactModel

@@ -25,7 +25,7 @@ slicing's and eigh's omega on the counting edges) equal the 2-rank counts intege
 KPM: L1 = sum over bins |g_kpm - g_exact| w of the unit-area densities, g_exact the counting
 density on the same bins (KPM's bins reach 1.1 omega_max; the exact density is 0 beyond its top).
 Time vs counting: this row's wall time over the 2-rank counting time of the same N.
-Writes results/bench/vdos.json (after every N) and prints the table as Markdown at the end.
+Writes scripts/records/vdos.json (after every N) and prints the table as Markdown at the end.
 """
 
 from solver.contact_law import ContactModel
@@ -35,7 +35,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import PY, REPO, l1_error, load_packing, mpirun, peak_rss_gib, run_json, save
+from benchlib import PY, RECORDS, REPO, l1_error, load_packing, mpirun, peak_rss_gib, run_json, save
 
 BIN = 0.05  # bin width, 1/t0
 ZERO_TOL = 1e-4  # omega below it is a zero mode (slicing's default), 1/t0
@@ -247,7 +247,7 @@ def main() -> None:
     for n in args.sizes:
         table += measure(n, skips, args.eigh_max_gib)
         save("vdos", command.strip(), table, f"{NOTES} {targets(table)}".strip())  # kept after every N
-    record = json.loads((REPO / "results" / "bench" / "vdos.json").read_text())
+    record = json.loads((RECORDS / "vdos.json").read_text())
     print("\n---- Markdown for BENCHMARKS.md ----\n")
     print(markdown(record))
 

@@ -7,7 +7,7 @@
    scipy.sparse velocity-Verlet loop (1 process) in the same run.
 2. N = 32768, 2 ranks: one Verlet TS step against one bare MatMult (no sampling).
 3. N = 32768, 2 ranks: one (mode, k) run to t = 200 t0, and the paper programme's estimated cost.
-Writes results/bench/waves.json and docs/bench_waves.png.
+Writes scripts/records/waves.json and docs/bench_waves.png.
 """
 
 from solver.contact_law import ContactModel

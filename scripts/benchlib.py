@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-OUT = REPO / "results" / "bench"
+RECORDS = REPO / "scripts" / "records"  # the JSON records BENCHMARKS.md is rendered from (committed)
+SCRATCH = REPO / "results" / "bench"  # logs, progress files and other by-products (not committed)
 PY = sys.executable
 
 
@@ -54,12 +55,12 @@ def peak_rss_gib() -> float:
 
 
 def save(name: str, command: str, table: list[dict], notes: str = "", merge_by: tuple[str, ...] = ()) -> None:
-    """Write results/bench/<name>.json.  ``merge_by``: keep the rows of the record already there
+    """Write scripts/records/<name>.json.  ``merge_by``: keep the rows of the record already there
     whose values of these columns no new row has (a script run in parts, e.g. one N more); the
     command and date then list every part's."""
-    OUT.mkdir(parents=True, exist_ok=True)
+    RECORDS.mkdir(parents=True, exist_ok=True)
     date = datetime.datetime.now().isoformat(timespec="minutes")
-    path = OUT / f"{name}.json"
+    path = RECORDS / f"{name}.json"
     if merge_by and path.exists():
         old = json.loads(path.read_text())
         new = {tuple(str(row.get(k)) for k in merge_by) for row in table}
@@ -68,7 +69,7 @@ def save(name: str, command: str, table: list[dict], notes: str = "", merge_by: 
             table = kept + table
             command, date = f"{old['command']}; then {command}", f"{old['date']}; {date}"
     record = {"name": name, "command": command, "machine": machine(), "date": date, "table": table, "notes": notes}
-    (OUT / f"{name}.json").write_text(json.dumps(record, indent=1))
+    path.write_text(json.dumps(record, indent=1))
     print(json.dumps(record, indent=1))
 
 

@@ -15,7 +15,7 @@ system J = [[0, I], [-M^-1 D, -M^-1 C]] (D and C from ``dynmat`` and ``damping``
 LAMMPS's velocity Verlet evaluates the dashpots with half-step velocities, so it converges at
 first order in dt (the "order" column).
 
-Writes results/bench/crosscheck_damped.json (BENCHMARKS.md "crosscheck_damped").  One process.
+Writes scripts/records/crosscheck_damped.json (BENCHMARKS.md "crosscheck_damped").  One process.
 """
 
 from __future__ import annotations

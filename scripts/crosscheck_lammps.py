@@ -30,7 +30,7 @@ and every contact they make; a frozen rattler would still push on its neighbours
 contacts (fixed springs that D does not have), a removed one does not.  (The packings here have
 none at seed 1: the table says how many were removed; the test's 2D packing has 2.)
 
-Writes results/bench/crosscheck.json, results/bench/crosscheck_details.json (the unrounded
+Writes scripts/records/crosscheck.json, results/bench/crosscheck_details.json (the unrounded
 errors per dt, each packing's smallest overlap and residual force), docs/crosscheck_lammps_2d.png
 and _3d.png.  One process (LAMMPS and PETSc on COMM_SELF); about two minutes.
 """
@@ -43,7 +43,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import OUT, REPO, save
+from benchlib import REPO, SCRATCH, save
 
 LAMMPS_PAIR = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
 FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021 stable) refuses xmu > 1e4; |F_t| / |F_n| stays far below it here
@@ -325,7 +325,8 @@ def main() -> None:
          f"net start forces cancelled by a constant external force. Order: log2 of successive error ratios "
          f"(2 = dt^2). Plots: "
          f"![2D](docs/crosscheck_lammps_2d.png) ![3D](docs/crosscheck_lammps_3d.png)")
-    OUT.joinpath("crosscheck_details.json").write_text(json.dumps(details, indent=1))
+    SCRATCH.mkdir(parents=True, exist_ok=True)
+    SCRATCH.joinpath("crosscheck_details.json").write_text(json.dumps(details, indent=1))
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ For 2D disks and 3D spheres under each law (``gran/hooke/history``, ``gran/hertz
    D the stressed matrix (``dynmat.assemble`` with the stored forces) and, to show the check
    can fail, the unstressed D of the same packing (stored forces dropped).
 
-Writes results/bench/crosscheck_stressed.json (max |C_LAMMPS - C| over t <= t_end per mode and dt,
+Writes scripts/records/crosscheck_stressed.json (max |C_LAMMPS - C| over t <= t_end per mode and dt,
 for both matrices; BENCHMARKS.md "crosscheck_stressed").  LAMMPS in two processes at a time;
 about three minutes.
 """

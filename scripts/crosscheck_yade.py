@@ -24,7 +24,7 @@ a shear force with the pair's mean spin about the normal), so YADE referees its 
    history, and, to show the checks can fail, under LAMMPS's history and without the stored
    forces.
 
-Writes results/bench/crosscheck_yade.json (BENCHMARKS.md "crosscheck_yade").  YADE in its own
+Writes scripts/records/crosscheck_yade.json (BENCHMARKS.md "crosscheck_yade").  YADE in its own
 process (its launcher); about a minute.
 """
 
