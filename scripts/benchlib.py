@@ -57,18 +57,26 @@ def peak_rss_gib() -> float:
 def save(name: str, command: str, table: list[dict], notes: str = "", merge_by: tuple[str, ...] = ()) -> None:
     """Write scripts/records/<name>.json.  ``merge_by``: keep the rows of the record already there
     whose values of these columns no new row has (a script run in parts, e.g. one N more); the
-    command and date then list every part's."""
+    command and date then list every part's.  When the parts ran on different CPUs every row
+    carries its own in a column "cpu" (part of the merge key), and the record's machine says so."""
     RECORDS.mkdir(parents=True, exist_ok=True)
     date = datetime.datetime.now().isoformat(timespec="minutes")
     path = RECORDS / f"{name}.json"
+    here = machine()
     if merge_by and path.exists():
         old = json.loads(path.read_text())
+        cpu, old_cpu = here.split(",")[0], old["machine"].split(",")[0]
+        if cpu != old_cpu or any("cpu" in row for row in old["table"]):
+            old["table"] = [{**row, "cpu": row.get("cpu", old_cpu)} for row in old["table"]]
+            table = [{**row, "cpu": cpu} for row in table]
+            merge_by = (*merge_by, "cpu")
+            here += " (rows measured on other CPUs name theirs in column cpu)"
         new = {tuple(str(row.get(k)) for k in merge_by) for row in table}
         kept = [row for row in old["table"] if tuple(str(row.get(k)) for k in merge_by) not in new]
         if kept:
             table = kept + table
             command, date = f"{old['command']}; then {command}", f"{old['date']}; {date}"
-    record = {"name": name, "command": command, "machine": machine(), "date": date, "table": table, "notes": notes}
+    record = {"name": name, "command": command, "machine": here, "date": date, "table": table, "notes": notes}
     path.write_text(json.dumps(record, indent=1))
     print(json.dumps(record, indent=1))
 
