@@ -12,13 +12,15 @@ import sys
 
 from benchlib import PY, RECORDS, REPO, machine
 
-ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_engines.py", "bench_assembly.py", "bench_spectrum.py", "bench_waves.py",
-         "bench_spectral.py", "bench_lanczos_batch.py", "bench_kpm.py", "bench_vdos.py", "bench_spheres.py", "bench_blr.py",
+ORDER = ["bench_packing.py", "bench_packing3d.py", "bench_engines.py", "bench_assembly.py", "bench_spectrum.py",
+         "bench_ciss.py", "bench_waves.py", "bench_spectral.py", "bench_lanczos_batch.py", "bench_kpm.py", "bench_vdos.py",
+         "bench_spheres.py", "bench_blr.py",
          "crosscheck_lammps.py",
          "crosscheck_stressed.py", "crosscheck_yade.py", "crosscheck_damped.py", "bench_stressed_spectrum.py",
          "bench_nonhermitian.py", "bench_damped.py", "bench_damped_waves.py", "bench_scaling.py"]
 ARGS = {"bench_vdos.py": ["--skip", "slicing:32768"],  # over an hour; the spectrum section has it with K/Q
         "bench_blr.py": ["4096", "--eps", "1e-2"],  # N = 32768: hours; see scripts/bench_blr.md
+        "bench_ciss.py": ["32768", "--modes", "500", "--ip", "16"],  # one window: CISS against Krylov-Schur
         "bench_scaling.py": ["131072", "262144", "--ranks", "1", "2", "4", "--tag", "_after"]}  # the code as it is now
 ALSO = {"bench_scaling.py": ["scaling"]}  # records rendered before the script's own: the scaling before issue 26's changes
 HAND_WRITTEN = ["bench_paper_programme.md"]  # configs/paper.yaml, timed from its own log
