@@ -2,8 +2,9 @@
 and write BENCHMARKS.md.
 
     make bench          # or: python scripts/bench_all.py [--render-only]
-Each benchmark leaves a JSON record in scripts/records/ (committed: BENCHMARKS.md's source); this script renders them all, then appends
-the measured runs of whole scenes, written by hand from their logs (``HAND_WRITTEN``).
+Each benchmark leaves a JSON record in scripts/records/ (committed: BENCHMARKS.md's source); this
+script renders them all, then appends the measured runs of whole scenes, written by hand from their
+logs (``HAND_WRITTEN``).
 """
 
 import json

@@ -29,7 +29,7 @@ import sys
 import time
 
 import numpy as np
-from benchlib import PY, REPO, load_packing, mpirun, peak_rss_gib, run_json, save
+from benchlib import PY, REPO, SCRATCH, load_packing, mpirun, peak_rss_gib, run_json, save
 
 ME = str(REPO / "scripts" / "bench_ciss.py")
 GOOD = 1e-8  # a converged pair counts as found below this relative residual (Krylov-Schur's: ~1e-12)
@@ -116,7 +116,7 @@ def case(n: int, modes: int, at: float, method: str, ip: int, bs: int, ms: int) 
            "residual": float(residual[good].max(initial=0.0)), "lo": lo, "hi": hi, "dof": A.getSize()[0],
            "rss_max": mpi.allreduce(peak_rss_gib(), op=mpi_max())}
     if comm.rank == 0:
-        np.save(REPO / "results" / "bench" / f"ciss_{n}_{modes}_{at}_{method}_{comm.size}.npy", inside)
+        np.save(SCRATCH / f"ciss_{n}_{modes}_{at}_{method}_{comm.size}.npy", inside)
         print(json.dumps(row))
 
 
@@ -139,8 +139,7 @@ def main() -> None:
         method, ip, bs, ms, at = args.case
         case(args.n, args.modes, float(at), method, int(ip), int(bs), int(ms))
         return
-    scratch = REPO / "results" / "bench"
-    scratch.mkdir(parents=True, exist_ok=True)
+    SCRATCH.mkdir(parents=True, exist_ok=True)
     load_packing(args.n)
     bs = -(-3 * args.modes // args.ms)  # a subspace of 3x the window's modes (1.5x missed a third)
     table = []
@@ -150,8 +149,8 @@ def main() -> None:
                                         str(bs), str(args.ms), str(args.at)], timeout=4 * 3600)
         row = {"N": args.n, "modes": args.modes, "at": args.at, "method": method, "ranks": ranks,
                **({"ip": ip, "bs": bs, "ms": args.ms} if method == "ciss" else {}), **out}
-        reference = np.load(scratch / f"ciss_{args.n}_{args.modes}_{args.at}_krylovschur_1.npy")
-        mine = np.load(scratch / f"ciss_{args.n}_{args.modes}_{args.at}_{method}_{ranks}.npy")
+        reference = np.load(SCRATCH / f"ciss_{args.n}_{args.modes}_{args.at}_krylovschur_1.npy")
+        mine = np.load(SCRATCH / f"ciss_{args.n}_{args.modes}_{args.at}_{method}_{ranks}.npy")
         row["max_rel_diff_vs_ks"] = (float(np.max(np.abs(mine - reference) / reference))
                                      if mine.size == reference.size else None)
         table.append({k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in row.items()})
