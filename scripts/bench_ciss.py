@@ -71,17 +71,17 @@ def case(n: int, modes: int, at: float, method: str, ip: int, bs: int, ms: int) 
     """One job: the window by ``method`` (krylovschur or ciss); rank 0 prints a JSON line."""
     from solver import petscenv
     from solver.contact_law import ContactModel
-    from solver.io import hdf5
     from solver.model import dynmat
     from solver.model.operators import scaled_operator
     from solver.spectrum import slicing
 
     PETSc = petscenv.init([])
+    from mpi4py import MPI
     from slepc4py import SLEPc
 
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
-    (p,) = hdf5.read_packings(str(REPO / "cache" / f"bench_{n}.h5"))
+    p = load_packing(n)
     dm = dynmat.assemble(p, ContactModel(1.0), comm)
     A = scaled_operator(dm)
     lo, hi, count = _window(A, modes, at)
@@ -108,22 +108,16 @@ def case(n: int, modes: int, at: float, method: str, ip: int, bs: int, ms: int) 
             opts.setValue("ciss_" + key, value)  # a benchmark job's own options database
         eps.setFromOptions()
     eps.solve()
-    seconds = mpi.allreduce(time.perf_counter() - t, op=mpi_max())
+    seconds = mpi.allreduce(time.perf_counter() - t, op=MPI.MAX)
     lam, residual = _quotients(eps, A)
     good = (lam > lo) & (lam <= hi) & (residual < GOOD)
     inside = lam[good]
     row = {"seconds": seconds, "found": int(inside.size), "count": int(count), "converged": int(lam.size),
            "residual": float(residual[good].max(initial=0.0)), "lo": lo, "hi": hi, "dof": A.getSize()[0],
-           "rss_max": mpi.allreduce(peak_rss_gib(), op=mpi_max())}
+           "rss_max": mpi.allreduce(peak_rss_gib(), op=MPI.MAX)}
     if comm.rank == 0:
         np.save(SCRATCH / f"ciss_{n}_{modes}_{at}_{method}_{comm.size}.npy", inside)
         print(json.dumps(row))
-
-
-def mpi_max():
-    from mpi4py import MPI
-
-    return MPI.MAX
 
 
 def main() -> None:

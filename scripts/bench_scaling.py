@@ -26,8 +26,9 @@ rho = 1, harmonic law.  Stages, in this order, on COMM_WORLD:
   assembly    ``dynmat.assemble`` (contacts, blocks, the PETSc matrix) and the Lanczos omega_max;
   factorisation  two MUMPS Cholesky factorisations of A - sigma I (A = M^-1/2 D M^-1/2; sigma =
               0.25 and 0.5 /t0^2), the counting method's unit of work, on groups of --factor-ranks
-              ranks (default one per rank, as counting's auto chooses while a whole factor fits): seconds of the
-              first (with the symbolic analysis) and of the second (numeric only), the counts below
+              ranks (default one per rank, as counting's auto chooses while a whole factor fits):
+              seconds of the first (with the symbolic analysis) and of the second (numeric only), the
+              counts below
               them (first_below, second_below: equal in every exact layout), the factor's
               entries (INFOG(29)) over A's lower triangle ("fill") and MUMPS's memory (INFOG(17)
               estimated, INFOG(22) used; MB summed over a group's ranks); how many edges an hour
@@ -51,7 +52,7 @@ also gives the off-process share of its non-zeros (columns outside the rank's ow
 over ranks) and MatMult time (100 products).
 ``-log_view`` of every job goes to results/bench/scaling_logs/N<N>_p<P>.txt (log stages per
 stage above: PETSc's own count of flops, messages and time).
-Writes results/bench/scaling<TAG>.json (merged by N, ranks and stage) after every job.
+Writes scripts/records/scaling<TAG>.json (merged by N, ranks, stage and the options above) after every job.
 """
 
 from __future__ import annotations
