@@ -48,7 +48,8 @@ def _open(path: str):
         raise InputError(f"packing file {path}: not a readable HDF5 file ({exc})") from None
 
 
-def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "harmonic") -> Packing:
+def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "harmonic",
+              lever: str = "radius") -> Packing:
     def fail(msg):
         raise InputError(f"packing file {where}: {msg}")
 
@@ -90,10 +91,11 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
     if stored is not None:
         _check_box(box, diameters, where, name)
         _check_distinct(positions, diameters, box, where)
-        stored = stressed.build(*stored, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
-                                stored[2], f"packing file {where}:/tangential")
+        pairs, force, friction = stored
+        stored = stressed.build(pairs, force, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
+                                friction, f"packing file {where}:/tangential")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
-                   check_equilibrium, law, stored)
+                   check_equilibrium, law, stored, lever)
 
 
 def _read_tangential(group, where: str, n: int, dim: int):
@@ -250,11 +252,11 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
                              f"LIGGGHTS and YADE packing files")
         with _open(path) as f:
             if "positions" in f:
-                packings.append(_read_one(f, path, check_equilibrium, law))
+                packings.append(_read_one(f, path, check_equilibrium, law, lever))
             elif "packings" in f and len(f["packings"]):
                 for name in sorted(f["packings"]):
                     packings.append(_read_one(f["packings"][name], f"{path}:/packings/{name}", check_equilibrium,
-                                              law))
+                                              law, lever))
             else:
                 raise InputError(f"packing file {path}: no 'positions' dataset at the top level "
                                  f"and no '/packings/<i>' groups")
