@@ -515,88 +515,121 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     ``fresh`` discards the output file and its finished units first.  ``group_size`` G (a
     divisor of ``comm.size``; default: all ranks) splits the ranks into groups of G that solve
     the (rho, packing) units side by side (:func:`_solve_in_groups`); packings, the vDOS, the
-    analysis and the results file are made on ``comm`` as a whole.
+    analysis and the results file are made on ``comm`` as a whole.  A scene refused as bad input
+    writes nothing: a packing file is read and checked before the units folder is claimed, and a
+    refusal after the claim removes what the claim made (``UnitStore.abandon``).
     """
-    from petsc4py import PETSc
-
     t0 = time.perf_counter()
     check_factor_ranks(scene, group_size or comm.size, f"--group-size {group_size}" if group_size else
                        f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
+    if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS and scene.packing.file is None:
+        _check_dense_size(scene, scene.packing.n, scene.packing.dim, "generated")  # before the packings
+    packings = None
+    if scene.packing.file is not None:  # a refused file or scene writes nothing: read and check before the store
+        with profiling.stage("packings"):
+            packings = make_packings(scene, comm)
+        check_packings(scene, packings)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,
                           cache=cache_folder(scene))
-        if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS and scene.packing.file is None:
-            _check_dense_size(scene, scene.packing.n, scene.packing.dim, "generated")  # before the packings
-        with profiling.stage("packings"):
-            packings = make_packings(scene, comm, store)
-        if scene.packing.file is not None:  # generated packings were checked with the scene
-            check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
-                                                    f"(positions (N, 2))")
-        stressed = [i for i, p in enumerate(packings) if p.stressed]
-        check_stressed(scene, f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces"
-                       if stressed else None)
-        if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
-            for p in packings:
-                excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
-        if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS:  # dense: refused before any solve
-            for index, p in enumerate(packings):
-                _check_dense_size(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
-        keys = unit_keys.scene_keys(scene, packings, petsc_argv)
-        for index, p in enumerate(packings):
-            i = p.info
-            say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
-                      f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
-                      f"rattlers = {100 * i['rattler_fraction']:.2f} %"
-                      + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
-        for rho in scene.model.rho:
-            if scene.waves and not scene.model.contact(rho).rotations:
-                skipped = [m for m in scene.waves.modes if m in ("RT", "R")]
-                if skipped:
-                    say(comm, f"waves rho = {rho:g}: {', '.join(skipped)} skipped (no rotational stiffness)")
-        with parallel.Groups(comm, group_size) as groups:
-            if groups.count > 1:
-                say(comm, f"{groups.count} groups of {groups.size} rank{'s' if groups.size > 1 else ''} share "
-                          f"the {len(scene.model.rho) * len(packings)} (rho, packing) tasks")
-            units = _solve_in_groups(scene, packings, keys, store, groups)
-        if scene.spectrum is not None:
-            for r_index, rho in enumerate(scene.model.rho):
-                with profiling.stage("analysis"):
-                    _vdos_unit(scene, rho, r_index, [units[Unit("spectrum", r_index, p_index, rho).name]
-                                                     for p_index in range(len(packings))], units, comm)
-        say(comm, f"units: {store.summary()} (folder {store.folder}; cache {store.cache or 'off'})")
-        if scene.waves is not None:
-            t = time.perf_counter()
-            with profiling.stage("analysis"), profiling.event("rsAnalyse"):
-                derived = parallel.owner_compute(comm, [0], lambda _: dispersion.analyse(units, scene.analysis))[0]
-            units.update(derived)
-            lattice = derived.get("analysis/lattice", ({}, {}))[1]
-            say(comm, f"analysis: {len(derived)} groups in {time.perf_counter() - t:.1f} s"
-                      + (f"; lattice model a_r = {lattice['a_r']:.3f} +- {lattice['a_r_err']:.3f}/t0, "
-                         f"l = {lattice['l']:.3f} +- {lattice['l_err']:.3f} d0, a_t = {lattice['a_t']:.3f}/t0"
-                         if lattice else ""))
-        stages = ([("spectra", scene.spectrum.method)] if scene.spectrum else []) + (
-            [("modes", "shapes")] if scene.modes else []) + (
-            [("waves", scene.waves.method)] if scene.waves else [])
-        unused = options.unused(options.option_names(petsc_argv), stages)  # same on every rank
-        for name in unused:
-            say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
-                      f"stage this scene does not run)")
-        provenance = {
-            "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
-            "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
-            "ranks": comm.size, "group_size": groups.size, "petsc_options": options.snapshot(),
-            "petsc_options_unused": unused,
-        }
-        try:  # rank 0 writes; any error it meets is raised on every rank (owner_compute)
-            with profiling.stage("output"):
-                parallel.owner_compute(comm, [0], lambda _: hdf5.write_results(scene.output, provenance,
-                                                                               packings, units))
-        except OSError as exc:
-            raise InputError(f"output = {scene.output}: cannot write the results file ({exc}); the "
-                             f"finished units are kept in {store.folder}: run again to resume") from exc
-        say(comm, f"wrote {scene.output} ({len(packings)} packings, {len(units)} result groups) "
-                  f"in {time.perf_counter() - t0:.1f} s")
-        return {"packings": packings, "units": units}
+        try:
+            packings, units, group_ranks = _solve(scene, comm, petsc_argv, group_size, store, packings)
+        except InputError:  # refused after the claim (a generated packing, a solver's check): leave no debris
+            store.abandon()
+            raise
+        return _write(scene, comm, petsc_argv, store, packings, units, group_ranks, t0)
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def check_packings(scene: Scene, packings: list[jammed.Packing]) -> None:
+    """Refuse a scene its packings cannot run, before any compute: a file's dimension, stored
+    tangential forces with what needs a symmetric matrix, the waves' k in each box, the dense
+    solvers' size. Not collective: the same on every rank."""
+    if scene.packing.file is not None:  # generated packings were checked with the scene
+        check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
+                                                f"(positions (N, 2))")
+    stressed = [i for i, p in enumerate(packings) if p.stressed]
+    check_stressed(scene, f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces"
+                   if stressed else None)
+    if scene.waves is not None:  # every packing's allowed k
+        for p in packings:
+            excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
+    if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS:
+        for index, p in enumerate(packings):
+            _check_dense_size(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
+
+
+def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packings) -> tuple[list, dict, int]:
+    """:func:`run` once the units folder is claimed: generate the packings (unless ``packings`` were
+    read), solve every unit and analyse; return (packings, units, ranks per group). Collective."""
+    if packings is None:
+        with profiling.stage("packings"):
+            packings = make_packings(scene, comm, store)
+        check_packings(scene, packings)
+    keys = unit_keys.scene_keys(scene, packings, petsc_argv)
+    for index, p in enumerate(packings):
+        i = p.info
+        say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
+                  f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
+                  f"rattlers = {100 * i['rattler_fraction']:.2f} %"
+                  + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
+    for rho in scene.model.rho:
+        if scene.waves and not scene.model.contact(rho).rotations:
+            skipped = [m for m in scene.waves.modes if m in ("RT", "R")]
+            if skipped:
+                say(comm, f"waves rho = {rho:g}: {', '.join(skipped)} skipped (no rotational stiffness)")
+    with parallel.Groups(comm, group_size) as groups:
+        if groups.count > 1:
+            say(comm, f"{groups.count} groups of {groups.size} rank{'s' if groups.size > 1 else ''} share "
+                      f"the {len(scene.model.rho) * len(packings)} (rho, packing) tasks")
+        units = _solve_in_groups(scene, packings, keys, store, groups)
+    if scene.spectrum is not None:
+        for r_index, rho in enumerate(scene.model.rho):
+            with profiling.stage("analysis"):
+                _vdos_unit(scene, rho, r_index, [units[Unit("spectrum", r_index, p_index, rho).name]
+                                                 for p_index in range(len(packings))], units, comm)
+    say(comm, f"units: {store.summary()} (folder {store.folder}; cache {store.cache or 'off'})")
+    if scene.waves is not None:
+        t = time.perf_counter()
+        with profiling.stage("analysis"), profiling.event("rsAnalyse"):
+            derived = parallel.owner_compute(comm, [0], lambda _: dispersion.analyse(units, scene.analysis))[0]
+        units.update(derived)
+        lattice = derived.get("analysis/lattice", ({}, {}))[1]
+        say(comm, f"analysis: {len(derived)} groups in {time.perf_counter() - t:.1f} s"
+                  + (f"; lattice model a_r = {lattice['a_r']:.3f} +- {lattice['a_r_err']:.3f}/t0, "
+                     f"l = {lattice['l']:.3f} +- {lattice['l_err']:.3f} d0, a_t = {lattice['a_t']:.3f}/t0"
+                     if lattice else ""))
+    return packings, units, groups.size
+
+
+def _write(scene: Scene, comm, petsc_argv, store: UnitStore, packings, units: dict, group_ranks: int,
+           t0: float) -> dict:
+    """Report unused PETSc options and write the results file (rank 0); return the run's summary.
+    Collective."""
+    from petsc4py import PETSc
+
+    stages = ([("spectra", scene.spectrum.method)] if scene.spectrum else []) + (
+        [("modes", "shapes")] if scene.modes else []) + (
+        [("waves", scene.waves.method)] if scene.waves else [])
+    unused = options.unused(options.option_names(petsc_argv), stages)  # same on every rank
+    for name in unused:
+        say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
+                  f"stage this scene does not run)")
+    provenance = {
+        "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
+        "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
+        "ranks": comm.size, "group_size": group_ranks, "petsc_options": options.snapshot(),
+        "petsc_options_unused": unused,
+    }
+    try:  # rank 0 writes; any error it meets is raised on every rank (owner_compute)
+        with profiling.stage("output"):
+            parallel.owner_compute(comm, [0], lambda _: hdf5.write_results(scene.output, provenance,
+                                                                           packings, units))
+    except OSError as exc:
+        raise InputError(f"output = {scene.output}: cannot write the results file ({exc}); the "
+                         f"finished units are kept in {store.folder}: run again to resume") from exc
+    say(comm, f"wrote {scene.output} ({len(packings)} packings, {len(units)} result groups) "
+              f"in {time.perf_counter() - t0:.1f} s")
+    return {"packings": packings, "units": units}

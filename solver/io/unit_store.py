@@ -50,6 +50,15 @@ def cache_folder(scene) -> str | None:
     return scene.cache
 
 
+def _missing_folders(path: str) -> list[str]:
+    """The folders that ``os.makedirs(path)`` would create, deepest first (absolute paths)."""
+    missing, path = [], os.path.abspath(path)
+    while not os.path.exists(path):
+        missing.append(path)
+        path = os.path.dirname(path)
+    return missing
+
+
 def _on_root(comm, work):
     """``work()`` on rank 0; its result on every rank, its error (any type) raised on every rank."""
     return parallel.owner_compute(comm, [0], lambda _: work())[0]
@@ -70,6 +79,7 @@ class UnitStore:
         self.counts: dict[str, dict[str, int]] = {}
 
         def claim():
+            made = _missing_folders(self.folder) + (_missing_folders(cache) if cache else [])
             try:
                 if fresh:
                     shutil.rmtree(self.folder, ignore_errors=True)
@@ -80,7 +90,24 @@ class UnitStore:
                     os.makedirs(cache, exist_ok=True)
             except OSError as exc:
                 raise InputError(f"{self.folder}: {exc}") from None
-        _on_root(comm, claim)
+            return made
+        self._made = _on_root(comm, claim)
+
+    def abandon(self) -> None:
+        """Remove what this store's claim made, for a run refused as bad input: the units folder if
+        the claim created it (its marker and the units this run saved there), then every folder the
+        claim created that is empty by then.  Units entered in the cache stay: they are stored under
+        their content keys, so they can never block or mix into another scene, and the corrected
+        scene takes them from there."""
+        def remove():
+            if os.path.abspath(self.folder) in self._made:
+                shutil.rmtree(self.folder, ignore_errors=True)
+            for folder in self._made:  # deepest first
+                try:
+                    os.rmdir(folder)
+                except OSError:  # not empty (cache entries), or already gone
+                    pass
+        _on_root(self.comm, remove)
 
     def on(self, comm) -> UnitStore:
         """A handle to the same folder and cache on ``comm`` (one group of this store's ranks,

@@ -1,6 +1,7 @@
 """Every row of the bad-input catalogue, through ``solver.__main__.main`` in this process on every
 rank of the suite (1, then 2 under mpirun): exit code 2, the message once (rank 0), no traceback,
-no output written, no rank left hanging (a rank that went on alone would hang its collective: the
+nothing written (no output, no units folder; only finished units
+entered in the shared cache, for a row refused after a packing was made), no rank left hanging (a rank that went on alone would hang its collective: the
 test's timeout fails it).  A few rows also as real ``mpirun -n 2`` processes, for the exit status
 the shell sees.  [decision] In-process, because one subprocess per row (112 rows x ~3 s of
 interpreter, PETSc and MPI start-up) was half of ``make test``'s serial time."""
@@ -63,11 +64,13 @@ def test_bad_input(shared_tmp, case, capsys, monkeypatch):
         args, out = materialise(shared_tmp, case)
     args, out = COMM.bcast((args, out) if COMM.rank == 0 else None, root=0)
     monkeypatch.chdir(shared_tmp)
+    files = _tree(shared_tmp)
     before = PETSc.Options().getAll()
     try:
         code = cli.main(args)
     finally:
         _restore_options(before)
+    made = _tree(shared_tmp) - files
     err = capsys.readouterr()
     assert_all(code == 2, f"exit code {code}: {err.err}")
     messages = err.err.count("rotsound: error:")
@@ -75,6 +78,18 @@ def test_bad_input(shared_tmp, case, capsys, monkeypatch):
     assert_all(COMM.rank > 0 or case[3] in err.err, err.err)
     assert_all("Traceback" not in err.err + err.out, err.err)
     assert_all(not out.exists() and not (shared_tmp / "never.h5.partial").exists(), "an output was written")
+    assert_all(all(_cached_unit(path) for path in made), f"a refused run left {sorted(made)}")
+
+
+def _tree(folder) -> set:
+    """Every file and folder below ``folder``, as paths relative to it."""
+    return {path.relative_to(folder) for path in folder.rglob("*")}
+
+
+def _cached_unit(path) -> bool:
+    """Whether ``path`` (relative) is a finished unit in the shared cache, ``cache/<stage>/<key>.h5``
+    (or its folders), which a refusal after some compute keeps: content-keyed, it blocks no scene."""
+    return path.parts[0] == "cache" and len(path.parts) <= 3 and (len(path.parts) < 3 or path.suffix == ".h5")
 
 
 PROCESS_ROWS = ("unknown top-level key", "LAMMPS data file cut short", "bare solver option on the command line (-ts_dt)")
@@ -93,3 +108,42 @@ def test_bad_input_as_a_process(tmp_path, what):
     assert proc.stderr.count("rotsound: error:") == 1
     assert "Traceback" not in proc.stderr + proc.stdout
     assert not out.exists() and not (tmp_path / "never.h5.partial").exists()
+    assert not (tmp_path / "never.h5.units").exists() and not (tmp_path / "cache").exists()
+
+
+CASES_BY_NAME = {case[0]: case for case in CASES}
+STORIES = {  # refused scene -> the corrected one, run to the same output
+    "contact file above the Coulomb limit": (
+        "packing: {{file: '{data}', contacts: '{data}.contacts', friction: {mu}}}\nmodel: {{rho: 0.5}}\n"
+        "spectrum: {{method: nonhermitian}}\n", {"mu": 0.1}, {"mu": 1.0}),
+    "generated packing that does not jam": (
+        "packing: {{n: {n}, phi: {phi}}}\nspectrum: {{}}\n", {"n": 256, "phi": 0.8}, {"n": 64, "phi": 0.9}),
+}
+
+
+@pytest.mark.parametrize("story", STORIES)
+def test_the_corrected_scene_runs_where_the_refused_one_did_not(shared_tmp, story, capsys):
+    """A user's sequence: a scene refused (a packing file's forces, before any write; a generated
+    packing, after one), then the corrected scene to the same output, without --fresh: it runs,
+    and nothing of the refused scene is left but content-keyed cache entries."""
+    text, bad, good = STORIES[story]
+    out = shared_tmp / "story.h5"
+    if COMM.rank == 0:
+        stressed_copy = shared_tmp / "frictional.data"
+        CASES_BY_NAME["stored force above the Coulomb limit"][4](stressed_copy)
+    COMM.Barrier()
+    codes = []
+    for values in (bad, good):
+        scene = shared_tmp / "story.yaml"
+        if COMM.rank == 0:
+            scene.write_text(f"output: {out}\n" + text.format(data=shared_tmp / "frictional.data", **values))
+        COMM.Barrier()
+        codes.append(cli.main(["run", str(scene)]))
+        if len(codes) == 1:
+            left = sorted(p.name for p in shared_tmp.iterdir())
+    err = capsys.readouterr().err
+    assert_all(codes == [2, 0], f"exit codes {codes}: {err}")
+    assert_all("different scene" not in err, err)
+    assert_all("story.h5.units" not in left and "story.h5" not in left, f"the refusal left {left}")
+    assert_all(out.exists(), "the corrected scene wrote no results")
+
