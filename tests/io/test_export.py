@@ -1,7 +1,7 @@
 """``rotsound export``: every format read back by its own library (ASE for extended XYZ and the
-LAMMPS dump, meshio for VTK) and the dump by LAMMPS itself; the fields against the results file
-and an independent contact count; the animation's frames; bad requests refused; no PETSc or MPI
-imported on the way.  Serial: export is a one-process tool."""
+LAMMPS dump, VTK for VTP) and the dump by LAMMPS itself; the fields against the results file
+and an independent contact count; the animation's frames (frame 0 the largest displacement); bad
+requests refused; no PETSc or MPI imported on the way.  Serial: export is a one-process tool."""
 
 import math
 import subprocess
@@ -38,7 +38,7 @@ def _expected(path, m=1, rho=0.5, frames=4, amplitude=0.2):
     theta = np.zeros((64, 3))
     theta[:, 2] = group.rotation[m][:, 0]
     scale = amplitude / np.linalg.norm(u, axis=1).max()
-    phases = np.sin(2 * np.pi * np.arange(frames) / frames)[:, None, None] * scale
+    phases = np.cos(2 * np.pi * np.arange(frames) / frames)[:, None, None] * scale
     r = np.zeros((64, 3))
     r[:, :2] = p["positions"]
     return r + phases * u, phases * u, phases * theta, group, p
@@ -70,6 +70,11 @@ def test_extxyz_read_back_by_ase(mode_file, tmp_path):
         np.testing.assert_allclose(atoms.cell.lengths(), [*p["box"], 1.0], rtol=1e-12, atol=0)
         assert list(atoms.pbc) == [True, True, False]
     first = frames[0]
+    np.testing.assert_allclose(np.linalg.norm(first.arrays["displacement"], axis=1).max(), 0.2, rtol=1e-7, atol=0)
+    large = p["diameters"] > p["diameters"].mean()
+    np.testing.assert_array_equal(first.arrays["type"], np.where(large, "large", "small"))
+    with open(path) as text:  # the names in the first column, where OVITO reads types; no species "X"
+        assert text.read().splitlines()[1].split("Properties=")[1].startswith("type:S:1:pos:R:3:")
     count, force = _contacts(p, forces=True)
     np.testing.assert_array_equal(first.arrays["contacts"], count)
     np.testing.assert_allclose(first.arrays["force_normal"], force, rtol=0, atol=1e-8)  # 8 decimals in extxyz
@@ -82,48 +87,39 @@ def test_extxyz_read_back_by_ase(mode_file, tmp_path):
     assert f"omega = {group.omega[1]:.6g}/t0" in what, what
 
 
-def test_vtk_series_read_back_by_meshio(mode_file, tmp_path):
-    import meshio
+def _read_vtp(path):
+    """(points (N, 3), {name: point array}) of a .vtp file by VTK's own XML reader, the one ParaView
+    uses (Debian's python3-vtk9, which the export itself writes with)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
-    paths, _ = export.export(mode_file, "vtk", str(tmp_path / "m.vtk"), rho=0.5, mode=1, frames=4, amplitude=0.2)
-    assert [p.rsplit("/", 1)[1] for p in paths] == [f"m_{f:04d}.vtk" for f in range(4)]
+    reader = vtkXMLPolyDataReader()
+    reader.SetFileName(path)
+    reader.Update()
+    cloud = reader.GetOutput()
+    data = cloud.GetPointData()
+    arrays = {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i)) for i in range(data.GetNumberOfArrays())}
+    assert cloud.GetNumberOfVerts() == cloud.GetNumberOfPoints()  # one vertex cell per particle
+    return vtk_to_numpy(cloud.GetPoints().GetData()), arrays
+
+
+def test_vtp_series_read_back_by_vtk(mode_file, tmp_path):
+    paths, _ = export.export(mode_file, "vtp", str(tmp_path / "m.vtp"), rho=0.5, mode=1, frames=4, amplitude=0.2)
+    assert [p.rsplit("/", 1)[1] for p in paths] == [f"m_{f:04d}.vtp" for f in range(4)]
     positions, u, theta, group, p = _expected(mode_file)
     for f, path in enumerate(paths):
-        mesh = meshio.read(path)
-        np.testing.assert_allclose(mesh.points, positions[f], rtol=1e-15, atol=1e-15)  # binary: exact
-        np.testing.assert_allclose(mesh.point_data["rotation"], theta[f], rtol=1e-15, atol=1e-15)
-        np.testing.assert_array_equal(mesh.point_data["contacts"], _contacts(p))
-        assert mesh.cells[0].type == "vertex" and len(mesh.cells[0].data) == 64
-        with open(path, "rb") as raw:
-            assert raw.readline().startswith(b"# vtk DataFile Version 4.2")  # VTK < 9 and ParaView < 5.9 read it
-
-
-def test_vtk_read_by_vtk_itself(mode_file, tmp_path):
-    """VTK's own legacy reader (the library ParaView reads these files with; Debian's python3-vtk9)
-    finds every point and every field, equal to meshio's view of the same file."""
-    try:
-        import vtk
-        from vtk.util.numpy_support import vtk_to_numpy
-    except ImportError as exc:  # scripts/setup.sh installs it: a skip here, a failure in CI
-        missing("VTK's Python module (python3-vtk9)", exc)
-    import meshio
-
-    (path,), _ = export.export(mode_file, "vtk", str(tmp_path / "new" / "one.vtk"), rho=0.5, mode=1, frames=1)
-    reader = vtk.vtkUnstructuredGridReader()
-    reader.SetFileName(path)
-    reader.ReadAllScalarsOn()
-    reader.ReadAllVectorsOn()
-    reader.Update()
-    grid = reader.GetOutput()
-    mesh = meshio.read(path)
-    assert grid.GetNumberOfPoints() == 64 and grid.GetNumberOfCells() == 64
-    np.testing.assert_array_equal(vtk_to_numpy(grid.GetPoints().GetData()), mesh.points)
-    data = grid.GetPointData()
-    names = {data.GetArrayName(i) for i in range(data.GetNumberOfArrays())}
-    assert names == set(mesh.point_data), (names, set(mesh.point_data))
-    for name in names:
-        np.testing.assert_array_equal(vtk_to_numpy(data.GetArray(name)).reshape(mesh.point_data[name].shape),
-                                      mesh.point_data[name])
+        points, arrays = _read_vtp(path)
+        np.testing.assert_array_equal(points, positions[f])  # binary float64: exact
+        np.testing.assert_array_equal(arrays["displacement"], u[f])
+        np.testing.assert_array_equal(arrays["rotation"], theta[f])
+        np.testing.assert_array_equal(arrays["contacts"], _contacts(p))
+        np.testing.assert_array_equal(arrays["shapetype"], np.where(p["diameters"] > p["diameters"].mean(), 2, 1))
+        np.testing.assert_array_equal(arrays["radius"], p["diameters"] / 2)
+        assert arrays["contacts"].dtype == np.int64 and arrays["share"].dtype == np.float64
+        with open(path, "rb") as raw:  # what OVITO's VTP reader takes: inline binary, uncompressed, no FieldData
+            text = raw.read()
+        assert text.startswith(b'<?xml version="1.0"?>\n<VTKFile type="PolyData"'), text[:80]
+        assert b"compressor" not in text and b'format="appended"' not in text and b"FieldData" not in text
 
 
 def test_lammps_dump_read_back_by_ase_and_by_lammps(mode_file, tmp_path, lammps_present):
@@ -144,8 +140,12 @@ def test_lammps_dump_read_back_by_ase_and_by_lammps(mode_file, tmp_path, lammps_
     table = np.loadtxt(lines[start + 1:start + 65])
     column = {name: table[:, i] for i, name in enumerate(names)}
     np.testing.assert_array_equal(column["id"], np.arange(1, 65))
-    np.testing.assert_array_equal(column["contacts"], _contacts(p))
-    np.testing.assert_allclose(column["rotation_z"], theta[3][:, 2], rtol=0, atol=1e-16)
+    np.testing.assert_array_equal(column["coordination"], _contacts(p))  # OVITO's name
+    np.testing.assert_allclose(np.column_stack([column[f"displacement{a}"] for a in "xyz"]), u[3], rtol=0, atol=1e-16)
+    # the rotation as the unit quaternion of theta (2D: about z), the way OVITO's Rotation holds one
+    np.testing.assert_array_equal(np.column_stack([column[f"rotation{a}"] for a in "xy"]), 0.0)
+    np.testing.assert_allclose(column["rotationz"], np.sin(theta[3][:, 2] / 2), rtol=0, atol=1e-15)  # a few ulp
+    np.testing.assert_allclose(column["rotationw"], np.cos(theta[3][:, 2] / 2), rtol=0, atol=1e-15)
     lmp = lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
     try:  # LAMMPS reads the dump's box and every atom of its step 2 (a 2D box: x and y)
         lmp.commands_string(f"units lj\natom_style sphere\ndimension 2\nregion b block 0 1 0 1 -0.5 0.5\n"
@@ -172,7 +172,9 @@ def test_packing_alone_and_a_mode_without_rotations(mode_file, tmp_path):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"fmt": "pdb"}, "export --format pdb: must be one of extxyz, vtk, lammps-dump"),
+    ({"fmt": "pdb"}, "export --format pdb: must be one of extxyz, vtp, lammps-dump"),
+    ({"fmt": "vtk"}, "legacy .vtk, which OVITO cannot read, became vtp"),
+    ({"fmt": "vtp"}, "export --output .*x.xyz: a vtp export's name ends in .vtp"),
     ({"mode": 0}, "has modes at rho = 0, 0.5: choose one with --rho"),
     ({"mode": 2, "rho": 0.5}, "export --mode 2: packing 0 at rho = 0.5 has modes 0 to 1"),
     ({"mode": 0, "rho": 0.7}, "export --rho 0.7: results file"),
@@ -189,14 +191,14 @@ def test_a_file_without_modes_is_refused_for_a_mode(tmp_path):
     out = tmp_path / "plain.h5"
     pipeline.run(scene_of(out, cache="off", packing={"n": 64, "phi": 0.9}, spectrum={}), COMM, [])
     with pytest.raises(InputError, match="no modes kept for packing 0"):
-        export.export(str(out), "vtk", str(tmp_path / "x.vtk"), mode=0)
+        export.export(str(out), "vtp", str(tmp_path / "x.vtp"), mode=0)
 
 
 def test_command_line_export_imports_neither_petsc_nor_mpi(mode_file, tmp_path):
-    proc = run_cli(["export", mode_file, "--format", "vtk", "--output", str(tmp_path / "c.vtk"), "--mode", "0",
+    proc = run_cli(["export", mode_file, "--format", "vtp", "--output", str(tmp_path / "c.vtp"), "--mode", "0",
                     "--rho", "0.5", "--frames", "2"])
     assert proc.returncode == 0, proc.stderr
-    assert "c_0001.vtk" in proc.stdout
+    assert "c_0001.vtp" in proc.stdout
     code = ("import sys; from solver.io import export; "
             f"export.export({mode_file!r}, 'extxyz', {str(tmp_path / 'd.xyz')!r}, rho=0.5, mode=0); "
             "loaded = [m for m in ('petsc4py', 'slepc4py', 'mpi4py') if m in sys.modules]; "
@@ -228,3 +230,17 @@ def test_one_frame_is_the_largest_displacement(mode_file, tmp_path):
     r = np.zeros((64, 3))
     r[:, :2] = p["positions"]
     np.testing.assert_allclose(atoms.positions - r, atoms.arrays["displacement"], rtol=0, atol=2e-8)
+
+
+def test_the_dumps_quaternion_turns_vectors_as_its_rotation_vector_does():
+    """3D rotation vectors (and theta = 0) against Rodrigues' formula: q v q* = R(theta) v."""
+    theta = np.vstack([np.zeros(3), np.random.default_rng(3).normal(size=(20, 3))])
+    q = export._quaternion(theta)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=1e-15, atol=0)
+    v = np.random.default_rng(4).normal(size=(21, 3))
+    turned = v + 2 * q[:, 3:] * np.cross(q[:, :3], v) + 2 * np.cross(q[:, :3], np.cross(q[:, :3], v))
+    angle = np.linalg.norm(theta, axis=1)[:, None]
+    k = np.divide(theta, angle, out=np.zeros_like(theta), where=angle > 0)
+    along = k * (k * v).sum(axis=1)[:, None]
+    rodrigues = v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + along * (1 - np.cos(angle))
+    np.testing.assert_allclose(turned, rodrigues, rtol=0, atol=1e-14)
