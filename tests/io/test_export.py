@@ -1,9 +1,14 @@
 """``rotsound export``: every format read back by its own library (ASE for extended XYZ and the
 LAMMPS dump, VTK for VTP) and the dump by LAMMPS itself; the fields against the results file
 and an independent contact count; the animation's frames (frame 0 the largest displacement); bad
-requests refused; no PETSc or MPI imported on the way.  Serial: export is a one-process tool."""
+requests refused; no PETSc or MPI imported on the way.  Then OVITO itself (``ovito_check.py`` in
+the venv ``scripts/setup.sh`` makes for it): every format's particle count, Radius, a Particle
+Type of the two sizes, displacement and rotation as vector properties, and a rendered picture in
+which each particle has its type's colour.  Serial: export is a one-process tool."""
 
+import json
 import math
+import os
 import subprocess
 import sys
 
@@ -230,6 +235,97 @@ def test_one_frame_is_the_largest_displacement(mode_file, tmp_path):
     r = np.zeros((64, 3))
     r[:, :2] = p["positions"]
     np.testing.assert_allclose(atoms.positions - r, atoms.arrays["displacement"], rtol=0, atol=2e-8)
+
+
+OVITO_PYTHON = REPO / ".venv-ovito" / "bin" / "python"
+FORMAT_FILES = {"extxyz": "m.xyz", "vtp": "m_*.vtp", "lammps-dump": "m.dump"}
+
+
+@pytest.fixture(scope="module")
+def ovito(mode_file, tmp_path_factory):
+    """({format: what OVITO reads in it (ovito_check.py's report)}, the render's report, the picture
+    (H, W, 3)) for mode 1 at rho = 0.5 over 4 frames, amplitude 0.2, in every format; the picture
+    is the extxyz file's frame 0."""
+    if not os.access(OVITO_PYTHON, os.X_OK):
+        missing("OVITO's Python module", f"no {OVITO_PYTHON}: scripts/setup.sh makes that venv")
+    import matplotlib.image
+
+    folder = tmp_path_factory.mktemp("ovito")
+    for fmt in FORMAT_FILES:
+        export.export(mode_file, fmt, str(folder / FORMAT_FILES[fmt].replace("_*", "")), rho=0.5, mode=1, frames=4,
+                      amplitude=0.2)
+    files = [str(folder / name) for name in FORMAT_FILES.values()]
+    png = folder / "m.png"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # OVITO's venv sees nothing of ours
+    done = subprocess.run([str(OVITO_PYTHON), str(REPO / "tests" / "io" / "ovito_check.py"), "--render", str(png),
+                           *files], capture_output=True, text=True, timeout=180, env=env)
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    seen = {fmt: report["files"][path] for fmt, path in zip(FORMAT_FILES, files)}
+    return seen, report["render"], matplotlib.image.imread(png)[:, :, :3]
+
+
+@pytest.mark.parametrize("fmt", list(FORMAT_FILES))
+def test_ovito_reads_the_particles_radii_and_two_types(ovito, mode_file, fmt):
+    seen = ovito[0][fmt]
+    positions, _, _, _, p = _expected(mode_file)
+    props = seen["properties"]
+    assert (seen["count"], seen["frames"]) == (64, 4)
+    np.testing.assert_allclose(props["Position"]["values"], positions[0], rtol=0, atol=1e-7)  # %.8f in extxyz
+    np.testing.assert_allclose(props["Radius"]["values"], p["diameters"] / 2, rtol=1e-7, atol=0)  # float32 in OVITO
+    kind = props["Particle Type"]
+    ids, large = np.array(kind["values"]), p["diameters"] > p["diameters"].mean()
+    assert len(kind["types"]) == 2 and len(set(ids[large])) == 1 and len(set(ids[~large])) == 1, kind["types"]
+    assert ids[large][0] != ids[~large][0]
+    if fmt == "extxyz":  # named types
+        assert kind["types"][str(ids[large][0])][0] == "large" and kind["types"][str(ids[~large][0])][0] == "small"
+
+
+def test_ovito_reads_displacement_and_rotation_as_vectors(ovito, mode_file):
+    """Frame 0, the one OVITO shows first, is the largest displacement; the dump's vectors are
+    OVITO's standard Displacement and Rotation (a quaternion), its contacts the integer Coordination."""
+    seen = ovito[0]
+    _, u, theta, _, p = _expected(mode_file)
+    for fmt, atol in (("extxyz", 1e-7), ("vtp", 0.0)):  # extxyz: %.8f; vtp: binary float64
+        props = seen[fmt]["properties"]
+        for name, expected in (("displacement", u[0]), ("rotation", theta[0])):
+            assert len(props[name]["components"]) == 3, (fmt, name, props[name]["components"])
+            np.testing.assert_allclose(props[name]["values"], expected, rtol=0, atol=atol, err_msg=f"{fmt} {name}")
+        assert props["contacts"]["dtype"] == ("int32" if fmt == "extxyz" else "float64")  # OVITO's VTP reader
+    dump = seen["lammps-dump"]["properties"]
+    assert dump["Displacement"]["components"] == ["X", "Y", "Z"]
+    np.testing.assert_allclose(dump["Displacement"]["values"], u[0], rtol=0, atol=1e-16)
+    np.testing.assert_allclose(np.linalg.norm(dump["Displacement"]["values"], axis=1).max(), 0.2, rtol=1e-15, atol=0)
+    assert dump["Rotation"]["components"] == ["X", "Y", "Z", "W"]
+    half = theta[0][:, 2] / 2  # 2D: about z
+    quaternion = np.column_stack((0 * half, 0 * half, np.sin(half), np.cos(half)))
+    np.testing.assert_allclose(dump["Rotation"]["values"], quaternion, rtol=0, atol=1e-15)  # a few ulp of 1
+    assert dump["Coordination"]["dtype"] == "int32"
+    np.testing.assert_array_equal(dump["Coordination"]["values"], _contacts(p))
+
+
+def test_ovito_draws_each_particle_in_its_types_colour(ovito):
+    """OVITO's default renderer (Vulkan on the CPU), from the top, particles as flat discs: the
+    pixel at every particle's centre has the colour of its type, the two colours differ, and each
+    covers about the discs' area."""
+    seen, picture, image = ovito
+    props = seen["extxyz"]["properties"]
+    ids = np.array(props["Particle Type"]["values"])
+    colours = {int(k): np.array(v[1]) for k, v in props["Particle Type"]["types"].items()}
+    assert image.shape == (*picture["size"], 3)
+    assert np.abs(colours[1] - colours[2]).max() > 0.3, colours
+    centres = np.array(picture["centres"])
+    at = np.rint(centres).astype(int)
+    assert at.min() >= 0 and at.max() < min(picture["size"]), (centres.min(axis=0), centres.max(axis=0))
+    np.testing.assert_allclose(image[at[:, 1], at[:, 0]], [colours[i] for i in ids], rtol=0, atol=1 / 255)
+    positions, radii = np.array(props["Position"]["values"]), np.array(props["Radius"]["values"])
+    per_d0 = np.ptp(centres[:, 0]) / np.ptp(positions[:, 0])  # a parallel projection down z
+    for kind, colour in colours.items():
+        covered = (np.abs(image - colour).max(axis=2) <= 1 / 255).sum()
+        discs = np.pi * ((radii[ids == kind] * per_d0) ** 2).sum()
+        # measured 0.91 and 0.94: antialiased rims and the contacts' overlaps take the rest; one
+        # radius of 0.5 d0 for all (OVITO's default) would give 0.73 or 1.44
+        assert 0.8 * discs < covered < 1.02 * discs, (kind, covered, discs)
 
 
 def test_the_dumps_quaternion_turns_vectors_as_its_rotation_vector_does():
