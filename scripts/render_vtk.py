@@ -1,13 +1,14 @@
-"""Draw a file written by ``rotsound export --format vtk`` with VTK itself, the library ParaView is
+"""Draw a file written by ``rotsound export --format vtp`` with VTK itself, the library ParaView is
 built on, the way a viewer shows it: every particle a sphere of its ``radius``, coloured by a field,
 and a vector field as arrows.  This is the README's evidence that the exported fields open and mean
-what they say outside rotsound (OVITO is not packaged by Debian; ParaView's GUI needs a display).
+what they say outside rotsound (ParaView's GUI needs a display; OVITO's own reading and rendering
+of the exports is checked in tests/io/test_export.py).
 
 VTK renders through OpenGL and needs an X server: run under ``xvfb-run`` (Debian's ``xvfb``,
 installed by ``scripts/setup.sh``)::
 
-    rotsound export results/localisation.h5 --format vtk --rho 0 --mode 1 --frames 1 --output results/localisation_mode.vtk
-    xvfb-run -a .venv/bin/python scripts/render_vtk.py results/localisation_mode.vtk --color share \\
+    rotsound export results/localisation.h5 --format vtp --rho 0 --mode 1 --frames 1 --output results/localisation_mode.vtp
+    xvfb-run -a .venv/bin/python scripts/render_vtk.py results/localisation_mode.vtp --color share \\
         --arrows displacement --output docs/export_vtk_mode.png
 
 ``--color`` names a scalar point array, or a vector one with ``_x``, ``_y`` or ``_z`` appended for
@@ -29,17 +30,14 @@ from vtk.util import numpy_support
 COMPONENTS = {"_x": 0, "_y": 1, "_z": 2}
 
 
-def read(path: str) -> vtk.vtkDataSet:
-    """The data set of a legacy VTK file; SystemExit naming the file if VTK reads no points."""
-    reader = vtk.vtkDataSetReader()
+def read(path: str) -> vtk.vtkPolyData:
+    """The points of a VTK XML PolyData file (.vtp); SystemExit naming the file if VTK reads none."""
+    reader = vtk.vtkXMLPolyDataReader()
     reader.SetFileName(path)
-    reader.ReadAllScalarsOn()
-    reader.ReadAllVectorsOn()
-    reader.ReadAllFieldsOn()
     reader.Update()
     data = reader.GetOutput()
     if data is None or data.GetNumberOfPoints() == 0:
-        sys.exit(f"render_vtk: {path}: VTK's reader finds no points (not a `rotsound export --format vtk` file?)")
+        sys.exit(f"render_vtk: {path}: VTK's reader finds no points (not a `rotsound export --format vtp` file?)")
     return data
 
 
@@ -194,7 +192,7 @@ def pixels(scene: vtk.vtkRenderer, points: np.ndarray, size: int) -> np.ndarray:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("vtk", help="a file of `rotsound export --format vtk`")
+    parser.add_argument("vtp", help="a file of `rotsound export --format vtp`")
     parser.add_argument("--output", required=True, help="PNG to write")
     parser.add_argument("--color", default="rattler", help="point array for the colour (default rattler)")
     parser.add_argument("--arrows", help="vector point array drawn as arrows")
@@ -203,7 +201,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--size", type=int, default=1200, help="image side, pixels (default 1200)")
     parser.add_argument("--title", default="", help="text in the top-left corner")
     args = parser.parse_args(argv)
-    render(args.vtk, args.output, args.color, args.arrows, args.arrow_length, args.view, args.size, args.title)
+    render(args.vtp, args.output, args.color, args.arrows, args.arrow_length, args.view, args.size, args.title)
 
 
 if __name__ == "__main__":

@@ -3,16 +3,19 @@
 #   - Debian's PETSc/SLEPc stack (ABI-matched with Debian's numpy) and LAMMPS (packing.engine:
 #     lammps; its Python module finds the library only with liblammps-dev) via apt, only if absent;
 #   - .venv made from /usr/bin/python3 with --system-site-packages;
-#   - the project installed editable into .venv without touching numpy/petsc4py.
+#   - the project installed editable into .venv without touching numpy/petsc4py;
+#   - OVITO's Python module (PyPI only; it needs numpy >= 2, which must never reach .venv) in a venv
+#     of its own, .venv-ovito, without system site packages: the export tests read the exported
+#     files with OVITO's readers and render one with its Vulkan renderer (Mesa's lavapipe, no GPU).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PKGS=(python3-petsc4py python3-slepc4py python3-mpi4py python3-h5py-mpi python3-scipy
       python3-matplotlib python3-yaml python3-numba python3-pytest python3-pytest-timeout openmpi-bin
       python3-venv lammps python3-lammps liblammps-dev  # LAMMPS: packing.engine, its tests
-      python3-ase python3-meshio python3-vtk9  # `rotsound export`: extended XYZ (ASE), VTK (meshio;
-                                               # VTK's own reader, ParaView's, checks it in the tests)
-      xvfb xauth libgl1-mesa-dri)  # scripts/render_vtk.py: VTK draws an exported file without a display
+      python3-ase python3-vtk9  # `rotsound export`: extended XYZ (ASE), VTK XML PolyData (VTK)
+      xvfb xauth libgl1-mesa-dri  # scripts/render_vtk.py: VTK draws an exported file without a display
+      libvulkan1 mesa-vulkan-drivers)  # OVITO's renderer, Vulkan on the CPU (tests/io/ovito_check.py)
 
 bash scripts/apt_install.sh "${PKGS[@]}"
 
@@ -40,3 +43,11 @@ fi
   echo "rotsound setup: petsc4py/slepc4py do not import from .venv (looked in: $dirs)" >&2
   exit 1
 }
+
+# OVITO, pinned: the export tests rely on how its readers name and type the exported columns.
+ovito=3.17.2
+if [ "$(cat .venv-ovito/.rotsound-ovito 2>/dev/null)" != "$ovito" ]; then
+  [ -x .venv-ovito/bin/python ] || /usr/bin/python3 -m venv .venv-ovito
+  .venv-ovito/bin/python -m pip install -q --disable-pip-version-check --root-user-action=ignore "ovito==$ovito" >/dev/null
+  echo "$ovito" > .venv-ovito/.rotsound-ovito
+fi

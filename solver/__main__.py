@@ -107,14 +107,16 @@ def _parser() -> argparse.ArgumentParser:
     export = sub.add_parser("export", help="a packing of a results file, and optionally one of its kept modes "
                                            "(animated), as a file OVITO and ParaView open")
     export.add_argument("results", help="results .h5 file")
-    export.add_argument("--format", required=True, choices=None, metavar="{extxyz,vtk,lammps-dump}",
-                        help="extxyz (ASE), vtk (legacy VTK by meshio; one file per frame) or lammps-dump")
-    export.add_argument("--output", required=True, help="file to write")
+    export.add_argument("--format", required=True, choices=None, metavar="{extxyz,vtp,lammps-dump}",
+                        help="extxyz (ASE), vtp (VTK XML PolyData by VTK; one file per frame) or lammps-dump")
+    export.add_argument("--output", required=True,
+                        help="file to write (vtp: NAME.vtp; with several frames NAME_0000.vtp, NAME_0001.vtp, ...)")
     export.add_argument("--packing", type=int, default=0, help="configuration index (default 0)")
     export.add_argument("--rho", type=float, help="rho of the mode (needed when modes were kept at several rho)")
     export.add_argument("--mode", type=int, help="index of a kept mode of that packing and rho (see the file's "
                                                  "modes/ group); without it, the packing alone")
-    export.add_argument("--frames", type=int, default=12, help="phases of one period in the animation (default 12)")
+    export.add_argument("--frames", type=int, default=12, help="phases of one period in the animation, the first "
+                                                                  "the largest displacement (default 12)")
     export.add_argument("--amplitude", type=float, default=0.1,
                         help="largest displacement in the animation, d0 (default 0.1)")
     sub.add_parser("keys", help="print the scene key reference (Markdown)")

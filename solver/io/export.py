@@ -1,27 +1,45 @@
 """``rotsound export``: a packing of a results file, and optionally one of its kept modes, as
 files that OVITO and ParaView open.
 
-Formats (each by the library made for it, or the format's own conventions):
-  extxyz       extended XYZ by ASE (``ase.io.write``): one file, one frame per phase;
-  vtk          legacy VTK unstructured grid of vertices by meshio: one file per frame
-               (``<stem>_<frame>.vtk`` when there are several: a numbered series for ParaView);
+Formats, each by the library made for it (or the format's own conventions), each field under the
+name OVITO's reader of that format takes it for:
+  extxyz       extended XYZ by ASE (``ase.io.write``): one file, one frame per phase.  The first
+               column is ``type``, ``small`` or ``large`` (instead of ASE's species "X"): OVITO
+               reads a Particle Type of two named types, ASE a string array.
+  vtp          VTK XML PolyData of vertex cells by VTK's ``vtkXMLPolyDataWriter``: one file per
+               frame (``<stem>_<frame>.vtp`` when there are several, a series ParaView and OVITO
+               open as one).  The one VTK format both read as particles: OVITO 3.17 reads legacy
+               ``.vtk`` only as text meshes and has no ``.vtu`` reader (meshio's); hence the
+               format's name ``vtp``, like the other two the name of the file format, and
+               ``--format vtk`` is refused with that reason.  OVITO's reader takes neither
+               compressed nor appended data nor a FieldData block: arrays are inline base64,
+               uncompressed, and the mode's numbers stay out.  ``type`` is ``shapetype`` here
+               (Aspherix's name, read by OVITO as Particle Type; ``type`` would be a "Material Type").
   lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``,
-               ``ITEM: ATOMS id type x y z ...``), written here: no maintained writer exists outside
-               LAMMPS; one file, one timestep per frame.
+               ``ITEM: ATOMS id type x y z ...``), written here (no maintained writer exists outside
+               LAMMPS): one file, one timestep per frame.  OVITO's dump reader makes vectors and
+               integers only of the columns of its standard properties (it reads any other column
+               as a float scalar), so ``displacement`` is ``displacementx displacementy
+               displacementz`` (OVITO: Displacement), ``contacts`` is ``coordination``
+               (Coordination, an integer) and ``rotation`` is the unit quaternion of the rotation
+               vector theta, ``rotationx rotationy rotationz rotationw`` = (n sin(|theta|/2),
+               cos(|theta|/2)), n = theta / |theta| (OVITO: Rotation; it has no property for a
+               rotation vector); ``rattler`` is a float to OVITO.
 
 Per-particle fields: ``type`` (1 small, 2 large), ``radius`` and ``diameter`` (d0), ``rattler``
 (0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n| over them
 under the scene's ``model.law``, kn d0) and, for a stressed packing, ``force_tangential`` (the
-sum of the stored |f_t|); with a mode also ``displacement`` and
-``rotation`` (3-vectors: d0 and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share``
-(the particle's part of the mode's kinetic energy, sums to 1) and ``rotational_share`` (the part of
-that in its rotations; 0 where the share is 0).  2D packings get z = 0 and a box of height 1 in z.
-A mode is animated over ``frames`` phases of one period: frame f has positions r + a u sin(2 pi f /
-frames), a such that the largest displacement is ``amplitude`` d0 (one frame: the phase of the
-largest displacement, sin = 1); rotation vectors are scaled the same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
+sum of the stored |f_t|); with a mode also ``displacement`` and ``rotation`` (3-vectors: d0 and
+rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share`` (the particle's part of the mode's
+kinetic energy, sums to 1) and ``rotational_share`` (the part of that in its rotations; 0 where the
+share is 0).  2D packings get z = 0 and a box of height 1 in z.  A mode is animated over ``frames``
+phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that the largest
+displacement is ``amplitude`` d0, so that frame 0 (the only one when ``frames`` is 1) shows the
+largest displacement and ``frames`` frames make one whole period; rotation vectors are scaled the
+same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
 phi, go into the extxyz comment line (``Atoms.info``) and into :func:`describe` (the command prints
-it); VTK (meshio writes no field data to legacy files) and the dump carry the per-particle fields
-only, the dump's TIMESTEP being the frame index.
+it); the VTP files and the dump carry the per-particle fields only, the dump's TIMESTEP being the
+frame index.
 
 No PETSc, no MPI; not collective.  Units: d0, rad, 1/t0.
 """
@@ -37,7 +55,8 @@ from ..packing import mechanics
 from . import hdf5, results
 from .atomic import atomic_write
 
-FORMATS = ("extxyz", "vtk", "lammps-dump")
+FORMATS = ("extxyz", "vtp", "lammps-dump")
+TYPE_NAMES = ("small", "large")  # the names of types 1 and 2 in extxyz
 
 
 def particle_fields(packing, law: str) -> dict[str, np.ndarray]:
@@ -68,15 +87,16 @@ def mode_fields(shapes: results.ModeShapes, m: int) -> dict[str, np.ndarray]:
 
 
 def _frames(positions3: np.ndarray, fields: dict, frames: int, amplitude: float) -> list[tuple[np.ndarray, dict]]:
-    """[(positions (N, 3), fields)] per frame: the mode's displacement and rotation at phase
-    2 pi f / frames scaled to ``amplitude``; the packing alone (one frame) without a mode."""
+    """[(positions (N, 3), fields)] per frame: the mode's displacement and rotation times
+    cos(2 pi f / frames), scaled so that the largest displacement is ``amplitude`` (frame 0); the
+    packing alone (one frame) without a mode."""
     if "displacement" not in fields:
         return [(positions3, fields)]
     largest = np.linalg.norm(fields["displacement"], axis=1).max()
     scale = amplitude / largest if largest > 0 else 0.0
     out = []
     for f in range(frames):
-        phase = np.sin(2.0 * np.pi * f / frames) if frames > 1 else 1.0
+        phase = np.cos(2.0 * np.pi * f / frames)
         now = {**fields, "displacement": phase * scale * fields["displacement"],
                "rotation": phase * scale * fields["rotation"]}
         out.append((positions3 + now["displacement"], now))
@@ -91,39 +111,76 @@ def _extxyz(path: str, cell: np.ndarray, pbc, frames, info: dict) -> list[str]:
     for positions, fields in frames:
         a = ase.Atoms(["X"] * len(positions), positions=positions, cell=np.diag(cell), pbc=pbc, info=dict(info))
         for name, value in fields.items():
-            a.new_array(name, np.asarray(value))
+            a.new_array(name, np.array(TYPE_NAMES)[value - 1] if name == "type" else np.asarray(value))
         atoms.append(a)
+    # the type names as the first column, where ASE would put its species "X" and OVITO looks for types
+    columns = ["type", "positions", *[name for name in frames[0][1] if name != "type"]]
     with atomic_write(path) as partial:
-        ase.io.write(partial, atoms, format="extxyz")
+        ase.io.write(partial, atoms, format="extxyz", columns=columns)
     return [path]
 
 
-def _vtk(path: str, frames) -> list[str]:
-    import meshio
+def _vtp(path: str, frames) -> list[str]:
+    from vtkmodules.util import numpy_support
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
-    stem = path[:-4] if path.endswith(".vtk") else path
-    paths = [path] if len(frames) == 1 else [f"{stem}_{f:04d}.vtk" for f in range(len(frames))]
+    paths = [path] if len(frames) == 1 else [f"{path[:-4]}_{f:04d}.vtp" for f in range(len(frames))]
     for target, (positions, fields) in zip(paths, frames):
-        mesh = meshio.Mesh(positions, [("vertex", np.arange(len(positions))[:, None])],
-                           point_data={name: np.asarray(value, dtype=float) for name, value in fields.items()})
-        with atomic_write(target) as partial:  # legacy 4.2: read by VTK 9 and by older ParaView alike
-            meshio.vtk.write(partial, mesh, fmt_version="4.2", binary=True)
+        n = len(positions)
+        cloud = vtkPolyData()
+        points = vtkPoints()
+        points.SetData(numpy_support.numpy_to_vtk(np.ascontiguousarray(positions, dtype=np.float64), deep=True))
+        cloud.SetPoints(points)
+        vertices = vtkCellArray()  # one vertex cell per particle: OVITO detects particles by them
+        vertices.SetData(numpy_support.numpy_to_vtkIdTypeArray(np.arange(n + 1, dtype=np.int64), deep=True),
+                         numpy_support.numpy_to_vtkIdTypeArray(np.arange(n, dtype=np.int64), deep=True))
+        cloud.SetVerts(vertices)
+        for name, value in fields.items():
+            value = np.asarray(value)
+            kind = np.int64 if value.dtype.kind in "iub" else np.float64  # OVITO reads no Int8/UInt8 arrays
+            array = numpy_support.numpy_to_vtk(np.ascontiguousarray(value, dtype=kind), deep=True)
+            array.SetName("shapetype" if name == "type" else name)
+            cloud.GetPointData().AddArray(array)
+        writer = vtkXMLPolyDataWriter()
+        writer.SetInputData(cloud)
+        writer.SetDataModeToBinary()  # inline base64, uncompressed: what OVITO's reader takes
+        writer.SetCompressorTypeToNone()
+        with atomic_write(target) as partial:
+            writer.SetFileName(partial)
+            if writer.Write() != 1:
+                raise OSError(f"VTK's vtkXMLPolyDataWriter failed on {partial}")
     return paths
 
 
+def _quaternion(rotation: np.ndarray) -> np.ndarray:
+    """Unit quaternions (N, 4), (x, y, z, w), of rotation vectors (N, 3) (rad): (n sin(|theta|/2),
+    cos(|theta|/2)), n = theta / |theta|."""
+    angle = np.linalg.norm(rotation, axis=1)
+    # sin(|theta|/2) / |theta| = sinc(|theta| / 2 pi) / 2, finite at theta = 0
+    return np.column_stack((0.5 * np.sinc(angle / (2.0 * np.pi))[:, None] * rotation, np.cos(0.5 * angle)))
+
+
+_DUMP_NAMES = {"contacts": "coordination"}  # OVITO's integer Coordination
+
+
 def _dump_columns(fields: dict) -> tuple[list[str], list[str], np.ndarray]:
-    """LAMMPS dump column names (vectors as name_x, name_y, name_z), their printf formats (integers
-    as integers) and their values (N, C)."""
+    """LAMMPS dump column names, their printf formats (integers as integers) and their values
+    (N, C) of ``fields`` but type, named for OVITO's dump reader (see the module docstring):
+    vectors as name + x, y, z (w), the rotation as a quaternion, contacts as coordination."""
     names, formats, columns = [], [], []
     for name, value in fields.items():
-        value = np.asarray(value)
+        if name == "type":  # the dump's own second column
+            continue
+        value = _quaternion(value) if name == "rotation" else np.asarray(value)
         form = "%d" if value.dtype.kind in "iub" else "%.16e"
         if value.ndim == 2:
-            names += [f"{name}_{axis}" for axis in "xyz"]
+            names += [f"{name}{axis}" for axis in "xyzw"[:value.shape[1]]]
             columns += list(value.T)
-            formats += [form] * 3
+            formats += [form] * value.shape[1]
         else:
-            names.append(name)
+            names.append(_DUMP_NAMES.get(name, name))
             columns.append(value)
             formats.append(form)
     return names, formats, np.stack(columns, axis=1).astype(float)
@@ -135,7 +192,7 @@ def _lammps_dump(path: str, cell: np.ndarray, dim: int, frames) -> list[str]:
         lo[2] = -0.5 * cell[2]
     with atomic_write(path) as partial, open(partial, "w", encoding="ascii") as out:
         for step, (positions, fields) in enumerate(frames):
-            names, formats, values = _dump_columns({k: v for k, v in fields.items() if k != "type"})
+            names, formats, values = _dump_columns(fields)
             out.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n{len(positions)}\n"
                       "ITEM: BOX BOUNDS pp pp pp\n")
             for axis in range(3):
@@ -161,10 +218,15 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
     """Write configuration ``packing`` of results file ``path`` in ``fmt`` (``FORMATS``) to
     ``output``; with ``mode`` (an index among the modes kept for ``packing`` at ``rho``; rho may be
     omitted when one rho has modes) that mode too, over ``frames`` phases.  Returns the paths
-    written and :func:`describe`'s line.  InputError, naming the file or option, for an unknown format, a missing packing, rho
-    or mode, or a folder that cannot take the files."""
+    written and :func:`describe`'s line.  InputError, naming the file or option, for an unknown
+    format, a vtp ``output`` not ending in .vtp, a missing packing, rho or mode, or a folder that
+    cannot take the files."""
     if fmt not in FORMATS:
-        raise InputError(f"export --format {fmt}: must be one of {', '.join(FORMATS)}")
+        legacy = " (legacy .vtk, which OVITO cannot read, became vtp: VTK's XML PolyData)" if fmt == "vtk" else ""
+        raise InputError(f"export --format {fmt}: must be one of {', '.join(FORMATS)}{legacy}")
+    if fmt == "vtp" and not output.endswith(".vtp"):
+        raise InputError(f"export --output {output}: a vtp export's name ends in .vtp (ParaView picks its reader "
+                         f"by the extension)")
     if frames < 1 or not 0.0 < amplitude < 10.0:
         raise InputError(f"export: --frames must be >= 1 and --amplitude in (0, 10) d0 (got {frames}, {amplitude})")
     with results.open_results(path) as f:
@@ -204,8 +266,8 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
         os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
         if fmt == "extxyz":
             written = _extxyz(output, cell, [True] * dim + [False] * (3 - dim), steps, info)
-        elif fmt == "vtk":
-            written = _vtk(output, steps)
+        elif fmt == "vtp":
+            written = _vtp(output, steps)
         else:
             written = _lammps_dump(output, cell, dim, steps)
     except OSError as exc:

@@ -1,9 +1,14 @@
 """``rotsound export``: every format read back by its own library (ASE for extended XYZ and the
-LAMMPS dump, meshio for VTK) and the dump by LAMMPS itself; the fields against the results file
-and an independent contact count; the animation's frames; bad requests refused; no PETSc or MPI
-imported on the way.  Serial: export is a one-process tool."""
+LAMMPS dump, VTK for VTP) and the dump by LAMMPS itself; the fields against the results file
+and an independent contact count; the animation's frames (frame 0 the largest displacement); bad
+requests refused; no PETSc or MPI imported on the way.  Then OVITO itself (``ovito_check.py`` in
+the venv ``scripts/setup.sh`` makes for it): every format's particle count, Radius, a Particle
+Type of the two sizes, displacement and rotation as vector properties, and a rendered picture in
+which each particle has its type's colour.  Serial: export is a one-process tool."""
 
+import json
 import math
+import os
 import subprocess
 import sys
 
@@ -38,7 +43,7 @@ def _expected(path, m=1, rho=0.5, frames=4, amplitude=0.2):
     theta = np.zeros((64, 3))
     theta[:, 2] = group.rotation[m][:, 0]
     scale = amplitude / np.linalg.norm(u, axis=1).max()
-    phases = np.sin(2 * np.pi * np.arange(frames) / frames)[:, None, None] * scale
+    phases = np.cos(2 * np.pi * np.arange(frames) / frames)[:, None, None] * scale
     r = np.zeros((64, 3))
     r[:, :2] = p["positions"]
     return r + phases * u, phases * u, phases * theta, group, p
@@ -70,6 +75,11 @@ def test_extxyz_read_back_by_ase(mode_file, tmp_path):
         np.testing.assert_allclose(atoms.cell.lengths(), [*p["box"], 1.0], rtol=1e-12, atol=0)
         assert list(atoms.pbc) == [True, True, False]
     first = frames[0]
+    np.testing.assert_allclose(np.linalg.norm(first.arrays["displacement"], axis=1).max(), 0.2, rtol=1e-7, atol=0)
+    large = p["diameters"] > p["diameters"].mean()
+    np.testing.assert_array_equal(first.arrays["type"], np.where(large, "large", "small"))
+    with open(path) as text:  # the names in the first column, where OVITO reads types; no species "X"
+        assert text.read().splitlines()[1].split("Properties=")[1].startswith("type:S:1:pos:R:3:")
     count, force = _contacts(p, forces=True)
     np.testing.assert_array_equal(first.arrays["contacts"], count)
     np.testing.assert_allclose(first.arrays["force_normal"], force, rtol=0, atol=1e-8)  # 8 decimals in extxyz
@@ -82,48 +92,39 @@ def test_extxyz_read_back_by_ase(mode_file, tmp_path):
     assert f"omega = {group.omega[1]:.6g}/t0" in what, what
 
 
-def test_vtk_series_read_back_by_meshio(mode_file, tmp_path):
-    import meshio
+def _read_vtp(path):
+    """(points (N, 3), {name: point array}) of a .vtp file by VTK's own XML reader, the one ParaView
+    uses (Debian's python3-vtk9, which the export itself writes with)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
-    paths, _ = export.export(mode_file, "vtk", str(tmp_path / "m.vtk"), rho=0.5, mode=1, frames=4, amplitude=0.2)
-    assert [p.rsplit("/", 1)[1] for p in paths] == [f"m_{f:04d}.vtk" for f in range(4)]
+    reader = vtkXMLPolyDataReader()
+    reader.SetFileName(path)
+    reader.Update()
+    cloud = reader.GetOutput()
+    data = cloud.GetPointData()
+    arrays = {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i)) for i in range(data.GetNumberOfArrays())}
+    assert cloud.GetNumberOfVerts() == cloud.GetNumberOfPoints()  # one vertex cell per particle
+    return vtk_to_numpy(cloud.GetPoints().GetData()), arrays
+
+
+def test_vtp_series_read_back_by_vtk(mode_file, tmp_path):
+    paths, _ = export.export(mode_file, "vtp", str(tmp_path / "m.vtp"), rho=0.5, mode=1, frames=4, amplitude=0.2)
+    assert [p.rsplit("/", 1)[1] for p in paths] == [f"m_{f:04d}.vtp" for f in range(4)]
     positions, u, theta, group, p = _expected(mode_file)
     for f, path in enumerate(paths):
-        mesh = meshio.read(path)
-        np.testing.assert_allclose(mesh.points, positions[f], rtol=1e-15, atol=1e-15)  # binary: exact
-        np.testing.assert_allclose(mesh.point_data["rotation"], theta[f], rtol=1e-15, atol=1e-15)
-        np.testing.assert_array_equal(mesh.point_data["contacts"], _contacts(p))
-        assert mesh.cells[0].type == "vertex" and len(mesh.cells[0].data) == 64
-        with open(path, "rb") as raw:
-            assert raw.readline().startswith(b"# vtk DataFile Version 4.2")  # VTK < 9 and ParaView < 5.9 read it
-
-
-def test_vtk_read_by_vtk_itself(mode_file, tmp_path):
-    """VTK's own legacy reader (the library ParaView reads these files with; Debian's python3-vtk9)
-    finds every point and every field, equal to meshio's view of the same file."""
-    try:
-        import vtk
-        from vtk.util.numpy_support import vtk_to_numpy
-    except ImportError as exc:  # scripts/setup.sh installs it: a skip here, a failure in CI
-        missing("VTK's Python module (python3-vtk9)", exc)
-    import meshio
-
-    (path,), _ = export.export(mode_file, "vtk", str(tmp_path / "new" / "one.vtk"), rho=0.5, mode=1, frames=1)
-    reader = vtk.vtkUnstructuredGridReader()
-    reader.SetFileName(path)
-    reader.ReadAllScalarsOn()
-    reader.ReadAllVectorsOn()
-    reader.Update()
-    grid = reader.GetOutput()
-    mesh = meshio.read(path)
-    assert grid.GetNumberOfPoints() == 64 and grid.GetNumberOfCells() == 64
-    np.testing.assert_array_equal(vtk_to_numpy(grid.GetPoints().GetData()), mesh.points)
-    data = grid.GetPointData()
-    names = {data.GetArrayName(i) for i in range(data.GetNumberOfArrays())}
-    assert names == set(mesh.point_data), (names, set(mesh.point_data))
-    for name in names:
-        np.testing.assert_array_equal(vtk_to_numpy(data.GetArray(name)).reshape(mesh.point_data[name].shape),
-                                      mesh.point_data[name])
+        points, arrays = _read_vtp(path)
+        np.testing.assert_array_equal(points, positions[f])  # binary float64: exact
+        np.testing.assert_array_equal(arrays["displacement"], u[f])
+        np.testing.assert_array_equal(arrays["rotation"], theta[f])
+        np.testing.assert_array_equal(arrays["contacts"], _contacts(p))
+        np.testing.assert_array_equal(arrays["shapetype"], np.where(p["diameters"] > p["diameters"].mean(), 2, 1))
+        np.testing.assert_array_equal(arrays["radius"], p["diameters"] / 2)
+        assert arrays["contacts"].dtype == np.int64 and arrays["share"].dtype == np.float64
+        with open(path, "rb") as raw:  # what OVITO's VTP reader takes: inline binary, uncompressed, no FieldData
+            text = raw.read()
+        assert text.startswith(b'<?xml version="1.0"?>\n<VTKFile type="PolyData"'), text[:80]
+        assert b"compressor" not in text and b'format="appended"' not in text and b"FieldData" not in text
 
 
 def test_lammps_dump_read_back_by_ase_and_by_lammps(mode_file, tmp_path, lammps_present):
@@ -144,8 +145,12 @@ def test_lammps_dump_read_back_by_ase_and_by_lammps(mode_file, tmp_path, lammps_
     table = np.loadtxt(lines[start + 1:start + 65])
     column = {name: table[:, i] for i, name in enumerate(names)}
     np.testing.assert_array_equal(column["id"], np.arange(1, 65))
-    np.testing.assert_array_equal(column["contacts"], _contacts(p))
-    np.testing.assert_allclose(column["rotation_z"], theta[3][:, 2], rtol=0, atol=1e-16)
+    np.testing.assert_array_equal(column["coordination"], _contacts(p))  # OVITO's name
+    np.testing.assert_allclose(np.column_stack([column[f"displacement{a}"] for a in "xyz"]), u[3], rtol=0, atol=1e-16)
+    # the rotation as the unit quaternion of theta (2D: about z), the way OVITO's Rotation holds one
+    np.testing.assert_array_equal(np.column_stack([column[f"rotation{a}"] for a in "xy"]), 0.0)
+    np.testing.assert_allclose(column["rotationz"], np.sin(theta[3][:, 2] / 2), rtol=0, atol=1e-15)  # a few ulp
+    np.testing.assert_allclose(column["rotationw"], np.cos(theta[3][:, 2] / 2), rtol=0, atol=1e-15)
     lmp = lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
     try:  # LAMMPS reads the dump's box and every atom of its step 2 (a 2D box: x and y)
         lmp.commands_string(f"units lj\natom_style sphere\ndimension 2\nregion b block 0 1 0 1 -0.5 0.5\n"
@@ -172,7 +177,9 @@ def test_packing_alone_and_a_mode_without_rotations(mode_file, tmp_path):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"fmt": "pdb"}, "export --format pdb: must be one of extxyz, vtk, lammps-dump"),
+    ({"fmt": "pdb"}, "export --format pdb: must be one of extxyz, vtp, lammps-dump"),
+    ({"fmt": "vtk"}, "legacy .vtk, which OVITO cannot read, became vtp"),
+    ({"fmt": "vtp"}, "export --output .*x.xyz: a vtp export's name ends in .vtp"),
     ({"mode": 0}, "has modes at rho = 0, 0.5: choose one with --rho"),
     ({"mode": 2, "rho": 0.5}, "export --mode 2: packing 0 at rho = 0.5 has modes 0 to 1"),
     ({"mode": 0, "rho": 0.7}, "export --rho 0.7: results file"),
@@ -189,14 +196,14 @@ def test_a_file_without_modes_is_refused_for_a_mode(tmp_path):
     out = tmp_path / "plain.h5"
     pipeline.run(scene_of(out, cache="off", packing={"n": 64, "phi": 0.9}, spectrum={}), COMM, [])
     with pytest.raises(InputError, match="no modes kept for packing 0"):
-        export.export(str(out), "vtk", str(tmp_path / "x.vtk"), mode=0)
+        export.export(str(out), "vtp", str(tmp_path / "x.vtp"), mode=0)
 
 
 def test_command_line_export_imports_neither_petsc_nor_mpi(mode_file, tmp_path):
-    proc = run_cli(["export", mode_file, "--format", "vtk", "--output", str(tmp_path / "c.vtk"), "--mode", "0",
+    proc = run_cli(["export", mode_file, "--format", "vtp", "--output", str(tmp_path / "c.vtp"), "--mode", "0",
                     "--rho", "0.5", "--frames", "2"])
     assert proc.returncode == 0, proc.stderr
-    assert "c_0001.vtk" in proc.stdout
+    assert "c_0001.vtp" in proc.stdout
     code = ("import sys; from solver.io import export; "
             f"export.export({mode_file!r}, 'extxyz', {str(tmp_path / 'd.xyz')!r}, rho=0.5, mode=0); "
             "loaded = [m for m in ('petsc4py', 'slepc4py', 'mpi4py') if m in sys.modules]; "
@@ -228,3 +235,108 @@ def test_one_frame_is_the_largest_displacement(mode_file, tmp_path):
     r = np.zeros((64, 3))
     r[:, :2] = p["positions"]
     np.testing.assert_allclose(atoms.positions - r, atoms.arrays["displacement"], rtol=0, atol=2e-8)
+
+
+OVITO_PYTHON = REPO / ".venv-ovito" / "bin" / "python"
+FORMAT_FILES = {"extxyz": "m.xyz", "vtp": "m_*.vtp", "lammps-dump": "m.dump"}
+
+
+@pytest.fixture(scope="module")
+def ovito(mode_file, tmp_path_factory):
+    """({format: what OVITO reads in it (ovito_check.py's report)}, the render's report, the picture
+    (H, W, 3)) for mode 1 at rho = 0.5 over 4 frames, amplitude 0.2, in every format; the picture
+    is the extxyz file's frame 0."""
+    if not os.access(OVITO_PYTHON, os.X_OK):
+        missing("OVITO's Python module", f"no {OVITO_PYTHON}: scripts/setup.sh makes that venv")
+    import matplotlib.image
+
+    folder = tmp_path_factory.mktemp("ovito")
+    for fmt in FORMAT_FILES:
+        export.export(mode_file, fmt, str(folder / FORMAT_FILES[fmt].replace("_*", "")), rho=0.5, mode=1, frames=4,
+                      amplitude=0.2)
+    files = [str(folder / name) for name in FORMAT_FILES.values()]
+    png = folder / "m.png"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # OVITO's venv sees nothing of ours
+    done = subprocess.run([str(OVITO_PYTHON), str(REPO / "tests" / "io" / "ovito_check.py"), "--render", str(png),
+                           *files], capture_output=True, text=True, timeout=180, env=env)
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    seen = {fmt: report["files"][path] for fmt, path in zip(FORMAT_FILES, files)}
+    return seen, report["render"], matplotlib.image.imread(png)[:, :, :3]
+
+
+@pytest.mark.parametrize("fmt", list(FORMAT_FILES))
+def test_ovito_reads_the_particles_radii_and_two_types(ovito, mode_file, fmt):
+    seen = ovito[0][fmt]
+    positions, _, _, _, p = _expected(mode_file)
+    props = seen["properties"]
+    assert (seen["count"], seen["frames"]) == (64, 4)
+    np.testing.assert_allclose(props["Position"]["values"], positions[0], rtol=0, atol=1e-7)  # %.8f in extxyz
+    np.testing.assert_allclose(props["Radius"]["values"], p["diameters"] / 2, rtol=1e-7, atol=0)  # float32 in OVITO
+    kind = props["Particle Type"]
+    ids, large = np.array(kind["values"]), p["diameters"] > p["diameters"].mean()
+    assert len(kind["types"]) == 2 and len(set(ids[large])) == 1 and len(set(ids[~large])) == 1, kind["types"]
+    assert ids[large][0] != ids[~large][0]
+    if fmt == "extxyz":  # named types
+        assert kind["types"][str(ids[large][0])][0] == "large" and kind["types"][str(ids[~large][0])][0] == "small"
+
+
+def test_ovito_reads_displacement_and_rotation_as_vectors(ovito, mode_file):
+    """Frame 0, the one OVITO shows first, is the largest displacement; the dump's vectors are
+    OVITO's standard Displacement and Rotation (a quaternion), its contacts the integer Coordination."""
+    seen = ovito[0]
+    _, u, theta, _, p = _expected(mode_file)
+    for fmt, atol in (("extxyz", 1e-7), ("vtp", 0.0)):  # extxyz: %.8f; vtp: binary float64
+        props = seen[fmt]["properties"]
+        for name, expected in (("displacement", u[0]), ("rotation", theta[0])):
+            assert len(props[name]["components"]) == 3, (fmt, name, props[name]["components"])
+            np.testing.assert_allclose(props[name]["values"], expected, rtol=0, atol=atol, err_msg=f"{fmt} {name}")
+        assert props["contacts"]["dtype"] == ("int32" if fmt == "extxyz" else "float64")  # OVITO's VTP reader
+    dump = seen["lammps-dump"]["properties"]
+    assert dump["Displacement"]["components"] == ["X", "Y", "Z"]
+    np.testing.assert_allclose(dump["Displacement"]["values"], u[0], rtol=0, atol=1e-16)
+    np.testing.assert_allclose(np.linalg.norm(dump["Displacement"]["values"], axis=1).max(), 0.2, rtol=1e-15, atol=0)
+    assert dump["Rotation"]["components"] == ["X", "Y", "Z", "W"]
+    half = theta[0][:, 2] / 2  # 2D: about z
+    quaternion = np.column_stack((0 * half, 0 * half, np.sin(half), np.cos(half)))
+    np.testing.assert_allclose(dump["Rotation"]["values"], quaternion, rtol=0, atol=1e-15)  # a few ulp of 1
+    assert dump["Coordination"]["dtype"] == "int32"
+    np.testing.assert_array_equal(dump["Coordination"]["values"], _contacts(p))
+
+
+def test_ovito_draws_each_particle_in_its_types_colour(ovito):
+    """OVITO's default renderer (Vulkan on the CPU), from the top, particles as flat discs: the
+    pixel at every particle's centre has the colour of its type, the two colours differ, and each
+    covers about the discs' area."""
+    seen, picture, image = ovito
+    props = seen["extxyz"]["properties"]
+    ids = np.array(props["Particle Type"]["values"])
+    colours = {int(k): np.array(v[1]) for k, v in props["Particle Type"]["types"].items()}
+    assert image.shape == (*picture["size"], 3)
+    assert np.abs(colours[1] - colours[2]).max() > 0.3, colours
+    centres = np.array(picture["centres"])
+    at = np.rint(centres).astype(int)
+    assert at.min() >= 0 and at.max() < min(picture["size"]), (centres.min(axis=0), centres.max(axis=0))
+    np.testing.assert_allclose(image[at[:, 1], at[:, 0]], [colours[i] for i in ids], rtol=0, atol=1 / 255)
+    positions, radii = np.array(props["Position"]["values"]), np.array(props["Radius"]["values"])
+    per_d0 = np.ptp(centres[:, 0]) / np.ptp(positions[:, 0])  # a parallel projection down z
+    for kind, colour in colours.items():
+        covered = (np.abs(image - colour).max(axis=2) <= 1 / 255).sum()
+        discs = np.pi * ((radii[ids == kind] * per_d0) ** 2).sum()
+        # measured 0.91 and 0.94: antialiased rims and the contacts' overlaps take the rest; one
+        # radius of 0.5 d0 for all (OVITO's default) would give 0.73 or 1.44
+        assert 0.8 * discs < covered < 1.02 * discs, (kind, covered, discs)
+
+
+def test_the_dumps_quaternion_turns_vectors_as_its_rotation_vector_does():
+    """3D rotation vectors (and theta = 0) against Rodrigues' formula: q v q* = R(theta) v."""
+    theta = np.vstack([np.zeros(3), np.random.default_rng(3).normal(size=(20, 3))])
+    q = export._quaternion(theta)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=1e-15, atol=0)
+    v = np.random.default_rng(4).normal(size=(21, 3))
+    turned = v + 2 * q[:, 3:] * np.cross(q[:, :3], v) + 2 * np.cross(q[:, :3], np.cross(q[:, :3], v))
+    angle = np.linalg.norm(theta, axis=1)[:, None]
+    k = np.divide(theta, angle, out=np.zeros_like(theta), where=angle > 0)
+    along = k * (k * v).sum(axis=1)[:, None]
+    rodrigues = v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + along * (1 - np.cos(angle))
+    np.testing.assert_allclose(turned, rodrigues, rtol=0, atol=1e-14)

@@ -1,4 +1,4 @@
-"""scripts/render_vtk.py: an exported VTK file drawn by VTK itself (under Xvfb) shows the mode where
+"""scripts/render_vtk.py: an exported VTP file drawn by VTK itself (under Xvfb) shows the mode where
 the file says it is: the reddest pixel of a picture coloured by the energy share lies on the
 particle with the largest share, arrows are drawn, and a field that is zero everywhere is refused.
 Serial: one process draws."""
@@ -22,7 +22,7 @@ DRAW = """
 import sys, numpy as np
 sys.path.insert(0, {scripts!r})
 import render_vtk
-np.save({where!r}, render_vtk.render({vtk!r}, {png!r}, "share", "displacement", 2.0, "z", {size}, "test"))
+np.save({where!r}, render_vtk.render({vtp!r}, {png!r}, "share", "displacement", 2.0, "z", {size}, "test"))
 """
 
 
@@ -30,26 +30,29 @@ np.save({where!r}, render_vtk.render({vtk!r}, {png!r}, "share", "displacement", 
 def drawn(tmp_path_factory):
     """(the picture (H, W, 3), particle centres in it (N, 2) pixels, the same in the file (N, 3) d0,
     the mode's shares (N,), radii (N,) d0, the exported file)."""
-    import meshio
-
     if shutil.which("xvfb-run") is None:
         missing("xvfb-run (Debian's xvfb)", "not on PATH")
     try:
-        import vtk  # noqa: F401
+        import vtk
+        from vtk.util.numpy_support import vtk_to_numpy
     except ImportError as exc:
         missing("VTK's Python module (python3-vtk9)", exc)
     folder = tmp_path_factory.mktemp("render")
     out = folder / "modes.h5"
     pipeline.run(scene_of(out, cache="off", seed=7, packing={"n": 64, "phi": 0.9}, model={"rho": [0.5]},
                           modes={"omega": [0.3], "count": 1}), COMM, [])
-    (path,), _ = export.export(str(out), "vtk", str(folder / "mode.vtk"), rho=0.5, mode=0, frames=1)
+    (path,), _ = export.export(str(out), "vtp", str(folder / "mode.vtp"), rho=0.5, mode=0, frames=1)
     png, where = folder / "mode.png", folder / "where.npy"
-    code = DRAW.format(scripts=str(REPO / "scripts"), where=str(where), vtk=path, png=str(png), size=SIZE)
+    code = DRAW.format(scripts=str(REPO / "scripts"), where=str(where), vtp=path, png=str(png), size=SIZE)
     subprocess.run(["xvfb-run", "-a", sys.executable, "-c", code], check=True, timeout=120)
     with results.open_results(str(out)) as f:
         group = results.mode_shapes(f)[0]
         p = results.packing(f, 0)
-    return (matplotlib.image.imread(png)[:, :, :3], np.load(where), meshio.read(path).points, group.share[0].sum(axis=1),
+    reader = vtk.vtkXMLPolyDataReader()
+    reader.SetFileName(path)
+    reader.Update()
+    points = vtk_to_numpy(reader.GetOutput().GetPoints().GetData())
+    return (matplotlib.image.imread(png)[:, :, :3], np.load(where), points, group.share[0].sum(axis=1),
             0.5 * p["diameters"], path)
 
 
