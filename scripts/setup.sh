@@ -48,6 +48,8 @@ fi
 ovito=3.17.2
 if [ "$(cat .venv-ovito/.rotsound-ovito 2>/dev/null)" != "$ovito" ]; then
   [ -x .venv-ovito/bin/python ] || /usr/bin/python3 -m venv .venv-ovito
-  .venv-ovito/bin/python -m pip install -q --disable-pip-version-check --root-user-action=ignore "ovito==$ovito" >/dev/null
+  # quiet unless it fails (pip warns on stderr, e.g. of a configured index folder that is absent)
+  log=$(.venv-ovito/bin/python -m pip install -q --disable-pip-version-check --root-user-action=ignore \
+          "ovito==$ovito" 2>&1) || { echo "$log" >&2; echo "rotsound setup: pip install ovito==$ovito failed" >&2; exit 1; }
   echo "$ovito" > .venv-ovito/.rotsound-ovito
 fi
