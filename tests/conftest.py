@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import functools
 import gc
+import json
 import os
 import pathlib
 import subprocess
@@ -188,6 +189,23 @@ def missing(what: str, why) -> None:
     if os.environ.get("CI") == "true":
         pytest.fail(f"{what} is missing in CI, where scripts/setup.sh installs it ({why})")
     pytest.skip(f"{what} is not installed ({why})")
+
+
+OVITO_PYTHON = REPO / ".venv-ovito" / "bin" / "python"
+
+
+def ovito_read(files: list[str], render: str | None = None) -> dict:
+    """What OVITO itself reads in ``files`` (and, with ``render``, draws into that PNG):
+    tests/io/ovito_check.py's report, run by OVITO's own Python in the venv scripts/setup.sh makes
+    for it.  Skips (fails in CI) where that venv is missing."""
+    if not os.access(OVITO_PYTHON, os.X_OK):
+        missing("OVITO's Python module", f"no {OVITO_PYTHON}: scripts/setup.sh makes that venv")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # OVITO's venv sees nothing of ours
+    words = ["--render", str(render)] if render else []
+    done = subprocess.run([str(OVITO_PYTHON), str(REPO / "tests" / "io" / "ovito_check.py"), *words, *map(str, files)],
+                          capture_output=True, text=True, timeout=180, env=env)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
 
 
 def scene_text(output, **sections) -> str:

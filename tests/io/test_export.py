@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import COMM, REPO, all_pairs, missing, run_cli, scene_of
+from conftest import COMM, REPO, all_pairs, ovito_read, run_cli, scene_of
 
 from solver import pipeline
 from solver.errors import InputError
@@ -237,7 +237,6 @@ def test_one_frame_is_the_largest_displacement(mode_file, tmp_path):
     np.testing.assert_allclose(atoms.positions - r, atoms.arrays["displacement"], rtol=0, atol=2e-8)
 
 
-OVITO_PYTHON = REPO / ".venv-ovito" / "bin" / "python"
 FORMAT_FILES = {"extxyz": "m.xyz", "vtp": "m_*.vtp", "lammps-dump": "m.dump"}
 
 
@@ -246,8 +245,6 @@ def ovito(mode_file, tmp_path_factory):
     """({format: what OVITO reads in it (ovito_check.py's report)}, the render's report, the picture
     (H, W, 3)) for mode 1 at rho = 0.5 over 4 frames, amplitude 0.2, in every format; the picture
     is the extxyz file's frame 0."""
-    if not os.access(OVITO_PYTHON, os.X_OK):
-        missing("OVITO's Python module", f"no {OVITO_PYTHON}: scripts/setup.sh makes that venv")
     import matplotlib.image
 
     folder = tmp_path_factory.mktemp("ovito")
@@ -256,11 +253,7 @@ def ovito(mode_file, tmp_path_factory):
                       amplitude=0.2)
     files = [str(folder / name) for name in FORMAT_FILES.values()]
     png = folder / "m.png"
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # OVITO's venv sees nothing of ours
-    done = subprocess.run([str(OVITO_PYTHON), str(REPO / "tests" / "io" / "ovito_check.py"), "--render", str(png),
-                           *files], capture_output=True, text=True, timeout=180, env=env)
-    assert done.returncode == 0, done.stderr
-    report = json.loads(done.stdout)
+    report = ovito_read(files, render=png)
     seen = {fmt: report["files"][path] for fmt, path in zip(FORMAT_FILES, files)}
     return seen, report["render"], matplotlib.image.imread(png)[:, :, :3]
 

@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 from ase import io as ase_io
-from conftest import COMM, REPO, assert_close, scene_of
+from conftest import COMM, REPO, assert_close, ovito_read, scene_of
 
 from solver import pipeline, plots, report
 from solver.io import export, hdf5, results
@@ -157,3 +157,21 @@ def test_notebook_api_reads_every_kind(written, kind):
     proc = subprocess.run([sys.executable, str(REPO / "docs" / "notebook_example.py"), str(written[kind])],
                           cwd=REPO, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and proc.stdout.startswith("holds: "), proc.stderr
+
+
+def test_ovito_opens_every_kind(written, tmp_path):
+    """OVITO itself (its Python module) opens the packing of every kind in every format: every
+    particle, its radius, the two sizes as two particle types."""
+    suffix = {"extxyz": ".xyz", "vtp": ".vtp", "lammps-dump": ".dump"}
+    files = {(kind, fmt): export.export(str(path), fmt, str(tmp_path / f"{kind}{suffix[fmt]}"))[0][0]
+             for kind, path in written.items() for fmt in export.FORMATS}
+    seen = ovito_read(list(files.values()))["files"]
+    for (kind, fmt), path in files.items():
+        with results.open_results(str(written[kind])) as f:
+            diameters = results.packing(f, 0)["diameters"]
+        got = seen[path]
+        assert got["count"] == diameters.size, (kind, fmt, got["count"])
+        # rtol: OVITO holds the radius in float32
+        assert_close(np.array(got["properties"]["Radius"]["values"]), diameters / 2, rtol=1e-6,
+                     what=f"{kind} {fmt} radius")
+        assert len(got["properties"]["Particle Type"]["types"]) == 2, (kind, fmt)
