@@ -6,7 +6,6 @@ the venv ``scripts/setup.sh`` makes for it): every format's particle count, Radi
 Type of the two sizes, displacement and rotation as vector properties, and a rendered picture in
 which each particle has its type's colour.  Serial: export is a one-process tool."""
 
-import json
 import math
 import os
 import subprocess
