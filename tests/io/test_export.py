@@ -7,7 +7,6 @@ Type of the two sizes, displacement and rotation as vector properties, and a ren
 which each particle has its type's colour.  Serial: export is a one-process tool."""
 
 import math
-import os
 import subprocess
 import sys
 
