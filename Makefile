@@ -11,7 +11,7 @@ endif
 MPIRUN  := mpirun -n $(RANKS)
 PYTEST  := -m pytest --color=no -q
 
-.PHONY: setup demo test test-serial test-mpi bench dem-data clean
+.PHONY: setup demo test test-serial test-mpi docs bench dem-data clean
 setup:
 	@bash scripts/setup.sh
 
@@ -27,6 +27,11 @@ test-serial:
 
 test-mpi:
 	timeout 1200 $(MPIRUN) $(PY) $(PYTEST) -m "not serial_only" tests
+
+# The manual (Sphinx + MyST): HTML in docs/_build/html (open index.html); warnings are errors;
+# silent when it builds.
+docs: setup
+	@$(PY) -m sphinx -W --keep-going -q -b html docs docs/_build/html
 
 bench: setup
 	$(PY) scripts/bench_all.py
@@ -50,4 +55,4 @@ dem-data:
 	$(DEM) yade -n -x yade_3d_friction.py uniform > /dev/null
 
 clean:
-	rm -rf results .venv *.egg-info
+	rm -rf results .venv .venv-ovito *.egg-info docs/_build

@@ -207,9 +207,7 @@ def main(argv: list[str] | None = None) -> int:
         if petsc_words and args.command != "run":
             raise InputError(f"command line: PETSc options {petsc_words} only apply to 'run'")
         if args.command == "keys":
-            print("| key | default | meaning |\n|---|---|---|")
-            for key, default, doc in schema.reference():
-                print(f"| `{key}` | `{default}` | {doc.replace('|', chr(92) + '|')} |")  # a Markdown cell
+            print(schema.reference_markdown())
             return 0
         if args.command == "plot":
             _plot(args)

@@ -739,7 +739,7 @@ def check_damped(scene: Scene) -> None:
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:
-    """(key, default, description) rows of every scene key, for the README."""
+    """(key, default, description) rows of every scene key."""
     rows = []
     for f in dataclasses.fields(cls):
         kind = f.metadata["kind"]
@@ -751,3 +751,10 @@ def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         rows.append((f"{where}{f.name}", json.dumps(default), f.metadata["doc"]))
     return rows
+
+
+def reference_markdown() -> str:
+    """The scene key reference as a Markdown table (``rotsound keys``, and the manual's scenes page)."""
+    lines = ["| key | default | meaning |", "|---|---|---|"]
+    lines += [f"| `{key}` | `{default}` | {doc.replace('|', chr(92) + '|')} |" for key, default, doc in reference()]
+    return "\n".join(lines)
