@@ -90,8 +90,9 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
     if stored is not None:
         _check_box(box, diameters, where, name)
         _check_distinct(positions, diameters, box, where)
-        stored = stressed.build(*stored, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
-                                stored[2], f"packing file {where}:/tangential")
+        pairs, force, friction = stored
+        stored = stressed.build(pairs, force, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
+                                friction, f"packing file {where}:/tangential")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
                    check_equilibrium, law, stored)
 
