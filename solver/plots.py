@@ -151,14 +151,15 @@ def plot_vafs(waves: dict, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> l
 
 
 def _spectrum(w):
-    """omega (W,) and S (K, W) of one (rho, mode) (results.Waves), runs pooled."""
-    _, omega, power = correlations.pooled(w.z, w.t[1] - w.t[0])
+    """omega (W,) and S (K, W) of one (rho, mode) (results.Waves), runs pooled, each record
+    tapered so that its cut at t_end does not stripe the map (``correlations`` module)."""
+    _, omega, power = correlations.pooled(w.z, w.t[1] - w.t[0], taper=True)
     return omega, power
 
 
 def plot_spectra(waves: dict, stem: str, rhos=None) -> list[str]:
-    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT, and R in 3D) for each rho of ``waves`` (or each in ``rhos``);
-    one file ``<stem>_rho<rho>`` per rho."""
+    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT, and R in 3D) for each rho of ``waves`` (or each in ``rhos``),
+    of the tapered records (:func:`_spectrum`); one file ``<stem>_rho<rho>`` per rho."""
     written: list[str] = []
     for rho in sorted({r for r, _ in waves if rhos is None or r in rhos}):
         modes_here = [m for m in MODES if (rho, m) in waves]
@@ -170,7 +171,7 @@ def plot_spectra(waves: dict, stem: str, rhos=None) -> list[str]:
             keep = omega <= top
             mesh = ax.pcolormesh(w.k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest",
                                  cmap="Greys", vmin=np.log10(power.max()) - 6)
-            fig.colorbar(mesh, ax=ax, label="log10 S")
+            fig.colorbar(mesh, ax=ax, label="log10 S (record tapered, cos^2)")
             ax.set(xlabel="k d0", ylabel="omega t0", title=f"{mode}, rho = {rho:g}")
         fig.tight_layout()
         written += _save(fig, f"{stem}_rho{rho:g}")
@@ -271,7 +272,7 @@ def plot_transition(fits: dict, lattice_fit: dict | None, waves: dict, stem: str
     keep = omega <= top
     mesh = ax.pcolormesh(w.k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest", cmap="Greys",
                          vmin=np.log10(power.max()) - 5)
-    fig.colorbar(mesh, ax=ax, label="log10 S_r")
+    fig.colorbar(mesh, ax=ax, label="log10 S_r (record tapered, cos^2)")
     k_c = float(fit_rt["k_c"])
     if np.isfinite(k_c):
         ax.annotate("k_c", xy=(k_c, 0.02 * top), xytext=(k_c, 0.25 * top), color="tab:red",

@@ -121,6 +121,30 @@ def test_vaf_and_spectrum_of_damped_cosine():
     assert abs(width - 2 * gamma) < 0.2 * 2 * gamma  # Lorentzian full width 2 gamma
 
 
+def test_tapered_spectrum_of_a_tone_has_no_side_band_zeros():
+    """z = exp(-i w0 t) on [0, T]: cut, S is sinc^2 with zeros 2 pi / T apart (the stripes of the
+    S(k, omega) maps); tapered by cos^2(pi t / 2T), S peaks at w0 and, beyond the main lobe
+    (|dw| >= 3 pi / T), lies between its closed-form bounds 1/dw^2 and (dw / (dw^2 - b^2))^2,
+    b = pi / T (correlations' docstring), to the rectangle rule's (dw dt)^2 / 12 <= 1e-3 where
+    dw dt <= 0.1 (measured 8e-4)."""
+    dt, w0 = 0.05, 1.7
+    t = np.arange(0.0, 60.0 + dt / 2, dt)
+    z = np.exp(-1j * w0 * t)[None]
+    b = np.pi / t[-1]
+    for taper in (False, True):
+        omega, power = correlations.power_spectrum(z, dt, taper=taper)
+        dw = np.abs(omega - w0)
+        far = (dw >= 3 * b) & (dw <= 0.1 / dt)
+        scaled = power[far] * dw[far] ** 2
+        if not taper:
+            assert scaled.min() < 1e-2, "the cut record's zeros should show"
+            continue
+        assert abs(omega[np.argmax(power)] - w0) <= np.pi / (4 * t[-1]), "peak off w0 by more than half the grid"
+        assert scaled.min() >= 1 - 1e-3, f"S dw^2 = {scaled.min()} dips below the lower bound 1"
+        upper = (dw[far] ** 2 / (dw[far] ** 2 - b**2)) ** 2
+        assert np.max(scaled / upper) <= 1 + 1e-3, f"S above its upper bound by {np.max(scaled / upper) - 1:.1e}"
+
+
 def test_block_verlet_equals_blocks_of_one(comm, packing64):
     dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     L = packing64.box_length
