@@ -51,11 +51,13 @@ def plot_force_network(packing, law: str, stem: str) -> list[str]:
     if stressed:
         ax.add_collection(LineCollection(segments, linewidths=np.tile(scale * f_t[keep], 2), colors="tab:red",
                                          capstyle="round", alpha=0.8))
-    plane = ", section z = L_z/2" if packing.dim == 3 else ""
-    tangential = (f"\nred: |f_t| on the same scale (largest |f_t|/|f_n| = {np.max(f_t / np.maximum(f_n, 1e-300)):.2f})"
-                  if stressed else "")
-    ax.set(xlim=(0, packing.box[0]), ylim=(0, packing.box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
-           title=f"force network: {len(found)} contacts, N = {packing.n}{plane}, rattlers outlined in red\n"
-                 f"black: |f_n| ({law}; mean {f_n.mean():.3g} kn d0 drawn {WIDTH:g} pt wide){tangential}")
+    plane = ", section $z = L_z/2$" if packing.dim == 3 else ""
+    lines = [rf"force network: {len(found)} contacts, $N$ = {packing.n}{plane}, rattlers outlined in red",
+             rf"black: $|f_n|$ ({law}; mean {f_n.mean():.3g} $k_n d_0$ drawn {WIDTH:g} pt wide)"]
+    if stressed:
+        ratio = np.max(f_t / np.maximum(f_n, 1e-300))
+        lines.append(rf"red: $|f_t|$ on the same scale (largest $|f_t|/|f_n|$ = {ratio:.2f})")
+    ax.set(xlim=(0, packing.box[0]), ylim=(0, packing.box[1]), aspect="equal", xlabel=r"$x\,/\,d_0$",
+           ylabel=r"$y\,/\,d_0$", title="\n".join(lines))
     ax.title.set_fontsize(9)
     return _save(fig, stem)

@@ -1,13 +1,16 @@
 """The force-chain picture's forces (``mechanics.force_magnitudes``) against brute force: every
 contact between non-rattlers with its harmonic normal force; for a frictional packing written by
 LAMMPS, the tangential forces of its contact file; the figure drawn from a results file and from
-the stressed packing.  Serial: figures and file reading."""
+the stressed packing; and every figure of a frictional results file readable and drawn without a
+warning.  Serial: figures and file reading."""
 
+import logging
 import os
 
 import numpy as np
 import pytest
 from conftest import COMM, REPO, all_pairs, jammed_packing, scene_of
+from figures import assert_readable, capture
 
 from solver import pipeline, plots
 from solver.io import hdf5
@@ -53,3 +56,25 @@ def test_plot_results_draws_the_force_network(tmp_path):
     pipeline.run(scene_of(out, cache="off", seed=7, packing={"n": 64, "phi": 0.9}, spectrum={}), COMM, [])
     written = plots.plot_results(str(out))
     assert str(tmp_path / "forces_forces.png") in written
+
+
+def test_plot_results_of_a_frictional_file_is_readable_and_quiet(tmp_path, monkeypatch, caplog):
+    """A stressed packing (LAMMPS's, with its contact file) at rho = 2/7, its spectrum, participation
+    and a TR wave only: every figure keeps its text inside, in mathtext, rho written 0.286, log axes
+    with two labelled ticks, and matplotlib logs nothing (it warned of an empty legend on the L
+    column of the speeds figure; pytest's filterwarnings does not see matplotlib's log)."""
+    name = "lammps_2d_friction"
+    out = tmp_path / "frictional.h5"
+    scene = scene_of(out, cache="off", packing={"file": str(DATA / f"{name}.data"), "friction": 1.0,
+                                                "contacts": str(DATA / f"{name}.contacts")},
+                     model={"rho": 2 / 7}, spectrum={"method": "nonhermitian", "energies": True},
+                     waves={"modes": ["TR"], "n": [1, 2], "t_end": 4.0, "dt": 0.01, "sample_every": 10})
+    pipeline.run(scene, COMM, [])
+    figures = capture(monkeypatch)
+    with caplog.at_level(logging.WARNING, logger="matplotlib"):
+        plots.plot_results(str(out))
+    assert not [r.getMessage() for r in caplog.records if r.name.startswith("matplotlib")]
+    assert {"frictional_forces.png", "frictional_speeds_attenuation.png", "frictional_participation.png"} <= set(figures)
+    assert_readable(figures)
+    legend = figures["frictional_vdos.png"].axes[0].get_legend()
+    assert [t.get_text() for t in legend.get_texts()] == [r"$\rho$ = 0.286"]

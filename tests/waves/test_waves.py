@@ -145,6 +145,28 @@ def test_tapered_spectrum_of_a_tone_has_no_side_band_zeros():
         assert np.max(scaled / upper) <= 1 + 1e-3, f"S above its upper bound by {np.max(scaled / upper) - 1:.1e}"
 
 
+def test_spectrum_maps_draw_the_tapered_records(tmp_path, monkeypatch):
+    """plot_spectra of a tone at one k: the drawn column of log10 S has no zero of the cut record:
+    beyond the main lobe S dw^2 stays within a factor 2 of 1 (the bounds above)."""
+    from figures import capture
+    from solver import plots
+    from solver.io.results import Waves
+
+    dt, w0 = 0.05, 1.7
+    t = np.arange(0.0, 60.0 + dt / 2, dt)
+    figures = capture(monkeypatch)
+    plots.plot_spectra({(1.0, "L"): Waves(np.array([0.5]), t, np.exp(-1j * w0 * t)[None, None], 4.0)},
+                       str(tmp_path / "tone"))
+    mesh = figures["tone_rho1.png"].axes[0].collections[0]
+    omega = mesh.get_coordinates()[:, 0, 1]  # the nearest-shading grid's row edges
+    omega = 0.5 * (omega[1:] + omega[:-1])
+    drawn = 10.0 ** np.asarray(mesh.get_array()).reshape(omega.size, -1)[:, 0]
+    dw, b = np.abs(omega - w0), np.pi / t[-1]
+    far = (dw >= 3 * b) & (dw <= 0.1 / dt)
+    scaled = drawn[far] * dw[far] ** 2
+    assert 0.5 < scaled.min() and scaled.max() < 2.0, (scaled.min(), scaled.max())
+
+
 def test_block_verlet_equals_blocks_of_one(comm, packing64):
     dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     L = packing64.box_length
