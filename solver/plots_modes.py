@@ -77,6 +77,12 @@ def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]
                  stem)
 
 
+def _run_text(run: str) -> str:
+    """A run's label (``excitation.run_label``: 'w_z, k || x') in mathtext."""
+    component, axis = run.split(", k || ")
+    return "$" + component.replace("w_", r"\omega_") + rf"$, $k \parallel {axis}$"
+
+
 def plot_wave_snapshots(packings: dict[int, dict], snapshots: list[WaveSnapshot], stem: str) -> list[str]:
     """Each snapshot of each standing wave (``results.wave_snapshots``) on its packing: arrows for
     the velocity, colour for the angular velocity about z; ``<stem>_wave_rho<rho>_<mode>_p<i>_t<t>``."""
@@ -85,7 +91,7 @@ def plot_wave_snapshots(packings: dict[int, dict], snapshots: list[WaveSnapshot]
         for i, t in enumerate(w.t):
             spin = None if w.spin is None or not np.abs(w.spin[i]).max() > 0 else w.spin[i][:, -1]
             written += _draw(packings[w.packing], w.velocity[i], spin, r"angular velocity about $z$ ($1/t_0$)",
-                             rf"standing wave {w.mode} ({w.run}), $k\,d_0$ = {w.k:.4f}, $t$ = {t:g} $t_0$"
+                             rf"standing wave {w.mode} ({_run_text(w.run)}), $k\,d_0$ = {w.k:.4f}, $t$ = {t:g} $t_0$"
                              f"\n{rho_label(w.rho)}, packing {w.packing}, velocity",
                              f"{stem}_wave_rho{w.rho:g}_{w.mode}_p{w.packing}_t{t:g}")
     return written

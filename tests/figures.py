@@ -9,7 +9,7 @@ import re
 
 from solver import plots, plots_attenuation, plots_damped, plots_modes, plots_packing
 
-PLAIN_SYMBOLS = re.compile(r"\b(omega\w*|rho|gamma\w*|sigma|phi|mu|lambda|log10|[dt]0|kn|k_c|f_[nt])\b")
+PLAIN_SYMBOLS = re.compile(r"\b(omega\w*|rho|gamma\w*|sigma|phi|mu|lambda|log10|[dt]0|kn|k_c|f_[nt]|[vw]_[xyz])\b")
 """Names that a figure must write as mathtext ($\\omega$, $\\rho$, $t_0$, ...), never as words."""
 
 RHO_VALUES = re.compile(r"\\rho\$ = ([-+.\de]+(?:(?:, | to )[-+.\de]+)*)")
