@@ -66,7 +66,7 @@ def _log_label(value: float, _position=None) -> str:
     """A log tick's label: plain from 1e-3 to 1e4, else m x 10^e in mathtext."""
     if 1e-3 <= value < 1e4:
         return f"{value:g}"
-    exponent = int(np.floor(np.log10(value)))
+    exponent = int(np.floor(np.log10(value) + 1e-9))  # 1e-7 is not 9.99...e-8
     mantissa = round(value / 10.0**exponent, 6)
     return rf"${mantissa:g}\times10^{{{exponent}}}$" if mantissa != 1 else rf"$10^{{{exponent}}}$"
 
