@@ -4,7 +4,8 @@ results file; :func:`plot_results` draws every figure a file has data for.
 Never imports petsc4py or mpi4py; the correlations come from ``analysis.correlations.pooled`` and
 the model curves from ``analysis.lattice`` (eq:omega_t(k), eq:omega_r(k), fig:band_RT).  Each
 function writes ``<stem>.png`` and ``<stem>.pdf`` and returns their paths ([] when it has nothing
-to draw).  Not collective.
+to draw).  Not collective.  Symbols in labels, legends and titles are mathtext
+(omega, rho, ...); rho is written to 3 significant figures (:func:`rho_label`).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 from .analysis import correlations  # noqa: E402
 from .errors import InputError  # noqa: E402
@@ -39,6 +41,50 @@ def _save(fig, stem: str) -> list[str]:
     finally:
         plt.close(fig)
     return paths
+
+
+def rho_label(rho: float) -> str:
+    """rho for a legend or a title, to 3 significant figures (2/7: 0.286)."""
+    return rf"$\rho$ = {rho:.3g}"
+
+
+def rho_list(rhos) -> str:
+    """Several rho for a title, each to 3 significant figures; more than 4 as their range."""
+    rhos = sorted(rhos)
+    if len(rhos) > 4:
+        return rf"$\rho$ = {rhos[0]:.3g} to {rhos[-1]:.3g} ({len(rhos)} values)"
+    return r"$\rho$ = " + ", ".join(f"{rho:.3g}" for rho in rhos)
+
+
+def legend(ax, **style) -> None:
+    """``ax.legend(**style)`` when ``ax`` has labelled artists (else matplotlib logs a warning)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**style)
+
+
+def _log_label(value: float, _position=None) -> str:
+    """A log tick's label: plain from 1e-3 to 1e4, else m x 10^e in mathtext."""
+    if 1e-3 <= value < 1e4:
+        return f"{value:g}"
+    exponent = int(np.floor(np.log10(value) + 1e-9))  # 1e-7 is not 9.99...e-8
+    mantissa = round(value / 10.0**exponent, 6)
+    return rf"${mantissa:g}\times10^{{{exponent}}}$" if mantissa != 1 else rf"$10^{{{exponent}}}$"
+
+
+def log_ticks(axis) -> None:
+    """At least two labelled ticks on the log ``axis`` (``ax.xaxis`` or ``ax.yaxis``), whose limits
+    are final.  matplotlib labels the powers of ten, so one on a range of a decade or two: then
+    ticks at 1, 2 and 5 times them, labelled plainly (on a range too short to hold two of those,
+    matplotlib's LogLocator gives evenly spaced ticks itself).  A linear axis is left alone."""
+    if axis.get_scale() != "log":
+        return
+    low, high = sorted(axis.get_view_interval())
+    decades = LogLocator().tick_values(low, high)
+    if np.count_nonzero((decades >= low) & (decades <= high)) >= 2:
+        return
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(_log_label))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def section(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -70,11 +116,11 @@ def plot_packing(packing: dict, stem: str) -> list[str]:
     colors = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8"))
     cut, diam = section(pos, diam, box)
     pos, colors = pos[cut, :2], colors[cut]
-    plane = ", section z = L_z/2" if box.size == 3 else ""
+    plane = ", section $z = L_z/2$" if box.size == 3 else ""
     fig, ax = plt.subplots(figsize=(6, 6))
     disks(ax, pos, diam, facecolors=colors, edgecolors="k", linewidths=0.2)
-    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
-           title=f"N = {packing['diameters'].size}, phi = {packing['phi']:.3f}, z = {packing['z']:.2f}, "
+    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
+           title=rf"$N$ = {packing['diameters'].size}, $\phi$ = {packing['phi']:.3f}, $z$ = {packing['z']:.2f}, "
                  f"rattlers in red ({int(packing['rattler'].sum())}){plane}")
     return _save(fig, stem)
 
@@ -83,8 +129,10 @@ def _centres(edges):
     return 0.5 * (edges[1:] + edges[:-1])
 
 
-def plot_vdos(vdos: dict, stem: str) -> list[str]:
-    """Fig. 1: g(omega) for every rho of ``vdos`` ({rho: results.Vdos}), rho = 0 dotted, omega_c marked."""
+def plot_vdos(vdos: dict, stem: str, damped: bool = False) -> list[str]:
+    """Fig. 1: g(omega) for every rho of ``vdos`` ({rho: results.Vdos}), rho = 0 dotted, omega_c
+    marked; ``damped``: the file's vDOS is that of the damped frequencies omega_d (spectrum.method
+    pep), and the title and axes say so."""
     if not vdos:
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -92,12 +140,14 @@ def plot_vdos(vdos: dict, stem: str) -> list[str]:
     for index, rho in enumerate(sorted(vdos)):
         v = vdos[rho]
         style = {"ls": ":", "color": "k"} if rho == 0 else {"color": cmap(0.8 * index / max(1, len(vdos) - 1))}
-        ax.plot(_centres(v.edges), v.density, label=f"rho = {rho:g}", **style)
+        ax.plot(_centres(v.edges), v.density, label=rho_label(rho), **style)
         ax.annotate("", xy=(v.omega_c, 0), xytext=(v.omega_c, 0.08 * v.density.max()),
                     arrowprops={"arrowstyle": "->", "color": style["color"], "lw": 0.8})
-    ax.set(xlabel="omega t0", ylabel="g(omega) t0", xlim=(0, None), ylim=(0, None),
-           title="vibrational density of states (arrows: omega_c)")
-    ax.legend(fontsize=8)
+    w = r"\omega_d" if damped else r"\omega"
+    what = r"vDOS of the damped frequencies $\omega_d$" if damped else "vibrational density of states"
+    ax.set(xlabel=rf"${w}\,t_0$", ylabel=rf"$g({w})\,t_0$", xlim=(0, None), ylim=(0, None),
+           title=rf"{what} (arrows: $\omega_c$)")
+    legend(ax, fontsize=8)
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -122,10 +172,12 @@ def plot_energies(vdos: dict, per_mode: dict, binned: dict, stem: str, rhos=None
                 with np.errstate(invalid="ignore"):
                     curve = np.nansum(b.density * b[2 + index], axis=0) / b.density.sum(axis=0)
                 x = _centres(b.edges)
-            ax.semilogy(x, curve, label=key, **style)
-        ax.semilogy(_centres(edges), 5e-3 * vdos[rho].density, "k--", lw=0.8, label="g(omega) x 5e-3")
-        ax.set(xlabel="omega t0", ylabel="K, Q (m d0^2 / t0^2)", title=f"rho = {rho:g}")
-        ax.legend(fontsize=8)
+            ax.semilogy(x, curve, label=f"${key}$", **style)
+        ax.semilogy(_centres(edges), 5e-3 * vdos[rho].density, "k--", lw=0.8,
+                    label=r"$g(\omega)\,t_0 \times 5\cdot10^{-3}$")
+        ax.set(xlabel=r"$\omega\,t_0$", ylabel=r"$K$, $Q$ ($m\,d_0^2/t_0^2$)", title=rho_label(rho))
+        log_ticks(ax.yaxis)
+        legend(ax, fontsize=8)
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -135,30 +187,32 @@ def plot_vafs(waves: dict, stem: str, kd0: float = 0.38 * np.pi, rhos=None) -> l
     k d0 = 0.38 pi, per rho (rho = 0 dotted); every rho of ``waves`` ({(rho, mode): results.Waves}) or only those in ``rhos``."""
     if not waves:
         return []
-    present = [(m, label) for m, label in zip(MODES, ("C_l", "C_t", "C_r", "C_R")) if any(w == m for _, w in waves)]
+    present = [(m, label) for m, label in zip(MODES, ("$C_l$", "$C_t$", "$C_r$", "$C_R$"))
+               if any(w == m for _, w in waves)]
     fig, axes = plt.subplots(1, len(present), figsize=(4 * len(present), 3.6), squeeze=False)
     for ax, (mode, label) in zip(axes[0], present):
         for rho in sorted(r for r, m in waves if m == mode and (rhos is None or r in rhos)):
             w = waves[(rho, mode)]
             i = int(np.argmin(np.abs(w.k - kd0)))
             c = correlations.pooled(w.z[:, [i]], w.t[1] - w.t[0])[0][0]
-            ax.plot(w.t, c, ":" if rho == 0 else "-", lw=1, label=f"rho = {rho:g}, k d0 = {w.k[i]:.3f}")
+            ax.plot(w.t, c, ":" if rho == 0 else "-", lw=1, label=rf"{rho_label(rho)}, $k\,d_0$ = {w.k[i]:.3f}")
         ax.axhline(0, color="0.7", lw=0.5)
-        ax.set(xlabel="t / t0", ylabel=label, title=f"{mode} mode")
-        ax.legend(fontsize=7)
+        ax.set(xlabel=r"$t\,/\,t_0$", ylabel=label, title=f"{mode} mode")
+        legend(ax, fontsize=7)
     fig.tight_layout()
     return _save(fig, stem)
 
 
 def _spectrum(w):
-    """omega (W,) and S (K, W) of one (rho, mode) (results.Waves), runs pooled."""
-    _, omega, power = correlations.pooled(w.z, w.t[1] - w.t[0])
+    """omega (W,) and S (K, W) of one (rho, mode) (results.Waves), runs pooled, each record
+    tapered so that its cut at t_end does not stripe the map (``correlations`` module)."""
+    _, omega, power = correlations.pooled(w.z, w.t[1] - w.t[0], taper=True)
     return omega, power
 
 
 def plot_spectra(waves: dict, stem: str, rhos=None) -> list[str]:
-    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT, and R in 3D) for each rho of ``waves`` (or each in ``rhos``);
-    one file ``<stem>_rho<rho>`` per rho."""
+    """Fig. 3: log10 S_alpha(k, omega) maps (L, TR, RT, and R in 3D) for each rho of ``waves`` (or each in ``rhos``),
+    of the tapered records (:func:`_spectrum`); one file ``<stem>_rho<rho>`` per rho."""
     written: list[str] = []
     for rho in sorted({r for r, _ in waves if rhos is None or r in rhos}):
         modes_here = [m for m in MODES if (rho, m) in waves]
@@ -170,8 +224,8 @@ def plot_spectra(waves: dict, stem: str, rhos=None) -> list[str]:
             keep = omega <= top
             mesh = ax.pcolormesh(w.k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest",
                                  cmap="Greys", vmin=np.log10(power.max()) - 6)
-            fig.colorbar(mesh, ax=ax, label="log10 S")
-            ax.set(xlabel="k d0", ylabel="omega t0", title=f"{mode}, rho = {rho:g}")
+            fig.colorbar(mesh, ax=ax, label=r"$\log_{10} S$ (record tapered, $\cos^2$)")
+            ax.set(xlabel=r"$k\,d_0$", ylabel=r"$\omega\,t_0$", title=f"{mode}, {rho_label(rho)}")
         fig.tight_layout()
         written += _save(fig, f"{stem}_rho{rho:g}")
     return written
@@ -194,9 +248,9 @@ def plot_vdos_compare(paths: list[str], stem: str) -> list[str]:
     for ax, rho in zip(axes[0], rhos):
         for phi, n, mu, edges, density in sorted(curves[rho], key=lambda c: (c[0], -1 if c[2] is None else c[2])):
             ax.plot(_centres(edges), density, lw=1,
-                    label=f"phi = {phi:.3f} (N = {n})" + ("" if mu is None else f", mu = {mu:g}"))
-        ax.set(xlabel="omega t0", ylabel="g(omega) t0", title=f"rho = {rho:g}", ylim=(0, None))
-        ax.legend(fontsize=7)
+                    label=rf"$\phi$ = {phi:.3f} ($N$ = {n})" + ("" if mu is None else rf", $\mu$ = {mu:g}"))
+        ax.set(xlabel=r"$\omega\,t_0$", ylabel=r"$g(\omega)\,t_0$", title=rho_label(rho), ylim=(0, None))
+        legend(ax, fontsize=7)
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -225,9 +279,9 @@ def plot_dispersion(fits: dict, stem: str) -> list[str]:
             if (rho, mode) in fits:
                 fit = fits[(rho, mode)]
                 ax.plot(fit["k"], fit["omega"], marker, ms=3.5, mfc="none", color=color, label=mode)
-        ax.set(xlabel="k d0", title=f"rho = {rho:g}")
-        ax.legend(fontsize=7)
-    axes[0][0].set(ylabel="omega t0 (fit of C(k, t))")
+        ax.set(xlabel=r"$k\,d_0$", title=rho_label(rho))
+        legend(ax, fontsize=7)
+    axes[0][0].set(ylabel=r"$\omega\,t_0$ (fit of $C(k, t)$)")
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -243,13 +297,13 @@ def plot_dispersion_rt(fits: dict, lattice_fit: dict | None, stem: str) -> list[
     k_line = np.linspace(0, lattice_fit["k_max"], 200)
     for index, (rho, fit) in enumerate(rt):
         color = cmap(0.9 * index / max(1, len(rt) - 1))
-        ax.plot(fit["k"], fit["omega"], "o", ms=3.5, mfc="none", color=color, label=f"rho = {rho:g}")
+        ax.plot(fit["k"], fit["omega"], "o", ms=3.5, mfc="none", color=color, label=rho_label(rho))
         ax.plot(k_line, lattice_curve(k_line, rho, lattice_fit)[1], "-", lw=0.9, color=color)
     ax.axvline(lattice_fit["kd0_max_used"], color="0.6", ls=":", lw=0.8)
-    ax.set(xlabel="k d0", ylabel="omega_r t0", title=f"RT dispersion; lines: lattice model, a_r = "
-           f"{lattice_fit['a_r']:.3f}/t0, l = {lattice_fit['l']:.3f} d0 (fit left of the dotted line)")
+    ax.set(xlabel=r"$k\,d_0$", ylabel=r"$\omega_r\,t_0$", title=rf"RT dispersion; lines: lattice model, $a_r$ = "
+           rf"{lattice_fit['a_r']:.3f}$/t_0$, $l$ = {lattice_fit['l']:.3f} $d_0$ (fit left of the dotted line)")
     ax.title.set_fontsize(8)
-    ax.legend(fontsize=6, ncol=2)
+    legend(ax, fontsize=6, ncol=2)
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -271,27 +325,27 @@ def plot_transition(fits: dict, lattice_fit: dict | None, waves: dict, stem: str
     keep = omega <= top
     mesh = ax.pcolormesh(w.k, omega[keep], np.log10(power[:, keep].T + 1e-30), shading="nearest", cmap="Greys",
                          vmin=np.log10(power.max()) - 5)
-    fig.colorbar(mesh, ax=ax, label="log10 S_r")
+    fig.colorbar(mesh, ax=ax, label=r"$\log_{10} S_r$ (record tapered, $\cos^2$)")
     k_c = float(fit_rt["k_c"])
     if np.isfinite(k_c):
-        ax.annotate("k_c", xy=(k_c, 0.02 * top), xytext=(k_c, 0.25 * top), color="tab:red",
+        ax.annotate("$k_c$", xy=(k_c, 0.02 * top), xytext=(k_c, 0.25 * top), color="tab:red",
                     arrowprops={"arrowstyle": "->", "color": "tab:red"}, ha="center")
-    ax.set(xlabel="k d0", ylabel="omega t0", title=f"(a) log10 S_r(k, omega), rho = {rho:g}")
+    ax.set(xlabel=r"$k\,d_0$", ylabel=r"$\omega\,t_0$", title=rf"(a) $\log_{{10}} S_r(k, \omega)$, {rho_label(rho)}")
     k_line = np.linspace(0, lattice_fit["k_max"], 200)
     w_t, w_r = lattice_curve(k_line, rho, lattice_fit)
     if np.isfinite(lattice_fit.get("a_t_edge", np.nan)):
         bx.plot(k_line, lattice_curve(k_line, rho, lattice_fit, edge=True)[0], ":", color="tab:purple",
-                label=f"model omega_t, a_t = {lattice_fit['a_t_edge']:.2f} (fit beyond k_c)")
+                label=rf"model $\omega_t$, $a_t$ = {lattice_fit['a_t_edge']:.2f} (fit beyond $k_c$)")
     if fit_tr is not None:
-        bx.plot(fit_tr["k"], fit_tr["omega"], "+", color="tab:blue", label="omega_t (TR fit)")
-    bx.plot(fit_rt["k"], fit_rt["omega"], "s", mfc="none", color="tab:red", label="omega_r (RT fit)")
-    bx.plot(k_line, w_t, ":", color="tab:blue", label=f"model omega_t, a_t = {lattice_fit['a_t']:.2f} (TR fit)")
-    bx.plot(k_line, w_r, "-", color="tab:red", label="model omega_r")
+        bx.plot(fit_tr["k"], fit_tr["omega"], "+", color="tab:blue", label=r"$\omega_t$ (TR fit)")
+    bx.plot(fit_rt["k"], fit_rt["omega"], "s", mfc="none", color="tab:red", label=r"$\omega_r$ (RT fit)")
+    bx.plot(k_line, w_t, ":", color="tab:blue", label=rf"model $\omega_t$, $a_t$ = {lattice_fit['a_t']:.2f} (TR fit)")
+    bx.plot(k_line, w_r, "-", color="tab:red", label=r"model $\omega_r$")
     if np.isfinite(k_c):
         bx.axvline(k_c, color="0.5", lw=0.8, ls="--")
-    bx.set(xlabel="k d0", ylabel="omega t0", title=f"(b) fitted dispersion, rho = {rho:g}"
-           + (f", k_c d0 = {k_c:.2f}" if np.isfinite(k_c) else ", no k_c detected"))
-    bx.legend(fontsize=7)
+    bx.set(xlabel=r"$k\,d_0$", ylabel=r"$\omega\,t_0$", title=f"(b) fitted dispersion, {rho_label(rho)}"
+           + (rf", $k_c\,d_0$ = {k_c:.2f}" if np.isfinite(k_c) else r", no $k_c$ detected"))
+    legend(bx, fontsize=7)
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -313,45 +367,51 @@ def plot_bands(lattice_fit: dict | None, bands: dict | None, stem: str, omega_c:
     cross = omega_c if omega_c is not None else dict(zip(b["rho"], b["omega_c"]))
     for axis in (ax, inset):
         axis.fill_between(rho_line, np.minimum(r0, rk), np.maximum(r0, rk), color="0.9")
-        axis.plot(rho_line, r0, "-", color="tab:red", label="model omega_r(0) = a_r sqrt(40 rho)")
-        axis.plot(rho_line, rk, ":", color="tab:blue", label="model omega_r(k_max) = 2 a_r sqrt(3 rho + 1)")
-        axis.plot(rho_line, tk, "--", color="tab:green", label=f"model omega_t(k_max) = a_t sqrt(10 rho), a_t = {a_t:.2f}")
-        axis.plot(b["rho"], b["omega_r0"], "o", mfc="none", color="tab:red", label="omega_r(0), data")
-        axis.plot(b["rho"], b["omega_r_kmax"], "s", mfc="none", color="tab:blue", label="omega_r(k_max), data")
-        axis.plot(b["rho"], b["omega_t_kmax"], "^", mfc="none", color="tab:green", label="omega_t(k_max), data")
+        axis.plot(rho_line, r0, "-", color="tab:red", label=r"model $\omega_r(0) = a_r\sqrt{40\rho}$")
+        axis.plot(rho_line, rk, ":", color="tab:blue", label=r"model $\omega_r(k_{max}) = 2 a_r\sqrt{3\rho + 1}$")
+        axis.plot(rho_line, tk, "--", color="tab:green",
+                  label=rf"model $\omega_t(k_{{max}}) = a_t\sqrt{{10\rho}}$, $a_t$ = {a_t:.2f}")
+        axis.plot(b["rho"], b["omega_r0"], "o", mfc="none", color="tab:red", label=r"$\omega_r(0)$, data")
+        axis.plot(b["rho"], b["omega_r_kmax"], "s", mfc="none", color="tab:blue", label=r"$\omega_r(k_{max})$, data")
+        axis.plot(b["rho"], b["omega_t_kmax"], "^", mfc="none", color="tab:green", label=r"$\omega_t(k_{max})$, data")
         rc = sorted((r, w) for r, w in cross.items() if r > 0 and np.isfinite(w))
         if rc:
-            axis.plot(*zip(*rc), "x", color="k", label="omega_c (vDOS)")
+            axis.plot(*zip(*rc), "x", color="k", label=r"$\omega_c$ (vDOS)")
     inset.set(xscale="log", yscale="log")
     inset.tick_params(labelsize=6)
-    ax.set(xlabel="rho = kt / kn", ylabel="omega t0", title="RT frequency band (shaded: model)")
-    ax.legend(fontsize=6, loc="upper left")
+    log_ticks(inset.xaxis)
+    log_ticks(inset.yaxis)
+    ax.set(xlabel=r"$\rho = k_t / k_n$", ylabel=r"$\omega\,t_0$", title="RT frequency band (shaded: model)")
+    legend(ax, fontsize=6, loc="upper left")
     fig.tight_layout()
     return _save(fig, stem)
 
 
 def plot_speeds_attenuation(fits: dict, stem: str) -> list[str]:
     """Figs. S2 and S3: phase speeds c = omega/k and attenuation gamma(k) (log-log, k^3 guide) of
-    L and TR, per rho."""
-    if not any(mode in ("L", "TR") for _, mode in fits):
+    L and TR (a column each, of those run), per rho."""
+    modes = [m for m in ("L", "TR") if any(mode == m for _, mode in fits)]
+    if not modes:
         return []
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    fig, axes = plt.subplots(2, len(modes), figsize=(5 * len(modes), 7), squeeze=False)
     cmap = plt.get_cmap("viridis")
-    rhos = sorted({rho for rho, mode in fits if mode in ("L", "TR")})
-    for col, mode in enumerate(("L", "TR")):
+    rhos = sorted({rho for rho, mode in fits if mode in modes})
+    for col, mode in enumerate(modes):
         for rho, fit in _of_mode(fits, mode):
             color = "k" if rho == 0 else cmap(0.9 * rhos.index(rho) / max(1, len(rhos) - 1))
             k, gamma = fit["k"], fit["gamma"]
-            axes[0, col].plot(k, fit["c"], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color, label=f"rho = {rho:g}")
+            axes[0, col].plot(k, fit["c"], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color, label=rho_label(rho))
             good = gamma > 0
             axes[1, col].loglog(k[good], gamma[good], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color,
-                                label=f"rho = {rho:g}, p = {fit['power_law_p']:.2f}")
+                                label=f"{rho_label(rho)}, $p$ = {fit['power_law_p']:.2f}")
         k_guide = np.array([0.2, 1.0])
-        axes[1, col].loglog(k_guide, 0.05 * k_guide**3, "k-", lw=2, alpha=0.4, label="~ k^3")
-        axes[0, col].set(xlabel="k d0", ylabel=f"c_{mode.lower()[0]} (d0 / t0)", title=f"phase speed, {mode}")
-        axes[1, col].set(xlabel="k d0", ylabel=f"gamma_{mode.lower()[0]} t0", title=f"attenuation, {mode}")
+        axes[1, col].loglog(k_guide, 0.05 * k_guide**3, "k-", lw=2, alpha=0.4, label=r"$\propto k^3$")
+        axes[0, col].set(xlabel=r"$k\,d_0$", ylabel=rf"$c_{mode.lower()[0]}$ ($d_0/t_0$)", title=f"phase speed, {mode}")
+        axes[1, col].set(xlabel=r"$k\,d_0$", ylabel=rf"$\gamma_{mode.lower()[0]}\,t_0$", title=f"attenuation, {mode}")
+        log_ticks(axes[1, col].xaxis)
+        log_ticks(axes[1, col].yaxis)
         for ax in axes[:, col]:
-            ax.legend(fontsize=5, ncol=2)
+            legend(ax, fontsize=5, ncol=2)
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -408,7 +468,8 @@ def plot_results(path: str) -> list[str]:
             first = hdf5.read_packings(path, count=1, check_equilibrium=False, law=law)[0]
             written += plots_packing.plot_force_network(first, law, f"{stem}_forces")
         vdos = results.vdos(f)
-        written += plot_vdos(vdos, f"{stem}_vdos")
+        damped = results.damped_modes(f)
+        written += plot_vdos(vdos, f"{stem}_vdos", damped=bool(damped))
         written += plot_energies(vdos, results.mode_energies(f), results.binned_energies(f), f"{stem}_energies")
         waves = results.waves(f)
         written += plot_vafs(waves, f"{stem}_vaf")
@@ -423,7 +484,6 @@ def plot_results(path: str) -> list[str]:
 
         dim = packing["positions"].shape[1] if packing is not None else 2
         written += plots_attenuation.plot_attenuation_regimes(fits, f"{stem}_attenuation", dim=dim)
-        damped = results.damped_modes(f)
         shapes = results.mode_shapes(f)
         per_mode_participation = results.participation(f)
         snapshots = results.wave_snapshots(f)

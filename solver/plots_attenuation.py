@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .analysis import attenuation  # noqa: E402
-from .plots import _save  # noqa: E402
+from .plots import _save, legend, log_ticks, rho_label  # noqa: E402
 
 _STYLE = {("L", 0): ("tab:blue", "o"), ("TR", 0): ("tab:red", "s"),
           ("L", 1): ("navy", "o"), ("TR", 1): ("darkred", "s")}
@@ -37,7 +37,7 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
         k, gamma, omega, t_end = fit["k"], fit["gamma"], fit["omega"], float(fit["t_end"])
         color, marker = _STYLE[(mode, min(rhos.index(rho), 1))]
         ls = "-" if rho == rhos[-1] else ":"
-        label = f"{mode}, rho = {rho:g}"
+        label = f"{mode}, {rho_label(rho)}"
         resolved = attenuation.resolved(gamma, t_end)
         with np.errstate(invalid="ignore"):
             early = np.isfinite(gamma) & (gamma > 0) & ~resolved
@@ -54,16 +54,19 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
         ax.axhline(1.0 / t_end, color="0.6", ls="--", lw=0.6)
     for k_r, g_r in resolved_k[:1]:  # slopes from the first resolved point of one curve, over a factor 4 in k
         guide = np.geomspace(k_r[0], 4 * k_r[0], 8)
-        ax.loglog(guide, g_r[0] * (guide / k_r[0])**(dim + 1), "k-", lw=2, alpha=0.25, label=f"~ k^{dim + 1} (Rayleigh)")
-        ax.loglog(guide, g_r[0] * (guide / k_r[0])**2, "k--", lw=2, alpha=0.25, label="~ k^2 (diffusive)")
-    ax.set(xlabel="k d0", ylabel="gamma t0",
-           title="attenuation (open: gamma t_end < 1, not resolved; *: Ioffe-Regel)")
-    ax.legend(fontsize=6, ncol=2)
-    for level, text in ((dim + 1, f"d + 1 = {dim + 1}"), (2, "2")):
+        ax.loglog(guide, g_r[0] * (guide / k_r[0])**(dim + 1), "k-", lw=2, alpha=0.25,
+                  label=rf"$\propto k^{dim + 1}$ (Rayleigh)")
+        ax.loglog(guide, g_r[0] * (guide / k_r[0])**2, "k--", lw=2, alpha=0.25, label=r"$\propto k^2$ (diffusive)")
+    ax.set(xlabel=r"$k\,d_0$", ylabel=r"$\gamma\,t_0$",
+           title=r"attenuation (open: $\gamma\,t_{end} < 1$, not resolved; $\star$: Ioffe-Regel)")
+    legend(ax, fontsize=6, ncol=2)
+    for level, text in ((dim + 1, f"$d + 1$ = {dim + 1}"), (2, "2")):
         bx.axhline(level, color="0.5", lw=0.6)
         bx.annotate(text, (0.01, level), xycoords=("axes fraction", "data"), fontsize=7, va="bottom")
-    bx.set(xlabel="k d0", ylabel="d ln gamma / d ln k", title="local exponent (resolved points)", ylim=(1, dim + 2))
-    if resolved_k:
-        bx.legend(fontsize=6)
+    bx.set(xlabel=r"$k\,d_0$", ylabel=r"$d \ln\gamma\,/\,d \ln k$", title="local exponent (resolved points)",
+           ylim=(1, dim + 2))
+    for axis in (ax.xaxis, ax.yaxis, bx.xaxis):
+        log_ticks(axis)
+    legend(bx, fontsize=6)
     fig.tight_layout()
     return _save(fig, stem)

@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .io.results import DampedModes  # noqa: E402
-from .plots import _save  # noqa: E402
+from .plots import _save, legend, log_ticks, rho_label, rho_list  # noqa: E402
 
 
 def plot_damped_modes(modes: dict[float, DampedModes], stem: str) -> list[str]:
@@ -34,19 +34,22 @@ def plot_damped_modes(modes: dict[float, DampedModes], stem: str) -> list[str]:
             ratio = np.log10(np.maximum(m.K[under], 1e-300) / np.maximum(m.Q[under], 1e-300))
             scatter = ax.scatter(omega, sigma, c=ratio, s=3, cmap="coolwarm", vmin=-2, vmax=2, lw=0)
         else:
-            ax.plot(omega, sigma, ".", ms=2, color=colour, label=f"rho = {rho:g}")
+            ax.plot(omega, sigma, ".", ms=2, color=colour, label=rho_label(rho))
         over = ~under
         if over.any():
             ax.plot(np.zeros(over.sum()), -m.lam.real[over], "x", ms=4, color="tab:red",
                     label=f"overdamped roots ({over.sum()})" if len(modes) == 1 else None)
-        bx.loglog(omega, omega / (2 * sigma), ".", ms=2, color=colour, label=f"rho = {rho:g}")
+        bx.loglog(omega, omega / (2 * sigma), ".", ms=2, color=colour, label=rho_label(rho))
     if scatter is not None:
-        fig.colorbar(scatter, ax=ax, label="log10 K/Q")
-    ax.set(xlabel="omega_d (1/t0)", ylabel="sigma (1/t0)", title="damping rate of each mode")
-    bx.set(xlabel="omega_d (1/t0)", ylabel="Q = omega_d / 2 sigma", title="quality factor")
+        fig.colorbar(scatter, ax=ax, label=r"$\log_{10} K/Q$")
+    ax.set(xlabel=r"$\omega_d\,t_0$", ylabel=r"$\sigma\,t_0$",
+           title=rf"damping rate $\sigma$ of each mode, {rho_list(modes)}")
+    bx.set(xlabel=r"$\omega_d\,t_0$", ylabel=r"$Q = \omega_d / 2\sigma$",
+           title=rf"quality factor $Q(\omega_d)$, {rho_list(modes)}")
+    log_ticks(bx.xaxis)
+    log_ticks(bx.yaxis)
     for axis in (ax, bx):
-        if axis.get_legend_handles_labels()[0]:
-            axis.legend(fontsize=7)
+        legend(axis, fontsize=7)
     fig.tight_layout()
     return _save(fig, stem)
 
@@ -62,11 +65,13 @@ def plot_damped_vdos(modes: dict[float, DampedModes], bin_width: float, stem: st
     for colour, (rho, m) in zip(colours, sorted(modes.items())):
         omega = m.lam.imag[m.lam.imag > 0]
         edges = np.arange(0.0, omega.max(initial=bin_width) + 2 * bin_width, bin_width)
-        ax.stairs(np.histogram(omega, edges, density=True)[0], edges, color=colour, label=f"damped, rho = {rho:g}")
+        ax.stairs(np.histogram(omega, edges, density=True)[0], edges, color=colour, label=f"damped, {rho_label(rho)}")
         if undamped and rho in undamped:
             ax.stairs(np.histogram(undamped[rho], edges, density=True)[0], edges, color=colour, ls="--",
-                      label=f"undamped, rho = {rho:g}")
-    ax.set(xlabel="omega (1/t0)", ylabel="g(omega)", title="vDOS of the damped frequencies")
-    ax.legend(fontsize=7)
+                      label=f"undamped, {rho_label(rho)}")
+    both = ", undamped dashed" if undamped else ""
+    ax.set(xlabel=r"$\omega_d\,t_0$", ylabel=r"$g(\omega_d)\,t_0$",
+           title=rf"damped vDOS: $\omega_d$ of the underdamped modes{both}, {rho_list(modes)}")
+    legend(ax, fontsize=7)
     fig.tight_layout()
     return _save(fig, stem)

@@ -22,7 +22,7 @@ from matplotlib.colors import CenteredNorm  # noqa: E402
 
 from .io.results import ModeShapes, WaveSnapshot  # noqa: E402
 from .spectrum.modes import bin_average  # noqa: E402
-from .plots import _save, disks, section  # noqa: E402
+from .plots import _save, disks, legend, log_ticks, rho_label, section  # noqa: E402
 
 ARROW = 1.0
 """Length of the longest drawn arrow (d0): a mode's amplitude is arbitrary, only its shape counts."""
@@ -36,12 +36,14 @@ def _draw(packing: dict, arrows: np.ndarray, turn: np.ndarray | None, label: str
     """The particles of ``packing`` (``results.packing``) to scale with ``arrows`` (N, D) scaled so
     that the longest is ``ARROW`` d0 and coloured by ``turn`` (N,), the rotation component about z
     (blue-white-red, centred on 0; grey when None), rattlers outlined in red; spheres as their
-    section z = L_z/2 (``plots.section``).  ``label``: the colour bar's."""
+    section z = L_z/2 (``plots.section``).  ``label``: the colour bar's; ``title``: its lines
+    above one on N and the arrows.  Constrained layout: the title stays inside the figure, whose
+    colour bar shifts the picture left."""
     pos, box = packing["positions"], packing["box"]
     cut, diam = section(pos, packing["diameters"], box)
     centres, u = pos[cut, :2], arrows[cut, :2]
     rattler = packing["rattler"][cut]
-    fig, ax = plt.subplots(figsize=(7, 6))
+    fig, ax = plt.subplots(figsize=(7, 6), layout="constrained")
     if turn is not None:
         turn = turn[cut]
         drawn = disks(ax, centres, diam, cmap="coolwarm", norm=CenteredNorm(halfrange=max(np.abs(turn).max(), 1e-300)),
@@ -55,9 +57,9 @@ def _draw(packing: dict, arrows: np.ndarray, turn: np.ndarray | None, label: str
     longest = np.hypot(u[:, 0], u[:, 1]).max()
     ax.quiver(centres[:, 0], centres[:, 1], u[:, 0], u[:, 1], angles="xy", scale_units="xy",
               scale=longest / ARROW if longest > 0 else 1.0, width=0.002, color="k", minlength=0)
-    plane = ", section z = L_z/2" if box.size == 3 else ""
-    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel="x / d0", ylabel="y / d0",
-           title=f"{title}\nN = {pos.shape[0]}{plane}; arrows longest {ARROW:g} d0, rattlers red")
+    plane = ", section $z = L_z/2$" if box.size == 3 else ""
+    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
+           title=f"{title}\n$N$ = {pos.shape[0]}{plane}; arrows longest {ARROW:g} $d_0$, rattlers red")
     ax.title.set_fontsize(9)
     return _save(fig, stem)
 
@@ -68,9 +70,17 @@ def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]
     rotating = shapes.rotation is not None and shapes.Q[m] > ROUND_OFF * shapes.K[m]
     ratio = shapes.K[m] / shapes.Q[m] if rotating else np.inf
     return _draw(packing, shapes.displacement[m], shapes.rotation[m][:, -1] if rotating else None,
-                 "rotation about z (rad, |e| = 1)",  # 2D: the one angle; 3D: about z, normal to the picture
-                 f"omega = {shapes.omega[m]:.4f}/t0 (target {shapes.target[m]:g}), K/Q = {ratio:.3g}, participation = "
-                 f"{shapes.participation[m]:.3f}; rho = {shapes.rho:g}, packing {shapes.packing}, displacement", stem)
+                 r"rotation about $z$ (rad, $|e| = 1$)",  # 2D: the one angle; 3D: about z, normal to the picture
+                 rf"$\omega$ = {shapes.omega[m]:.4f}$/t_0$ (target {shapes.target[m]:g}), $K/Q$ = {ratio:.3g}, "
+                 f"$P$ = {shapes.participation[m]:.3f}\n{rho_label(shapes.rho)}, packing {shapes.packing}, "
+                 "displacement",
+                 stem)
+
+
+def _run_text(run: str) -> str:
+    """A run's label (``excitation.run_label``: 'w_z, k || x') in mathtext."""
+    component, axis = run.split(", k || ")
+    return "$" + component.replace("w_", r"\omega_") + rf"$, $k \parallel {axis}$"
 
 
 def plot_wave_snapshots(packings: dict[int, dict], snapshots: list[WaveSnapshot], stem: str) -> list[str]:
@@ -80,9 +90,10 @@ def plot_wave_snapshots(packings: dict[int, dict], snapshots: list[WaveSnapshot]
     for w in snapshots:
         for i, t in enumerate(w.t):
             spin = None if w.spin is None or not np.abs(w.spin[i]).max() > 0 else w.spin[i][:, -1]
-            written += _draw(packings[w.packing], w.velocity[i], spin, "angular velocity about z (1/t0)",
-                             f"standing wave {w.mode} ({w.run}), k d0 = {w.k:.4f}, t = {t:g} t0; rho = {w.rho:g}, "
-                             f"packing {w.packing}, velocity", f"{stem}_wave_rho{w.rho:g}_{w.mode}_p{w.packing}_t{t:g}")
+            written += _draw(packings[w.packing], w.velocity[i], spin, r"angular velocity about $z$ ($1/t_0$)",
+                             rf"standing wave {w.mode} ({_run_text(w.run)}), $k\,d_0$ = {w.k:.4f}, $t$ = {t:g} $t_0$"
+                             f"\n{rho_label(w.rho)}, packing {w.packing}, velocity",
+                             f"{stem}_wave_rho{w.rho:g}_{w.mode}_p{w.packing}_t{t:g}")
     return written
 
 
@@ -100,17 +111,18 @@ def plot_participation(per_mode: dict[float, tuple[np.ndarray, np.ndarray]], kep
     mode spread evenly over every particle, ~1/N on one particle."""
     if not per_mode:
         return []
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
     colours = plt.cm.viridis(np.linspace(0, 0.85, len(per_mode)))
     for colour, (rho, (omega, p)) in zip(colours, sorted(per_mode.items())):
         ax.scatter(omega, p, s=2, color=colour, alpha=0.25, linewidths=0, rasterized=True)
         edges = np.arange(0.0, omega.max() + bin_width, bin_width)
         ax.plot(0.5 * (edges[1:] + edges[:-1]), bin_average(omega, p, edges), color=colour, lw=1.5,
-                label=f"rho = {rho:g} ({omega.size} modes)")
+                label=f"{rho_label(rho)} ({omega.size} modes)")
     for g in kept:
         ax.scatter(g.omega, g.participation, s=60, facecolors="none", edgecolors="tab:red", linewidths=1.2)
-    ax.set(yscale="log", xlabel="omega t0", ylabel="participation ratio P",
-           title="localisation: P of every mode (dots), bin means (lines)" + (", modes kept whole circled" if kept
-                                                                                else ""))
-    ax.legend(fontsize=8)
+    ax.set(yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"participation ratio $P$",
+           title="localisation: $P$ of every mode (dots), bin means (lines)" + (",\nmodes kept whole circled" if kept
+                                                                                  else ""))
+    log_ticks(ax.yaxis)
+    legend(ax, fontsize=8)
     return _save(fig, stem)

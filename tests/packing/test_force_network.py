@@ -1,19 +1,23 @@
 """The force-chain picture's forces (``mechanics.force_magnitudes``) against brute force: every
 contact between non-rattlers with its harmonic normal force; for a frictional packing written by
 LAMMPS, the tangential forces of its contact file; the figure drawn from a results file and from
-the stressed packing.  Serial: figures and file reading."""
+the stressed packing, its line widths on the scale of the drawn particles; and every figure of a
+frictional results file readable and drawn without a warning.  Serial: figures and file reading."""
 
+import logging
 import os
 
 import numpy as np
 import pytest
 from conftest import COMM, REPO, all_pairs, jammed_packing, scene_of
+from figures import assert_readable, capture
+from matplotlib.collections import LineCollection
 
 from solver import pipeline, plots
 from solver.io import hdf5
 from solver.packing import geometry
 from solver.packing.mechanics import force_magnitudes
-from solver.plots_packing import plot_force_network
+from solver.plots_packing import SHARE, plot_force_network
 
 pytestmark = pytest.mark.serial_only
 
@@ -53,3 +57,40 @@ def test_plot_results_draws_the_force_network(tmp_path):
     pipeline.run(scene_of(out, cache="off", seed=7, packing={"n": 64, "phi": 0.9}, spectrum={}), COMM, [])
     written = plots.plot_results(str(out))
     assert str(tmp_path / "forces_forces.png") in written
+
+
+@pytest.mark.parametrize("n", [64, 1024])
+def test_line_widths_scale_with_the_drawn_particles(tmp_path, monkeypatch, n):
+    """The mean normal force is drawn SHARE d0 wide, d0 measured on the drawing (points), whatever
+    N: at N = 4096 a fixed 2.5 pt (then 0.4 d0) made the network one black mass."""
+    p = jammed_packing(n, 0.9, 7)
+    figures = capture(monkeypatch)
+    plot_force_network(p, "harmonic", str(tmp_path / "forces"))
+    fig = figures["forces.png"]
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    d0_points = ax.get_window_extent().width * 72.0 / fig.dpi / p.box_length
+    (lines,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+    assert np.mean(lines.get_linewidths()) == pytest.approx(SHARE * d0_points, rel=1e-9)
+
+
+def test_plot_results_of_a_frictional_file_is_readable_and_quiet(tmp_path, monkeypatch, caplog):
+    """A stressed packing (LAMMPS's, with its contact file) at rho = 2/7, its spectrum, participation
+    and a TR wave only: every figure keeps its text inside, in mathtext, rho written 0.286, log axes
+    with two labelled ticks, and matplotlib logs nothing (it warned of an empty legend on the L
+    column of the speeds figure; pytest's filterwarnings does not see matplotlib's log)."""
+    name = "lammps_2d_friction"
+    out = tmp_path / "frictional.h5"
+    scene = scene_of(out, cache="off", packing={"file": str(DATA / f"{name}.data"), "friction": 1.0,
+                                                "contacts": str(DATA / f"{name}.contacts")},
+                     model={"rho": 2 / 7}, spectrum={"method": "nonhermitian", "energies": True},
+                     waves={"modes": ["TR"], "n": [1, 2], "t_end": 4.0, "dt": 0.01, "sample_every": 10})
+    pipeline.run(scene, COMM, [])
+    figures = capture(monkeypatch)
+    with caplog.at_level(logging.WARNING, logger="matplotlib"):
+        plots.plot_results(str(out))
+    assert not [r.getMessage() for r in caplog.records if r.name.startswith("matplotlib")]
+    assert {"frictional_forces.png", "frictional_speeds_attenuation.png", "frictional_participation.png"} <= set(figures)
+    assert_readable(figures)
+    legend = figures["frictional_vdos.png"].axes[0].get_legend()
+    assert [t.get_text() for t in legend.get_texts()] == [r"$\rho$ = 0.286"]

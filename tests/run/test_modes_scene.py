@@ -55,7 +55,7 @@ def test_mode_shapes_of_spheres_draw_their_section(comm, shared_tmp):
         assert any("_mode_rho0.5_p0_0.png" in w for w in written), written
 
 
-def test_localised_modes_are_the_extremes_of_the_participation(comm, shared_tmp):
+def test_localised_modes_are_the_extremes_of_the_participation(comm, shared_tmp, monkeypatch):
     cache = str(shared_tmp / "cache")
     scene = scene_of(shared_tmp / "localised.h5", cache=cache, seed=7, packing={"n": 64, "phi": 0.9},
                      model={"rho": [0.5]}, spectrum={"energies": True}, modes={"localised": 2, "omega": [1.0]})
@@ -69,11 +69,15 @@ def test_localised_modes_are_the_extremes_of_the_participation(comm, shared_tmp)
     assert_close(group.omega[1:], omega[picked], rtol=1e-11, what="the extremes' omega")
     assert_close(group.participation[1:], participation[picked], rtol=1e-8, what="their participation")
     assert_close(group.target[1:], omega[picked], rtol=0.0, what="each found at its own omega")
-    if COMM.rank == 0:
+    if COMM.rank == 0:  # the pictures (a colour bar beside each) and the log P axis readable
+        from figures import assert_readable, capture
         from solver import plots
 
+        figures = capture(monkeypatch)
         written = plots.plot_results(scene.output)
         assert str(shared_tmp / "localised_participation.png") in written, written
+        assert sum("_mode_" in name for name in figures) == 5, sorted(figures)
+        assert_readable(figures)
     # the spectrum from the cache, new modes: the modes unit takes the spectrum's datasets from the store
     again = scene_of(shared_tmp / "again.h5", cache=cache, seed=7, packing={"n": 64, "phi": 0.9},
                      model={"rho": [0.5]}, spectrum={"energies": True}, modes={"localised": 1})

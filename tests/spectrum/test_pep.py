@@ -8,6 +8,7 @@ a scene's datasets, vDOS and resume."""
 import numpy as np
 import pytest
 from conftest import COMM, assert_all, assert_close, jammed_packing, run_stopped_after_windows, scene_of
+from figures import assert_readable, capture
 
 from solver import pipeline, plots
 from solver.contact_law import ContactModel
@@ -143,10 +144,11 @@ def test_windows_do_not_depend_on_the_rank_count(comm, monkeypatch):
     _assert_same_spectrum(both, alone, 1e-10, "2 ranks vs 1")
 
 
-def test_a_damped_scene_stores_lambda_and_its_vdos(shared_tmp):
+def test_a_damped_scene_stores_lambda_and_its_vdos(shared_tmp, monkeypatch):
     """spectrum: {} with model.damping chooses pep; the spectrum groups hold every kept lambda
     (Im >= 0), the counts, and the vDOS is that of the damped frequencies; rotsound plot draws
-    the damped figures."""
+    the damped figures, readable, each titled with what it shows and rho (the file's vDOS too:
+    it is of the damped frequencies, not the undamped one's title)."""
     scene = scene_of(shared_tmp / "damped.h5", cache="off", packing={"n": 32, "phi": 0.9, "count": 1},
                      model={"rho": [0.5], "damping": {"gamma_n": 0.3, "gamma_t": 0.15}}, spectrum={"energies": True})
     assert scene.spectrum.method == "pep"
@@ -159,9 +161,16 @@ def test_a_damped_scene_stores_lambda_and_its_vdos(shared_tmp):
     edges, density = units["vdos/r00"][0]["edges"], units["vdos/r00"][0]["density"]
     counts, _ = np.histogram(lam.imag[lam.imag > 0], bins=edges)
     assert_close(density, counts / (counts.sum() * np.diff(edges)), rtol=1e-12, atol=0.0, what="damped vDOS")
+    figures = capture(monkeypatch)
     written = COMM.bcast(plots.plot_results(str(scene.output)) if COMM.rank == 0 else None, root=0)
     assert_all(any(path.endswith("_damped_modes.png") for path in written)
                and any(path.endswith("_damped_vdos.png") for path in written), written)
+    if COMM.rank == 0:
+        assert_readable(figures)
+        titles = {name: [ax.get_title() for ax in fig.axes if ax.get_title()] for name, fig in figures.items()}
+        assert all(r"$\rho$ = 0.5" in title for name in ("damped_damped_modes.png", "damped_damped_vdos.png")
+                   for title in titles[name]), titles
+        assert "damped" in titles["damped_vdos.png"][0] and len({t[0] for t in titles.values()}) == len(titles), titles
 
 
 def test_windows_resume_after_a_stop(shared_tmp, monkeypatch):

@@ -48,7 +48,7 @@ def test_velocity_field_equals_the_modal_solution(comm, dim, mode):
     dm.destroy()
 
 
-def test_snapshots_through_a_scene(comm, shared_tmp):
+def test_snapshots_through_a_scene(comm, shared_tmp, monkeypatch):
     waves = {"n": [2, 1], "method": "spectral", "t_end": 20, "modes": ["L", "RT"], "snapshots": [0.0, 5.0]}
     scene = scene_of(shared_tmp / "snap.h5", cache="off", seed=7, packing={"n": 64, "phi": 0.9},
                      model={"rho": [0.5]}, waves=waves)
@@ -65,11 +65,14 @@ def test_snapshots_through_a_scene(comm, shared_tmp):
     start = 1e-3 * np.sin(k * packing["positions"][:, 0])
     assert_close(first.velocity[0][:, 0], start - start.mean(), rtol=0.0, atol=1e-15, what="L at t = 0")
     if COMM.rank == 0:
+        from figures import assert_readable, capture
         from solver import plots
 
+        figures = capture(monkeypatch)
         written = plots.plot_results(scene.output)
         pictures = [w for w in written if "_wave_" in os.path.basename(w) and w.endswith(".png")]
         assert len(pictures) == 4, written
+        assert_readable(figures)
 
 
 def test_without_snapshots_the_waves_keys_are_those_of_before(shared_tmp):

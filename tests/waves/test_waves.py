@@ -121,6 +121,52 @@ def test_vaf_and_spectrum_of_damped_cosine():
     assert abs(width - 2 * gamma) < 0.2 * 2 * gamma  # Lorentzian full width 2 gamma
 
 
+def test_tapered_spectrum_of_a_tone_has_no_side_band_zeros():
+    """z = exp(-i w0 t) on [0, T]: cut, S is sinc^2 with zeros 2 pi / T apart (the stripes of the
+    S(k, omega) maps); tapered by cos^2(pi t / 2T), S peaks at w0 and, beyond the main lobe
+    (|dw| >= 3 pi / T), lies between its closed-form bounds 1/dw^2 and (dw / (dw^2 - b^2))^2,
+    b = pi / T (correlations' docstring), to the rectangle rule's (dw dt)^2 / 12 <= 1e-3 where
+    dw dt <= 0.1 (measured 8e-4)."""
+    dt, w0 = 0.05, 1.7
+    t = np.arange(0.0, 60.0 + dt / 2, dt)
+    z = np.exp(-1j * w0 * t)[None]
+    b = np.pi / t[-1]
+    for taper in (False, True):
+        omega, power = correlations.power_spectrum(z, dt, taper=taper)
+        dw = np.abs(omega - w0)
+        far = (dw >= 3 * b) & (dw <= 0.1 / dt)
+        scaled = power[far] * dw[far] ** 2
+        if not taper:
+            assert scaled.min() < 1e-2, "the cut record's zeros should show"
+            continue
+        assert abs(omega[np.argmax(power)] - w0) <= np.pi / (4 * t[-1]), "peak off w0 by more than half the grid"
+        assert scaled.min() >= 1 - 1e-3, f"S dw^2 = {scaled.min()} dips below the lower bound 1"
+        upper = (dw[far] ** 2 / (dw[far] ** 2 - b**2)) ** 2
+        assert np.max(scaled / upper) <= 1 + 1e-3, f"S above its upper bound by {np.max(scaled / upper) - 1:.1e}"
+
+
+def test_spectrum_maps_draw_the_tapered_records(tmp_path, monkeypatch):
+    """plot_spectra of a tone at one k: the drawn column of log10 S has no zero of the cut record:
+    beyond the main lobe S dw^2 stays within a factor 2 of 1 (the bounds above)."""
+    from figures import capture
+    from solver import plots
+    from solver.io.results import Waves
+
+    dt, w0 = 0.05, 1.7
+    t = np.arange(0.0, 60.0 + dt / 2, dt)
+    figures = capture(monkeypatch)
+    plots.plot_spectra({(1.0, "L"): Waves(np.array([0.5]), t, np.exp(-1j * w0 * t)[None, None], 4.0)},
+                       str(tmp_path / "tone"))
+    mesh = figures["tone_rho1.png"].axes[0].collections[0]
+    omega = mesh.get_coordinates()[:, 0, 1]  # the nearest-shading grid's row edges
+    omega = 0.5 * (omega[1:] + omega[:-1])
+    drawn = 10.0 ** np.asarray(mesh.get_array()).reshape(omega.size, -1)[:, 0]
+    dw, b = np.abs(omega - w0), np.pi / t[-1]
+    far = (dw >= 3 * b) & (dw <= 0.1 / dt)
+    scaled = drawn[far] * dw[far] ** 2
+    assert 0.5 < scaled.min() and scaled.max() < 2.0, (scaled.min(), scaled.max())
+
+
 def test_block_verlet_equals_blocks_of_one(comm, packing64):
     dm = dynmat.assemble(packing64, ContactModel(1.0), comm)
     L = packing64.box_length
