@@ -163,7 +163,7 @@ def verlet_eigen(eig, dt: float):
 
 def pooled_c(z: np.ndarray, sample: float) -> np.ndarray:
     """C(k, t) (S,) of the runs z (R, S) of one (mode, k), as rotsound pools them."""
-    from solver.analysis import correlations
+    from solver.waves import correlations
 
     return correlations.pooled(np.asarray(z)[:, None, :], sample)[0][0]
 

@@ -25,7 +25,8 @@ import numpy as np
 
 sys.path.insert(0, __file__.rsplit("/scripts/", 1)[0])
 from solver import plots_attenuation  # noqa: E402
-from solver.analysis import attenuation, correlations, fits  # noqa: E402
+from solver.analysis import attenuation, fits
+from solver.waves import correlations  # noqa: E402
 from solver.io import results  # noqa: E402
 
 _WAVES = re.compile(r"r(\d+)_(L|TR)_p(\d+)$")

@@ -27,6 +27,7 @@ from .io import hdf5
 from .spectrum import counting, kpm, nonhermitian, pep, shapes
 from .spectrum import modes
 from .packing import jammed
+from .packing.configuration import Packing
 from .packing import mechanics
 from . import options
 from .spectrum import slicing
@@ -65,7 +66,7 @@ def say(comm, message: str) -> None:
         sys.stdout.flush()
 
 
-def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[jammed.Packing]:
+def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[Packing]:
     """Read ``packing.file`` or generate ``packing.count`` configurations. Collective.
 
     Generation is spread over ranks (configuration i on rank i % size, seeded by
@@ -107,7 +108,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[ja
     return packings
 
 
-def _relaxed(p: jammed.Packing, index: int, scene: Scene) -> jammed.Packing:
+def _relaxed(p: Packing, index: int, scene: Scene) -> Packing:
     """``packing.relax``: configuration ``index`` of the file re-minimised frictionlessly; InputError
     if it does not stay jammed. Not collective."""
     spec = scene.packing
@@ -543,7 +544,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         signal.signal(signal.SIGTERM, previous)
 
 
-def check_packings(scene: Scene, packings: list[jammed.Packing]) -> None:
+def check_packings(scene: Scene, packings: list[Packing]) -> None:
     """Refuse a scene its packings cannot run, before any compute: a file's dimension, stored
     tangential forces with what needs a symmetric matrix, the waves' k in each box, the dense
     solvers' size. Not collective: the same on every rank."""

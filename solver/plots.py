@@ -1,7 +1,7 @@
 """Figures: one function per figure of the paper, drawing arrays that ``io.results`` read from a
 results file; :func:`plot_results` draws every figure a file has data for.
 
-Never imports petsc4py or mpi4py; the correlations come from ``analysis.correlations.pooled`` and
+Never imports petsc4py or mpi4py; the correlations come from ``waves.correlations.pooled`` and
 the model curves from ``analysis.lattice`` (eq:omega_t(k), eq:omega_r(k), fig:band_RT).  Each
 function writes ``<stem>.png`` and ``<stem>.pdf`` and returns their paths ([] when it has nothing
 to draw).  Not collective.  Symbols in labels, legends and titles are mathtext
@@ -20,7 +20,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
-from .analysis import correlations  # noqa: E402
+from .waves import correlations  # noqa: E402
 from .errors import InputError  # noqa: E402
 from .analysis import lattice  # noqa: E402
 from .io import results  # noqa: E402

@@ -38,7 +38,8 @@ import warnings
 
 import numpy as np
 
-from . import attenuation, correlations, lattice
+from . import attenuation, lattice
+from ..waves import correlations
 from . import fits
 
 _WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT|R)_p(\d+)$")

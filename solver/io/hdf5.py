@@ -34,7 +34,8 @@ from .. import profiling
 from . import contact_files, dem_formats
 from .atomic import atomic_write
 from ..packing import mechanics, stressed
-from ..packing.jammed import Packing, from_arrays
+from ..packing.configuration import Packing
+from ..packing.jammed import from_arrays
 
 FORMAT_VERSION = 1
 

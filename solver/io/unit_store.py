@@ -291,7 +291,7 @@ def packing_unit(p) -> tuple[dict, dict]:
 
 def packing_from_unit(unit):
     """Inverse of :func:`packing_unit`."""
-    from ..packing.jammed import Packing
+    from ..packing.configuration import Packing
 
     datasets, attrs = unit
     attrs = dict(attrs)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import contact_law, profiling
-from ..packing.jammed import Packing
+from ..packing.configuration import Packing
 from . import dynmat
 
 

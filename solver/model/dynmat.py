@@ -36,7 +36,8 @@ from ..packing import geometry
 from .. import contact_law
 from ..contact_law import ContactModel
 from ..packing import stressed
-from ..packing.jammed import Packing, spatial_order
+from ..packing.configuration import Packing
+from ..packing.jammed import spatial_order
 
 MASS = 1.0
 

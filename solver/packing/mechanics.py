@@ -24,7 +24,7 @@ from ..errors import InputError
 from . import geometry
 
 if TYPE_CHECKING:
-    from .jammed import Packing
+    from .configuration import Packing
     from .stressed import TangentialForces
 NAMES = {2: "disks", 3: "spheres"}
 EQUILIBRIUM_TOL = 1e-4  # kn d0: largest net force (and torque, kn d0^2) on a loaded packing (FIRE reaches 1e-6)

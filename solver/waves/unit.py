@@ -4,7 +4,7 @@ number of one (rho, mode, packing), integrated (``integrators``; or without time
 the datasets and attributes of the results file's ``waves/r<i>_<mode>_p<j>`` group (README,
 "Results file").
 
-C (K, S) and S (K, W) pool the mode's runs (``analysis.correlations.pooled``): numerators and
+C (K, S) and S (K, W) pool the mode's runs (``waves.correlations.pooled``): numerators and
 denominators averaged over directions and polarisations.
 Collective on the matrix's communicator.  Units: d0 = m = kn = 1.
 """
@@ -15,7 +15,7 @@ import json
 
 import numpy as np
 
-from ..analysis import correlations
+from . import correlations
 from ..model import dynmat
 from . import chebyshev, excitation, exponential, integrators, spectral
 from .schedule import Schedule

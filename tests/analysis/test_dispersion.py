@@ -78,7 +78,7 @@ def test_damped_cosine_fit_recovers_parameters(omega, gamma):
 
 
 def test_lorentzian_agrees_with_time_fit():
-    from solver.analysis import correlations
+    from solver.waves import correlations
 
     t = np.arange(0, 400, 0.1)
     c = np.exp(-0.05 * t) * np.cos(2.0 * t)

@@ -8,7 +8,7 @@ from solver.contact_law import ContactModel
 from solver.packing import geometry
 from solver import contact_law
 from solver.model import dynmat
-from solver.packing import jammed
+from solver.packing import configuration, jammed
 
 
 def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, law, w):
@@ -115,7 +115,7 @@ def test_density_masses_follow_the_diameters_or_the_file(comm, small_packing, di
     p = small_packing if dim == 2 else spheres()
     active = ~p.rattler
     for raw in (None, 7.0 * p.diameters ** (dim + 1)):
-        q = jammed.Packing(p.positions, p.diameters, p.box, p.rattler, p.info, raw)
+        q = configuration.Packing(p.positions, p.diameters, p.box, p.rattler, p.info, raw)
         dm = dynmat.assemble(q, ContactModel(1.0), comm, mass_rule="density")
         dm_equal = dynmat.assemble(q, ContactModel(1.0), comm)
         m = (p.diameters ** dim if raw is None else raw)

@@ -14,7 +14,7 @@ from solver.errors import InputError
 from solver.io import dem_formats, schema
 from solver.io import hdf5
 from solver.model import dynmat
-from solver.packing import jammed
+from solver.packing import configuration
 from solver.packing import mechanics
 
 DATA = REPO / "tests" / "data" / "dem"
@@ -32,7 +32,7 @@ def test_balanced_dem_packings_load_in_rotsounds_units(name):
     assert_close(p.box, (raw.box_hi - raw.box_lo) / unit, rtol=1e-15, what="box")
     assert_close(p.diameters.mean(), 1.0, rtol=1e-15, what="mean diameter")
     volume = np.prod(raw.box_hi - raw.box_lo)
-    solid = jammed.solid_volume(raw.diameters, raw.dim)
+    solid = configuration.solid_volume(raw.diameters, raw.dim)
     assert_close(p.phi, solid / volume, rtol=1e-12, what="phi")
     assert_all(p.dim == raw.dim and mechanics.net_force(p) < 1e-10 and mechanics.jamming_failure(p) is None,
                f"{name}: dim {p.dim}, net force {mechanics.net_force(p)}")

@@ -11,7 +11,7 @@ from conftest import COMM, assert_all, scene_of
 
 from solver import contact_law, pipeline
 from solver.errors import InputError
-from solver.packing import geometry, jammed, mechanics
+from solver.packing import configuration, geometry, jammed, mechanics
 
 
 @functools.lru_cache(maxsize=None)
@@ -30,7 +30,7 @@ def test_lammps_makes_frictional_packings_at_rest_on_their_tangential_forces(lam
     # them from the same state (a few components per particle: 1e-9 bounds their sum)
     assert_all(p.stressed and np.abs(net[active]).max() < 1e-9 and np.abs(torque[active]).max() < 1e-9,
                f"net {np.abs(net[active]).max():.1e}, torque {np.abs(torque[active]).max():.1e}")
-    bare, _ = mechanics.net_load(jammed.Packing(p.positions, p.diameters, p.box, p.rattler))
+    bare, _ = mechanics.net_load(configuration.Packing(p.positions, p.diameters, p.box, p.rattler))
     assert_all(np.abs(bare[active]).max() > 1e-3, "the normal forces alone balance: not a frictional packing")
     found = geometry.find_contacts(p.positions, p.diameters, p.box)
     reduced = contact_law.reduced_radius(p.diameters[found.i], p.diameters[found.j])

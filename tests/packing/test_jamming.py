@@ -9,7 +9,7 @@ from conftest import COMM, assert_all, scene_of, star_cluster
 from solver import pipeline
 from solver.errors import InputError
 from solver.model import dynmat
-from solver.packing import jammed
+from solver.packing import configuration, jammed
 from solver.packing import mechanics
 
 UNJAMMED = dict(seed=0, packing={"n": 256, "phi": 0.8}, model={"rho": 1}, spectrum={},
@@ -55,12 +55,12 @@ def test_a_floppy_cluster_is_refused_and_a_jammed_packing_is_not(small_packing):
     p = small_packing
     cluster, n_cluster, inside = star_cluster(p)
     assert_all(inside < 2 * n_cluster - 1, f"the test's cluster: {n_cluster} disks, {inside} contacts")
-    floppy = jammed.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
+    floppy = configuration.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
     why = mechanics.jamming_failure(floppy)
     assert_all(why is not None and why.startswith(f"only {n_cluster} of 64 disks are not rattlers and they "
                                                   f"share {inside} contacts, fewer than the 2N' - 1 = "
                                                   f"{2 * n_cluster - 1}"), why)
-    loose = jammed.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
+    loose = configuration.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
     why = mechanics.jamming_failure(loose)
     assert_all(why is not None and why.startswith("all 64 disks are rattlers"), why)
     with pytest.raises(InputError, match=r"packing.phi = 0.9: configurations 1, 2 of 3 did not jam "

@@ -15,7 +15,7 @@ from solver.io import hdf5
 from solver.io import results, schema
 from solver.io import unit_keys
 from solver.packing import geometry
-from solver.packing import jammed
+from solver.packing import configuration, jammed
 from solver.packing import mechanics
 
 PHI = 0.7  # above this mixture's 3D jamming point (~0.648)
@@ -83,12 +83,12 @@ def test_rigidity_count_in_3d(spheres):
     p = spheres
     cluster, n_cluster, inside = star_cluster(p)
     assert inside < 3 * n_cluster - 2, (n_cluster, inside)  # the test's cluster is floppy in 3D
-    floppy = jammed.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
+    floppy = configuration.Packing(p.positions, p.diameters, p.box, ~cluster, p.info)
     why = mechanics.jamming_failure(floppy)
     assert why is not None and why.startswith(f"only {n_cluster} of 128 spheres are not rattlers and they "
                                               f"share {inside} contacts, fewer than the 3N' - 2 = "
                                               f"{3 * n_cluster - 2}"), why
-    loose = jammed.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
+    loose = configuration.Packing(p.positions, p.diameters, p.box, np.ones(p.n, dtype=bool), p.info)
     assert mechanics.jamming_failure(loose).startswith("all 128 spheres are rattlers")
     with pytest.raises(InputError, match=r"packing.phi = 0.7: configuration 1 did not jam: all 128 spheres "
                                          r"are rattlers .*this 3D mixture jams near phi = 0.648"):
@@ -151,7 +151,7 @@ def test_net_force_of_a_sphere_file_counts_z(spheres):
     p = spheres
     moved = p.positions.copy()
     moved[5, 2] += 0.01
-    shaken = jammed.Packing(moved, p.diameters, p.box, p.rattler, p.info)
+    shaken = configuration.Packing(moved, p.diameters, p.box, p.rattler, p.info)
     overlap, delta, distance = all_pairs(shaken)
     net = np.sum((overlap / distance)[..., None] * delta, axis=1)
     expected = np.sqrt(np.sum(net[~p.rattler] ** 2, axis=1)).max()

@@ -100,7 +100,7 @@ def test_rotsounds_integrators_on_the_stressed_matrix(made, comm, integrator):
     and 1e-6)."""
     from conftest import schedule
 
-    from solver.analysis import correlations
+    from solver.waves import correlations
     from solver.waves import integrators
 
     p, _ = made

@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-NO_PETSC = ("solver", "solver.io.schema", "solver.io.scenes", "solver.io.results", "solver.analysis.correlations",
+NO_PETSC = ("solver", "solver.io.schema", "solver.io.scenes", "solver.io.results", "solver.waves.correlations",
             "solver.analysis.fits", "solver.analysis.lattice", "solver.analysis.claims", "solver.analysis.dispersion",
             "solver.spectrum.modes", "solver.plots", "solver.plots_damped", "solver.analysis.loss", "solver.report")
 NO_FILES = ("solver.analysis.lattice", "solver.analysis.claims")

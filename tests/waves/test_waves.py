@@ -6,7 +6,7 @@ from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed,
 from mpi4py import MPI
 
 from solver.contact_law import ContactModel
-from solver.analysis import correlations
+from solver.waves import correlations
 from solver.model import dynmat, operators
 from solver.packing import jammed
 from solver.waves import excitation

@@ -1,6 +1,8 @@
 """Normalised velocity autocorrelations and power spectra from sampled Fourier components.
 
-numpy only (no PETSc).  For runs r (directions x configurations) of one (rho, mode, k):
+The waves stage's own observables, computed when a waves unit is made (``waves.unit``) and read
+again by the analysis and the figures.  numpy only (no PETSc).  For runs r (directions x
+configurations) of one (rho, mode, k):
     C(k, t) = Re sum_r z_r(t) conj(z_r(0)) / sum_r |z_r(0)|^2          (paper's C_l, C_t, C_r)
     S(k, w) = sum_r |T_w[z_r](w)|^2 / sum_r |z_r(0)|^2,   T_w[z](w) = int_0^T z(t) e^{i w t} dt
 The transform is a rectangle-rule sum over the samples (no window, as the paper defines S),

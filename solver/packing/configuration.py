@@ -1,0 +1,65 @@
+"""One packing configuration (:class:`Packing`), the record every stage passes on: a leaf module,
+so that the modules that make, check and read packings import it and not each other.
+Units d0 = m = kn = 1.  Not collective.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .stressed import TangentialForces
+
+
+def solid_volume(diameters: np.ndarray, dim: int) -> float:
+    """Total area (2D: sum pi d^2 / 4) or volume (3D: sum pi d^3 / 6) of the particles."""
+    return float(np.pi * np.sum(diameters**2) / 4.0 if dim == 2 else np.pi * np.sum(diameters**3) / 6.0)
+
+
+@dataclass(frozen=True)
+class Packing:
+    """One configuration (units d0 = m = kn = 1).
+
+    positions : (N, D) float64 in the box, D = 2 or 3;  diameters : (N,) float64;
+    box : (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box, origin at 0;
+    rattler : (N,) bool;  info : provenance and statistics (energy, pressure, z, ...);
+    masses : (N,) float64 the masses a file gave (its own units), or None (generated packings, and
+    files without them); ``model.masses`` decides what the matrix uses (``dynmat.particle_masses``);
+    tangential : the stored tangential forces of a packing made with friction
+    (docs/stressed_contacts.md), or None (unstressed springs).
+    """
+
+    positions: np.ndarray
+    diameters: np.ndarray
+    box: np.ndarray
+    rattler: np.ndarray
+    info: dict = field(default_factory=dict)
+    masses: np.ndarray | None = None
+    tangential: TangentialForces | None = None
+
+    @property
+    def stressed(self) -> bool:
+        """Whether some stored tangential force is not zero (the matrix is then not symmetric)."""
+        return self.tangential is not None and self.tangential.nonzero()
+
+    @property
+    def n(self) -> int:
+        return int(self.diameters.size)
+
+    @property
+    def dim(self) -> int:
+        """Dimension D (2 or 3), read from the shape of ``positions``."""
+        return int(self.positions.shape[1])
+
+    @property
+    def box_length(self) -> float:
+        """Side L of a square or cubic box; ValueError when the sides differ."""
+        if np.any(self.box != self.box[0]):
+            raise ValueError(f"the box has sides {self.box.tolist()}, not one side length")
+        return float(self.box[0])
+
+    @property
+    def phi(self) -> float:
+        """Area (2D) or volume (3D) fraction."""
+        return solid_volume(self.diameters, self.dim) / float(np.prod(self.box))
