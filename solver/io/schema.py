@@ -517,7 +517,7 @@ def build(cls, raw, where: str = ""):
     """Validate mapping ``raw`` into dataclass ``cls``; ``where`` is the key path prefix."""
     raw = {} if raw is None else raw
     if not isinstance(raw, dict):
-        raise InputError(f"{where or 'scene'} = {raw!r}: must be a mapping")
+        raise InputError(f"{where.rstrip('.') or 'scene'} = {raw!r}: must be a mapping")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(map(str, raw)) - set(fields))
     if unknown:

@@ -132,6 +132,7 @@ CASES = [
     ("unknown nested key", "packing: {n: 64, phi: 0.9, size: 3}\n", [], "unknown key packing.size", None),
     ("misspelt key (near miss)", GOOD + "spectrum: {energy: true}\n", [],
      "unknown key spectrum.energy: did you mean spectrum.energies? allowed keys in spectrum are", None),
+    ("a section given a number", GOOD + "model: {damping: 0.3}\n", [], "model.damping = 0.3: must be a mapping", None),
     ("N not an integer", "packing: {n: many, phi: 0.9}\n", [], "packing.n = 'many': must be an integer", None),
     ("N a boolean", "packing: {n: true, phi: 0.9}\n", [], "packing.n = True: must be an integer", None),
     ("N odd", "packing: {n: 63, phi: 0.9}\n", [], "packing.n = 63: must be an even integer >= 16", None),

@@ -57,7 +57,7 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": 64, "phi": 0.9}, "output": "x.txt"}, ["output", ".h5"]),
     ({"packing": {"n": 64, "phi": 0.9, "count": 0}}, ["packing.count", "0"]),
     ({"packing": {"n": 64, "phi": 0.9, "force_tol": 0}}, ["packing.force_tol"]),
-    ({"packing": [1, 2]}, ["packing", "must be a mapping"]),
+    ({"packing": [1, 2]}, ["packing = [1, 2]: must be a mapping"]),
     ({"packing": {"n": 64, "phi": 0.9}, "petsc": [1]}, ["petsc", "a mapping"]),
     ({"packing": {"n": 64, "phi": 0.9}, "waves": {"modes": [], "n": [1]}}, ["waves.modes", "non-empty"]),
     ({"packing": {"n": 64, "phi": 0.9}, "waves": {"modes": ["X"], "n": [1]}}, ["waves.modes", "L, TR, RT"]),
