@@ -549,6 +549,10 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                       f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                       f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                       + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
+        if scene.model.damped:
+            dashpots = scene.model.dashpot_record
+            say(comm, f"dashpots: gamma_n = {dashpots['gamma_n']:.6g}, gamma_t = {dashpots['gamma_t']:.6g} (1/t0); "
+                      f"gamma_n from {dashpots['gamma_n_from']}")
         for rho in scene.model.rho:
             if scene.waves and not scene.model.contact(rho).rotations:
                 skipped = [m for m in scene.waves.modes if m in ("RT", "R")]
@@ -586,7 +590,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
             "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
             "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
             "ranks": comm.size, "group_size": groups.size, "petsc_options": options.snapshot(),
-            "petsc_options_unused": unused,
+            "petsc_options_unused": unused, "dashpots": scene.model.dashpot_record,
         }
         try:  # rank 0 writes; any error it meets is raised on every rank (owner_compute)
             with profiling.stage("output"):

@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from ..contact_law import HISTORIES, LAWS, LEVERS, MOBILISED, STORED_FORCES, ContactModel, restitution_damping
+from ..contact_law import (HISTORIES, LAWS, LEVERS, MOBILISED, RESTITUTION_RULE, STORED_FORCES, ContactModel,
+                           restitution_damping)
 from ..errors import InputError
 
 
@@ -200,6 +201,15 @@ class ModelSpec:
         if self.restitution is not None:
             gamma_n = restitution_damping(self.restitution)
         return gamma_n, gamma_t
+
+    @property
+    def dashpot_record(self) -> dict:
+        """gamma_n, gamma_t (1/t0) and ``gamma_n_from``: model.damping, or model.restitution e with
+        the rule that derived gamma_n from it (``RESTITUTION_RULE``); for the log and the results file."""
+        gamma_n, gamma_t = self.dashpots
+        origin = "model.damping" if self.restitution is None else \
+            f"model.restitution e = {self.restitution!r}: {RESTITUTION_RULE}"
+        return {"gamma_n": gamma_n, "gamma_t": gamma_t, "gamma_n_from": origin}
 
     @property
     def damped(self) -> bool:

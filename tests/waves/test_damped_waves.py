@@ -147,6 +147,29 @@ def test_restitution_is_gamma_n_by_another_name(tmp_path):
                and unit_keys.scene_keys(by_e, [p], []) == unit_keys.scene_keys(by_gamma, [p], []), str(gamma))
 
 
+def test_restitution_is_recorded_with_the_gamma_n_it_gives(shared_tmp, capsys):
+    """A scene given model.restitution e says in its log and its results file (root attribute
+    ``dashpots``) the gamma_n it used and how it came from e: docs/damping.md section 5's closed form,
+    computed here, gamma_n = 2 omega_0 (-ln e) / sqrt(pi^2 + ln^2 e) with omega_0^2 = kn / m_eff,
+    m_eff = 1/2 (two particles of mass 1), to 1e-15 relative (round-off: the same expression)."""
+    import h5py
+
+    e = 0.8
+    closed = 2.0 * math.sqrt(1.0 / 0.5) * -math.log(e) / math.sqrt(math.pi ** 2 + math.log(e) ** 2)
+    out = shared_tmp / "restitution.h5"
+    scene = scene_of(out, cache="off", packing={"n": 64, "phi": 0.9}, model={"rho": 0.5, "restitution": e})
+    capsys.readouterr()
+    pipeline.run(scene, COMM, [])
+    log = COMM.bcast(capsys.readouterr().out, root=0)
+    with h5py.File(out, "r") as f:
+        recorded = json.loads(f.attrs["dashpots"])
+    assert_close(recorded["gamma_n"], closed, rtol=1e-15, atol=0.0, what="recorded gamma_n")
+    assert_all(recorded["gamma_t"] == 0.0 and recorded["gamma_n_from"].startswith("model.restitution e = 0.8: ")
+               and "m_eff = 0.5" in recorded["gamma_n_from"], str(recorded))
+    assert_all(f"dashpots: gamma_n = {closed:.6g}, gamma_t = 0 (1/t0); gamma_n from model.restitution e = 0.8" in log,
+               log)
+
+
 def test_a_damped_scene_runs_its_waves(shared_tmp):
     """model.damping with exponential, spectral (the Chebyshev-Bessel series) and rk waves: the same
     C(k, t) to RK4's error (below 1e-7 of C(0) = 1 at dt = 0.02; measured 6e-9), and not the
