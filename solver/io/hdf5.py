@@ -90,8 +90,8 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
     if stored is not None:
         _check_box(box, diameters, where, name)
         _check_distinct(positions, diameters, box, where)
-        stored = stressed.build(*stored, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
-                                stored[2], f"packing file {where}:/tangential")
+        stored = stressed.build(stored[0], stored[1], np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)),
+                                law, stored[2], f"packing file {where}:/tangential")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
                    check_equilibrium, law, stored)
 
