@@ -34,7 +34,7 @@ from .model import operators
 from .waves import excitation
 from .waves import schedule
 from .waves.unit import mode_unit
-from .io.schema import Scene, check_dimension, check_stressed
+from .io.schema import Scene, check_dimension, check_stressed, resolve_method, stored_forces_source
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import unit_keys
@@ -520,11 +520,13 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     from petsc4py import PETSc
 
     t0 = time.perf_counter()
+    asked = scene  # spectrum.method auto: as the scene alone gives it until the packings are read
+    scene = resolve_method(asked, stored_forces_source(asked))[0]
     check_factor_ranks(scene, group_size or comm.size, f"--group-size {group_size}" if group_size else
                        f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,
+        store = UnitStore(scene.output, scene.to_yaml(), asked.digest(), comm, fresh=fresh,
                           cache=cache_folder(scene))
         if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS and scene.packing.file is None:
             _check_dense_size(scene, scene.packing.n, scene.packing.dim, "generated")  # before the packings
@@ -534,8 +536,10 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
             check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
                                                     f"(positions (N, 2))")
         stressed = [i for i, p in enumerate(packings) if p.stressed]
-        check_stressed(scene, f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces"
-                       if stressed else None)
+        which = f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces" if stressed \
+            else None
+        scene, chosen = resolve_method(asked, which or stored_forces_source(asked))
+        check_stressed(scene, which)
         if scene.waves is not None:  # every packing's allowed k, before any compute (same on every rank)
             for p in packings:
                 excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
@@ -549,6 +553,8 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
                       f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                       f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                       + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
+        if chosen:
+            say(comm, chosen)
         if scene.model.damped:
             dashpots = scene.model.dashpot_record
             say(comm, f"dashpots: gamma_n = {dashpots['gamma_n']:.6g}, gamma_t = {dashpots['gamma_t']:.6g} (1/t0); "
@@ -587,7 +593,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
             say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
                       f"stage this scene does not run)")
         provenance = {
-            "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
+            "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": asked.digest(),
             "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
             "ranks": comm.size, "group_size": groups.size, "petsc_options": options.snapshot(),
             "petsc_options_unused": unused, "dashpots": scene.model.dashpot_record,
