@@ -501,7 +501,16 @@ def damping_blocks(normal: np.ndarray, overlap: np.ndarray, radius_i: np.ndarray
     return full[:, :k, :k], full[:, :k, m:m + k], full[:, m:m + k, m:m + k]
 
 
-def restitution_damping(restitution: float, m_eff: float = 0.5) -> float:
+RESTITUTION_M_EFF = 0.5
+"""Reduced mass of the collision ``model.restitution`` refers to: two particles of the mean mass 1."""
+
+RESTITUTION_RULE = (f"gamma_n = 2 omega_0 (-ln e) / sqrt(pi^2 + ln^2 e), omega_0 = sqrt(kn / m_eff), m_eff = "
+                    f"{RESTITUTION_M_EFF:g}: a head-on collision of two particles of the mean mass under the harmonic "
+                    f"law, in contact until the overlap is zero again (LAMMPS's convention; docs/damping.md section 5)")
+"""How :func:`restitution_damping` derives gamma_n, in words, for the log and the results file."""
+
+
+def restitution_damping(restitution: float, m_eff: float = RESTITUTION_M_EFF) -> float:
     """gamma_n (1/t0) of the harmonic normal dashpot that gives a binary collision of reduced mass
     ``m_eff`` (default: two particles of the mean mass 1) the normal coefficient of restitution
     e = ``restitution`` in (0, 1], in LAMMPS's convention (docs/damping.md section 5): the overlap

@@ -35,7 +35,7 @@ from .model import operators
 from .waves import excitation
 from .waves import schedule
 from .waves.unit import mode_unit
-from .io.schema import Scene, check_dimension, check_stressed
+from .io.schema import Scene, check_dimension, check_stressed, resolve_method, stored_forces_source
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import unit_keys
@@ -521,54 +521,63 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     refusal after the claim removes what the claim made (``UnitStore.abandon``).
     """
     t0 = time.perf_counter()
+    asked = scene  # spectrum.method auto: as the scene alone gives it until the packings are read
+    scene = resolve_method(asked, stored_forces_source(asked))[0]
     check_factor_ranks(scene, group_size or comm.size, f"--group-size {group_size}" if group_size else
                        f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
     if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS and scene.packing.file is None:
         _check_dense_size(scene, scene.packing.n, scene.packing.dim, "generated")  # before the packings
-    packings = None
+    packings = chosen = None
     if scene.packing.file is not None:  # a refused file or scene writes nothing: read and check before the store
         with profiling.stage("packings"):
             packings = make_packings(scene, comm)
-        check_packings(scene, packings)
+        scene, chosen = check_packings(asked, packings)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        store = UnitStore(scene.output, scene.to_yaml(), scene.digest(), comm, fresh=fresh,
+        store = UnitStore(scene.output, scene.to_yaml(), asked.digest(), comm, fresh=fresh,
                           cache=cache_folder(scene))
         try:
-            packings, units, group_ranks = _solve(scene, comm, petsc_argv, group_size, store, packings)
+            if packings is None:
+                with profiling.stage("packings"):
+                    packings = make_packings(scene, comm, store)
+                scene, chosen = check_packings(asked, packings)
+            units, group_ranks = _solve(scene, comm, petsc_argv, group_size, store, packings, chosen)
         except InputError:  # refused after the claim (a generated packing, a solver's check): leave no debris
             store.abandon()
             raise
-        return _write(scene, comm, petsc_argv, store, packings, units, group_ranks, t0)
+        return _write(scene, asked, comm, petsc_argv, store, packings, units, group_ranks, t0)
     finally:
         signal.signal(signal.SIGTERM, previous)
 
 
-def check_packings(scene: Scene, packings: list[Packing]) -> None:
+def check_packings(asked: Scene, packings: list[Packing]) -> tuple[Scene, str | None]:
     """Refuse a scene its packings cannot run, before any compute: a file's dimension, stored
     tangential forces with what needs a symmetric matrix, the waves' k in each box, the dense
-    solvers' size. Not collective: the same on every rank."""
-    if scene.packing.file is not None:  # generated packings were checked with the scene
-        check_dimension(scene, packings[0].dim, f"packing.file {scene.packing.file} holds disks "
+    solvers' size.  Return the scene ``asked`` with ``spectrum.method: auto`` resolved for these
+    packings (``resolve_method``) and the line that says what auto chose (None if nothing).  Not
+    collective: the same on every rank."""
+    if asked.packing.file is not None:  # generated packings were checked with the scene
+        check_dimension(asked, packings[0].dim, f"packing.file {asked.packing.file} holds disks "
                                                 f"(positions (N, 2))")
     stressed = [i for i, p in enumerate(packings) if p.stressed]
-    check_stressed(scene, f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces"
-                   if stressed else None)
+    which = f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces" if stressed \
+        else None
+    scene, chosen = resolve_method(asked, which or stored_forces_source(asked))
+    check_stressed(scene, which)
     if scene.waves is not None:  # every packing's allowed k
         for p in packings:
             excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
     if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS:
         for index, p in enumerate(packings):
             _check_dense_size(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
+    return scene, chosen
 
 
-def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packings) -> tuple[list, dict, int]:
-    """:func:`run` once the units folder is claimed: generate the packings (unless ``packings`` were
-    read), solve every unit and analyse; return (packings, units, ranks per group). Collective."""
-    if packings is None:
-        with profiling.stage("packings"):
-            packings = make_packings(scene, comm, store)
-        check_packings(scene, packings)
+def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packings, chosen: str | None
+           ) -> tuple[dict, int]:
+    """:func:`run` once the units folder is claimed and the packings made or read: solve every unit
+    and analyse; return (units, ranks per group).  ``chosen``: what ``spectrum.method: auto`` chose,
+    to log.  Collective."""
     keys = unit_keys.scene_keys(scene, packings, petsc_argv)
     for index, p in enumerate(packings):
         i = p.info
@@ -576,6 +585,12 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
                   f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                   f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                   + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
+    if chosen:
+        say(comm, chosen)
+    if scene.model.damped:
+        dashpots = scene.model.dashpot_record
+        say(comm, f"dashpots: gamma_n = {dashpots['gamma_n']:.6g}, gamma_t = {dashpots['gamma_t']:.6g} (1/t0); "
+                  f"gamma_n from {dashpots['gamma_n_from']}")
     for rho in scene.model.rho:
         if scene.waves and not scene.model.contact(rho).rotations:
             skipped = [m for m in scene.waves.modes if m in ("RT", "R")]
@@ -602,13 +617,13 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
                   + (f"; lattice model a_r = {lattice['a_r']:.3f} +- {lattice['a_r_err']:.3f}/t0, "
                      f"l = {lattice['l']:.3f} +- {lattice['l_err']:.3f} d0, a_t = {lattice['a_t']:.3f}/t0"
                      if lattice else ""))
-    return packings, units, groups.size
+    return units, groups.size
 
 
-def _write(scene: Scene, comm, petsc_argv, store: UnitStore, packings, units: dict, group_ranks: int,
+def _write(scene: Scene, asked: Scene, comm, petsc_argv, store: UnitStore, packings, units: dict, group_ranks: int,
            t0: float) -> dict:
-    """Report unused PETSc options and write the results file (rank 0); return the run's summary.
-    Collective."""
+    """Report unused PETSc options and write the results file (rank 0) of ``scene`` (``asked`` with
+    its method resolved; the digest is ``asked``'s); return the run's summary.  Collective."""
     from petsc4py import PETSc
 
     stages = ([("spectra", scene.spectrum.method)] if scene.spectrum else []) + (
@@ -619,10 +634,10 @@ def _write(scene: Scene, comm, petsc_argv, store: UnitStore, packings, units: di
         say(comm, f"rotsound: warning: PETSc option -{name} was never used (misspelt, or for a "
                   f"stage this scene does not run)")
     provenance = {
-        "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": scene.digest(),
+        "rotsound_version": __version__, "scene": scene.to_yaml(), "scene_digest": asked.digest(),
         "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())), "numpy_version": np.__version__,
         "ranks": comm.size, "group_size": group_ranks, "petsc_options": options.snapshot(),
-        "petsc_options_unused": unused,
+        "petsc_options_unused": unused, "dashpots": scene.model.dashpot_record,
     }
     try:  # rank 0 writes; any error it meets is raised on every rank (owner_compute)
         with profiling.stage("output"):

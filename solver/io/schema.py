@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from ..contact_law import HISTORIES, LAWS, LEVERS, MOBILISED, STORED_FORCES, ContactModel, restitution_damping
+from ..contact_law import (HISTORIES, LAWS, LEVERS, MOBILISED, RESTITUTION_RULE, STORED_FORCES, ContactModel,
+                           restitution_damping)
 from ..errors import InputError
 
 
@@ -202,6 +203,15 @@ class ModelSpec:
         return gamma_n, gamma_t
 
     @property
+    def dashpot_record(self) -> dict:
+        """gamma_n, gamma_t (1/t0) and ``gamma_n_from``: model.damping, or model.restitution e with
+        the rule that derived gamma_n from it (``RESTITUTION_RULE``); for the log and the results file."""
+        gamma_n, gamma_t = self.dashpots
+        origin = "model.damping" if self.restitution is None else \
+            f"model.restitution e = {self.restitution!r}: {RESTITUTION_RULE}"
+        return {"gamma_n": gamma_n, "gamma_t": gamma_t, "gamma_n_from": origin}
+
+    @property
     def damped(self) -> bool:
         """Whether a dashpot is on."""
         return any(gamma > 0.0 for gamma in self.dashpots)
@@ -243,8 +253,10 @@ class SpectrumSpec:
                          float)
     max_window_modes: int = _f(2000, "eigenpairs kept in memory at once (slicing window size)",
                                _range(10, 10**7), int)
-    method: str = _f("auto", "auto: pep with model.damping, else counting when only counts are asked (no "
-                             "energies, no window), else slicing; slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
+    method: str = _f("auto", "auto: pep with model.damping, else nonhermitian on a non-symmetric matrix (stored "
+                             "tangential forces, of packing.contacts or a packing file's own, or model.history: "
+                             "yade; chosen once the packings are read, and logged), else counting when only counts "
+                             "are asked (no energies, no window), else slicing; slicing: exact eigenvalues (SLEPc spectrum slicing); counting: the exact "
                                 "vDOS from Sylvester inertias at the bin edges (no eigenvalues: vDOS, omega_c, mode "
                                 "counts); kpm: stochastic vDOS (Chebyshev moments, no factorisation; vDOS, omega_c "
                                 "and, with energies, binned K and Q); nonhermitian: every eigenvalue omega^2 of a "
@@ -407,8 +419,11 @@ class Scene:
         count (:func:`_explicit`), so a key added in a later version, at its default, leaves the
         digest of an unfinished run, and its resume, alone.  ``spectrum.factor_ranks`` says how
         the ranks share the work, not what is computed: left out too, so that a run is resumed
-        with another layout (say, after running out of memory with a factor per rank)."""
-        data = _explicit(self)
+        with another layout (say, after running out of memory with a factor per rank).
+        ``spectrum.method: auto`` counts as the method the scene alone gives it
+        (:func:`resolve_method` before the packings are read): a packing file's stored forces,
+        like the rest of its content, leave the digest alone."""
+        data = _explicit(resolve_method(self, stored_forces_source(self))[0])
         for name in ("output", "analysis", "cache", "petsc"):
             data.pop(name, None)
         if isinstance(data.get("spectrum"), dict):
@@ -517,7 +532,7 @@ def build(cls, raw, where: str = ""):
     """Validate mapping ``raw`` into dataclass ``cls``; ``where`` is the key path prefix."""
     raw = {} if raw is None else raw
     if not isinstance(raw, dict):
-        raise InputError(f"{where or 'scene'} = {raw!r}: must be a mapping")
+        raise InputError(f"{where.rstrip('.') or 'scene'} = {raw!r}: must be a mapping")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(map(str, raw)) - set(fields))
     if unknown:
@@ -545,20 +560,66 @@ def build(cls, raw, where: str = ""):
                 raise InputError(f"{key} = {raw[name]!r}: {problem}")
         values[name] = value
     obj = cls(**values)
-    if isinstance(obj, Scene) and obj.spectrum is not None and obj.spectrum.method == "auto":
-        obj = dataclasses.replace(obj, spectrum=dataclasses.replace(obj.spectrum, method=auto_method(obj)))
-        _cross_check(obj.spectrum, "spectrum.")
-    _cross_check(obj, where)
+    if isinstance(obj, Scene):  # spectrum.method auto is kept: the packings may decide it (pipeline.run)
+        resolve_method(obj, stored_forces_source(obj))
+    else:
+        _cross_check(obj, where)
     return obj
 
 
-def auto_method(scene: Scene) -> str:
-    """What ``spectrum.method: auto`` means for ``scene``: the cheapest exact method for what is
-    asked: pep for a damped model (the only one that takes dashpots), else counting when only
-    counts are asked (no energies, no window), else slicing."""
+def auto_method(scene: Scene, which: str | None) -> tuple[str, str]:
+    """What ``spectrum.method: auto`` means for ``scene`` on packings carrying the stored tangential
+    forces ``which`` says (None: none), and why: the cheapest exact method that fits the matrix and
+    what is asked: pep with dashpots (the only one that takes them), nonhermitian on a non-symmetric
+    matrix (:func:`asymmetry`), else counting when only counts are asked (no energies, no window),
+    else slicing."""
     if scene.model.damped:
-        return "pep"
-    return "slicing" if scene.spectrum.energies or scene.spectrum.window else "counting"
+        return "pep", "dashpots: the damped modes"
+    why = asymmetry(scene, which)
+    if why is not None:
+        return "nonhermitian", f"{why}, so the matrix is not symmetric"
+    if scene.spectrum.energies or scene.spectrum.window:
+        return "slicing", "per-mode energies asked" if scene.spectrum.energies else "a window asked"
+    return "counting", "only counts asked: no energies, no window"
+
+
+def resolve_method(scene: Scene, which: str | None) -> tuple[Scene, str | None]:
+    """``scene`` with ``spectrum.method: auto`` replaced by :func:`auto_method`'s choice on packings
+    carrying the stored tangential forces ``which`` says (None: none), and the log line saying so
+    (None when the method was not auto); InputError if the scene cannot run so.  Not collective:
+    the same on every rank given the same ``which``."""
+    said = None
+    if scene.spectrum is not None and scene.spectrum.method == "auto":
+        method, why = auto_method(scene, which)
+        scene = dataclasses.replace(scene, spectrum=dataclasses.replace(scene.spectrum, method=method))
+        _cross_check(scene.spectrum, "spectrum.")
+        said = f"spectrum.method auto -> {method} ({why})"
+    _cross_check(scene, "")
+    return scene, said
+
+
+def stored_forces_source(scene: Scene) -> str | None:
+    """Whose stored tangential forces the scene alone gives its packings, as a clause for messages;
+    None when it gives none (a packing file's own, in its ``tangential`` group, are known once it
+    is read). Not collective."""
+    if scene.packing.contacts is not None:
+        return "packing.contacts gives the packings stored tangential forces"
+    if scene.packing.file is None and scene.packing.friction:
+        return (f"packing.friction = {scene.packing.friction} makes frictional packings that stand on stored "
+                f"tangential forces")
+    return None
+
+
+def asymmetry(scene: Scene, which: str | None) -> str | None:
+    """Why the dynamical matrix of ``scene`` is not symmetric, as a clause, or None: the stored
+    tangential forces ``which`` says the packings carry (None: none) when ``model.stored_forces``
+    keeps them, or YADE's slip (``model.history: yade`` with a tangential spring;
+    docs/stressed_contacts.md). Not collective."""
+    if which is not None and scene.model.stored_forces == "keep":
+        return which
+    if scene.model.history == "yade" and any(r > 0 for r in scene.model.rho):
+        return "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
+    return None
 
 
 DEM_CONVENTIONS = {"liggghts-local": ("contact", "lammps"), "yade": ("contact", "yade")}
@@ -641,13 +702,8 @@ def _cross_check(obj, where):
     if isinstance(obj, Scene) and obj.model.mobilised == "slide" and obj.packing.friction is None:
         raise InputError("model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu: give "
                          "packing.friction (with packing.contacts, or packing.engine: lammps)")
-    if isinstance(obj, Scene) and obj.packing.contacts is not None:
-        check_stressed(obj, "packing.contacts gives the packings stored tangential forces")
-    if isinstance(obj, Scene) and obj.packing.file is None and obj.packing.friction:
-        check_stressed(obj, f"packing.friction = {obj.packing.friction} makes frictional packings that stand on "
-                            f"stored tangential forces")
-    if isinstance(obj, Scene):  # YADE's slip makes any packing's matrix non-symmetric
-        check_stressed(obj, None)
+    if isinstance(obj, Scene):
+        check_stressed(obj, stored_forces_source(obj))
     if isinstance(obj, ModelSpec) and obj.restitution is not None and (
             obj.law != "harmonic" or (obj.damping is not None and obj.damping.gamma_n > 0.0)):
         raise InputError(f"{where}restitution = {obj.restitution}: " + (
@@ -689,10 +745,9 @@ def check_stressed(scene: Scene, which: str | None) -> None:
     when ``model.stored_forces`` drops them.  Not collective."""
     model = scene.model
     held = which if model.stored_forces == "keep" else None
-    if held is None:
-        if model.history != "yade" or not any(r > 0 for r in model.rho):
-            return
-        which = "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
+    which = asymmetry(scene, which)
+    if which is None:
+        return
     if scene.spectrum is not None and scene.spectrum.method == "pep" and scene.spectrum.solver != "dense":
         raise InputError(f"spectrum.method = 'pep' with spectrum.solver = {scene.spectrum.solver!r}: {which}, so the "
                          f"dynamical matrix is not symmetric and the windows' bounds on the damped modes do not hold: "

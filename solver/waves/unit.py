@@ -89,8 +89,8 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
                    f"iterations), error estimate {np.nanmax(datasets['error_estimate']):.1e}")
     else:
         settings["ts"] = series[0][0].settings
-        summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), max energy "
-                   f"drift {drift.max():.1e}")
+        summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), "
+                   + _energy_words(dm, energy, drift, t[-1]))
     attrs = {"rho": dm.model.rho, "mode": mode, "dt": schedule.dt, "integrator": schedule.integrator,
              "omega_max": schedule.omega_max, "dt_limit": np.inf if schedule.limit is None else schedule.limit,
              "amplitude": spec.amplitude, "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
@@ -102,6 +102,22 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
         datasets.update(_snapshots(dm, positions, spec, mode, chosen[0], smallest, schedule))
         attrs.update(snapshot_k=smallest, snapshot_run=excitation.run_label(*excited[0], dm.dim))
     return datasets, attrs, summary
+
+
+def _energy_words(dm, energy: np.ndarray, drift: np.ndarray, t_end: float) -> str:
+    """What the log says of the energy E = (v^T M v + u^T D u)/2 of time-stepped runs (``energy``
+    (R, K, S), ``drift`` its max |E - E(0)|/E(0)): its drift where it is conserved; with dashpots
+    on a symmetric matrix the share of E(0) gone by ``t_end`` (E never grows there: the dashpots'
+    work, plus the scheme's error, which is not separated); on a non-symmetric matrix (stored
+    forces) E is not conserved, and only its largest change is said."""
+    if not dm.symmetric:
+        why = "dashpots and a non-symmetric matrix" if dm.C is not None else "the matrix is not symmetric"
+        return f"largest change of E {drift.max():.1e} of E(0) (not conserved: {why})"
+    if dm.C is not None:
+        lost = 100.0 * (1.0 - energy[..., -1] / energy[..., 0])
+        return (f"energy taken by the dashpots (and the scheme's error) by t = {t_end:g}: {lost.min():.3g} to "
+                f"{lost.max():.3g} %")
+    return f"max energy drift {drift.max():.1e}"
 
 
 def _snapshots(dm, positions, spec, mode: str, run: int, k: float, schedule: Schedule) -> dict:

@@ -57,7 +57,7 @@ def test_yaml_string_floats_are_numbers():
     ({"packing": {"n": 64, "phi": 0.9}, "output": "x.txt"}, ["output", ".h5"]),
     ({"packing": {"n": 64, "phi": 0.9, "count": 0}}, ["packing.count", "0"]),
     ({"packing": {"n": 64, "phi": 0.9, "force_tol": 0}}, ["packing.force_tol"]),
-    ({"packing": [1, 2]}, ["packing", "must be a mapping"]),
+    ({"packing": [1, 2]}, ["packing = [1, 2]: must be a mapping"]),
     ({"packing": {"n": 64, "phi": 0.9}, "petsc": [1]}, ["petsc", "a mapping"]),
     ({"packing": {"n": 64, "phi": 0.9}, "waves": {"modes": [], "n": [1]}}, ["waves.modes", "non-empty"]),
     ({"packing": {"n": 64, "phi": 0.9}, "waves": {"modes": ["X"], "n": [1]}}, ["waves.modes", "L, TR, RT"]),
@@ -94,14 +94,37 @@ def test_optional_sections():
     assert waves.modes == ["L", "TR", "RT"] and waves.integrator == "verlet"
 
 
-def test_spectrum_method_auto_chooses_the_cheapest_exact_method():
-    """Only counts asked -> counting; eigenvectors or a band -> slicing; an explicit choice stays."""
+def test_spectrum_method_auto_chooses_the_cheapest_exact_method_that_fits_the_matrix():
+    """A scene keeps auto (its packings may decide it); resolved: only counts asked -> counting;
+    eigenvectors or a band -> slicing; dashpots -> pep; stored tangential forces that the matrix
+    keeps (a contact file, or those a packing file turns out to hold) or YADE's slip ->
+    nonhermitian; an explicit choice stays.  The log line says which and why; the digest is the
+    scene's as it alone resolves auto, the same as the resolved scene's."""
     base = {"packing": {"n": 16, "phi": 0.9}}
-    method = lambda spectrum: build({**base, "spectrum": spectrum}).spectrum.method  # noqa: E731
+
+    def method(spectrum, which=None, **sections):
+        scene = build({**base, **sections, "spectrum": spectrum})
+        return schema.resolve_method(scene, which)[0].spectrum.method
+
+    assert build({**base, "spectrum": {}}).spectrum.method == "auto"
     assert method({}) == "counting" and method({"method": "auto"}) == "counting"
     assert method({"energies": True}) == "slicing" and method({"window": [1.0, 2.0]}) == "slicing"
     assert method({"method": "slicing"}) == "slicing" and method({"method": "kpm"}) == "kpm"
-    assert "method: counting" in build({**base, "spectrum": {}}).to_yaml()  # the stored scene says which
+    assert method({}, model={"damping": {"gamma_n": 0.1}}) == "pep"
+    assert method({}, model={"history": "yade"}) == "nonhermitian"
+    stored = "configuration(s) 0 carry stored tangential forces"
+    assert method({}, stored) == "nonhermitian" and method({"energies": True}, stored) == "nonhermitian"
+    assert method({}, stored, model={"stored_forces": "drop"}) == "counting"
+    file = {"packing": {"file": "p.data", "contacts": "p.contacts"}, "model": {"rho": 0.3}}
+    scene = build({**file, "spectrum": {}})
+    resolved, said = schema.resolve_method(scene, schema.stored_forces_source(scene))
+    assert resolved.spectrum.method == "nonhermitian" and said == (
+        "spectrum.method auto -> nonhermitian (packing.contacts gives the packings stored tangential forces, so the "
+        "matrix is not symmetric)")
+    assert "method: nonhermitian" in resolved.to_yaml() and scene.digest() == resolved.digest()
+    assert schema.resolve_method(resolved, None) == (resolved, None)
+    counted = build({**base, "spectrum": {}})
+    assert counted.digest() == build({**base, "spectrum": {"method": "counting"}}).digest()
 
 
 def test_file_only_needs_no_n_phi():

@@ -117,3 +117,40 @@ def test_a_scene_on_a_yade_frictional_packing_gives_its_spectrum(shared_tmp):
     with pytest.raises(InputError, match="model.history: yade takes YADE's tangential slip"):
         scene_of(shared_tmp / "yade_counted.h5", cache="off", packing={"n": 64, "phi": 0.7, "dim": 3},
                  model=model, spectrum={"method": "counting"})
+
+
+def test_auto_picks_nonhermitian_on_a_stressed_packing_and_says_so(shared_tmp, capsys):
+    """``spectrum: {}`` on the 2D frictional LAMMPS packing with its contact file: method auto becomes
+    nonhermitian, the log says which and why, and the results file's scene and unit say it; its TS
+    waves' log says that E is not conserved on this matrix.  The packing read back from that results
+    file (its ``tangential`` group, no contact file: stressed only once read) gets nonhermitian
+    too, the same eigenvalues (the same matrix: measured equal; held to 1e-12 of the largest),
+    and a rerun resumes every unit (the store's digest is the one the results file records)."""
+    import h5py
+
+    def run(scene):
+        capsys.readouterr()
+        units = pipeline.run(scene, COMM, [])["units"]
+        return units, COMM.bcast(capsys.readouterr().out, root=0)
+
+    said = ("spectrum.method auto -> nonhermitian (configuration(s) 0 carry stored tangential forces, so the "
+            "matrix is not symmetric)")
+    first = shared_tmp / "auto.h5"
+    units, log = run(scene_of(first, cache="off", model={"rho": 2 / 7}, spectrum={},
+                              packing={"file": str(DATA / "lammps_2d_friction.data"),
+                                       "contacts": str(DATA / "lammps_2d_friction.contacts"), "friction": 1.0},
+                              waves={"modes": ["L"], "n": [1], "t_end": 2.0}))
+    with h5py.File(first, "r") as f:
+        stored = f.attrs["scene"]
+    assert_all(said in log and "method: nonhermitian" in stored and units["spectra/r00_p0000"][1]["method"] ==
+               "nonhermitian", log)
+    assert_all("(not conserved: the matrix is not symmetric)" in log and "drift" not in log, log)
+    again = scene_of(shared_tmp / "read_back.h5", cache="off", model={"rho": 2 / 7}, spectrum={},
+                     packing={"file": str(first)})
+    read_back, log = run(again)
+    omega = units["spectra/r00_p0000"][0]["omega"]
+    assert_all(said in log, log)
+    assert_close(read_back["spectra/r00_p0000"][0]["omega"], omega, rtol=0.0, atol=1e-12 * omega.max(),
+                 what="omega read back")
+    _, log = run(again)
+    assert_all("matrices 1 resumed; spectra 1 resumed" in log, log)

@@ -5,6 +5,7 @@ dashpots (RK4's half-disk), and the scene: keys, refusals, a damped scene's wave
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -147,12 +148,37 @@ def test_restitution_is_gamma_n_by_another_name(tmp_path):
                and unit_keys.scene_keys(by_e, [p], []) == unit_keys.scene_keys(by_gamma, [p], []), str(gamma))
 
 
-def test_a_damped_scene_runs_its_waves(shared_tmp):
+def test_restitution_is_recorded_with_the_gamma_n_it_gives(shared_tmp, capsys):
+    """A scene given model.restitution e says in its log and its results file (root attribute
+    ``dashpots``) the gamma_n it used and how it came from e: docs/damping.md section 5's closed form,
+    computed here, gamma_n = 2 omega_0 (-ln e) / sqrt(pi^2 + ln^2 e) with omega_0^2 = kn / m_eff,
+    m_eff = 1/2 (two particles of mass 1), to 1e-15 relative (round-off: the same expression)."""
+    import h5py
+
+    e = 0.8
+    closed = 2.0 * math.sqrt(1.0 / 0.5) * -math.log(e) / math.sqrt(math.pi ** 2 + math.log(e) ** 2)
+    out = shared_tmp / "restitution.h5"
+    scene = scene_of(out, cache="off", packing={"n": 64, "phi": 0.9}, model={"rho": 0.5, "restitution": e})
+    capsys.readouterr()
+    pipeline.run(scene, COMM, [])
+    log = COMM.bcast(capsys.readouterr().out, root=0)
+    with h5py.File(out, "r") as f:
+        recorded = json.loads(f.attrs["dashpots"])
+    assert_close(recorded["gamma_n"], closed, rtol=1e-15, atol=0.0, what="recorded gamma_n")
+    assert_all(recorded["gamma_t"] == 0.0 and recorded["gamma_n_from"].startswith("model.restitution e = 0.8: ")
+               and "m_eff = 0.5" in recorded["gamma_n_from"], str(recorded))
+    assert_all(f"dashpots: gamma_n = {closed:.6g}, gamma_t = 0 (1/t0); gamma_n from model.restitution e = 0.8" in log,
+               log)
+
+
+def test_a_damped_scene_runs_its_waves(shared_tmp, capsys):
     """model.damping with exponential, spectral (the Chebyshev-Bessel series) and rk waves: the same
     C(k, t) to RK4's error (below 1e-7 of C(0) = 1 at dt = 0.02; measured 6e-9), and not the
     undamped twin's (its own unit keys; C(t_end) 0.24 against 0.30), on 1 and 2 ranks; the two
     exact paths give the same z_fixed (the r_i(0) phase: the spectral path's z) to 1e-9 of max |z|
-    (measured 1e-15), and the spectral unit records its series and a finite energy loss."""
+    (measured 1e-15), and the spectral unit records its series and a finite energy loss.  The rk
+    run's log names its energy change as what the dashpots took, the stored energy_drift's largest
+    value (E decreases, so its drift is the loss at t_end) to the log's 3 digits."""
     base = dict(cache="off", packing={"n": 64, "phi": 0.9}, model={"rho": 0.5})
     waves = {"modes": ["TR"], "n": [1], "t_end": 10.0, "dt": 0.02, "sample_every": 5}
     damped = {"rho": 0.5, "damping": {"gamma_n": 0.4, "gamma_t": 0.1}}
@@ -161,8 +187,14 @@ def test_a_damped_scene_runs_its_waves(shared_tmp):
                                ("series", damped, {"method": "spectral"}),
                                ("undamped", base["model"], {"method": "exponential"})):
         scene = scene_of(shared_tmp / f"{name}.h5", **{**base, "model": model}, waves={**waves, **extra})
+        capsys.readouterr()
         units = pipeline.run(scene, COMM, [])["units"]
+        log = COMM.bcast(capsys.readouterr().out, root=0)
         datasets, attrs = units[next(n for n in units if n.startswith("waves/"))]
+        if name == "rk":
+            said = re.search(r"energy taken by the dashpots \(and the scheme's error\) by t = 10: \S+ to (\S+) %", log)
+            assert_all(said is not None and "drift" not in log, log)
+            assert_close(float(said.group(1)), 100 * datasets["energy_drift"].max(), rtol=5e-3, what="loss said")
         results[name] = datasets["C"]
         results[name + " z_fixed"] = datasets["z_fixed"]
         assert_all(("damping_max" in attrs) == (name != "undamped"), f"{name}: {sorted(attrs)}")
