@@ -22,6 +22,7 @@ import yaml
 from ..contact_law import (HISTORIES, LAWS, LEVERS, MOBILISED, RESTITUTION_RULE, STORED_FORCES, ContactModel,
                            restitution_damping)
 from ..errors import InputError
+from ..waves.schedule import SECOND_ORDER
 
 
 def _f(default, doc, check=None, kind=None):
@@ -765,10 +766,6 @@ def check_stressed(scene: Scene, which: str | None) -> None:
                          f"orthogonal eigendecomposition: use waves.method: exponential (exact) or ts")
     if held is not None and 0.0 in model.rho:
         raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")
-
-
-SECOND_ORDER = ("verlet", "alpha2")
-"""waves.integrator values that integrate M u'' = -D u without a velocity-dependent force."""
 
 
 def check_damped(scene: Scene) -> None:

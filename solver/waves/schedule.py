@@ -24,10 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..io.schema import SECOND_ORDER
 from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
+SECOND_ORDER = ("verlet", "alpha2")
+"""waves.integrator values that integrate M u'' = -D u without a velocity-dependent force (no
+dashpots: ``plan`` and the scene's ``check_damped`` refuse them with ``model.damping``)."""
 SAMPLED = {"spectral": "spectral (Lanczos)", "exponential": "exponential (SLEPc MFN)"}
 """The methods without time steps (waves.method -> integrator label): samples every dt * sample_every.
 With dashpots, ``spectral`` is the Chebyshev-Bessel series (``DAMPED_SPECTRAL``)."""
@@ -47,7 +49,7 @@ STABILITY_DAMPED = {("rk", "4"): 2.6155876920, ("rk", "3"): math.sqrt(3.0), ("rk
 """(integrator, RK variant) -> radius of the largest left half-disk inside the scheme's stability
 region, where a damped packing's eigenvalues lie (``operators.largest_damping_rate``): 2.6156 for
 RK4 (less than its 2.83 on the imaginary axis; tests/waves/test_damped_waves.py checks the
-number), sqrt(3) for RK3.  Verlet and alpha2 take no damping (``schema.SECOND_ORDER``)."""
+number), sqrt(3) for RK3.  Verlet and alpha2 take no damping (``SECOND_ORDER``)."""
 
 
 def stability_limit(integrator: str, omega_max: float, variant: str | None = None,
