@@ -49,7 +49,7 @@ def test_tangential_forces_are_the_contact_files(tmp_path):
     reference = geometry.find_contacts(p.positions, p.diameters, p.box, active)
     np.testing.assert_allclose(f_n, reference.overlap, rtol=1e-12, atol=0)  # harmonic, kn = 1
     written = plot_force_network(p, "harmonic", str(tmp_path / "stressed"))
-    assert all(os.path.getsize(w) > 10_000 for w in written)
+    assert written and all(os.path.getsize(w) > 10_000 for w in written), written
 
 
 def test_plot_results_draws_the_force_network(tmp_path):

@@ -183,7 +183,7 @@ def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypat
     assert offsets.shape == (crossing.sum(), 2) and crossing.sum() > 5
     assert_close(np.sort(widths), np.sort(2 * np.sqrt(p.diameters[crossing] ** 2 / 4 - dz[crossing] ** 2)),
                  rtol=1e-14, what="section diameters")
-    assert all(pathlib.Path(path).exists() for path in paths)
+    assert paths and all(pathlib.Path(path).exists() for path in paths), paths
 
 
 @pytest.mark.parametrize("start, moves, gap, refreshes", [
