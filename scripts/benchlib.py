@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from solver.io.atomic import atomic_write
+
 REPO = Path(__file__).resolve().parents[1]
 RECORDS = REPO / "scripts" / "records"  # the JSON records BENCHMARKS.md is rendered from (committed)
 SCRATCH = REPO / "results" / "bench"  # logs, progress files and other by-products (not committed)
@@ -133,9 +135,8 @@ class NpzCheckpoint:
     def save(self, name: str, datasets: dict) -> None:
         now = time.perf_counter()
         if self.rank == 0:
-            tmp = self.directory / f"{name}.tmp.npz"
-            np.savez(tmp, seconds=now - self.last, **datasets)
-            os.replace(tmp, self.directory / f"{name}.npz")
+            with atomic_write(str(self.directory / f"{name}.npz")) as partial, open(partial, "wb") as stream:
+                np.savez(stream, seconds=now - self.last, **datasets)  # a stream: savez adds no suffix
         self.last = now
 
     def clear(self) -> None:
