@@ -504,7 +504,7 @@ def window_label(window) -> str:
 def _vdos_unit(scene, rho, r_index, spectra, units, comm) -> None:
     """vDOS and omega_c of one rho from its configurations' spectrum units into ``units``."""
     edges, density, omega_c, spread = modes.pooled_vdos(spectra, scene.spectrum.bin_width)
-    units[f"vdos/r{r_index:02d}"] = ({"edges": edges, "density": density}, {
+    units[unit_keys.vdos_name(r_index)] = ({"edges": edges, "density": density}, {
         "rho": rho, "omega_c": omega_c, "omega_c_std": spread, "configurations": len(spectra),
         "window": window_label(scene.spectrum.window)})
     say(comm, f"vDOS rho = {rho:g}: omega_c = {omega_c:.4f} +- {spread:.4f} over {len(spectra)} configurations")

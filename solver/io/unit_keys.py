@@ -54,6 +54,12 @@ class Unit:
         return f"{FOLDERS[self.kind]}/{self.tag}"
 
 
+def vdos_name(r_index: int) -> str:
+    """``vdos/r<rho index>``: the results file's group of one rho's vDOS, pooled over its
+    configurations (made from the spectrum units, not a unit of its own)."""
+    return f"vdos/r{r_index:02d}"
+
+
 def task_units(scene, r_index: int, p_index: int) -> list[Unit]:
     """The units of task (rho index, packing index): its matrix, its spectrum and its mode shapes if
     the scene has them, and the waves of each mode the matrix has (no RT or R without rotational springs:

@@ -11,6 +11,7 @@ from solver.analysis import claims
 from solver.analysis import dispersion
 from solver.analysis import lattice
 from solver.io.schema import AnalysisSpec
+from solver.io.unit_keys import Unit, vdos_name
 from conftest import assert_close, run_cli, scene_text
 
 pytestmark = pytest.mark.serial_only
@@ -44,9 +45,9 @@ def _units(rng):
             for p in range(2):
                 z = np.exp(-gamma[None, :, None] * t) * np.cos(omega[None, :, None] * t) * np.ones((2, 1, 1))
                 z = z + 1e-3 * rng.normal(size=z.shape)
-                units[f"waves/r{r_index:02d}_{mode}_p{p:04d}"] = (
+                units[Unit("waves", r_index, p, rho, mode).name] = (
                     {"k": K, "t": t, "z": z.astype(complex)}, {"rho": rho, "mode": mode, "packing": p})
-    units["vdos/r02"] = ({}, {"rho": 2.0, "omega_c": 6.7})
+    units[vdos_name(2)] = ({}, {"rho": 2.0, "omega_c": 6.7})
     return units
 
 

@@ -7,16 +7,18 @@ import pytest
 from conftest import COMM, assert_all, assert_close, scene_of
 
 from solver import pipeline
+from solver.io.unit_keys import Unit, vdos_name
 from solver.spectrum.modes import bin_average
 
 BIN = 0.5          # wide bins: ~20 modes each, so the exact histogram is a fair reference
 MOMENTS = 300
 PROBES = (4, 64)
+RHOS = (0.0, 1.0)
 
 
 def run(folder, name, spectrum):
     scene = scene_of(folder / f"{name}.h5", cache="off", seed=3, packing={"n": 64, "phi": 0.9, "count": 1},
-                     model={"rho": [0.0, 1.0]}, spectrum=spectrum)
+                     model={"rho": list(RHOS)}, spectrum=spectrum)
     return pipeline.run(scene, COMM, [])["units"]
 
 
@@ -53,7 +55,7 @@ def jackson_masses(omega, lam_max, edges):
 @pytest.mark.parametrize("r_index", [0, 1])
 def test_kpm_vdos_within_an_error_bound_that_shrinks_with_probes(runs, r_index):
     exact, kpm = runs
-    tag = f"spectra/r{r_index:02d}_p0000"
+    tag = Unit("spectrum", r_index, 0, RHOS[r_index]).name
     omega = exact[tag][0]["omega"]
     n_modes = omega.size
     errors, bounds = [], []
@@ -74,7 +76,7 @@ def test_kpm_vdos_within_an_error_bound_that_shrinks_with_probes(runs, r_index):
         noise = np.sum(np.sqrt(2 * np.clip(smooth, 0, None) / (probes * n_modes)))
         errors.append(float(np.sum(np.abs(density * width - hist))))
         bounds.append(bias + 3 * noise)
-        assert_all(np.array_equal(kpm[probes][f"vdos/r{r_index:02d}"][0]["density"], density),
+        assert_all(np.array_equal(kpm[probes][vdos_name(r_index)][0]["density"], density),
                    "one configuration: the vDOS is its density")
     assert_all(all(e <= b for e, b in zip(errors, bounds)), f"L1 errors {errors} above bounds {bounds}")
     assert_all(bounds[-1] < 0.25, f"the bound at {PROBES[-1]} probes says nothing: {bounds}")
