@@ -34,6 +34,8 @@ import numpy as np
 
 from .. import parallel
 from ..errors import InputError
+from ..packing.configuration import Packing
+from ..packing.stressed import TangentialForces
 from .atomic import atomic_write
 from .unit_keys import UnitKey
 
@@ -291,8 +293,6 @@ def packing_unit(p) -> tuple[dict, dict]:
 
 def packing_from_unit(unit):
     """Inverse of :func:`packing_unit`."""
-    from ..packing.configuration import Packing
-
     datasets, attrs = unit
     attrs = dict(attrs)
     box = np.broadcast_to(attrs.pop("box") if "box" in attrs else attrs.pop("box_length"),  # older units
@@ -300,8 +300,6 @@ def packing_from_unit(unit):
     info = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in attrs.items()}
     stored = None
     if "tangential_pairs" in datasets:
-        from ..packing.stressed import TangentialForces
-
         stored = TangentialForces(datasets["tangential_pairs"], datasets["tangential_force"], info.get("friction"))
     return Packing(datasets["positions"], datasets["diameters"], box, datasets["rattler"].astype(bool), info,
                    tangential=stored)

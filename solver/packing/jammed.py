@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from .. import profiling
-from . import fire, geometry, mechanics
+from . import fire, geometry, lammps_engine, mechanics, stressed
 from .configuration import Packing, solid_volume
 from .stressed import TangentialForces
 
@@ -92,8 +92,6 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     start = rng.uniform(0.0, box_length, size=(n, dim))
     start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
     if engine == "lammps":
-        from . import lammps_engine
-
         x, steps, max_force = lammps_engine.minimize(start, diameters, box, force_tol, max_steps, comm, law=law)
         stats = {"engine": "lammps"}
     else:
@@ -123,8 +121,6 @@ def _frictional(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_t
     a barostat) and damped to rest (every force and torque component below ``force_tol``) with
     Coulomb coefficient ``friction``; its stored tangential forces read back, particles renumbered
     in spatial order, rattlers by the stressed rule.  Collective on ``comm``."""
-    from . import lammps_engine, stressed
-
     dim = box.size
     start_box = box * SQUEEZE_FROM ** (-1.0 / dim)  # the same particles at 0.75 phi
     start = rng.uniform(0.0, start_box[0], size=(diameters.size, dim))

@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..model import dynmat
 
 _AXES = range(3)
 RUNS = {
@@ -148,8 +149,6 @@ def whole_start(dm, positions, mode_component, axis, k, amplitude, comm) -> np.n
     """v(0) of :func:`start_velocity` whole on every rank, (N', dof) over the non-rattlers in the
     packing's order (not the matrix's): the start handed to a DEM code or a dense reference.
     Collective."""
-    from ..model import dynmat
-
     local = start_velocity(dm, positions, mode_component, axis, k, amplitude, comm)
     return dynmat.in_packing_order(dm, np.concatenate(comm.allgather(local))).reshape(-1, dm.dof)
 

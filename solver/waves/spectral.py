@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import profiling
+from .. import parallel, profiling
 from ..model.operators import largest_omega, scaled_operator
 from .excitation import channel, runs, start_velocity
 from .sampling import WaveSeries
@@ -72,8 +72,6 @@ def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitu
     """
     from mpi4py import MPI
     from petsc4py import PETSc
-
-    from .. import parallel
 
     comm = dm.D.getComm()
     mpi = comm.tompi4py()
