@@ -4,6 +4,10 @@ reproduction report; ``rotsound --help`` prints the usage (``_EPILOG``).
 Bad input stops every rank with one message and exit code 2; a numerical failure (a time
 integration that blew up) with one message and exit code 3; an unexpected error prints its
 traceback and aborts all ranks (no rank is left waiting).
+
+Each command imports the modules it runs when it runs (``pipeline`` and the solvers for ``run``,
+matplotlib's figures for ``plot`` and ``report``, ASE and VTK for ``export``), so that ``keys``,
+``--help`` and a refused command line start in a fraction of a second and load no MPI.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ import sys
 import traceback
 
 from . import __version__
-from . import options
+from . import options, petscenv
 from .errors import InputError, Interrupted, NumericalFailure
 from .io import scenes, schema
 
@@ -45,8 +49,6 @@ def _versions() -> str:
     importing the packages (not their PETSc/SLEPc modules) initialises nothing."""
     lines = [f"rotsound {__version__}"]
     try:
-        from . import petscenv
-
         petscenv.ensure_importable()
         import petsc4py
         import slepc4py
@@ -139,8 +141,6 @@ def _group_size(text: str | None, ranks: int) -> int | None:
 
 
 def _run(args, petsc_words, comm) -> None:
-    from . import petscenv
-
     group_size = _group_size(args.group_size, comm.size)
     todo = scenes.load(args.scene, args.set, comm)
     yaml_words = options.to_argv(options.flatten(todo[0].petsc))
