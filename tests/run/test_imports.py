@@ -1,6 +1,9 @@
 """Import hygiene: analysis, reading results and plotting never need PETSc or MPI (STYLE.md, the
-PETSc fence); the claims and the lattice model need not even h5py."""
+PETSc fence); the claims and the lattice model need not even h5py; the figure modules form no
+circle."""
 
+import ast
+import pathlib
 import subprocess
 import sys
 
@@ -8,7 +11,9 @@ import pytest
 
 NO_PETSC = ("solver", "solver.io.schema", "solver.io.scenes", "solver.io.results", "solver.analysis.correlations",
             "solver.analysis.fits", "solver.analysis.lattice", "solver.analysis.claims", "solver.analysis.dispersion",
-            "solver.spectrum.modes", "solver.plots", "solver.plots_damped", "solver.analysis.loss", "solver.report")
+            "solver.spectrum.modes", "solver.plots", "solver.plots.common", "solver.plots.packing",
+            "solver.plots.spectrum", "solver.plots.waves", "solver.plots.attenuation", "solver.plots.modes",
+            "solver.plots.damped", "solver.analysis.loss", "solver.report")
 NO_FILES = ("solver.analysis.lattice", "solver.analysis.claims")
 
 
@@ -46,3 +51,23 @@ def test_imports_run_downward(module):
             f"set({LAYERS[module]!r})))")
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert loaded == "[]", f"{module} loads {loaded}"
+
+
+PLOTS = pathlib.Path(__file__).resolve().parents[2] / "solver" / "plots"
+
+
+def _siblings(path: pathlib.Path) -> set[str]:
+    """The modules of ``solver.plots`` that the module at ``path`` imports (relative imports)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.level == 1:
+            found |= {node.module.split(".")[0]} if node.module else {alias.name for alias in node.names}
+    return found
+
+
+@pytest.mark.serial_only
+@pytest.mark.parametrize("name", sorted(p.stem for p in PLOTS.glob("*.py") if p.stem != "__init__"))
+def test_figure_modules_import_only_common(name):
+    """A stage's figure module imports ``common`` and no other figure module (the entry,
+    ``solver/plots/__init__.py``, imports them all); ``common`` imports none."""
+    assert _siblings(PLOTS / f"{name}.py") <= ({"common"} if name != "common" else set())
