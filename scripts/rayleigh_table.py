@@ -9,7 +9,7 @@ decay_window 3, as the scene's analysis) over the whole run (t_end) and over its
 gamma_full, gamma_short, their ratio, and whether each run resolves its decay (gamma t >= 1).  Then
 the local exponents d ln gamma / d ln k between resolved points and the Ioffe-Regel k
 (``analysis.attenuation``).  Prints Markdown.  With --figure, draws the fits of every file (their
-``analysis`` groups, each with its own t_end) in one ``plots_attenuation`` figure at STEM (.png,
+``analysis`` groups, each with its own t_end) in one ``plots.attenuation`` figure at STEM (.png,
 .pdf); a (rho, mode) in two files is refused.  Not collective (numpy only).
 """
 
@@ -24,10 +24,10 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, __file__.rsplit("/scripts/", 1)[0])
-from solver import plots_attenuation  # noqa: E402
-from solver.analysis import attenuation, fits
+from solver.analysis import attenuation, fits  # noqa: E402
 from solver.waves import correlations  # noqa: E402
 from solver.io import results  # noqa: E402
+from solver.plots.attenuation import plot_attenuation_regimes  # noqa: E402
 
 _WAVES = re.compile(r"r(\d+)_(L|TR)_p(\d+)$")
 
@@ -57,7 +57,7 @@ def main() -> None:
                     raise SystemExit(f"{path}: rho = {key[0]:g}, {key[1]} is in an earlier file too")
                 fitted[key] = fit
     if args.figure:
-        plots_attenuation.plot_attenuation_regimes(fitted, args.figure)
+        plot_attenuation_regimes(fitted, args.figure)
 
 
 def table(path: str, fraction: float) -> None:

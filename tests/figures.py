@@ -4,10 +4,13 @@ at least two labelled ticks on every log axis.  Not collective (plotting is rank
 
 from __future__ import annotations
 
+import importlib
 import os
+import pkgutil
 import re
 
-from solver import plots, plots_attenuation, plots_damped, plots_modes, plots_packing
+from solver import plots
+from solver.plots import common
 
 PLAIN_SYMBOLS = re.compile(r"\b(omega\w*|rho|gamma\w*|sigma|phi|mu|lambda|log10|[dt]0|kn|k_c|f_[nt]|[vw]_[xyz])\b")
 """Names that a figure must write as mathtext ($\\omega$, $\\rho$, $t_0$, ...), never as words."""
@@ -17,17 +20,20 @@ RHO_VALUES = re.compile(r"\\rho\$ = ([-+.\de]+(?:(?:, | to )[-+.\de]+)*)")
 
 
 def capture(monkeypatch) -> dict:
-    """{file name of the PNG: figure} of every figure drawn from now on; each is still written
-    (and closed by pyplot) as usual, and can be drawn again for the checks."""
+    """{file name of the PNG: figure} of every figure drawn from now on (``common.save`` wherever a
+    module of ``solver.plots`` took it); each is still written (and closed by pyplot) as usual, and
+    can be drawn again for the checks."""
     figures = {}
-    write = plots._save
+    write = common.save
 
     def keep(fig, stem):
         figures[os.path.basename(stem) + ".png"] = fig
         return write(fig, stem)
 
-    for module in (plots, plots_attenuation, plots_damped, plots_modes, plots_packing):
-        monkeypatch.setattr(module, "_save", keep)
+    for info in pkgutil.iter_modules(plots.__path__):
+        module = importlib.import_module(f"{plots.__name__}.{info.name}")
+        if getattr(module, "save", None) is write:
+            monkeypatch.setattr(module, "save", keep)
     return figures
 
 

@@ -60,32 +60,32 @@ def test_ioffe_regel_skips_failed_fits_and_reports_no_crossing():
 
 def test_regimes_figure_draws_acoustic_fits_only(tmp_path, monkeypatch):
     from figures import assert_readable, capture
-    from solver import plots_attenuation
+    from solver.plots.attenuation import plot_attenuation_regimes
 
     k = np.geomspace(0.05, 1.5, 8)
     fit = {"k": k, "omega": 1.05 * k, "gamma": 0.05 * k**3, "t_end": 300.0}
     figures = capture(monkeypatch)
-    paths = plots_attenuation.plot_attenuation_regimes({(1.0, "L"): fit, (2 / 7, "TR"): dict(fit, omega=0.7 * k),
-                                                        (1.0, "RT"): fit}, str(tmp_path / "a"))
+    paths = plot_attenuation_regimes({(1.0, "L"): fit, (2 / 7, "TR"): dict(fit, omega=0.7 * k), (1.0, "RT"): fit},
+                                     str(tmp_path / "a"))
     assert paths == [str(tmp_path / "a.png"), str(tmp_path / "a.pdf")]
     assert all((tmp_path / name).stat().st_size > 1000 for name in ("a.png", "a.pdf"))
     assert_readable(figures)
-    assert plots_attenuation.plot_attenuation_regimes({(1.0, "RT"): fit}, str(tmp_path / "b")) == []
+    assert plot_attenuation_regimes({(1.0, "RT"): fit}, str(tmp_path / "b")) == []
     assert not (tmp_path / "b.png").exists()
 
 
 @pytest.mark.parametrize("low, high", [(0.4, 4.5), (0.06, 0.9), (20.0, 400.0), (1.5, 15.0), (3.0, 6.0), (2.1, 2.9),
                                        (2e-3, 1.0), (1e-6, 3e-6)])
 def test_log_axes_label_at_least_two_ticks(low, high):
-    """plots.log_ticks where matplotlib alone labels one power of ten (the first three ranges: the
+    """common.log_ticks where matplotlib alone labels one power of ten (the first three ranges: the
     participation and Q(omega_d) axes of issue 43), on ranges under a decade, and on wider ones."""
     import matplotlib.pyplot as plt
     from figures import labelled_ticks
-    from solver import plots
+    from solver.plots.common import log_ticks
 
     fig, ax = plt.subplots()
     ax.set(xscale="log", xlim=(low, high))
-    plots.log_ticks(ax.xaxis)
+    log_ticks(ax.xaxis)
     fig.canvas.draw()
     labels = labelled_ticks(ax.xaxis)
     plt.close(fig)

@@ -17,7 +17,7 @@ from solver import pipeline, plots
 from solver.io import hdf5
 from solver.packing import geometry
 from solver.packing.mechanics import force_magnitudes
-from solver.plots_packing import SHARE, plot_force_network
+from solver.plots.packing import SHARE, plot_force_network
 
 pytestmark = pytest.mark.serial_only
 

@@ -164,7 +164,7 @@ def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypat
     handed to matplotlib's 2D offsets raised ValueError), each as the disk of its section."""
     from matplotlib.collections import EllipseCollection
 
-    from solver import plots
+    from solver.plots.packing import plot_packing
 
     p = spheres
     drawn = []
@@ -175,8 +175,8 @@ def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypat
         original(self, widths, heights, angles, **kwargs)
 
     monkeypatch.setattr(EllipseCollection, "__init__", spy)
-    paths = plots.plot_packing({"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler,
-                                "box": p.box, "phi": p.phi, "z": p.info["z"]}, str(tmp_path / "spheres"))
+    paths = plot_packing({"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler,
+                          "box": p.box, "phi": p.phi, "z": p.info["z"]}, str(tmp_path / "spheres"))
     (widths, offsets), = drawn
     dz = np.abs(p.positions[:, 2] - p.box_length / 2)
     crossing = dz < p.diameters / 2  # the box centre is far from its faces: no periodic image needed

@@ -149,14 +149,13 @@ def test_spectrum_maps_draw_the_tapered_records(tmp_path, monkeypatch):
     """plot_spectra of a tone at one k: the drawn column of log10 S has no zero of the cut record:
     beyond the main lobe S dw^2 stays within a factor 2 of 1 (the bounds above)."""
     from figures import capture
-    from solver import plots
     from solver.io.results import Waves
+    from solver.plots.waves import plot_spectra
 
     dt, w0 = 0.05, 1.7
     t = np.arange(0.0, 60.0 + dt / 2, dt)
     figures = capture(monkeypatch)
-    plots.plot_spectra({(1.0, "L"): Waves(np.array([0.5]), t, np.exp(-1j * w0 * t)[None, None], 4.0)},
-                       str(tmp_path / "tone"))
+    plot_spectra({(1.0, "L"): Waves(np.array([0.5]), t, np.exp(-1j * w0 * t)[None, None], 4.0)}, str(tmp_path / "tone"))
     mesh = figures["tone_rho1.png"].axes[0].collections[0]
     omega = mesh.get_coordinates()[:, 0, 1]  # the nearest-shading grid's row edges
     omega = 0.5 * (omega[1:] + omega[:-1])

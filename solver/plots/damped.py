@@ -8,14 +8,10 @@ returns their paths ([] when it has nothing to draw).  Not collective.  Units: 1
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from .io.results import DampedModes  # noqa: E402
-from .plots import _save, legend, log_ticks, rho_label, rho_list  # noqa: E402
+from ..io.results import DampedModes
+from .common import legend, log_ticks, plt, rho_label, rho_list, save
 
 
 def plot_damped_modes(modes: dict[float, DampedModes], stem: str) -> list[str]:
@@ -51,7 +47,7 @@ def plot_damped_modes(modes: dict[float, DampedModes], stem: str) -> list[str]:
     for axis in (ax, bx):
         legend(axis, fontsize=7)
     fig.tight_layout()
-    return _save(fig, stem)
+    return save(fig, stem)
 
 
 def plot_damped_vdos(modes: dict[float, DampedModes], bin_width: float, stem: str,
@@ -74,4 +70,4 @@ def plot_damped_vdos(modes: dict[float, DampedModes], bin_width: float, stem: st
            title=rf"damped vDOS: $\omega_d$ of the underdamped modes{both}, {rho_list(modes)}")
     legend(ax, fontsize=7)
     fig.tight_layout()
-    return _save(fig, stem)
+    return save(fig, stem)

@@ -1,28 +1,22 @@
 """Pictures of single modes (the scene's ``modes`` section), from ``io.results.mode_shapes``: the
 particles to scale, each particle's displacement as an arrow and its rotation as its colour, with
 omega, K/Q and the participation ratio in the title.  Spheres: the particles cut by the plane
-z = L_z/2 (``plots.section``), their in-plane displacement and their rotation about z.  And the
-localisation of every mode: the participation ratio against omega (``io.results.participation``),
-``<stem>_participation``, with the kept modes marked.  And snapshots of standing waves
-(``waves.snapshots``, ``io.results.wave_snapshots``) drawn the same way: velocity arrows,
-angular-velocity colour.
+z = L_z/2 (``common.section``), their in-plane displacement and their rotation about z.  And
+snapshots of standing waves (``waves.snapshots``, ``io.results.wave_snapshots``) drawn the same
+way: velocity arrows, angular-velocity colour.
 
 Never imports petsc4py or mpi4py.  Each picture is ``<stem>_mode_rho<rho>_p<i>_<m>.png`` and
-``.pdf`` (rho, packing index, mode index m in the group).  Not collective.  Units: d0, rad, 1/t0.
+``.pdf`` (rho, packing index, mode index m in the group), or ``<stem>_wave_...``
+(:func:`plot_wave_snapshots`).  Not collective.  Units: d0, rad, 1/t0.
 """
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
+from matplotlib.colors import CenteredNorm
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import CenteredNorm  # noqa: E402
-
-from .io.results import ModeShapes, WaveSnapshot  # noqa: E402
-from .spectrum.modes import bin_average  # noqa: E402
-from .plots import _save, disks, legend, log_ticks, rho_label, section  # noqa: E402
+from ..io.results import ModeShapes, WaveSnapshot
+from .common import disks, plt, rho_label, save, section
 
 ARROW = 1.0
 """Length of the longest drawn arrow (d0): a mode's amplitude is arbitrary, only its shape counts."""
@@ -36,7 +30,7 @@ def _draw(packing: dict, arrows: np.ndarray, turn: np.ndarray | None, label: str
     """The particles of ``packing`` (``results.packing``) to scale with ``arrows`` (N, D) scaled so
     that the longest is ``ARROW`` d0 and coloured by ``turn`` (N,), the rotation component about z
     (blue-white-red, centred on 0; grey when None), rattlers outlined in red; spheres as their
-    section z = L_z/2 (``plots.section``).  ``label``: the colour bar's; ``title``: its lines
+    section z = L_z/2 (``common.section``).  ``label``: the colour bar's; ``title``: its lines
     above one on N and the arrows.  Constrained layout: the title stays inside the figure, whose
     colour bar shifts the picture left."""
     pos, box = packing["positions"], packing["box"]
@@ -61,7 +55,7 @@ def _draw(packing: dict, arrows: np.ndarray, turn: np.ndarray | None, label: str
     ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
            title=f"{title}\n$N$ = {pos.shape[0]}{plane}; arrows longest {ARROW:g} $d_0$, rattlers red")
     ax.title.set_fontsize(9)
-    return _save(fig, stem)
+    return save(fig, stem)
 
 
 def plot_mode(packing: dict, shapes: ModeShapes, m: int, stem: str) -> list[str]:
@@ -102,27 +96,3 @@ def plot_mode_shapes(packings: dict[int, dict], groups: list[ModeShapes], stem: 
     packing index -> ``results.packing``)."""
     return [path for g in groups for m in range(g.omega.size)
             for path in plot_mode(packings[g.packing], g, m, f"{stem}_mode_rho{g.rho:g}_p{g.packing}_{m}")]
-
-
-def plot_participation(per_mode: dict[float, tuple[np.ndarray, np.ndarray]], kept: list[ModeShapes], stem: str,
-                       bin_width: float = 0.1) -> list[str]:
-    """Participation ratio P of every mode against omega, one colour per rho, with its mean per
-    ``bin_width`` bin as a line; the modes kept whole (``kept``) circled.  Log P axis: 1 for a
-    mode spread evenly over every particle, ~1/N on one particle."""
-    if not per_mode:
-        return []
-    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
-    colours = plt.cm.viridis(np.linspace(0, 0.85, len(per_mode)))
-    for colour, (rho, (omega, p)) in zip(colours, sorted(per_mode.items())):
-        ax.scatter(omega, p, s=2, color=colour, alpha=0.25, linewidths=0, rasterized=True)
-        edges = np.arange(0.0, omega.max() + bin_width, bin_width)
-        ax.plot(0.5 * (edges[1:] + edges[:-1]), bin_average(omega, p, edges), color=colour, lw=1.5,
-                label=f"{rho_label(rho)} ({omega.size} modes)")
-    for g in kept:
-        ax.scatter(g.omega, g.participation, s=60, facecolors="none", edgecolors="tab:red", linewidths=1.2)
-    ax.set(yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"participation ratio $P$",
-           title="localisation: $P$ of every mode (dots), bin means (lines)" + (",\nmodes kept whole circled" if kept
-                                                                                  else ""))
-    log_ticks(ax.yaxis)
-    legend(ax, fontsize=8)
-    return _save(fig, stem)

@@ -7,14 +7,10 @@ paths ([] when it has nothing to draw).  Not collective.  Units: k in 1/d0, gamm
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from .analysis import attenuation  # noqa: E402
-from .plots import _save, legend, log_ticks, rho_label  # noqa: E402
+from ..analysis import attenuation
+from .common import legend, log_ticks, plt, rho_label, save
 
 _STYLE = {("L", 0): ("tab:blue", "o"), ("TR", 0): ("tab:red", "s"),
           ("L", 1): ("navy", "o"), ("TR", 1): ("darkred", "s")}
@@ -69,4 +65,4 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
         log_ticks(axis)
     legend(bx, fontsize=6)
     fig.tight_layout()
-    return _save(fig, stem)
+    return save(fig, stem)

@@ -1,26 +1,25 @@
-"""The force-chain picture of a packing: every contact between non-rattlers as a line between the
-two centres, its width proportional to the normal force (the scene's ``model.law``) on a scale set
-by the particles' size on the drawing (:data:`SHARE`), so that chains stand out at any N; and, for a
-stressed packing (stored tangential forces), the tangential force as a second, red line on top;
-particles to scale in light grey, rattlers outlined in red.  Spheres: the contacts between
-particles both cut by the plane z = L_z/2 (``plots.section``), in-plane.
+"""Pictures of a packing, from ``io.results``: its particles to scale with the rattlers in red
+(:func:`plot_packing`), and its force chains (:func:`plot_force_network`): every contact between
+non-rattlers as a line between the two centres, its width proportional to the normal force (the
+scene's ``model.law``) on a scale set by the particles' size on the drawing (:data:`SHARE`), so that
+chains stand out at any N; and, for a stressed packing (stored tangential forces), the tangential
+force as a second, red line on top; particles to scale in light grey, rattlers outlined in red.
+Spheres: the particles cut by the plane z = L_z/2 (``common.section``) and the contacts between
+two of them, in-plane.
 
 A contact across the periodic boundary is drawn as two halves, one from each centre towards the
 other's nearest image, so that every chord shows inside the box.  Never imports petsc4py or
-mpi4py.  Writes ``<stem>.png`` and ``.pdf``.  Not collective.  Units: d0, forces in kn d0.
+mpi4py.  Each function writes ``<stem>.png`` and ``.pdf``.  Not collective.  Units: d0, forces in
+kn d0.
 """
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
+from matplotlib.collections import LineCollection
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
-
-from .packing import geometry, mechanics  # noqa: E402
-from .plots import _save, disks, section  # noqa: E402
+from ..packing import geometry, mechanics
+from .common import disks, plt, save, section
 
 SHARE = 0.12
 """Width of the line of a contact carrying the mean normal force, in d0 on the drawing: thin
@@ -65,4 +64,21 @@ def plot_force_network(packing, law: str, stem: str) -> list[str]:
         lines.append(rf"red: $|f_t|$ on the same scale (largest $|f_t|/|f_n|$ = {ratio:.2f})")
     ax.set(xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$", title="\n".join(lines))
     ax.title.set_fontsize(9)
-    return _save(fig, stem)
+    return save(fig, stem)
+
+
+def plot_packing(packing: dict, stem: str) -> list[str]:
+    """Disks of one configuration (``results.first_packing``), rattlers in red; units of d0.
+    Spheres: their sections by the plane z = L_z/2 (``common.section``)."""
+    pos, diam = packing["positions"], packing["diameters"]
+    rattler, box = packing["rattler"], packing["box"]
+    colors = np.where(rattler, "tab:red", np.where(diam > diam.mean(), "0.55", "0.8"))
+    cut, diam = section(pos, diam, box)
+    pos, colors = pos[cut, :2], colors[cut]
+    plane = ", section $z = L_z/2$" if box.size == 3 else ""
+    fig, ax = plt.subplots(figsize=(6, 6))
+    disks(ax, pos, diam, facecolors=colors, edgecolors="k", linewidths=0.2)
+    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
+           title=rf"$N$ = {packing['diameters'].size}, $\phi$ = {packing['phi']:.3f}, $z$ = {packing['z']:.2f}, "
+                 f"rattlers in red ({int(packing['rattler'].sum())}){plane}")
+    return save(fig, stem)
