@@ -1,8 +1,9 @@
-"""Render the bad-input catalogue (tests/io/bad_inputs.py) into README.md with the real messages.
+"""Render the bad-input catalogue (tests/io/bad_inputs.py) into the manual's page docs/bad_inputs.md
+with the real messages.
 
     .venv/bin/python scripts/render_bad_inputs.py
 Runs every case once, in this process (``solver.__main__.main``, as tests/io/test_bad_inputs.py
-does), and replaces the text between the README markers <!-- bad-inputs --> and <!-- /bad-inputs -->.
+does), and replaces the text between the page's markers <!-- bad-inputs --> and <!-- /bad-inputs -->.
 """
 
 import contextlib
@@ -14,6 +15,7 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+PAGE = "docs/bad_inputs.md"  # the manual's page "Bad inputs and their messages"
 sys.path.insert(0, str(REPO / "tests"))
 sys.path.insert(0, str(REPO / "tests" / "io"))
 
@@ -42,11 +44,11 @@ def main() -> None:
             message = message.replace(tmp, "DIR")
         assert code == 2, (case[0], code, text)
         rows.append(f"| {number} | {case[0]} | `{message.replace('|', '/')}` |")
-    readme = (REPO / "README.md").read_text()
+    page = REPO / PAGE
     block = "<!-- bad-inputs -->\n" + "\n".join(rows) + "\n<!-- /bad-inputs -->"
-    readme = re.sub(r"<!-- bad-inputs -->.*<!-- /bad-inputs -->", lambda _: block, readme, flags=re.S)
-    (REPO / "README.md").write_text(readme)
-    print(f"{len(CASES)} rows written to README.md")
+    text = re.sub(r"<!-- bad-inputs -->.*<!-- /bad-inputs -->", lambda _: block, page.read_text(), flags=re.S)
+    page.write_text(text)
+    print(f"{len(CASES)} rows written to {PAGE}")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Make tests/data/results_v1.h5: a tiny results file of format_version 1, written by rotsound itself.
 
 It is kept as written, so that tests/io/test_results_format.py checks that every later rotsound still
-reads a version-1 file (the README promises that results files written before stay readable).
+reads a version-1 file (the manual, docs/results_file.md, promises that results files written before stay readable).
 Rerun only when the format_version changes, to add a file for the new version beside this one:
 
     cd /work/main && .venv/bin/python tests/data/make_results_v1.py

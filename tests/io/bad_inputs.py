@@ -1,5 +1,6 @@
 """The catalogue of bad inputs: one row per case, used by tests/io/test_bad_inputs.py and rendered
-into the README by scripts/render_bad_inputs.py (with the message the program really prints).
+into the manual (docs/bad_inputs.md) by scripts/render_bad_inputs.py (with the message the program
+really prints).
 
 A case is (what, scene text or None, extra command-line words, expected message fragment,
 file maker or None).  ``{out}`` in a scene is the output path, ``{file}`` the made packing file.

@@ -32,11 +32,11 @@ def materialise(tmp_path, case):
     return args, out
 
 
-def test_readme_table_is_the_catalogue():
-    """The README's bad-input table (rendered by scripts/render_bad_inputs.py) holds exactly the
-    catalogue's rows, in order, each showing a message that contains the row's expected
-    fragment: a row added, renamed or reworded without re-rendering fails here."""
-    text = (REPO / "README.md").read_text()
+def test_docs_table_is_the_catalogue():
+    """The manual's bad-input table (docs/bad_inputs.md, rendered by scripts/render_bad_inputs.py)
+    holds exactly the catalogue's rows, in order, each showing a message that contains the row's
+    expected fragment: a row added, renamed or reworded without re-rendering fails here."""
+    text = (REPO / "docs" / "bad_inputs.md").read_text()
     block = re.search(r"<!-- bad-inputs -->\n(.*)\n<!-- /bad-inputs -->", text, re.S).group(1)
     rendered = [[cell.strip() for cell in line.split("|")[1:-1]] for line in block.splitlines()[2:]]
     assert [row[1] for row in rendered] == [case[0] for case in CASES]

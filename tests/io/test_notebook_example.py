@@ -1,4 +1,4 @@
-"""docs/notebook_example.py, the README's way to read results from Python, runs on a small scene's
+"""docs/notebook_example.py, the manual's way to read results from Python (docs/results.md), runs on a small scene's
 file (vDOS with per-mode energies, spectral waves with their fits, mode shapes), prints what that
 file holds, and imports neither MPI nor PETSc.  Serial: it is one process."""
 

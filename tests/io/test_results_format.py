@@ -41,7 +41,7 @@ def test_version_1_file_is_read_as_written(comm):
         assert abs(np.sum(curves[rho].density * np.diff(curves[rho].edges)) - 1) < 1e-12  # unit area
     w = waves[(1.0, "RT")]
     assert w.z.shape == (2, w.k.size, w.t.size) and w.k.size == 2
-    # The packing stored in the file is a packing input (README) whose spectrum, recomputed by this
+    # The packing stored in the file is a packing input (docs/packing_files.md) whose spectrum, recomputed by this
     # rotsound, is the one stored: positions, diameters and box are read as they were written.
     data = report.gather([str(V1)])
     assert sorted(data.vdos) == [0.0, 1.0] and data.vdos_file == str(V1)

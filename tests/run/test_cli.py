@@ -47,7 +47,7 @@ def test_run_writes_results_and_reports_unused_options(tmp_path, ranks):
 
 
 # Defect 8: what "results do not depend on the number of ranks" means, quantity by quantity
-# (the README's table "Rank count").  Document a has every slicing, spectral-waves and analysis
+# (the manual's table "Rank count", docs/scale.md).  Document a has every slicing, spectral-waves and analysis
 # quantity (k_c, power-law p, a_r, l, a_t, a_t_edge finite; two configurations for omega_c_std),
 # document b the KPM vDOS with K/Q and TS (Verlet) waves.
 RANK_SCENE = """\

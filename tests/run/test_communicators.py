@@ -39,7 +39,7 @@ def compare(got, ref, what):
     """Each unit of the sub-communicator run ``got`` against the plain 2-rank run ``ref``.
 
     The plain run is on 2 ranks, the sub-communicator run on 1, so each dataset is held to the
-    agreement the rank count allows (the README's table of rank-count tolerances; reductions and
+    agreement the rank count allows (the manual's table of rank-count tolerances, docs/scale.md; reductions and
     MatMults sum in another order):
       packings, matrices, bin edges, the waves' k, n, t and omega grids: exact (rank-free);
       slicing omega: 1e-11 relative (Rayleigh quotients: error ~ residual^2 / gap);

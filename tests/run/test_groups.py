@@ -1,6 +1,6 @@
 """Many units at once (``rotsound run --group-size G``): the ranks split into groups of G, each
 solving its share of the (rho, packing) units on its own sub-communicator.  Results equal the
-one-group run to the README's rank-count tolerances (``test_cli.rank_tolerance``), whatever the
+one-group run to the manual's rank-count tolerances (docs/scale.md) (``test_cli.rank_tolerance``), whatever the
 grouping; an error or a SIGTERM in one group reaches every rank; a stopped run resumes with
 another group size (units are keyed by content, not by grouping)."""
 

@@ -1,5 +1,5 @@
 """The ``modes`` section through a scene: only the shapes are computed (no spectrum), the results
-file holds them where the README says, a rerun loads them, the 3D slab picture and the 2D
+file holds them where the manual says (docs/results_file.md), a rerun loads them, the 3D slab picture and the 2D
 pictures are drawn, and the notebook reader gives the same arrays; 1 and 2 ranks."""
 
 import os

@@ -111,7 +111,7 @@ def test_sigterm_stops_cleanly_and_resumes(tmp_path, reference):
     path, out = scene(tmp_path, "termed")
     proc = start(path)
     wait_for_units(out, 3, proc)
-    # to the ranks, as the README says (a SIGTERM to Open MPI's mpirun tears the job down)
+    # to the ranks, as the manual says (docs/scale.md; a SIGTERM to Open MPI's mpirun tears the job down)
     ranks = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
     assert len(ranks) == 2, ranks
     for pid in ranks:

@@ -103,7 +103,7 @@ def test_two_ranks_equal_one(comm, packing64):
     par = run(dynmat.assemble(packing64, ContactModel(0.5), comm), packing64, "TR", k, 0.02)
     ser = run(dynmat.assemble(packing64, ContactModel(0.5), PETSc.COMM_SELF), packing64, "TR", k, 0.02)
     # z crosses zero: the error is held relative to its amplitude; round-off of the MatMult sums
-    # over 1000 steps (measured 1e-15; the README's rank-count table)
+    # over 1000 steps (measured 1e-15; the rank-count table of docs/scale.md)
     assert_close(par.z, ser.z, rtol=0, atol=1e-12 * np.abs(ser.z).max(), what="1 vs 2 ranks")
 
 
