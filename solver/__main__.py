@@ -39,7 +39,7 @@ usage of each command:
   rotsound --version  rotsound, PETSc and SLEPc versions
 
 Words starting with a single '-' (after the scene) are PETSc/SLEPc options for 'run'; they win
-over the scene's petsc: mapping.  See README.md for the scene keys and the file formats.
+over the scene's petsc: mapping.  The manual (make docs; its pages are docs/*.md) has the scene keys and the file formats.
 """
 
 

@@ -154,8 +154,8 @@ def refuse_bare_solver_options(names: list[str]) -> None:
         if word is not None:
             hint = " or ".join(f"-{t}{name}" for t in _OBJECT_WORDS[word])
             raise InputError(f"PETSc option -{name}: acts on no solver, because each of rotsound's solver "
-                             f"objects has its own options prefix; did you mean {hint}? (README: option "
-                             f"prefixes)")
+                             f"objects has its own options prefix; did you mean {hint}? (the manual, "
+                             f"docs/running.md: PETSc options and their prefixes)")
 
 
 def unused(names: list[str], stages: list[tuple[str, str]]) -> list[str]:

@@ -167,7 +167,7 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
                          f"(not a jammed packing: all {name} are rattlers); a packing made with friction "
                          f"carries load on fewer contacts: give its stored tangential forces "
                          + ("with its contact file, packing.contacts" if info.get("length_unit") else
-                            "in the file's 'tangential' group (README, Files)"))
+                            "in the file's 'tangential' group (the manual, docs/packing_files.md)"))
     if check_equilibrium:
         mechanics.require_equilibrium(packing, where, law, lever)
     return packing

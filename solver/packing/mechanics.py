@@ -257,7 +257,7 @@ def require_equilibrium(packing: Packing, where: str, law: str = "harmonic", lev
             f"largest net normal force on a non-rattler is {residual:.3e} kn d0 > {EQUILIBRIUM_TOL:g}. The "
             f"dynamical matrix needs a state at rest; a packing made with friction balances only with its "
             f"tangential forces: give them with packing.contacts (the contact file written with the packing: a "
-            f"LAMMPS 'dump local' of patom1 patom2 and the pair's tangential force, see README), or set "
+            f"LAMMPS 'dump local' of patom1 patom2 and the pair's tangential force; the manual, docs/stressed_packings.md), or set "
             f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles; "
             f"one written with few digits, as YADE's 6, is off balance by its rounding and needs this too)")
 
