@@ -1,11 +1,12 @@
 """How the standing waves of one matrix are run, decided once for every path (``waves.method``):
 the time grid, and for time stepping the TS type, step and stability limit.
 
-:func:`plan` is the one place the method is chosen: ``spectral`` and ``exponential`` sample
-every ``dt * sample_every`` to ``t_end`` with no time stepping (``spectral``, ``exponential``,
-``SAMPLED``); ``ts`` resolves the
-TS schedule and refuses one that cannot work (``integrators`` then follows it).  Either way the
-:class:`Schedule` carries the matrix's omega_max and the stability limit into the unit.
+:func:`plan` is the one place the method, and the path the runs take (``PATHS``), are chosen:
+``spectral`` and ``exponential`` sample every ``dt * sample_every`` to ``t_end`` with no time
+stepping (``spectral``, ``exponential``, ``SAMPLED``; with dashpots ``spectral`` is the
+Chebyshev-Bessel series, ``chebyshev``); ``ts`` resolves the TS schedule and refuses one that
+cannot work (``integrators`` then follows it).  Either way the :class:`Schedule` carries the
+path, the matrix's omega_max and the stability limit into the unit (``unit``).
 
 TS schedule (one source of truth): :func:`resolve_schedule` builds a TS with the scene's values
 as defaults (type, dt, t_end), lets ``-waves_ts_*`` options act on it, and reads back type, dt,
@@ -34,6 +35,10 @@ SAMPLED = {"spectral": "spectral (Lanczos)", "exponential": "exponential (SLEPc 
 """The methods without time steps (waves.method -> integrator label): samples every dt * sample_every.
 With dashpots, ``spectral`` is the Chebyshev-Bessel series (``DAMPED_SPECTRAL``)."""
 DAMPED_SPECTRAL = "spectral (Chebyshev-Bessel series)"
+PATHS = ("ts", "spectral", "damped_spectral", "exponential")
+"""How the runs of a unit go (``Schedule.path``): time steps (``integrators``), Lanczos on the
+matrix (``spectral``), the Chebyshev-Bessel series of exp(tJ) (``chebyshev``: waves.method
+spectral with dashpots), exp(h J) by SLEPc MFN (``exponential``)."""
 
 STABILITY = {("verlet", None): 2.0, ("rk", "4"): 2.0 * math.sqrt(2.0), ("rk", "3"): math.sqrt(3.0),
              ("rk", "3bs"): math.sqrt(3.0), ("rk", "1fe"): 0.0, ("euler", None): 0.0}
@@ -71,7 +76,8 @@ class Schedule:
     values and the ``-waves_ts_*`` options, and where each value came from; for the paths without
     time steps the sample grid alone.
 
-    method : ``ts``, ``spectral`` or ``exponential``;  integrator : ``verlet`` (TS type python),
+    method : ``ts``, ``spectral`` or ``exponential``;  path : one of ``PATHS``, the method's path
+    on this matrix (``spectral`` with dashpots: ``damped_spectral``);  integrator : ``verlet`` (TS type python),
     the PETSc TS type, or a ``SAMPLED`` label;  variant : the RK type of rk;  dt : step (t0;
     without time steps: the scene's, for the sample spacing);  steps : steps to take (without: 0);  t_end : last time
     (t0);  sample_every : steps between samples;  adapt : TSAdapt type (``none`` is required);
@@ -90,6 +96,7 @@ class Schedule:
     adapt: str
     sources: dict
     method: str = "ts"
+    path: str = "ts"
     omega_max: float | None = None
     limit: float | None = None
     damping_max: float = 0.0
@@ -210,14 +217,15 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max
 def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedule:
     """The schedule of the waves section ``spec`` on a matrix whose largest eigenfrequency is
     ``omega_max`` and whose dashpots' fastest rate is ``damping_max`` (0: none; rho = kt/kn, for
-    messages): the one place ``waves.method`` is decided.
+    messages): the one place ``waves.method`` and the runs' path (``PATHS``) are decided.
     ``spectral``, ``exponential``: the sample grid (with dashpots, a ``waves.tol`` the damped spectral
     path cannot bound is refused here); ``ts``: :func:`resolve_schedule`, refused by
     :func:`check_schedule` (InputError, the same on every rank) if it cannot work.  Not collective.
     """
     if spec.method in SAMPLED:
-        label = DAMPED_SPECTRAL if spec.method == "spectral" and damping_max > 0.0 else SAMPLED[spec.method]
-        if label == DAMPED_SPECTRAL:
+        path = "damped_spectral" if spec.method == "spectral" and damping_max > 0.0 else spec.method
+        label = DAMPED_SPECTRAL if path == "damped_spectral" else SAMPLED[spec.method]
+        if path == "damped_spectral":
             from . import chebyshev
 
             try:
@@ -228,7 +236,7 @@ def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedu
                                  f"exponential") from None
         return Schedule(integrator=label, variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
                         sample_every=spec.sample_every, adapt="none", sources={}, method=spec.method,
-                        omega_max=omega_max, damping_max=damping_max)
+                        path=path, omega_max=omega_max, damping_max=damping_max)
     resolved = resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
                                 sample_every=spec.sample_every)
     return dataclasses.replace(resolved, omega_max=omega_max, damping_max=damping_max,
