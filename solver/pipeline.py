@@ -29,12 +29,12 @@ from .packing.configuration import Packing
 from .packing import mechanics
 from . import options
 from .model import operators
-from .spectrum import plan as spectrum_plan
 from .spectrum import unit as spectrum_unit
 from .waves import excitation
 from .waves import schedule
 from .waves.unit import mode_unit
-from .io.schema import Scene, check_dimension, check_stressed, resolve_method, stored_forces_source
+from .io import scene_rules
+from .io.schema import Scene
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import unit_keys
@@ -286,16 +286,13 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     """
     t0 = time.perf_counter()
     asked = scene  # spectrum.method auto: as the scene alone gives it until the packings are read
-    scene = resolve_method(asked, stored_forces_source(asked))[0]
-    spectrum_plan.check_factor_ranks(scene.spectrum, group_size or comm.size, f"--group-size {group_size}"
-                                     if group_size else f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
-    if scene.packing.file is None:  # before the packings
-        spectrum_plan.check_size(scene.spectrum, scene.model, scene.packing.n, scene.packing.dim, "generated")
+    scene = scene_rules.check_run(asked, group_size or comm.size, f"--group-size {group_size}" if group_size else
+                                  f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
     packings = chosen = None
     if scene.packing.file is not None:  # a refused file or scene writes nothing: read and check before the store
         with profiling.stage("packings"):
             packings = make_packings(scene, comm)
-        scene, chosen = check_packings(asked, packings)
+        scene, chosen = scene_rules.check_packings(asked, packings)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         store = UnitStore(scene.output, scene.to_yaml(), asked.digest(), comm, fresh=fresh,
@@ -304,7 +301,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
             if packings is None:
                 with profiling.stage("packings"):
                     packings = make_packings(scene, comm, store)
-                scene, chosen = check_packings(asked, packings)
+                scene, chosen = scene_rules.check_packings(asked, packings)
             units, group_ranks = _solve(scene, comm, petsc_argv, group_size, store, packings, chosen)
         except InputError:  # refused after the claim (a generated packing, a solver's check): leave no debris
             store.abandon()
@@ -312,28 +309,6 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         return _write(scene, asked, comm, petsc_argv, store, packings, units, group_ranks, t0)
     finally:
         signal.signal(signal.SIGTERM, previous)
-
-
-def check_packings(asked: Scene, packings: list[Packing]) -> tuple[Scene, str | None]:
-    """Refuse a scene its packings cannot run, before any compute: a file's dimension, stored
-    tangential forces with what needs a symmetric matrix, the waves' k in each box, the dense
-    solvers' size.  Return the scene ``asked`` with ``spectrum.method: auto`` resolved for these
-    packings (``resolve_method``) and the line that says what auto chose (None if nothing).  Not
-    collective: the same on every rank."""
-    if asked.packing.file is not None:  # generated packings were checked with the scene
-        check_dimension(asked, packings[0].dim, f"packing.file {asked.packing.file} holds disks "
-                                                f"(positions (N, 2))")
-    stressed = [i for i, p in enumerate(packings) if p.stressed]
-    which = f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces" if stressed \
-        else None
-    scene, chosen = resolve_method(asked, which or stored_forces_source(asked))
-    check_stressed(scene, which)
-    if scene.waves is not None:  # every packing's allowed k
-        for p in packings:
-            excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
-    for index, p in enumerate(packings):
-        spectrum_plan.check_size(scene.spectrum, scene.model, int((~p.rattler).sum()), p.dim, f"packing {index}")
-    return scene, chosen
 
 
 def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packings, chosen: str | None

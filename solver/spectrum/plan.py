@@ -1,23 +1,141 @@
 """The spectrum stage's plan: how the spectra of a scene are computed, decided from the scene's
-spectrum section, its model and its packings' facts, and refused before any compute if that
-cannot run.
+spectrum and modes sections, its model and its packings' facts (stored tangential forces,
+dashpots, size), and refused before any compute if that cannot run.
 
-The dense solvers (``DENSE``: nonhermitian and pep, ``spectrum.solver``) take matrices up to their
-module's ``MAX_DOF``: :func:`check_size` refuses a packing beyond it, under the solver each
-method's ``chosen_solver`` picks for that size, before any matrix is assembled.
-:func:`check_factor_ranks` refuses a ``spectrum.factor_ranks`` the run's layout cannot share.
-What a unit computes with the plan's choices: ``unit``.  Not collective: the same verdict on
-every rank.  Units: d0 = m = kn = 1.
+:func:`resolve` is the one place ``spectrum.method: auto`` is decided (:func:`auto_method`: the
+cheapest exact method that fits the matrix and what is asked), once from the scene alone and
+again once the packings are read (a packing file may hold stored tangential forces).  The rules
+refuse what a method cannot do: keys of the section that do not go together
+(:func:`check_section`, :func:`check_modes`), a non-symmetric matrix (:func:`check_stressed`),
+dashpots (:func:`check_damping`), a dense solver's size (``DENSE``, :func:`check_size`: each
+method's ``chosen_solver`` picks dense or windows by size, dense takes up to the module's
+``MAX_DOF``), a ``factor_ranks`` the run's layout cannot share (:func:`check_factor_ranks`).
+What a unit computes with the plan's choices: ``unit``.
+
+Each rule takes the sections it reads (``io.schema.SpectrumSpec``, ``ModesSpec``, ``ModelSpec``;
+None: the scene has no such section) and raises InputError naming the keys.  Pure and not
+collective: every rank that checks the same scene raises the same error.  Units: d0 = m = kn = 1.
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 from ..errors import InputError
 from ..model import dynmat
+from ..model.rules import asymmetry
 from . import nonhermitian, pep
 
+METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian", "pep")
+"""spectrum.method values (auto: :func:`auto_method`)."""
+SOLVERS = ("auto", "dense", "windows")
+"""spectrum.solver values, of the methods in ``DENSE`` (their ``chosen_solver``)."""
 DENSE = {"nonhermitian": nonhermitian, "pep": pep}
 """spectrum.method -> its module, for the methods with a dense solver (``chosen_solver``, MAX_DOF)."""
+
+
+def check_section(spec, where: str) -> None:
+    """Refuse keys of the spectrum section ``spec`` that its method cannot take (auto: any that
+    some method takes). Not collective."""
+    if spec.method not in ("slicing", "pep", "auto") and spec.window:
+        raise InputError(f"{where}method = {spec.method!r} gives the whole vDOS: {where}window needs method "
+                         f"'slicing' (or 'pep', whose window is in the damped frequency)")
+    if spec.method not in ("nonhermitian", "pep", "auto") and spec.solver != "auto":
+        raise InputError(f"{where}solver = {spec.solver!r} chooses how methods nonhermitian and pep find every "
+                         f"eigenvalue; method {spec.method!r} has no such choice: drop {where}solver or use method "
+                         f"'nonhermitian' (or 'pep' with model.damping)")
+    if spec.frequencies is not None and (spec.method not in ("pep", "auto") or spec.window):
+        raise InputError(f"{where}frequencies = {spec.frequencies}: bands of damped modes, for method 'pep' without "
+                         f"{where}window" + ("" if spec.method in ("pep", "auto") else f" (method is {spec.method!r})"))
+    if spec.method not in ("counting", "auto") and spec.factor_ranks not in (1, "auto"):
+        raise InputError(f"{where}factor_ranks = {spec.factor_ranks}: the ranks sharing each factorisation of method "
+                         f"'counting'; method {spec.method!r} has none to share: drop {where}factor_ranks")
+    if spec.method == "counting" and spec.energies:
+        raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
+                         f"'slicing' (per mode) or 'kpm' (bin averages)")
+
+
+def check_modes(modes, where: str) -> None:
+    """Refuse a modes section ``modes`` that names no modes to keep. Not collective."""
+    if modes.omega is None and not modes.localised:
+        raise InputError(f"{where}omega is missing: give the target frequencies (1/t0) whose nearest modes to keep, "
+                         f"e.g. {where}omega: [0.1, 1.0], or {where}localised")
+
+
+def check_localised(spec, modes) -> None:
+    """Refuse ``modes.localised`` without the per-mode participation of a slicing spectrum with
+    energies (``spec``: the spectrum section, None: none). Not collective."""
+    if modes is not None and modes.localised and (spec is None or spec.method != "slicing" or not spec.energies):
+        raise InputError(f"modes.localised = {modes.localised}: the participation ratios of every mode come from "
+                         f"the spectrum: give spectrum: {{energies: true}} (method slicing)"
+                         + ("" if spec is None else f"; spectrum.method is {spec.method!r}, "
+                                                    f"energies {spec.energies}"))
+
+
+def check_stressed(spec, modes, why: str) -> None:
+    """Refuse what needs a symmetric matrix on one that is not (``why``, a clause:
+    ``model.rules.asymmetry``; docs/stressed_contacts.md sections 2 and 4): any spectrum method but
+    nonhermitian and pep with the dense solver (slicing, counting and kpm rest on symmetry; pep's
+    windows bound the damped modes only for a symmetric D), and mode shapes.  Not collective."""
+    if spec is not None and spec.method == "pep" and spec.solver != "dense":
+        raise InputError(f"spectrum.method = 'pep' with spectrum.solver = {spec.solver!r}: {why}, so the "
+                         f"dynamical matrix is not symmetric and the windows' bounds on the damped modes do not hold: "
+                         f"give spectrum.solver: dense (up to {pep.MAX_DOF} DOF)")
+    if spec is not None and spec.method not in ("nonhermitian", "pep"):
+        raise InputError(f"spectrum (method {spec.method}): {why}, so the dynamical matrix is not "
+                         f"symmetric (the DEM code's tangential update has no energy, docs/stressed_contacts.md); "
+                         f"slicing, counting and kpm need a symmetric matrix and would give a wrong vDOS: use "
+                         f"spectrum.method: nonhermitian (every eigenvalue, complex ones counted as unstable)")
+    if modes is not None:
+        raise InputError(f"modes: {why}, so the dynamical matrix is not symmetric and its modes are not the "
+                         f"orthogonal eigenvectors that modes keeps; drop the modes section for this packing")
+
+
+def check_damping(spec, modes, damped: bool) -> None:
+    """With contact dashpots (``damped``), refuse a spectrum method but pep (the others solve the
+    undamped problem) and mode shapes (undamped eigenvectors); without, refuse pep (no damped
+    modes to find).  Not collective."""
+    if damped and spec is not None and spec.method != "pep":
+        raise InputError(f"spectrum.method = {spec.method!r} with model.damping: it solves the undamped "
+                         f"problem; the damped modes (lambda^2 M + lambda C + D) x = 0 need spectrum.method: pep "
+                         f"(or auto); the undamped vDOS of the same packing: drop model.damping from this scene")
+    if damped and modes is not None:
+        raise InputError("modes with model.damping: modes keeps the undamped eigenvectors of D, not the damped "
+                         "modes of (lambda^2 M + lambda C + D) x = 0; drop model.damping from this scene to see "
+                         "the undamped modes of the same packing")
+    if not damped and spec is not None and spec.method == "pep":
+        raise InputError("spectrum.method = 'pep': the damped modes need dashpots: give model.damping (gamma_n, "
+                         "gamma_t) or model.restitution; without them every mode is undamped: use method slicing")
+
+
+def auto_method(spec, model, which: str | None) -> tuple[str, str]:
+    """What ``spectrum.method: auto`` means for the spectrum section ``spec`` under the model
+    section ``model`` on packings carrying the stored tangential forces ``which`` says (a clause;
+    None: none), and why: the cheapest exact method that fits the matrix and what is asked: pep
+    with dashpots (the only one that takes them), nonhermitian on a non-symmetric matrix
+    (``model.rules.asymmetry``), else counting when only counts are asked (no energies, no
+    window), else slicing.  Not collective."""
+    if model.damped:
+        return "pep", "dashpots: the damped modes"
+    why = asymmetry(model, which)
+    if why is not None:
+        return "nonhermitian", f"{why}, so the matrix is not symmetric"
+    if spec.energies or spec.window:
+        return "slicing", "per-mode energies asked" if spec.energies else "a window asked"
+    return "counting", "only counts asked: no energies, no window"
+
+
+def resolve(spec, model, which: str | None):
+    """(section, line): the spectrum section ``spec`` (None: none) with ``method: auto`` replaced by
+    :func:`auto_method`'s choice (``model``, ``which``: as there) and checked again
+    (:func:`check_section`), and the log line saying what auto chose and why (None when the
+    method was not auto; then ``spec`` itself).  Not collective."""
+    if spec is None or spec.method != "auto":
+        return spec, None
+    method, reason = auto_method(spec, model, which)
+    spec = dataclasses.replace(spec, method=method)
+    check_section(spec, "spectrum.")
+    return spec, f"spectrum.method auto -> {method} ({reason})"
 
 
 def check_factor_ranks(spec, unit_ranks: int, source: str) -> None:

@@ -28,9 +28,16 @@ from ..errors import InputError
 from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
+METHODS = ("ts", "spectral", "exponential")
+"""waves.method values: time steps, or the paths without (``SAMPLED``); :func:`plan` decides the path."""
+INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
+"""waves.integrator values of a scene (``-waves_ts_type`` takes any PETSc TS type; python is verlet)."""
 SECOND_ORDER = ("verlet", "alpha2")
 """waves.integrator values that integrate M u'' = -D u without a velocity-dependent force (no
-dashpots: ``plan`` and the scene's ``check_damped`` refuse them with ``model.damping``)."""
+dashpots: ``plan`` and the scene's rule ``rules.check_damping`` refuse them with ``model.damping``)."""
+MIN_SAMPLES = 4
+"""Fewest samples of a run (t_end / (dt * sample_every)): the waves' scene rule and :func:`check_schedule`
+refuse fewer."""
 SAMPLED = {"spectral": "spectral (Lanczos)", "exponential": "exponential (SLEPc MFN)"}
 """The methods without time steps (waves.method -> integrator label): samples every dt * sample_every.
 With dashpots, ``spectral`` is the Chebyshev-Bessel series (``DAMPED_SPECTRAL``)."""
@@ -188,9 +195,9 @@ def resolve_schedule(*, integrator: str, dt: float, t_end: float, sample_every: 
 
 
 def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max: float = 0.0) -> float | None:
-    """Refuse (InputError) a variable step, fewer than 4 samples, a dt at or above the scheme's
+    """Refuse (InputError) a variable step, fewer than ``MIN_SAMPLES`` samples, a dt at or above the scheme's
     stability limit for this matrix (its dashpots' fastest rate ``damping_max``, 0 without), or,
-    with dashpots, a second-order integrator (the scene key is refused by ``schema.check_damped``;
+    with dashpots, a second-order integrator (the scene key is refused by ``rules.check_damping``;
     this catches ``-waves_ts_type``), naming where each value came from; return the limit (None if
     not tabulated).  Not collective (same verdict on every rank)."""
     src = schedule.sources
@@ -202,9 +209,9 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max
         raise InputError(f"{src['integrator']}: the TS adapts its step (TSAdapt {schedule.adapt}), but the "
                          f"waves are sampled every waves.sample_every steps and need a fixed step: add "
                          f"-{PREFIX}ts_adapt_type none")
-    if schedule.steps < 4 * schedule.sample_every:
+    if schedule.steps < MIN_SAMPLES * schedule.sample_every:
         raise InputError(f"waves.sample_every = {schedule.sample_every}: with dt = {schedule.dt:g} "
-                         f"({src['dt']}) that leaves fewer than 4 samples in t_end = {schedule.t_end:g} "
+                         f"({src['dt']}) that leaves fewer than {MIN_SAMPLES} samples in t_end = {schedule.t_end:g} "
                          f"({src['t_end']})")
     limit = stability_limit(schedule.integrator, omega_max, schedule.variant, damping_max)
     if limit is not None and schedule.dt >= limit:

@@ -209,7 +209,7 @@ def test_a_frequency_window_holds_exactly_the_dense_modes_in_it(comm, monkeypatc
 def test_bands_about_given_frequencies_hold_the_dense_modes_in_them(comm, monkeypatch):
     """spectrum.frequencies: one band of +-frequency_width about each (overlapping ones merged),
     each marched on its own; the modes found are dense's in the bands, to 1e-8."""
-    from solver.io import schema
+    from solver.errors import InputError
 
     scene = scene_of("x.h5", packing={"n": 64, "phi": 0.9}, model={"damping": {"gamma_n": 0.3}},
                      spectrum={"frequencies": [1.5, 0.5, 0.55], "frequency_width": 0.1})
@@ -223,7 +223,7 @@ def test_bands_about_given_frequencies_hold_the_dense_modes_in_them(comm, monkey
     assert_all(dense.lam.size > 10 and np.all(((dense.lam.imag >= 0.4) & (dense.lam.imag < 0.65))
                                                | ((dense.lam.imag >= 1.4) & (dense.lam.imag < 1.6))))
     _assert_same_spectrum(windows, dense, 1e-8, "bands")
-    with pytest.raises(schema.InputError, match="bands of damped modes, for method 'pep'"):
+    with pytest.raises(InputError, match="bands of damped modes, for method 'pep'"):
         scene_of("x.h5", packing={"n": 64, "phi": 0.9}, spectrum={"method": "slicing", "frequencies": [1.0]})
 
 
