@@ -22,6 +22,7 @@ import yaml
 
 from ..contact_law import (HISTORIES, LAWS, LEVERS, MOBILISED, RESTITUTION_RULE, STORED_FORCES, ContactModel,
                            restitution_damping)
+from ..packing.jammed import MIN_N
 from ..packing.rules import stored_forces_source
 from ..spectrum import nonhermitian, pep
 from ..spectrum import plan as spectrum_plan
@@ -60,8 +61,8 @@ def _factor_ranks(v):
 
 
 def _even_n(v):
-    if v < 16 or v % 2:
-        return "must be an even integer >= 16 (50:50 mixture; in 2D that also makes the box exceed two diameters)"
+    if v < MIN_N or v % 2:
+        return f"must be an even integer >= {MIN_N} (50:50 mixture; in 2D that also makes the box exceed two diameters)"
     return None
 
 
@@ -69,7 +70,7 @@ def _even_n(v):
 class PackingSpec:
     """Section ``packing``: how configurations are made or where they are read from."""
 
-    n: int | None = _f(None, "number of particles N, disks or spheres (even, >= 16; in 3D the box must also "
+    n: int | None = _f(None, f"number of particles N, disks or spheres (even, >= {MIN_N}; in 3D the box must also "
                              "exceed two large diameters); required unless `file` is given", _even_n, int)
     phi: float | None = _f(None, "area (2D) or volume (3D) fraction phi, in (0, 1); required unless `file` is given",
                            _range(0.0, 1.0, True, True), float)
