@@ -24,18 +24,17 @@ from . import __version__, parallel
 from .analysis import dispersion
 from .model import damping, dynmat
 from .io import hdf5
-from .spectrum import counting, kpm, nonhermitian, pep, shapes
-from .spectrum import modes
 from .packing import jammed
 from .packing.configuration import Packing
 from .packing import mechanics
 from . import options
-from .spectrum import slicing
 from .model import operators
+from .spectrum import unit as spectrum_unit
 from .waves import excitation
 from .waves import schedule
 from .waves.unit import mode_unit
-from .io.schema import Scene, check_dimension, check_stressed, resolve_method, stored_forces_source
+from .io import scene_rules
+from .io.schema import Scene
 from .errors import InputError, Interrupted, NumericalFailure
 from . import profiling
 from .io import unit_keys
@@ -212,264 +211,36 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                 "masses": scene.model.masses, "law": dm.model.law, "packing": p_index,
                 "size": dm.size, "dof_per_disk": dm.dof,
                 "nnz": nnz, "n_contacts": dm.n_contacts, "assembly_seconds": seconds})
-        spectrum_unit = next((unit for unit in todo if unit.kind == "spectrum"), None)
-        if spectrum_unit is not None:
+        wanted = next((unit for unit in todo if unit.kind == "spectrum"), None)
+        if wanted is not None:
             check_interrupt(comm)
-            with profiling.stage("kpm" if scene.spectrum.method == "kpm" else "spectrum"):
-                if scene.spectrum.method == "kpm":
-                    _kpm_unit(scene, dm, spectrum_unit, keep, comm)
-                elif scene.spectrum.method == "counting":
-                    _counting_unit(scene, dm, spectrum_unit, keep, comm)
-                elif scene.spectrum.method == "nonhermitian":
-                    _nonhermitian_unit(scene, dm, spectrum_unit, keep, comm, checkpoint)
-                elif scene.spectrum.method == "pep":
-                    _pep_unit(scene, dm, spectrum_unit, keep, comm, checkpoint)
-                else:
-                    _spectrum_unit(scene, dm, spectrum_unit, keep, comm, checkpoint)
-        shapes_unit = next((unit for unit in todo if unit.kind == "modes"), None)
-        if shapes_unit is not None:
+
+            def between(line):  # windows take hours: say how far, and stop there on SIGTERM
+                if line:
+                    say(comm, line)
+                check_interrupt(comm)
+
+            with profiling.stage(spectrum_unit.log_stage(scene.spectrum)):
+                datasets, attrs, lines = spectrum_unit.solve(scene.spectrum, dm, rho, p_index, scene.seed, comm,
+                                                             between, checkpoint)
+                keep(wanted, datasets, attrs)
+                if checkpoint is not None:  # the unit is safe: its windows are not needed any more
+                    checkpoint.clear()
+                for line in lines:
+                    say(comm, line)
+        wanted = next((unit for unit in todo if unit.kind == "modes"), None)
+        if wanted is not None:
             check_interrupt(comm)
             with profiling.stage("modes"):
-                _modes_unit(scene, dm, shapes_unit, commit, comm, made.get("spectrum"))
+                datasets, attrs, line = spectrum_unit.mode_shapes(scene.modes, dm, rho, p_index, comm,
+                                                                  made.get("spectrum"))
+                commit(wanted, datasets, attrs)
+                say(comm, line)
         if wave_todo:
             with profiling.stage("waves"):
                 _wave_units(scene, dm, p, wave_todo, commit, comm, plan)
     finally:
         dm.destroy()
-
-
-def _kpm_unit(scene, dm, unit: Unit, commit, comm) -> None:
-    """Stochastic vDOS of one (rho, packing) (``kpm.solve``) into ``units``. Collective."""
-    spec = scene.spectrum
-    t = time.perf_counter()
-    datasets, attrs = kpm.solve(dm, bin_width=spec.bin_width, moments=spec.moments, probes=spec.probes,
-                                with_energies=spec.energies, seed=scene.seed + unit.p_index)
-    seconds = parallel.global_max(comm, time.perf_counter() - t)
-    commit(unit, datasets,
-           {"rho": unit.rho, "packing": unit.p_index, "method": "kpm", **attrs, "seconds": seconds,
-            "solver_settings": json.dumps({"wmax": dm.wmax_settings})})
-    say(comm, f"kpm vDOS rho = {unit.rho:g}, packing {unit.p_index}: {attrs['moments']} moments x {spec.probes} "
-              f"probes, omega_max = {attrs['omega_max']:.4f}, {seconds:.1f} s")
-
-
-def _counting_unit(scene, dm, unit: Unit, commit, comm) -> None:
-    """Exact vDOS of one (rho, packing) by counting (``counting.solve``) into ``units``. Collective."""
-    spec = scene.spectrum
-    t = time.perf_counter()
-    datasets, attrs, settings = counting.solve(dm, bin_width=spec.bin_width, zero_tol=spec.zero_tol,
-                                               factor_ranks=spec.factor_ranks)
-    seconds = parallel.global_max(comm, time.perf_counter() - t)
-    commit(unit, datasets,
-           {"rho": unit.rho, "packing": unit.p_index, "method": "counting", **attrs, "seconds": seconds,
-            "solver_settings": json.dumps(settings)})
-    say(comm, f"counted vDOS rho = {unit.rho:g}, packing {unit.p_index}: {attrs['inertia_count']} modes "
-              f"(+{attrs['n_zero_modes']} zero modes, {attrs['n_negative_modes']} negative) in "
-              f"{datasets['counts'].size} bins, {attrs['factorisations']} inertias "
-              f"({_factor_layout(settings['inertia'])}), omega_max = "
-              f"{attrs['omega_max']:.4f}, {seconds:.1f} s")
-    if not attrs["counts_exact"]:
-        say(comm, f"  block low-rank factors (CNTL 7 = {attrs['blr_dropping']:g}): a count may be off by the modes "
-                  f"within omega^2 +- {attrs['count_window']:.3g} of a bin edge (counts_exact = False)")
-    _warn_negative(comm, attrs["n_negative_modes"])
-
-
-def _factor_layout(inertia: dict) -> str:
-    """'a factor per rank' or 'factors shared by 2 ranks, 1 group' (and, chosen by auto, MUMPS's
-    estimate of the whole factorisation's memory) for a progress line."""
-    ranks, groups = inertia["factor_ranks"], inertia["factor_groups"]
-    layout = "a factor per rank" if ranks == 1 else f"factors shared by {ranks} ranks, {groups} group{'s' * (groups > 1)}"
-    if "factor_estimate_gib" in inertia:
-        layout += (f"; auto: factor {inertia['factor_estimate_gib']:.2g} GiB, a rank may use "
-                   f"{inertia['factor_budget_gib']:.2g} GiB")
-    return layout
-
-
-def check_factor_ranks(scene: Scene, unit_ranks: int, source: str) -> None:
-    """Refuse ``spectrum.factor_ranks`` not dividing the ``unit_ranks`` ranks a unit is solved on
-    (``source`` says where that number comes from). Not collective: the same on every rank."""
-    if scene.spectrum is not None and scene.spectrum.factor_ranks != "auto" and unit_ranks % scene.spectrum.factor_ranks:
-        raise InputError(f"spectrum.factor_ranks = {scene.spectrum.factor_ranks}: must divide the {unit_ranks} "
-                         f"rank{'s' * (unit_ranks > 1)} each (rho, packing) unit is solved on ({source}): choose "
-                         f"one of {[d for d in range(1, unit_ranks + 1) if unit_ranks % d == 0]}")
-
-
-DENSE_METHODS = {"nonhermitian": nonhermitian, "pep": pep}
-"""spectrum.method -> its module, for the methods with a dense solver (``chosen_solver``, MAX_DOF)."""
-
-
-def _check_dense_size(scene: Scene, particles: int, dim: int, which: str) -> None:
-    """InputError if ``particles`` in ``dim`` dimensions (``which``: the packing, for the message)
-    make a matrix beyond the dense solver's size of ``spectrum.method`` (nonhermitian, pep) at
-    some rho, under ``spectrum.solver`` dense. Not collective."""
-    method = DENSE_METHODS[scene.spectrum.method]
-    for rho in scene.model.rho:
-        size = particles * dynmat.dof_per_particle(dim, scene.model.contact(rho))
-        if method.chosen_solver(scene.spectrum.solver, size) == "dense" and size > method.MAX_DOF:
-            order = size if method is nonhermitian else 2 * size  # pep: the first-order matrix
-            raise InputError(f"spectrum.solver = 'dense': the {which} packing's {particles} particles make "
-                             f"{size} DOF at rho = {rho:g}, more than the {method.MAX_DOF} the dense solver of "
-                             f"method {scene.spectrum.method} takes (a full non-symmetric eigensolve of order "
-                             f"{order} needs hours and {16 * order ** 2 / 2 ** 30:.0f} GiB); use spectrum.solver: "
-                             f"windows or a smaller packing.n")
-
-
-def _nonhermitian_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
-    """Every eigenvalue of one (rho, packing) matrix, symmetric or not (``nonhermitian``); the
-    windows solver's windows are checkpointed.  Collective."""
-    spec = scene.spectrum
-    t = time.perf_counter()
-
-    def progress(done, accepted, total):  # a large spectrum takes many minutes: say how far
-        if done % 20 == 0:
-            say(comm, f"  nonhermitian window {done}: {accepted}/{total} eigenvalues, "
-                      f"{time.perf_counter() - t:.0f} s")
-        check_interrupt(comm)
-
-    result = nonhermitian.solve(dm, spec.zero_tol, vectors=spec.energies, solver=spec.solver, tol=spec.tol,
-                                progress=progress, checkpoint=checkpoint)
-    seconds = parallel.global_max(comm, time.perf_counter() - t)
-    checks = result.checks or {}
-    commit(unit, {"omega": result.omega, "omega2": result.omega2, **(result.energies or {})}, {
-        "rho": unit.rho, "packing": unit.p_index, "method": "nonhermitian", "solver": result.solver,
-        "n_zero_modes": result.n_zero_modes, "n_complex": result.n_complex, "n_negative_modes": result.n_negative,
-        "max_growth": result.max_growth, "symmetric": int(dm.symmetric), "seconds": seconds, "window": "full",
-        "dof": dm.size, "n_disks": int(dm.active.sum()),
-        **({"windows": checks["windows"], "max_backward_residual": checks["max_residual"],
-            "trace_error": checks["trace_error"], "trace2_error": checks["trace2_error"],
-            "solver_settings": json.dumps(checks["settings"])} if checks else {})})
-    if checkpoint is not None:
-        checkpoint.clear()
-    unstable = result.n_complex + result.n_negative
-    how = (f"{checks['windows']} windows, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}"
-           if checks else "dense")
-    say(comm, f"spectrum rho = {unit.rho:g}, packing {unit.p_index}: {result.omega.size} stable modes "
-              f"(+{result.n_zero_modes} zero modes), {unstable} unstable ({result.n_complex} complex, "
-              f"{result.n_negative} negative; largest growth rate {result.max_growth:.2e} / t0), {how}, "
-              f"{seconds:.1f} s")
-
-
-def pep_bands(spec) -> list[tuple[float, float]] | None:
-    """The bands of omega_d a pep spectrum keeps: spectrum.window, or one band of half-width
-    frequency_width about each of spectrum.frequencies (overlapping ones merged), or None."""
-    if spec.window:
-        return [tuple(spec.window)]
-    if not spec.frequencies:
-        return None
-    bands = []
-    for omega in sorted(spec.frequencies):
-        lo, hi = max(omega - spec.frequency_width, 0.0), omega + spec.frequency_width
-        if bands and lo <= bands[-1][1]:
-            bands[-1] = (bands[-1][0], max(hi, bands[-1][1]))
-        else:
-            bands.append((lo, hi))
-    return bands
-
-
-def _pep_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> None:
-    """Every damped mode of one (rho, packing) matrix with dashpots (``pep``); the windows
-    solver's windows are checkpointed.  Collective."""
-    spec = scene.spectrum
-    t = time.perf_counter()
-
-    def progress(done, accepted, total):  # a large spectrum takes many minutes: say how far
-        if done % 20 == 0:
-            say(comm, f"  pep window {done}: {accepted}/{total} eigenvalues, {time.perf_counter() - t:.0f} s")
-        check_interrupt(comm)
-
-    bands = pep_bands(spec)
-    result = pep.solve(dm, spec.zero_tol, vectors=spec.energies, solver=spec.solver, tol=spec.tol,
-                       window=bands, progress=progress, checkpoint=checkpoint)
-    seconds = parallel.global_max(comm, time.perf_counter() - t)
-    checks = result.checks or {}
-    underdamped = int((result.lam.imag > 0).sum())
-    commit(unit, {"lambda": result.lam, **(result.energies or {})}, {
-        "rho": unit.rho, "packing": unit.p_index, "method": "pep", "solver": result.solver,
-        "n_zero_modes": result.n_zero_modes, "n_overdamped": result.n_overdamped, "n_underdamped": underdamped,
-        "seconds": seconds, "window": ";".join(window_label(b) for b in bands) if bands else "full",
-        "dof": dm.size, "n_disks": int(dm.active.sum()),
-        **({"windows": checks["windows"], "max_backward_residual": checks["max_residual"],
-            "trace_error": checks["trace_error"], "trace2_error": checks["trace2_error"],
-            "solver_settings": json.dumps(checks["settings"])} if checks else {})})
-    if checkpoint is not None:
-        checkpoint.clear()
-    how = (f"{checks['windows']} windows, " + (
-        "complete by their sigma bounds" if bands else
-        f"trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}") +
-        f", backward error <= {checks['max_residual']:.1e}" if checks else "dense")
-    if bands:
-        how += ", omega_d in " + " u ".join(f"[{lo:g}, {hi:g})" for lo, hi in bands)
-    q = -result.lam.imag / (2 * result.lam.real) if underdamped else np.empty(0)
-    say(comm, f"damped modes rho = {unit.rho:g}, packing {unit.p_index}: {underdamped} underdamped (quality "
-              f"factor {np.nanmin(q, initial=np.inf):.3g} to {np.nanmax(q, initial=0.0):.3g}), "
-              f"{result.n_overdamped} overdamped roots, {result.n_zero_modes} zero, {how}, {seconds:.1f} s")
-
-
-def _modes_unit(scene, dm, unit: Unit, commit, comm, spectrum: dict | None) -> None:
-    """The mode shapes of one (rho, packing) (``shapes.solve``) into ``units``: the ``count`` nearest
-    each ``modes.omega``, then with ``modes.localised`` = n the n modes of lowest participation and
-    the n of highest from ``spectrum`` (the task's spectrum datasets), each found at its own omega.
-    Collective."""
-    spec = scene.modes
-    t = time.perf_counter()
-    parts = [shapes.solve(dm, spec.omega, spec.count, tol=spec.tol)] if spec.omega else []
-    if spec.localised:
-        order = np.argsort(spectrum["participation"], kind="stable")
-        picked = np.concatenate((order[:spec.localised], order[::-1][:spec.localised]))
-        parts.append(shapes.solve(dm, [float(w) for w in spectrum["omega"][picked]], 1, tol=spec.tol))
-    datasets = {key: np.concatenate([part[0][key] for part in parts]) for key in parts[0][0]}
-    settings = parts[-1][1]
-    seconds = parallel.global_max(comm, time.perf_counter() - t)
-    commit(unit, datasets, {"rho": unit.rho, "packing": unit.p_index, "dof": dm.size, "dim": dm.dim,
-                            "n_disks": int(dm.active.sum()), "localised": spec.localised, "seconds": seconds,
-                            "solver_settings": json.dumps(settings)})
-    say(comm, f"modes rho = {unit.rho:g}, packing {unit.p_index}: omega = "
-              f"{', '.join(f'{w:.4f}' for w in datasets['omega'])}, participation "
-              f"{datasets['participation'].min():.3f} to {datasets['participation'].max():.3f}, "
-              f"residual <= {datasets['residual'].max():.1e}, {seconds:.1f} s")
-
-
-def _warn_negative(comm, count: int) -> None:
-    """Say that ``count`` > 0 modes have omega^2 < -zero_tol^2 (not an energy minimum)."""
-    if count:
-        say(comm, f"rotsound: warning: {count} modes with omega^2 < -zero_tol^2: the packing is not a "
-                  f"stable minimum")
-
-
-def _spectrum_unit(scene, dm, unit: Unit, commit, comm, checkpoint=None) -> np.ndarray:
-    """Solve one (rho, packing) spectrum into ``units``; return its omega. Collective.
-
-    Windows are checkpointed, and SIGTERM is honoured after the window in flight."""
-    spec = scene.spectrum
-    t = time.perf_counter()
-
-    def progress(done, total, modes):  # large spectra take hours: say how far, window by window
-        if total > 1:
-            say(comm, f"  spectrum window {done}/{total}: {modes} modes, "
-                      f"{time.perf_counter() - t:.0f} s")
-        check_interrupt(comm)
-
-    result = slicing.solve(dm, window=tuple(spec.window) if spec.window else None,
-                           vectors=spec.energies, tol=spec.tol, zero_tol=spec.zero_tol,
-                           max_window_modes=spec.max_window_modes, progress=progress,
-                           checkpoint=checkpoint)
-    seconds = parallel.global_max(comm, time.perf_counter() - t)
-    datasets = {"omega": result.omega}
-    if result.energies is not None:
-        datasets.update(result.energies)
-    commit(unit, datasets, {
-        "rho": unit.rho, "packing": unit.p_index, "n_zero_modes": result.n_zero_modes,
-        "n_negative_modes": result.n_negative, "max_relative_residual": result.max_residual,
-        "inertia_count": result.inertia_count, "windows": result.windows, "seconds": seconds,
-        "window": window_label(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum()),
-        "solver_settings": json.dumps(result.settings)})
-    if checkpoint is not None:
-        checkpoint.clear()
-    say(comm, f"spectrum rho = {unit.rho:g}, packing {unit.p_index}: {result.omega.size} modes "
-              f"(+{result.n_zero_modes} zero modes, {result.n_negative} negative), omega in "
-              f"[{result.omega.min():.4f}, {result.omega.max():.4f}], max relative residual "
-              f"{result.max_residual:.1e}, {result.windows} windows, {seconds:.1f} s")
-    _warn_negative(comm, result.n_negative)
-    return result.omega
 
 
 def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Schedule) -> None:
@@ -496,18 +267,11 @@ def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Sch
                   f"{len(datasets['runs'])} runs, {summary}, {seconds:.1f} s")
 
 
-def window_label(window) -> str:
-    """'full' or 'lo,hi' for the results file."""
-    return "full" if window is None else f"{window[0]:g},{window[1]:g}"
-
-
 def _vdos_unit(scene, rho, r_index, spectra, units, comm) -> None:
     """vDOS and omega_c of one rho from its configurations' spectrum units into ``units``."""
-    edges, density, omega_c, spread = modes.pooled_vdos(spectra, scene.spectrum.bin_width)
-    units[unit_keys.vdos_name(r_index)] = ({"edges": edges, "density": density}, {
-        "rho": rho, "omega_c": omega_c, "omega_c_std": spread, "configurations": len(spectra),
-        "window": window_label(scene.spectrum.window)})
-    say(comm, f"vDOS rho = {rho:g}: omega_c = {omega_c:.4f} +- {spread:.4f} over {len(spectra)} configurations")
+    datasets, attrs, line = spectrum_unit.vdos(scene.spectrum, rho, spectra)
+    units[unit_keys.vdos_name(r_index)] = (datasets, attrs)
+    say(comm, line)
 
 
 def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_size: int | None = None) -> dict:
@@ -522,16 +286,13 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     """
     t0 = time.perf_counter()
     asked = scene  # spectrum.method auto: as the scene alone gives it until the packings are read
-    scene = resolve_method(asked, stored_forces_source(asked))[0]
-    check_factor_ranks(scene, group_size or comm.size, f"--group-size {group_size}" if group_size else
-                       f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
-    if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS and scene.packing.file is None:
-        _check_dense_size(scene, scene.packing.n, scene.packing.dim, "generated")  # before the packings
+    scene = scene_rules.check_run(asked, group_size or comm.size, f"--group-size {group_size}" if group_size else
+                                  f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
     packings = chosen = None
     if scene.packing.file is not None:  # a refused file or scene writes nothing: read and check before the store
         with profiling.stage("packings"):
             packings = make_packings(scene, comm)
-        scene, chosen = check_packings(asked, packings)
+        scene, chosen = scene_rules.check_packings(asked, packings)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         store = UnitStore(scene.output, scene.to_yaml(), asked.digest(), comm, fresh=fresh,
@@ -540,7 +301,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
             if packings is None:
                 with profiling.stage("packings"):
                     packings = make_packings(scene, comm, store)
-                scene, chosen = check_packings(asked, packings)
+                scene, chosen = scene_rules.check_packings(asked, packings)
             units, group_ranks = _solve(scene, comm, petsc_argv, group_size, store, packings, chosen)
         except InputError:  # refused after the claim (a generated packing, a solver's check): leave no debris
             store.abandon()
@@ -548,29 +309,6 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         return _write(scene, asked, comm, petsc_argv, store, packings, units, group_ranks, t0)
     finally:
         signal.signal(signal.SIGTERM, previous)
-
-
-def check_packings(asked: Scene, packings: list[Packing]) -> tuple[Scene, str | None]:
-    """Refuse a scene its packings cannot run, before any compute: a file's dimension, stored
-    tangential forces with what needs a symmetric matrix, the waves' k in each box, the dense
-    solvers' size.  Return the scene ``asked`` with ``spectrum.method: auto`` resolved for these
-    packings (``resolve_method``) and the line that says what auto chose (None if nothing).  Not
-    collective: the same on every rank."""
-    if asked.packing.file is not None:  # generated packings were checked with the scene
-        check_dimension(asked, packings[0].dim, f"packing.file {asked.packing.file} holds disks "
-                                                f"(positions (N, 2))")
-    stressed = [i for i, p in enumerate(packings) if p.stressed]
-    which = f"configuration(s) {', '.join(map(str, stressed[:5]))} carry stored tangential forces" if stressed \
-        else None
-    scene, chosen = resolve_method(asked, which or stored_forces_source(asked))
-    check_stressed(scene, which)
-    if scene.waves is not None:  # every packing's allowed k
-        for p in packings:
-            excitation.wave_vectors(scene.waves, p.box, excitation.wave_axes(scene.waves, p.dim))
-    if scene.spectrum is not None and scene.spectrum.method in DENSE_METHODS:
-        for index, p in enumerate(packings):
-            _check_dense_size(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
-    return scene, chosen
 
 
 def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packings, chosen: str | None

@@ -216,9 +216,9 @@ def scene_text(output, **sections) -> str:
 
 def scene_of(output, **sections):
     """The validated :class:`~solver.io.schema.Scene` of :func:`scene_text`'s text."""
-    from solver.io import schema
+    from solver.io import coerce, schema
 
-    return schema.build(schema.Scene, yaml.safe_load(scene_text(output, **sections)))
+    return coerce.build(schema.Scene, yaml.safe_load(scene_text(output, **sections)))
 
 
 @functools.lru_cache(maxsize=None)

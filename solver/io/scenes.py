@@ -1,7 +1,7 @@
 """Scene files: YAML reading, ``--set`` overrides and the rules that span the documents of a file.
 
 A scene file holds one YAML document per scene (``---`` separates scenes that run one after
-another); each document is validated by ``schema.build`` into a :class:`~solver.io.schema.Scene`.
+another); each document is validated by ``coerce.build`` into a :class:`~solver.io.schema.Scene`.
 Errors are :class:`~solver.errors.InputError` naming the file (and the document when there are
 several).  No PETSc; only :func:`load` communicates (on the communicator it is given).
 """
@@ -14,7 +14,8 @@ import yaml
 
 from .. import parallel
 from ..errors import InputError
-from .schema import Scene, build
+from .coerce import build
+from .schema import Scene
 
 
 def set_key(raw: dict, assignment: str) -> None:

@@ -1,17 +1,18 @@
-"""The scene schema: run descriptions as frozen, validated dataclasses.
+"""The scene schema: the declarations of a scene's keys, as frozen dataclasses.
 
 Every field carries its documentation, default and allowed range in ``metadata``; the README
-reference is printed from the same source (``rotsound keys``, :func:`reference`).  Validation is
-pure (no MPI, no PETSc) and deterministic, so every rank that validates the same mapping raises
-the same :class:`~solver.errors.InputError`.  Reading scene files, ``--set`` and the rules across
-the documents of a file are in ``scenes``.  Units: d0 = m = kn = 1.
+reference is printed from the same source (``rotsound keys``, :func:`reference`).  A mapping is
+validated into these classes by ``coerce.build``, key by key, then by the rules across keys
+(``scene_rules``, which takes each stage's rules from that stage).  Validation is pure (no MPI,
+no PETSc) and deterministic, so every rank that validates the same mapping raises the same
+:class:`~solver.errors.InputError`.  Reading scene files, ``--set`` and the rules across the
+documents of a file are in ``scenes``.  Units: d0 = m = kn = 1.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
-import difflib
 import hashlib
 import json
 import math
@@ -21,8 +22,11 @@ import yaml
 
 from ..contact_law import (HISTORIES, LAWS, LEVERS, MOBILISED, RESTITUTION_RULE, STORED_FORCES, ContactModel,
                            restitution_damping)
-from ..errors import InputError
-from ..waves.schedule import SECOND_ORDER
+from ..packing.jammed import MIN_N
+from ..packing.rules import stored_forces_source
+from ..spectrum import nonhermitian, pep
+from ..spectrum import plan as spectrum_plan
+from ..waves import schedule
 
 
 def _f(default, doc, check=None, kind=None):
@@ -57,8 +61,8 @@ def _factor_ranks(v):
 
 
 def _even_n(v):
-    if v < 16 or v % 2:
-        return "must be an even integer >= 16 (50:50 mixture; in 2D that also makes the box exceed two diameters)"
+    if v < MIN_N or v % 2:
+        return f"must be an even integer >= {MIN_N} (50:50 mixture; in 2D that also makes the box exceed two diameters)"
     return None
 
 
@@ -66,7 +70,7 @@ def _even_n(v):
 class PackingSpec:
     """Section ``packing``: how configurations are made or where they are read from."""
 
-    n: int | None = _f(None, "number of particles N, disks or spheres (even, >= 16; in 3D the box must also "
+    n: int | None = _f(None, f"number of particles N, disks or spheres (even, >= {MIN_N}; in 3D the box must also "
                              "exceed two large diameters); required unless `file` is given", _even_n, int)
     phi: float | None = _f(None, "area (2D) or volume (3D) fraction phi, in (0, 1); required unless `file` is given",
                            _range(0.0, 1.0, True, True), float)
@@ -236,10 +240,6 @@ def _times(v):
     return None
 
 
-METHODS = ("auto", "slicing", "counting", "kpm", "nonhermitian", "pep")
-SOLVERS = ("auto", "dense", "windows")  # spectrum.solver (nonhermitian, pep): spectrum/nonhermitian.py, pep.py
-
-
 @dataclass(frozen=True)
 class SpectrumSpec:
     """Section ``spectrum`` (absent: no eigensolve; ``{}``: full spectrum with defaults)."""
@@ -266,12 +266,13 @@ class SpectrumSpec:
                                 "pep: every damped mode lambda = -sigma + i omega_d of (lambda^2 M + lambda C + D) x = 0 "
                                 "with model.damping (window: omega_d in [lo, hi); with energies: K, Q of each), by "
                                 "spectrum.solver",
-                     _one_of(METHODS), str)
-    solver: str = _f("auto", "nonhermitian and pep only: dense (LAPACK on rank 0, time ~ DOF^3: nonhermitian up to "
-                             "20000 DOF, auto up to 3000; pep on the 2 DOF first-order matrix, up to 8000, auto up to "
-                             "4000) or windows (SLEPc shift-and-invert windows, checked complete by the count and the "
-                             "trace moments; any size)",
-                     _one_of(SOLVERS), str)
+                     _one_of(spectrum_plan.METHODS), str)
+    solver: str = _f("auto", f"nonhermitian and pep only: dense (LAPACK on rank 0, time ~ DOF^3: nonhermitian up to "
+                             f"{nonhermitian.MAX_DOF} DOF, auto up to {nonhermitian.AUTO_DENSE_DOF}; pep on the 2 DOF "
+                             f"first-order matrix, up to {pep.MAX_DOF}, auto up to {pep.AUTO_DENSE_DOF}) or windows "
+                             "(SLEPc shift-and-invert windows, checked complete by the count and the trace moments; "
+                             "any size)",
+                     _one_of(spectrum_plan.SOLVERS), str)
     frequencies: list[float] | None = _f(None, "pep only: the damped modes with omega_d within frequency_width of "
                                                "one of these frequencies (1/t0; e.g. the waves' omega(k), for "
                                                "analysis.loss), each band marched on its own; null: every mode (or "
@@ -304,10 +305,6 @@ class ModesSpec:
     localised: int = _f(0, "also keep the n modes of lowest and the n of highest participation ratio of each "
                             "(rho, packing), from its spectrum (needs spectrum.energies, method slicing)",
                         _range(0, 100), int)
-
-
-INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
-WAVE_METHODS = ("ts", "spectral", "exponential")  # waves.method: waves/schedule.py
 
 
 WAVE_MODES = ("L", "TR", "RT", "R")
@@ -358,14 +355,14 @@ class WavesSpec:
                    float)
     t_end: float = _f(100.0, "run length (t0) (-waves_ts_max_time wins)", _range(0.0, 1e7, True), float)
     sample_every: int = _f(5, "steps between samples of the Fourier components", _range(1, 10**6), int)
-    integrator: str = _f("verlet", f"time integrator: {', '.join(INTEGRATORS)} (-waves_ts_type wins: "
-                                   "any PETSc TS type; python is verlet)", _one_of(INTEGRATORS), str)
+    integrator: str = _f("verlet", f"time integrator: {', '.join(schedule.INTEGRATORS)} (-waves_ts_type wins: "
+                                   "any PETSc TS type; python is verlet)", _one_of(schedule.INTEGRATORS), str)
     method: str = _f("ts", "ts: integrate with PETSc TS; spectral: no time stepping (samples every dt x "
                            "sample_every, r_i(0) phase only, symmetric matrices): Lanczos on the matrix, or with "
                            "model.damping the Chebyshev-Bessel series of exp(tJ); "
                            "exponential: exp(h J) of the first-order system from sample to sample by SLEPc MFN "
                            "(exact to tol, any matrix: the exact path for stressed packings)",
-                     _one_of(WAVE_METHODS), str)
+                     _one_of(schedule.METHODS), str)
     snapshots: list[float] | None = _f(None, "times (t0, up to t_end) at which the whole velocity field of the "
                                              "mode's first run at the smallest k is kept, for pictures (method "
                                              "spectral without dashpots); null: none", _times, "floats_list")
@@ -422,9 +419,10 @@ class Scene:
         the ranks share the work, not what is computed: left out too, so that a run is resumed
         with another layout (say, after running out of memory with a factor per rank).
         ``spectrum.method: auto`` counts as the method the scene alone gives it
-        (:func:`resolve_method` before the packings are read): a packing file's stored forces,
+        (``spectrum.plan.resolve`` before the packings are read): a packing file's stored forces,
         like the rest of its content, leave the digest alone."""
-        data = _explicit(resolve_method(self, stored_forces_source(self))[0])
+        spectrum = spectrum_plan.resolve(self.spectrum, self.model, stored_forces_source(self.packing))[0]
+        data = _explicit(dataclasses.replace(self, spectrum=spectrum))
         for name in ("output", "analysis", "cache", "petsc"):
             data.pop(name, None)
         if isinstance(data.get("spectrum"), dict):
@@ -451,343 +449,6 @@ def _explicit(section) -> dict:
         if value != default:
             out[f.name] = value
     return out
-
-
-def _type_name(kind) -> str:
-    return {int: "an integer", float: "a number", str: "a string", dict: "a mapping",
-            "floats": "a number or a list of numbers", "paths": "a path or a list of paths",
-            bool: "true or false", "window": "a list [omega_lo, omega_hi]", "strs": "a list of names",
-            "ints": "a list of integers", "floats_list": "a list of numbers",
-            "cache": "auto, a folder path, or off", "ranks": "auto or a whole number"}.get(
-        kind, "a mapping")
-
-
-def _coerce(value, kind, where):
-    """Convert a YAML value to ``kind`` or raise InputError naming ``where``."""
-    def fail():
-        raise InputError(f"{where} = {value!r}: must be {_type_name(kind)}")
-
-    if kind is int:
-        if isinstance(value, bool):
-            fail()
-        if isinstance(value, int):
-            return value
-        try:  # 2e6 (a string to PyYAML) or 2.0e6 is the integer 2000000
-            number = float(value) if isinstance(value, (float, str)) else None
-        except ValueError:
-            number = None
-        if number is None or not number.is_integer():
-            fail()
-        return int(number)
-    if kind is float:
-        if isinstance(value, bool):
-            fail()
-        if isinstance(value, str):  # PyYAML reads 1e-6 (no dot) as a string
-            try:
-                return float(value)
-            except ValueError:
-                fail()
-        if not isinstance(value, (int, float)):
-            fail()
-        return float(value)
-    if kind == "ranks":
-        if value == "auto":
-            return value
-        try:
-            return _coerce(value, int, where)
-        except InputError:
-            fail()
-    if kind == "cache" and value is False:  # YAML reads a bare off/no/false as False
-        return "off"
-    if kind in (str, "cache"):
-        if not isinstance(value, str) or not value:
-            fail()
-        return value
-    if kind in (dict, bool):
-        if not isinstance(value, kind):
-            fail()
-        return value
-    if kind in ("strs", "ints", "floats_list"):
-        if not isinstance(value, list):
-            fail()
-        item = {"strs": str, "ints": int, "floats_list": float}[kind]
-        return [_coerce(v, item, where) for v in value]
-    if kind == "window":  # numbers, including PyYAML's strings such as 1e1
-        if not isinstance(value, list) or any(isinstance(v, bool) for v in value):
-            fail()
-        return [_coerce(v, float, where) for v in value]
-    if kind == "floats":
-        items = value if isinstance(value, list) else [value]
-        if not items:
-            raise InputError(f"{where} = []: must not be empty")
-        return [_coerce(v, float, where) for v in items]
-    if kind == "paths":
-        items = value if isinstance(value, list) else [value]
-        if not items or not all(isinstance(v, str) and v for v in items):
-            fail()
-        return value
-    raise AssertionError(kind)
-
-
-def build(cls, raw, where: str = ""):
-    """Validate mapping ``raw`` into dataclass ``cls``; ``where`` is the key path prefix."""
-    raw = {} if raw is None else raw
-    if not isinstance(raw, dict):
-        raise InputError(f"{where.rstrip('.') or 'scene'} = {raw!r}: must be a mapping")
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(map(str, raw)) - set(fields))
-    if unknown:
-        near = difflib.get_close_matches(unknown[0], fields, n=1)
-        hint = f"did you mean {where}{near[0]}? " if near else ""
-        raise InputError(f"unknown key {where}{unknown[0]}: {hint}allowed keys in "
-                         f"{where.rstrip('.') or 'the scene'} are {', '.join(fields)}")
-    values = {}
-    for name, f in fields.items():
-        kind, check = f.metadata["kind"], f.metadata["check"]
-        key = f"{where}{name}"
-        if dataclasses.is_dataclass(kind):
-            values[name] = build(kind, raw.get(name), key + ".")
-            continue
-        if isinstance(kind, tuple):  # optional section: present (even empty) means "compute it"
-            if name in raw and raw[name] is not None:
-                values[name] = build(kind[1], raw[name], key + ".")
-            continue
-        if name not in raw or raw[name] is None:
-            continue
-        value = _coerce(raw[name], kind, key)
-        for item in (value if isinstance(value, list) and kind == "floats" else [value]):
-            problem = check(item) if check else None
-            if problem:
-                raise InputError(f"{key} = {raw[name]!r}: {problem}")
-        values[name] = value
-    obj = cls(**values)
-    if isinstance(obj, Scene):  # spectrum.method auto is kept: the packings may decide it (pipeline.run)
-        resolve_method(obj, stored_forces_source(obj))
-    else:
-        _cross_check(obj, where)
-    return obj
-
-
-def auto_method(scene: Scene, which: str | None) -> tuple[str, str]:
-    """What ``spectrum.method: auto`` means for ``scene`` on packings carrying the stored tangential
-    forces ``which`` says (None: none), and why: the cheapest exact method that fits the matrix and
-    what is asked: pep with dashpots (the only one that takes them), nonhermitian on a non-symmetric
-    matrix (:func:`asymmetry`), else counting when only counts are asked (no energies, no window),
-    else slicing."""
-    if scene.model.damped:
-        return "pep", "dashpots: the damped modes"
-    why = asymmetry(scene, which)
-    if why is not None:
-        return "nonhermitian", f"{why}, so the matrix is not symmetric"
-    if scene.spectrum.energies or scene.spectrum.window:
-        return "slicing", "per-mode energies asked" if scene.spectrum.energies else "a window asked"
-    return "counting", "only counts asked: no energies, no window"
-
-
-def resolve_method(scene: Scene, which: str | None) -> tuple[Scene, str | None]:
-    """``scene`` with ``spectrum.method: auto`` replaced by :func:`auto_method`'s choice on packings
-    carrying the stored tangential forces ``which`` says (None: none), and the log line saying so
-    (None when the method was not auto); InputError if the scene cannot run so.  Not collective:
-    the same on every rank given the same ``which``."""
-    said = None
-    if scene.spectrum is not None and scene.spectrum.method == "auto":
-        method, why = auto_method(scene, which)
-        scene = dataclasses.replace(scene, spectrum=dataclasses.replace(scene.spectrum, method=method))
-        _cross_check(scene.spectrum, "spectrum.")
-        said = f"spectrum.method auto -> {method} ({why})"
-    _cross_check(scene, "")
-    return scene, said
-
-
-def stored_forces_source(scene: Scene) -> str | None:
-    """Whose stored tangential forces the scene alone gives its packings, as a clause for messages;
-    None when it gives none (a packing file's own, in its ``tangential`` group, are known once it
-    is read). Not collective."""
-    if scene.packing.contacts is not None:
-        return "packing.contacts gives the packings stored tangential forces"
-    if scene.packing.file is None and scene.packing.friction:
-        return (f"packing.friction = {scene.packing.friction} makes frictional packings that stand on stored "
-                f"tangential forces")
-    return None
-
-
-def asymmetry(scene: Scene, which: str | None) -> str | None:
-    """Why the dynamical matrix of ``scene`` is not symmetric, as a clause, or None: the stored
-    tangential forces ``which`` says the packings carry (None: none) when ``model.stored_forces``
-    keeps them, or YADE's slip (``model.history: yade`` with a tangential spring;
-    docs/stressed_contacts.md). Not collective."""
-    if which is not None and scene.model.stored_forces == "keep":
-        return which
-    if scene.model.history == "yade" and any(r > 0 for r in scene.model.rho):
-        return "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
-    return None
-
-
-DEM_CONVENTIONS = {"liggghts-local": ("contact", "lammps"), "yade": ("contact", "yade")}
-"""contacts_format -> (model.lever, model.history) of the code that writes it (docs/stressed_contacts.md)."""
-
-
-def _check_dem_convention(scene) -> None:
-    """A LIGGGHTS or YADE contact file read under another code's lever or history would give that
-    code's matrix of this packing, silently: InputError naming the keys to set.  Not collective."""
-    want = DEM_CONVENTIONS.get(scene.packing.contacts_format)
-    if want is None or (scene.model.lever, scene.model.history) == want:
-        return
-    raise InputError(f"packing.contacts_format = '{scene.packing.contacts_format}' holds a packing integrated with "
-                     f"the lever {want[0]} and {want[1]}'s history (docs/stressed_contacts.md), but model.lever = "
-                     f"'{scene.model.lever}' and model.history = '{scene.model.history}': set model.lever: {want[0]} "
-                     f"and model.history: {want[1]} (or model.stored_forces: drop for the unstressed matrix)")
-
-
-def _cross_check(obj, where):
-    if isinstance(obj, PackingSpec) and obj.contacts is not None and (obj.file is None or obj.relax):
-        raise InputError(f"{where}contacts: the stored tangential forces of packing.file's packings; they need "
-                         f"packing.file" + (" and cannot go with packing.relax, which re-minimises without them"
-                                            if obj.relax else ""))
-    if isinstance(obj, PackingSpec) and obj.friction is not None and obj.contacts is None and (
-            obj.file is not None or obj.engine != "lammps"):
-        raise InputError(f"{where}friction = {obj.friction}: the Coulomb mu of a frictional packing, made by LAMMPS "
-                         f"(generated packings with packing.engine: lammps) or read with its contact file "
-                         f"(packing.file with packing.contacts); give one of these")
-    if isinstance(obj, PackingSpec) and obj.pressure is not None and (obj.friction is None or obj.file is not None):
-        raise InputError(f"{where}pressure = {obj.pressure}: the pressure at which LAMMPS holds a frictional packing "
-                         f"it makes: needs packing.friction with packing.engine: lammps and no packing.file (for a "
-                         f"frictionless one in the same protocol, give friction: 0)")
-    if isinstance(obj, PackingSpec) and obj.file is None:
-        for name in ("n", "phi"):
-            if getattr(obj, name) is None:
-                raise InputError(f"{where}{name} is missing: give packing.n and packing.phi, "
-                                 f"or packing.file")
-        if obj.relax:
-            raise InputError(f"{where}relax = true re-minimises the packings of packing.file; generated "
-                             f"packings are minimised already: give packing.file or drop packing.relax")
-    if isinstance(obj, SpectrumSpec) and obj.method not in ("slicing", "pep", "auto") and obj.window:
-        raise InputError(f"{where}method = {obj.method!r} gives the whole vDOS: {where}window needs method "
-                         f"'slicing' (or 'pep', whose window is in the damped frequency)")
-    if isinstance(obj, SpectrumSpec) and obj.method not in ("nonhermitian", "pep", "auto") and obj.solver != "auto":
-        raise InputError(f"{where}solver = {obj.solver!r} chooses how methods nonhermitian and pep find every "
-                         f"eigenvalue; method {obj.method!r} has no such choice: drop {where}solver or use method "
-                         f"'nonhermitian' (or 'pep' with model.damping)")
-    if isinstance(obj, SpectrumSpec) and obj.frequencies is not None and (obj.method not in ("pep", "auto") or obj.window):
-        raise InputError(f"{where}frequencies = {obj.frequencies}: bands of damped modes, for method 'pep' without "
-                         f"{where}window" + ("" if obj.method in ("pep", "auto") else f" (method is {obj.method!r})"))
-    if isinstance(obj, SpectrumSpec) and obj.method not in ("counting", "auto") and obj.factor_ranks not in (1, "auto"):
-        raise InputError(f"{where}factor_ranks = {obj.factor_ranks}: the ranks sharing each factorisation of method "
-                         f"'counting'; method {obj.method!r} has none to share: drop {where}factor_ranks")
-    if isinstance(obj, SpectrumSpec) and obj.method == "counting" and obj.energies:
-        raise InputError(f"{where}method = 'counting' gives mode counts only: {where}energies needs method "
-                         f"'slicing' (per mode) or 'kpm' (bin averages)")
-    if isinstance(obj, ModesSpec) and obj.omega is None and not obj.localised:
-        raise InputError(f"{where}omega is missing: give the target frequencies (1/t0) whose nearest modes to keep, "
-                         f"e.g. {where}omega: [0.1, 1.0], or {where}localised")
-    if isinstance(obj, Scene) and obj.modes is not None and obj.modes.localised and (
-            obj.spectrum is None or obj.spectrum.method != "slicing" or not obj.spectrum.energies):
-        raise InputError(f"modes.localised = {obj.modes.localised}: the participation ratios of every mode come from "
-                         f"the spectrum: give spectrum: {{energies: true}} (method slicing)"
-                         + ("" if obj.spectrum is None else f"; spectrum.method is {obj.spectrum.method!r}, "
-                                                            f"energies {obj.spectrum.energies}"))
-    if isinstance(obj, WavesSpec) and (obj.n is None) == (obj.kd0 is None):
-        raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
-    if isinstance(obj, WavesSpec) and obj.snapshots is not None and (
-            obj.method != "spectral" or max(obj.snapshots) > obj.t_end):
-        raise InputError(f"{where}snapshots = {obj.snapshots}: velocity fields of the spectral path, at times up to "
-                         f"{where}t_end = {obj.t_end}" + ("" if obj.method == "spectral" else
-                                                          f"; {where}method is {obj.method!r}: use spectral"))
-    if isinstance(obj, WavesSpec) and obj.sample_every * obj.dt > obj.t_end / 4:
-        raise InputError(f"{where}sample_every = {obj.sample_every}: with dt = {obj.dt} that leaves "
-                         f"fewer than 4 samples in t_end = {obj.t_end}")
-    if isinstance(obj, Scene) and obj.packing.file is None:
-        check_dimension(obj, obj.packing.dim, f"packing.dim is {obj.packing.dim}")
-    if isinstance(obj, Scene) and obj.packing.contacts is not None and obj.model.stored_forces == "keep":
-        _check_dem_convention(obj)
-    if isinstance(obj, Scene) and obj.model.mobilised == "slide" and obj.packing.friction is None:
-        raise InputError("model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu: give "
-                         "packing.friction (with packing.contacts, or packing.engine: lammps)")
-    if isinstance(obj, Scene):
-        check_stressed(obj, stored_forces_source(obj))
-    if isinstance(obj, ModelSpec) and obj.restitution is not None and (
-            obj.law != "harmonic" or (obj.damping is not None and obj.damping.gamma_n > 0.0)):
-        raise InputError(f"{where}restitution = {obj.restitution}: " + (
-            f"it sets {where}damping.gamma_n, which is given too: give one of them" if obj.law == "harmonic" else
-            f"under {where}law = {obj.law!r} the coefficient of restitution depends on the impact speed, so no "
-            f"single gamma_n gives it: give {where}damping.gamma_n"))
-    if isinstance(obj, Scene) and obj.model.damped:
-        check_damped(obj)
-    if isinstance(obj, Scene) and obj.spectrum is not None and obj.spectrum.method == "pep" and not obj.model.damped:
-        raise InputError("spectrum.method = 'pep': the damped modes need dashpots: give model.damping (gamma_n, "
-                         "gamma_t) or model.restitution; without them every mode is undamped: use method slicing")
-    if isinstance(obj, Scene) and not obj.output.endswith((".h5", ".hdf5")):
-        raise InputError(f"output = {obj.output!r}: must end in .h5 or .hdf5")
-
-
-def check_dimension(scene: Scene, dim: int, source: str) -> None:
-    """Raise InputError if ``scene`` asks in ``dim`` dimensions for what exists only in 3D: a
-    twisting spring, the twist wave R.  ``source`` says where ``dim`` came from, as a clause
-    ("packing.dim is 2", "packing.file F holds disks"). Not collective."""
-    if dim == 3:
-        return
-    if scene.model.rho_twist > 0.0:
-        raise InputError(f"model.rho_twist = {scene.model.rho_twist}: twisting resistance needs spheres in 3D, "
-                         f"but {source} (in 2D a contact has no twist: set model.rho_twist to 0, or "
-                         f"use spheres)")
-    if scene.waves is not None and scene.waves.axes is not None and "z" in scene.waves.axes:
-        raise InputError(f"waves.axes = {scene.waves.axes}: axis z needs 3D, but {source}")
-    if scene.waves is not None and "R" in scene.waves.modes:
-        raise InputError(f"waves.modes = {scene.waves.modes}: mode R (angular velocity along k) needs 3D, but "
-                         f"{source}: in 2D the only rotation is about z (use RT, or spheres)")
-
-
-def check_stressed(scene: Scene, which: str | None) -> None:
-    """Raise InputError if stressed packings (``which`` says whose stored tangential forces; None:
-    none) or YADE's slip (``model.history: yade``, docs/stressed_contacts.md) meet what
-    needs a symmetric matrix (docs/stressed_contacts.md sections 2 and 4): ``modes``, any ``spectrum`` method
-    but nonhermitian (slicing, counting and kpm rest on symmetry), ``waves.method: spectral``, or,
-    for stored forces, rho = 0 (the tangential spring holds them); stored forces count for nothing
-    when ``model.stored_forces`` drops them.  Not collective."""
-    model = scene.model
-    held = which if model.stored_forces == "keep" else None
-    which = asymmetry(scene, which)
-    if which is None:
-        return
-    if scene.spectrum is not None and scene.spectrum.method == "pep" and scene.spectrum.solver != "dense":
-        raise InputError(f"spectrum.method = 'pep' with spectrum.solver = {scene.spectrum.solver!r}: {which}, so the "
-                         f"dynamical matrix is not symmetric and the windows' bounds on the damped modes do not hold: "
-                         f"give spectrum.solver: dense (up to 8000 DOF)")
-    if scene.spectrum is not None and scene.spectrum.method not in ("nonhermitian", "pep"):
-        raise InputError(f"spectrum (method {scene.spectrum.method}): {which}, so the dynamical matrix is not "
-                         f"symmetric (the DEM code's tangential update has no energy, docs/stressed_contacts.md); "
-                         f"slicing, counting and kpm need a symmetric matrix and would give a wrong vDOS: use "
-                         f"spectrum.method: nonhermitian (every eigenvalue, complex ones counted as unstable)")
-    if scene.modes is not None:
-        raise InputError(f"modes: {which}, so the dynamical matrix is not symmetric and its modes are not the "
-                         f"orthogonal eigenvectors that modes keeps; drop the modes section for this packing")
-    if scene.waves is not None and scene.waves.method == "spectral":
-        raise InputError(f"waves.method = 'spectral': {which}, so the matrix is not symmetric and has no "
-                         f"orthogonal eigendecomposition: use waves.method: exponential (exact) or ts")
-    if held is not None and 0.0 in model.rho:
-        raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")
-
-
-def check_damped(scene: Scene) -> None:
-    """Raise InputError if a scene with contact dashpots (``model.damping``) asks for what cannot
-    take them: a spectrum method but pep (the others solve the undamped problem), mode shapes (undamped
-    eigenvectors), or a second-order
-    integrator (verlet, alpha2: their force has no velocity term). Not collective."""
-    if scene.spectrum is not None and scene.spectrum.method != "pep":
-        raise InputError(f"spectrum.method = {scene.spectrum.method!r} with model.damping: it solves the undamped "
-                         f"problem; the damped modes (lambda^2 M + lambda C + D) x = 0 need spectrum.method: pep "
-                         f"(or auto); the undamped vDOS of the same packing: drop model.damping from this scene")
-    if scene.modes is not None:
-        raise InputError("modes with model.damping: modes keeps the undamped eigenvectors of D, not the damped "
-                         "modes of (lambda^2 M + lambda C + D) x = 0; drop model.damping from this scene to see "
-                         "the undamped modes of the same packing")
-    if scene.waves is not None and scene.waves.snapshots is not None:
-        raise InputError("waves.snapshots with model.damping: the snapshots come from the undamped Lanczos path; drop "
-                         "waves.snapshots, or model.damping to see the undamped wave")
-    if scene.waves is not None and scene.waves.method == "ts" and scene.waves.integrator in SECOND_ORDER:
-        raise InputError(f"waves.integrator = {scene.waves.integrator!r} with model.damping: it integrates "
-                         f"M u'' = -D u and has no velocity-dependent force; use waves.method: spectral or "
-                         f"exponential (exact), or waves.integrator: rk (or theta, cn, beuler) on the first-order system")
 
 
 def reference(cls=Scene, where: str = "") -> list[tuple[str, str, str]]:

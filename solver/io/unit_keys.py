@@ -18,6 +18,7 @@ import numpy as np
 
 from .. import __version__
 from .. import options
+from ..spectrum.plan import probe_seed
 from ..waves.excitation import wave_modes
 
 FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "modes": "modes", "waves": "waves"}
@@ -186,7 +187,7 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     mobilised, lever, stored_forces and history when not their defaults, and the dashpots when on (so units made
     before they existed keep their keys); spectra and waves also by their section's settings and the PETSc options that act on
     their stage (``options.acting_on``; ``-log_view`` and the like change no key); KPM's probes
-    by their seed.  The rotsound version is part of every key, so a new version
+    by their seed (``spectrum.plan.probe_seed``).  The rotsound version is part of every key, so a new version
     never reuses an older one's numbers.
     """
     keys = {}
@@ -226,10 +227,10 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
     if unit.kind == "matrix":
         return UnitKey.of(unit="matrix", rho=unit.rho, options={}, **base)
     if unit.kind == "spectrum":
-        method = scene.spectrum.method
         return UnitKey.of(unit="spectrum", rho=unit.rho, section="spectrum",
-                          settings=spectrum_settings(scene.spectrum), seed=scene.seed + unit.p_index if method == "kpm" else None,
-                          options=options.acting_on(petsc_argv, "spectra", method), **base)
+                          settings=spectrum_settings(scene.spectrum),
+                          seed=probe_seed(scene.spectrum, scene.seed, unit.p_index),
+                          options=options.acting_on(petsc_argv, "spectra", scene.spectrum.method), **base)
     if unit.kind == "modes":  # modes.localised picks its modes from the spectrum: then its settings count too
         spectrum = {"spectrum": spectrum_settings(scene.spectrum)} if scene.modes.localised else {}
         return UnitKey.of(unit="modes", rho=unit.rho, section="modes", settings=dataclasses.asdict(scene.modes),

@@ -24,6 +24,9 @@ from .configuration import Packing, solid_volume
 from .stressed import TangentialForces
 
 SIZE_RATIO = 1.4
+MIN_N = 16
+"""Fewest particles of a generated packing (a 50:50 mixture; in 2D that also makes the box exceed two
+diameters; the scene's packing.n is refused below it)."""
 D_SMALL = 2.0 / (1.0 + SIZE_RATIO)
 D_LARGE = SIZE_RATIO * D_SMALL
 
@@ -42,13 +45,13 @@ def box_length_for(diameters: np.ndarray, phi: float, dim: int = 2) -> float:
 
 
 def smallest_n(phi: float, dim: int) -> int:
-    """Smallest even N >= 16 whose bidisperse box at ``phi`` exceeds two large diameters."""
+    """Smallest even N >= ``MIN_N`` whose bidisperse box at ``phi`` exceeds two large diameters."""
     pair = solid_volume(np.array([D_SMALL, D_LARGE]), dim)  # one small and one large particle
     n = int(np.floor(2.0 * phi * (2.0 * D_LARGE) ** dim / pair)) + 1  # L^D = (n/2) pair / phi
     n += n % 2
     while box_length_for(bidisperse_diameters(n), phi, dim) <= 2.0 * D_LARGE:  # round-off at the edge
         n += 2
-    return max(16, n)
+    return max(MIN_N, n)
 
 
 def spatial_order(positions: np.ndarray, box: np.ndarray) -> np.ndarray:

@@ -50,7 +50,7 @@ class Result:
     checks: dict | None = None  # windows: their number, residual, trace errors, settings
 
 
-def chosen_solver(solver: str, size: int) -> str:  # solver: one of schema.SOLVERS
+def chosen_solver(solver: str, size: int) -> str:  # solver: one of plan.SOLVERS
     """dense or windows for ``spectrum.solver`` on a matrix of ``size`` DOF (auto: dense up to
     AUTO_DENSE_DOF)."""
     if solver == "auto":

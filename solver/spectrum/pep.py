@@ -45,7 +45,7 @@ class Result:
     checks: dict | None = None
 
 
-def chosen_solver(solver: str, size: int) -> str:  # solver: one of schema.SOLVERS
+def chosen_solver(solver: str, size: int) -> str:  # solver: one of plan.SOLVERS
     """dense or windows for ``spectrum.solver`` on a matrix of ``size`` DOF."""
     if solver == "auto":
         return "dense" if size <= AUTO_DENSE_DOF else "windows"

@@ -48,7 +48,7 @@ COMPONENT_NAMES = {2: ("v_x", "v_y", "w_z"), 3: ("v_x", "v_y", "v_z", "w_x", "w_
 def runs(mode: str, dim: int) -> list[tuple[int, int]]:
     """[(excited DOF component, axis of k)] of every run of ``mode`` in ``dim`` dimensions, in the
     order of the first axis of a unit's ``z`` (``RUNS``).  Raises KeyError for R in 2D (the scene
-    refuses it first: ``schema.check_dimension``).  Not collective."""
+    refuses it first: ``rules.check_dimension``).  Not collective."""
     return RUNS[dim][mode]
 
 

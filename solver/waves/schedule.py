@@ -1,11 +1,12 @@
 """How the standing waves of one matrix are run, decided once for every path (``waves.method``):
 the time grid, and for time stepping the TS type, step and stability limit.
 
-:func:`plan` is the one place the method is chosen: ``spectral`` and ``exponential`` sample
-every ``dt * sample_every`` to ``t_end`` with no time stepping (``spectral``, ``exponential``,
-``SAMPLED``); ``ts`` resolves the
-TS schedule and refuses one that cannot work (``integrators`` then follows it).  Either way the
-:class:`Schedule` carries the matrix's omega_max and the stability limit into the unit.
+:func:`plan` is the one place the method, and the path the runs take (``PATHS``), are chosen:
+``spectral`` and ``exponential`` sample every ``dt * sample_every`` to ``t_end`` with no time
+stepping (``spectral``, ``exponential``, ``SAMPLED``; with dashpots ``spectral`` is the
+Chebyshev-Bessel series, ``chebyshev``); ``ts`` resolves the TS schedule and refuses one that
+cannot work (``integrators`` then follows it).  Either way the :class:`Schedule` carries the
+path, the matrix's omega_max and the stability limit into the unit (``unit``).
 
 TS schedule (one source of truth): :func:`resolve_schedule` builds a TS with the scene's values
 as defaults (type, dt, t_end), lets ``-waves_ts_*`` options act on it, and reads back type, dt,
@@ -27,13 +28,24 @@ from ..errors import InputError
 from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
+METHODS = ("ts", "spectral", "exponential")
+"""waves.method values: time steps, or the paths without (``SAMPLED``); :func:`plan` decides the path."""
+INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
+"""waves.integrator values of a scene (``-waves_ts_type`` takes any PETSc TS type; python is verlet)."""
 SECOND_ORDER = ("verlet", "alpha2")
 """waves.integrator values that integrate M u'' = -D u without a velocity-dependent force (no
-dashpots: ``plan`` and the scene's ``check_damped`` refuse them with ``model.damping``)."""
+dashpots: ``plan`` and the scene's rule ``rules.check_damping`` refuse them with ``model.damping``)."""
+MIN_SAMPLES = 4
+"""Fewest samples of a run (t_end / (dt * sample_every)): the waves' scene rule and :func:`check_schedule`
+refuse fewer."""
 SAMPLED = {"spectral": "spectral (Lanczos)", "exponential": "exponential (SLEPc MFN)"}
 """The methods without time steps (waves.method -> integrator label): samples every dt * sample_every.
 With dashpots, ``spectral`` is the Chebyshev-Bessel series (``DAMPED_SPECTRAL``)."""
 DAMPED_SPECTRAL = "spectral (Chebyshev-Bessel series)"
+PATHS = ("ts", "spectral", "damped_spectral", "exponential")
+"""How the runs of a unit go (``Schedule.path``): time steps (``integrators``), Lanczos on the
+matrix (``spectral``), the Chebyshev-Bessel series of exp(tJ) (``chebyshev``: waves.method
+spectral with dashpots), exp(h J) by SLEPc MFN (``exponential``)."""
 
 STABILITY = {("verlet", None): 2.0, ("rk", "4"): 2.0 * math.sqrt(2.0), ("rk", "3"): math.sqrt(3.0),
              ("rk", "3bs"): math.sqrt(3.0), ("rk", "1fe"): 0.0, ("euler", None): 0.0}
@@ -71,7 +83,8 @@ class Schedule:
     values and the ``-waves_ts_*`` options, and where each value came from; for the paths without
     time steps the sample grid alone.
 
-    method : ``ts``, ``spectral`` or ``exponential``;  integrator : ``verlet`` (TS type python),
+    method : ``ts``, ``spectral`` or ``exponential``;  path : one of ``PATHS``, the method's path
+    on this matrix (``spectral`` with dashpots: ``damped_spectral``);  integrator : ``verlet`` (TS type python),
     the PETSc TS type, or a ``SAMPLED`` label;  variant : the RK type of rk;  dt : step (t0;
     without time steps: the scene's, for the sample spacing);  steps : steps to take (without: 0);  t_end : last time
     (t0);  sample_every : steps between samples;  adapt : TSAdapt type (``none`` is required);
@@ -90,6 +103,7 @@ class Schedule:
     adapt: str
     sources: dict
     method: str = "ts"
+    path: str = "ts"
     omega_max: float | None = None
     limit: float | None = None
     damping_max: float = 0.0
@@ -181,9 +195,9 @@ def resolve_schedule(*, integrator: str, dt: float, t_end: float, sample_every: 
 
 
 def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max: float = 0.0) -> float | None:
-    """Refuse (InputError) a variable step, fewer than 4 samples, a dt at or above the scheme's
+    """Refuse (InputError) a variable step, fewer than ``MIN_SAMPLES`` samples, a dt at or above the scheme's
     stability limit for this matrix (its dashpots' fastest rate ``damping_max``, 0 without), or,
-    with dashpots, a second-order integrator (the scene key is refused by ``schema.check_damped``;
+    with dashpots, a second-order integrator (the scene key is refused by ``rules.check_damping``;
     this catches ``-waves_ts_type``), naming where each value came from; return the limit (None if
     not tabulated).  Not collective (same verdict on every rank)."""
     src = schedule.sources
@@ -195,9 +209,9 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max
         raise InputError(f"{src['integrator']}: the TS adapts its step (TSAdapt {schedule.adapt}), but the "
                          f"waves are sampled every waves.sample_every steps and need a fixed step: add "
                          f"-{PREFIX}ts_adapt_type none")
-    if schedule.steps < 4 * schedule.sample_every:
+    if schedule.steps < MIN_SAMPLES * schedule.sample_every:
         raise InputError(f"waves.sample_every = {schedule.sample_every}: with dt = {schedule.dt:g} "
-                         f"({src['dt']}) that leaves fewer than 4 samples in t_end = {schedule.t_end:g} "
+                         f"({src['dt']}) that leaves fewer than {MIN_SAMPLES} samples in t_end = {schedule.t_end:g} "
                          f"({src['t_end']})")
     limit = stability_limit(schedule.integrator, omega_max, schedule.variant, damping_max)
     if limit is not None and schedule.dt >= limit:
@@ -210,14 +224,15 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max
 def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedule:
     """The schedule of the waves section ``spec`` on a matrix whose largest eigenfrequency is
     ``omega_max`` and whose dashpots' fastest rate is ``damping_max`` (0: none; rho = kt/kn, for
-    messages): the one place ``waves.method`` is decided.
+    messages): the one place ``waves.method`` and the runs' path (``PATHS``) are decided.
     ``spectral``, ``exponential``: the sample grid (with dashpots, a ``waves.tol`` the damped spectral
     path cannot bound is refused here); ``ts``: :func:`resolve_schedule`, refused by
     :func:`check_schedule` (InputError, the same on every rank) if it cannot work.  Not collective.
     """
     if spec.method in SAMPLED:
-        label = DAMPED_SPECTRAL if spec.method == "spectral" and damping_max > 0.0 else SAMPLED[spec.method]
-        if label == DAMPED_SPECTRAL:
+        path = "damped_spectral" if spec.method == "spectral" and damping_max > 0.0 else spec.method
+        label = DAMPED_SPECTRAL if path == "damped_spectral" else SAMPLED[spec.method]
+        if path == "damped_spectral":
             from . import chebyshev
 
             try:
@@ -228,7 +243,7 @@ def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedu
                                  f"exponential") from None
         return Schedule(integrator=label, variant=None, dt=spec.dt, steps=0, t_end=spec.t_end,
                         sample_every=spec.sample_every, adapt="none", sources={}, method=spec.method,
-                        omega_max=omega_max, damping_max=damping_max)
+                        path=path, omega_max=omega_max, damping_max=damping_max)
     resolved = resolve_schedule(integrator=spec.integrator, dt=spec.dt, t_end=spec.t_end,
                                 sample_every=spec.sample_every)
     return dataclasses.replace(resolved, omega_max=omega_max, damping_max=damping_max,

@@ -1,7 +1,7 @@
 """One unit of standing waves: every run (``excitation.runs``: 2 in 2D; 3 or 6 in 3D) and wave
-number of one (rho, mode, packing), integrated (``integrators``; or without time steps,
-``spectral`` and ``exponential``) and reduced to
-the datasets and attributes of the results file's ``waves/r<i>_<mode>_p<j>`` group (README,
+number of one (rho, mode, packing), run by the path its schedule chose (``PATHS``: time steps,
+``integrators``; or without time steps, ``spectral``, ``chebyshev`` and ``exponential``) and
+reduced to the datasets and attributes of the results file's ``waves/r<i>_<mode>_p<j>`` group (README,
 "Results file").
 
 C (K, S) and S (K, W) pool the mode's runs (``waves.correlations.pooled``): numerators and
@@ -29,68 +29,33 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     error_estimate; which run is which: datasets ``runs`` (R, 2) and attribute ``run_labels``).
     A run along axis a uses the k of that axis.
 
-    ``spec``: the scene's waves section; ``schedule``: how the runs go (``schedule.plan``: the
-    spectral and exponential paths sample every ``dt * sample_every`` to ``t_end``, time stepping follows the TS
-    schedule; it carries omega_max and the stability limit).  ``summary``: one line for the log.
+    ``spec``: the scene's waves section; ``schedule``: how the runs go (``schedule.plan``: its
+    ``path`` picks the function of ``PATHS``; the paths without time steps sample every
+    ``dt * sample_every`` to ``t_end``, time stepping follows the TS schedule; it carries omega_max
+    and the stability limit).  ``summary``: one line for the log.
     Raises StabilityError on every rank if a run blows up (nothing is returned then).
     """
     chosen = [r for r, (_, axis) in enumerate(excitation.runs(mode, dm.dim)) if axis in axes]
     excited = [excitation.runs(mode, dm.dim)[r] for r in chosen]
     column = {r: axes.index(axis) for r, (_, axis) in zip(chosen, excited)}  # the k of the run's axis
     count = len(ks)
-    if schedule.method == "spectral" and dm.C is not None:  # dashpots: the Chebyshev-Bessel series of exp(tJ)
-        times = schedule.sample_times()
-        series = [[chebyshev.damped_spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times,
-                                             tol=spec.tol, omega_max=schedule.omega_max,
-                                             damping_max=schedule.damping_max) for k in ks[:, column[r]]]
-                  for r in chosen]
-    elif schedule.method == "spectral":
-        times = schedule.sample_times()
-        flat = spectral.spectral_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
-                                     amplitude=spec.amplitude, times=times, tol=spec.tol, omega_max=schedule.omega_max)
-        series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
-    elif schedule.method == "exponential":
-        flat = exponential.exponential_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
-                                           amplitude=spec.amplitude, times=schedule.sample_times(), tol=spec.tol,
-                                           rate=max(schedule.omega_max, schedule.damping_max))
-        series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
-    else:  # Verlet: all runs and k at once, one MatMatMult per step
-        flat = integrators.integrate_all(dm, positions, [(mode, r, k) for r in chosen for k in ks[:, column[r]]],
-                                         amplitude=spec.amplitude, schedule=schedule)
-        series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
+    waves = [(mode, r, k) for r in chosen for k in ks[:, column[r]]]
+    flat, estimated, path_settings, summary = PATHS[schedule.path](dm, positions, spec, waves, schedule)
+    series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
     z = np.array([[r.z for r in row] for row in series])  # (R, K, S)
     z_fixed = np.array([[r.z_fixed for r in row] for row in series])
     energy = np.array([[r.energy for r in row] for row in series])
     t = series[0][0].t
     vaf, omega, power = correlations.pooled(z, t[1] - t[0])
-    drift = np.nanmax(np.abs(energy - energy[..., :1]), axis=2) / energy[..., 0]  # damped spectral: NaN between blocks
     same = bool(np.all(ks == ks[:, :1]))  # one k for every axis (a square or cubic box, or sides n L)
     datasets = {"k": ks[:, 0] if same else ks.mean(axis=1), "n": ns[:, 0], "t": t, "C": vaf, "omega": omega,
-                "S": power, "z": z, "z_fixed": z_fixed, "energy_drift": drift,
+                "S": power, "z": z, "z_fixed": z_fixed, "energy_drift": _drift(energy),
                 "runs": np.array(excited, dtype=np.int64)}
     if not (same and np.all(ns == ns[:, :1])):  # sides that differ: each axis' own n and k (k: their mean)
         datasets.update(n_axes=ns, k_axes=ks)
-    settings = {"wmax": dm.wmax_settings}
-    if schedule.method in ("spectral", "exponential"):
+    if estimated:
         datasets["error_estimate"] = np.array([[r.error_estimate for r in row] for row in series])
-    if schedule.method == "spectral" and dm.C is not None:
-        settings["chebyshev"] = {**series[0][0].settings, "products": max(r.steps for row in series for r in row)}
-        summary = (f"spectral (Chebyshev-Bessel series, blocks of {settings['chebyshev']['block_samples']} samples, "
-                   f"{settings['chebyshev']['terms']} terms), up to {settings['chebyshev']['products']} products "
-                   f"with J, error bound {np.nanmax(datasets['error_estimate']):.1e}")
-    elif schedule.method == "spectral":
-        settings["lanczos"] = {"tol": spec.tol, "max_steps": max(r.steps for row in series for r in row)}
-        summary = (f"spectral, up to {settings['lanczos']['max_steps']} Lanczos steps, error estimate "
-                   f"{np.nanmax(datasets['error_estimate']):.1e}")
-    elif schedule.method == "exponential":
-        settings["mfn"] = {**series[0][0].settings,
-                           "max_iterations": max(r.settings["max_iterations"] for row in series for r in row)}
-        summary = (f"exponential, {len(t) - 1} MFN solves each (up to {settings['mfn']['max_iterations']} "
-                   f"iterations), error estimate {np.nanmax(datasets['error_estimate']):.1e}")
-    else:
-        settings["ts"] = series[0][0].settings
-        summary = (f"{series[0][0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), "
-                   + _energy_words(dm, energy, drift, t[-1]))
+    settings = {"wmax": dm.wmax_settings, **path_settings}
     attrs = {"rho": dm.model.rho, "mode": mode, "dt": schedule.dt, "integrator": schedule.integrator,
              "omega_max": schedule.omega_max, "dt_limit": np.inf if schedule.limit is None else schedule.limit,
              "amplitude": spec.amplitude, "sample_dt": t[1] - t[0], "solver_settings": json.dumps(settings),
@@ -104,9 +69,67 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     return datasets, attrs, summary
 
 
+def _drift(energy: np.ndarray) -> np.ndarray:
+    """max |E - E(0)| / E(0) of each run's energy samples ``energy`` (..., S) (the damped spectral
+    path leaves NaN between its blocks)."""
+    return np.nanmax(np.abs(energy - energy[..., :1]), axis=-1) / energy[..., 0]
+
+
+def _time_steps(dm, positions, spec, waves, schedule: Schedule):
+    """Path ``ts``: every wave of ``waves`` ((mode, run, k)) integrated (``integrators``; Verlet:
+    all at once, one MatMatMult per step).  Returns (series, False: no error estimates, settings,
+    summary) as every path does.  Collective."""
+    flat = integrators.integrate_all(dm, positions, waves, amplitude=spec.amplitude, schedule=schedule)
+    energy = np.array([r.energy for r in flat])
+    summary = (f"{flat[0].steps} steps each ({schedule.label}, dt = {schedule.dt:g}), "
+               + _energy_words(dm, energy, _drift(energy), flat[0].t[-1]))
+    return flat, False, {"ts": flat[0].settings}, summary
+
+
+def _lanczos(dm, positions, spec, waves, schedule: Schedule):
+    """Path ``spectral``: no time steps, Lanczos on the matrix (``spectral``).  Collective."""
+    flat = spectral.spectral_all(dm, positions, waves, amplitude=spec.amplitude, times=schedule.sample_times(),
+                                 tol=spec.tol, omega_max=schedule.omega_max)
+    lanczos = {"tol": spec.tol, "max_steps": max(r.steps for r in flat)}
+    summary = (f"spectral, up to {lanczos['max_steps']} Lanczos steps, error estimate "
+               f"{np.nanmax([r.error_estimate for r in flat]):.1e}")
+    return flat, True, {"lanczos": lanczos}, summary
+
+
+def _series(dm, positions, spec, waves, schedule: Schedule):
+    """Path ``damped_spectral``: no time steps, the Chebyshev-Bessel series of exp(tJ) with the
+    dashpots (``chebyshev``), one wave after another.  Collective."""
+    times = schedule.sample_times()
+    flat = [chebyshev.damped_spectral(dm, positions, mode, r, k, amplitude=spec.amplitude, times=times, tol=spec.tol,
+                                      omega_max=schedule.omega_max, damping_max=schedule.damping_max)
+            for mode, r, k in waves]
+    series = {**flat[0].settings, "products": max(r.steps for r in flat)}
+    summary = (f"spectral (Chebyshev-Bessel series, blocks of {series['block_samples']} samples, "
+               f"{series['terms']} terms), up to {series['products']} products "
+               f"with J, error bound {np.nanmax([r.error_estimate for r in flat]):.1e}")
+    return flat, True, {"chebyshev": series}, summary
+
+
+def _mfn(dm, positions, spec, waves, schedule: Schedule):
+    """Path ``exponential``: exp(h J) of the first-order system from sample to sample by SLEPc MFN
+    (``exponential``).  Collective."""
+    flat = exponential.exponential_all(dm, positions, waves, amplitude=spec.amplitude, times=schedule.sample_times(),
+                                       tol=spec.tol, rate=max(schedule.omega_max, schedule.damping_max))
+    mfn = {**flat[0].settings, "max_iterations": max(r.settings["max_iterations"] for r in flat)}
+    summary = (f"exponential, {len(flat[0].t) - 1} MFN solves each (up to {mfn['max_iterations']} "
+               f"iterations), error estimate {np.nanmax([r.error_estimate for r in flat]):.1e}")
+    return flat, True, {"mfn": mfn}, summary
+
+
+PATHS = {"ts": _time_steps, "spectral": _lanczos, "damped_spectral": _series, "exponential": _mfn}
+"""``Schedule.path`` -> the function that runs a unit's waves that way: (dm, positions, waves
+section, [(mode, run, k)], schedule) -> (series in that order, whether they carry error
+estimates, solver settings, summary for the log)."""
+
+
 def _energy_words(dm, energy: np.ndarray, drift: np.ndarray, t_end: float) -> str:
     """What the log says of the energy E = (v^T M v + u^T D u)/2 of time-stepped runs (``energy``
-    (R, K, S), ``drift`` its max |E - E(0)|/E(0)): its drift where it is conserved; with dashpots
+    (W, S) of W runs, ``drift`` (W,) its max |E - E(0)|/E(0)): its drift where it is conserved; with dashpots
     on a symmetric matrix the share of E(0) gone by ``t_end`` (E never grows there: the dashpots'
     work, plus the scheme's error, which is not separated); on a non-symmetric matrix (stored
     forces) E is not conserved, and only its largest change is said."""

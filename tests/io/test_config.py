@@ -4,7 +4,8 @@ InputError naming key, value and range."""
 import pytest
 
 from solver.io import scenes
-from solver.io import schema
+from solver.io import coerce, scene_rules, schema
+from solver.packing.rules import stored_forces_source
 from solver import options
 from solver.errors import InputError
 
@@ -13,7 +14,7 @@ GOOD = {"output": "out.h5", "seed": 3, "packing": {"n": 64, "phi": 0.9, "count":
 
 
 def build(raw):
-    return schema.build(schema.Scene, raw)
+    return coerce.build(schema.Scene, raw)
 
 
 def test_good_scene_and_defaults():
@@ -104,7 +105,7 @@ def test_spectrum_method_auto_chooses_the_cheapest_exact_method_that_fits_the_ma
 
     def method(spectrum, which=None, **sections):
         scene = build({**base, **sections, "spectrum": spectrum})
-        return schema.resolve_method(scene, which)[0].spectrum.method
+        return scene_rules.resolve(scene, which)[0].spectrum.method
 
     assert build({**base, "spectrum": {}}).spectrum.method == "auto"
     assert method({}) == "counting" and method({"method": "auto"}) == "counting"
@@ -117,12 +118,12 @@ def test_spectrum_method_auto_chooses_the_cheapest_exact_method_that_fits_the_ma
     assert method({}, stored, model={"stored_forces": "drop"}) == "counting"
     file = {"packing": {"file": "p.data", "contacts": "p.contacts"}, "model": {"rho": 0.3}}
     scene = build({**file, "spectrum": {}})
-    resolved, said = schema.resolve_method(scene, schema.stored_forces_source(scene))
+    resolved, said = scene_rules.resolve(scene, stored_forces_source(scene.packing))
     assert resolved.spectrum.method == "nonhermitian" and said == (
         "spectrum.method auto -> nonhermitian (packing.contacts gives the packings stored tangential forces, so the "
         "matrix is not symmetric)")
     assert "method: nonhermitian" in resolved.to_yaml() and scene.digest() == resolved.digest()
-    assert schema.resolve_method(resolved, None) == (resolved, None)
+    assert scene_rules.resolve(resolved, None) == (resolved, None)
     counted = build({**base, "spectrum": {}})
     assert counted.digest() == build({**base, "spectrum": {"method": "counting"}}).digest()
 

@@ -11,7 +11,7 @@ import yaml
 from conftest import COMM, assert_all, assert_close, run_stopped_after_windows, scene_of
 
 from solver import pipeline
-from solver.io import schema
+from solver.io import coerce, schema
 from solver.io import unit_keys, unit_store
 
 SCENE = """\
@@ -26,7 +26,7 @@ waves: {{modes: [L], n: [1, 2], t_end: 40, dt: 0.05}}
 
 
 def make(folder, name, cache="off"):
-    return schema.build(schema.Scene, yaml.safe_load(SCENE.format(out=folder / f"{name}.h5", cache=cache)))
+    return coerce.build(schema.Scene, yaml.safe_load(SCENE.format(out=folder / f"{name}.h5", cache=cache)))
 
 
 def run(scene, argv, capsys):

@@ -11,7 +11,7 @@ from conftest import COMM, REPO, assert_all, assert_close, scene_of
 from solver.contact_law import ContactModel
 from solver import pipeline
 from solver.errors import InputError
-from solver.io import dem_formats, schema
+from solver.io import coerce, dem_formats, schema
 from solver.io import hdf5
 from solver.model import dynmat
 from solver.packing import configuration
@@ -54,9 +54,9 @@ def test_unbalanced_dem_packings_are_refused_and_relax_re_minimises_them(name, w
     relax they come back in equilibrium under the normal forces, still jammed (phi 0.65-0.67)."""
     scene = {"packing": {"file": str(DATA / name)}, "output": str(tmp_path / "out.h5")}
     with pytest.raises(InputError, match="not in mechanical equilibrium.*packing.relax: true"):
-        pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
+        pipeline.make_packings(coerce.build(schema.Scene, scene), COMM)
     scene["packing"]["relax"] = True
-    p, = pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
+    p, = pipeline.make_packings(coerce.build(schema.Scene, scene), COMM)
     assert_all(mechanics.net_force(p) < 1e-5 and mechanics.jamming_failure(p) is None and p.info["relaxed"],
                f"{name} ({why}): net force {mechanics.net_force(p)}")
 

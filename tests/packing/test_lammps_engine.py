@@ -161,16 +161,16 @@ def test_scene_with_engine_lammps_makes_jammed_packings_on_all_ranks(lammps_pres
     ranks, jammed, to force_tol under rotsound's forces, the same on every rank; its unit key
     differs from the FIRE recipe's (a cache never mixes the two)."""
     from solver import pipeline
-    from solver.io import schema, unit_keys
+    from solver.io import coerce, schema, unit_keys
 
     out = COMM.bcast(str(tmp_path / "out.h5"), root=0)
     spec = {"packing": {"n": 64, "phi": 0.9, "count": 2, "engine": "lammps"}, "output": out}
-    scene = schema.build(schema.Scene, spec)
+    scene = coerce.build(schema.Scene, spec)
     made = pipeline.make_packings(scene, COMM)
     for p in made:
         assert_all(p.info["engine"] == "lammps" and mechanics.jamming_failure(p) is None, "not jammed")
         assert_all(rotsound_max_force(p.positions, p.diameters, p.box) < 1e-6, "force_tol not met")
         assert_all(COMM.allgather(p.positions.tobytes()).count(p.positions.tobytes()) == COMM.size,
                    "ranks differ")
-    fire_scene = schema.build(schema.Scene, {**spec, "packing": {**spec["packing"], "engine": "fire"}})
+    fire_scene = coerce.build(schema.Scene, {**spec, "packing": {**spec["packing"], "engine": "fire"}})
     assert_all(unit_keys.packing_key(scene, 0) != unit_keys.packing_key(fire_scene, 0), "same unit key")

@@ -207,7 +207,7 @@ def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, 
     offers packing.relax; with relax: true, FIRE takes it back to a jammed minimum of the normal
     energy, in equilibrium to force_tol under the FIRE forces and to the file check."""
     from solver import pipeline
-    from solver.io import schema
+    from solver.io import coerce, schema
 
     rng = np.random.default_rng(4)
     path = str(tmp_path / "shaken.h5")  # each rank its own copy
@@ -217,9 +217,9 @@ def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, 
         f.attrs["box_length"] = small_packing.box_length
     scene = {"packing": {"file": path}, "output": str(tmp_path / "out.h5")}
     with pytest.raises(InputError, match="packing.relax: true"):
-        pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
+        pipeline.make_packings(coerce.build(schema.Scene, scene), COMM)
     scene["packing"]["relax"] = True
-    relaxed, = pipeline.make_packings(schema.build(schema.Scene, scene), COMM)
+    relaxed, = pipeline.make_packings(coerce.build(schema.Scene, scene), COMM)
     f, _ = mechanics.FrictionlessForces(relaxed.diameters, relaxed.box)(relaxed.positions)
     assert_all(np.sqrt((f ** 2).sum(axis=1)).max() < 1e-6 and mechanics.net_force(relaxed) < 1e-6,
                "relaxed packing not in equilibrium")

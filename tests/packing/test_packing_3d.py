@@ -12,7 +12,7 @@ from conftest import COMM, all_pairs, assert_all, assert_close, jammed_packing, 
 
 from solver.errors import InputError
 from solver.io import hdf5
-from solver.io import results, schema
+from solver.io import coerce, results, schema
 from solver.io import unit_keys
 from solver.packing import geometry
 from solver.packing import configuration, jammed
@@ -139,7 +139,7 @@ def test_sphere_file_round_trip(shared_tmp, spheres):
 def test_packing_key_gets_dim_only_in_3d():
     """2D recipes hash as before packing.dim existed (their stored packings are found again);
     3D recipes differ from them."""
-    keys = {dim: unit_keys.packing_key(schema.build(schema.Scene, {"packing": {"n": 64, "phi": 0.9, "dim": dim}}), 0)
+    keys = {dim: unit_keys.packing_key(coerce.build(schema.Scene, {"packing": {"n": 64, "phi": 0.9, "dim": dim}}), 0)
             for dim in (2, 3)}
     assert set(keys[2].parts["settings"]) == {"n", "phi", "seed", "index", "force_tol", "max_steps"}
     assert keys[3].parts["settings"]["dim"] == 3 and keys[2].digest != keys[3].digest

@@ -91,10 +91,10 @@ def fit_sensitivity(path, trials=3):
     import yaml
 
     from solver.analysis import dispersion
-    from solver.io import schema
+    from solver.io import coerce, schema
 
     with h5py.File(path) as f:
-        spec = schema.build(schema.Scene, yaml.safe_load(f.attrs["scene"])).analysis
+        spec = coerce.build(schema.Scene, yaml.safe_load(f.attrs["scene"])).analysis
         units = {f"{kind}/{name}": ({key: g[key][()] for key in g}, dict(g.attrs))
                  for kind in ("waves", "vdos") for name, g in f[kind].items()}
     base = dispersion.analyse(units, spec)

@@ -13,7 +13,7 @@ from figures import assert_readable, capture
 from solver import pipeline, plots
 from solver.contact_law import ContactModel
 from solver.model import damping, dynmat
-from solver.spectrum import pep, quadratic_windows, slicing
+from solver.spectrum import pep, plan, quadratic_windows, slicing
 
 ZERO_TOL = 1e-4
 
@@ -209,11 +209,11 @@ def test_a_frequency_window_holds_exactly_the_dense_modes_in_it(comm, monkeypatc
 def test_bands_about_given_frequencies_hold_the_dense_modes_in_them(comm, monkeypatch):
     """spectrum.frequencies: one band of +-frequency_width about each (overlapping ones merged),
     each marched on its own; the modes found are dense's in the bands, to 1e-8."""
-    from solver.io import schema
+    from solver.errors import InputError
 
     scene = scene_of("x.h5", packing={"n": 64, "phi": 0.9}, model={"damping": {"gamma_n": 0.3}},
                      spectrum={"frequencies": [1.5, 0.5, 0.55], "frequency_width": 0.1})
-    bands = pipeline.pep_bands(scene.spectrum)
+    bands = plan.pep_bands(scene.spectrum)
     assert bands == [(0.4, 0.65), (1.4, 1.6)]
     monkeypatch.setattr(quadratic_windows, "NEV", 40)
     dm = _damped(comm, 64, 0.86, 3, 0.9)
@@ -223,7 +223,7 @@ def test_bands_about_given_frequencies_hold_the_dense_modes_in_them(comm, monkey
     assert_all(dense.lam.size > 10 and np.all(((dense.lam.imag >= 0.4) & (dense.lam.imag < 0.65))
                                                | ((dense.lam.imag >= 1.4) & (dense.lam.imag < 1.6))))
     _assert_same_spectrum(windows, dense, 1e-8, "bands")
-    with pytest.raises(schema.InputError, match="bands of damped modes, for method 'pep'"):
+    with pytest.raises(InputError, match="bands of damped modes, for method 'pep'"):
         scene_of("x.h5", packing={"n": 64, "phi": 0.9}, spectrum={"method": "slicing", "frequencies": [1.0]})
 
 

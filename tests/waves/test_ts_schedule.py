@@ -108,9 +108,9 @@ def test_run_uses_and_records_the_options_and_writes_nothing_into_the_database(s
     from petsc4py import PETSc
 
     from solver import pipeline
-    from solver.io import schema
+    from solver.io import coerce, schema
 
-    scene = schema.build(schema.Scene, yaml.safe_load(SCENE.format(out=shared_tmp / "r.h5")))
+    scene = coerce.build(schema.Scene, yaml.safe_load(SCENE.format(out=shared_tmp / "r.h5")))
     with user_options(waves_ts_type="rk", waves_ts_dt="0.01") as argv:
         before = PETSc.Options().getAll()
         result = pipeline.run(scene, COMM, argv, fresh=True)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from solver.errors import InputError
-from solver.io import schema
+from solver.io import coerce, schema
 
 from solver.waves.excitation import wave_numbers
 
@@ -15,7 +15,7 @@ BOX = 8 * np.pi  # 2 pi / L = 1/4 exactly in binary: n = k d0 L / 2 pi = 4 k d0 
 
 
 def spec(**waves):
-    return schema.build(schema.WavesSpec, waves)
+    return coerce.build(schema.WavesSpec, waves)
 
 
 def test_kd0_moves_to_the_nearest_allowed_wave_number():

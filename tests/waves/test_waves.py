@@ -241,14 +241,14 @@ def test_a_packing_tiled_along_x_has_the_same_standing_waves_in_its_rectangular_
     and along y (n = 1), the two runs are pooled, and each run's z is twice the original's (two
     copies in phase), so C(k, t) is the original's.  A run given the other axis' n or side, or
     pooled with another k, differs at O(1)."""
-    from solver.io import schema
+    from solver.io import coerce, schema
     from solver.waves.schedule import plan
     from solver.waves.unit import mode_unit
 
     p = small_packing
     tiled = jammed.from_arrays(np.concatenate([p.positions, p.positions + [p.box_length, 0.0]]),
                                np.tile(p.diameters, 2), [2 * p.box_length, p.box_length])
-    spec = schema.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
+    spec = coerce.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
                                            "sample_every": 25})
     got = {}
     for name, q in (("original", p), ("tiled", tiled)):
@@ -268,13 +268,13 @@ def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
     """A box stretched 0.4 % along x: k d0 = 2 pi / L gives n = 1 on both sides, k_x = 2 pi / 1.004 L
     and k_y = 2 pi / L (0.4 % apart: pooled), and each run's z is that run integrated alone at
     its own axis' k; 'k' is their mean, 'k_axes' each."""
-    from solver.io import schema
+    from solver.io import coerce, schema
     from solver.waves.schedule import plan
     from solver.waves.unit import mode_unit
 
     p = small_packing
     stretched = jammed.from_arrays(p.positions * [1.004, 1.0], p.diameters, [1.004 * p.box_length, p.box_length])
-    spec = schema.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
+    spec = coerce.build(schema.WavesSpec, {"kd0": [2 * np.pi / p.box_length], "t_end": 5.0, "dt": 0.02,
                                            "sample_every": 25})
     every = schedule("verlet", 0.02, 5.0, 25)
     dm = dynmat.assemble(stretched, ContactModel(1.0), comm)
@@ -292,11 +292,11 @@ def test_each_run_uses_the_k_of_its_own_axis(comm, small_packing):
 
 def test_waves_axes_keeps_the_runs_along_those_axes(comm, small_packing):
     """waves.axes: [y] keeps only the runs with k along y (TR: v_x with k || y) and the k of y."""
-    from solver.io import schema
+    from solver.io import coerce, schema
     from solver.waves.schedule import plan
     from solver.waves.unit import mode_unit
 
-    spec = schema.build(schema.WavesSpec, {"n": [1], "axes": ["y"], "t_end": 5.0, "dt": 0.02, "sample_every": 25})
+    spec = coerce.build(schema.WavesSpec, {"n": [1], "axes": ["y"], "t_end": 5.0, "dt": 0.02, "sample_every": 25})
     dm = dynmat.assemble(small_packing, ContactModel(1.0), comm)
     axes = excitation.wave_axes(spec, 2)
     ns, ks = excitation.wave_vectors(spec, small_packing.box, axes)

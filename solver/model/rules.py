@@ -1,0 +1,77 @@
+"""The scene's rules on its ``model`` section: what its keys ask together and what they ask of
+the packings (their dimension, their friction, the DEM code that wrote their contact file), and
+whether the dynamical matrix they make is symmetric (:func:`asymmetry`).
+
+Each rule takes the sections it reads (``io.schema.ModelSpec``, ``PackingSpec``) and raises
+InputError naming the keys.  Pure and not collective: every rank that checks the same sections
+raises the same error.
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+
+DEM_CONVENTIONS = {"liggghts-local": ("contact", "lammps"), "yade": ("contact", "yade")}
+"""contacts_format -> (model.lever, model.history) of the code that writes it (docs/stressed_contacts.md)."""
+
+
+def check_section(model, where: str) -> None:
+    """Refuse keys of the model section ``model`` that do not go together: a coefficient of
+    restitution beside the gamma_n it sets, or under a law where no single gamma_n gives it.
+    Not collective."""
+    if model.restitution is not None and (
+            model.law != "harmonic" or (model.damping is not None and model.damping.gamma_n > 0.0)):
+        raise InputError(f"{where}restitution = {model.restitution}: " + (
+            f"it sets {where}damping.gamma_n, which is given too: give one of them" if model.law == "harmonic" else
+            f"under {where}law = {model.law!r} the coefficient of restitution depends on the impact speed, so no "
+            f"single gamma_n gives it: give {where}damping.gamma_n"))
+
+
+def check_dimension(model, dim: int, source: str) -> None:
+    """Refuse a twisting spring in ``dim`` < 3 dimensions (``source`` says where ``dim`` came from,
+    as a clause: "packing.dim is 2"). Not collective."""
+    if dim != 3 and model.rho_twist > 0.0:
+        raise InputError(f"model.rho_twist = {model.rho_twist}: twisting resistance needs spheres in 3D, "
+                         f"but {source} (in 2D a contact has no twist: set model.rho_twist to 0, or "
+                         f"use spheres)")
+
+
+def check_dem_convention(model, packing) -> None:
+    """A LIGGGHTS or YADE contact file (``packing.contacts`` in ``packing.contacts_format``) whose
+    stored forces the matrix keeps, read under another code's lever or history, would give that
+    code's matrix of this packing, silently: InputError naming the keys to set.  Not collective."""
+    if packing.contacts is None or model.stored_forces != "keep":
+        return
+    want = DEM_CONVENTIONS.get(packing.contacts_format)
+    if want is None or (model.lever, model.history) == want:
+        return
+    raise InputError(f"packing.contacts_format = '{packing.contacts_format}' holds a packing integrated with "
+                     f"the lever {want[0]} and {want[1]}'s history (docs/stressed_contacts.md), but model.lever = "
+                     f"'{model.lever}' and model.history = '{model.history}': set model.lever: {want[0]} "
+                     f"and model.history: {want[1]} (or model.stored_forces: drop for the unstressed matrix)")
+
+
+def check_mobilised(model, packing) -> None:
+    """Refuse ``model.mobilised: slide`` without the packings' friction coefficient. Not collective."""
+    if model.mobilised == "slide" and packing.friction is None:
+        raise InputError("model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu: give "
+                         "packing.friction (with packing.contacts, or packing.engine: lammps)")
+
+
+def asymmetry(model, which: str | None) -> str | None:
+    """Why the dynamical matrix of the model section ``model`` is not symmetric, as a clause, or
+    None: the stored tangential forces ``which`` says the packings carry (None: none) when
+    ``model.stored_forces`` keeps them, or YADE's slip (``model.history: yade`` with a tangential
+    spring; docs/stressed_contacts.md). Not collective."""
+    if which is not None and model.stored_forces == "keep":
+        return which
+    if model.history == "yade" and any(r > 0 for r in model.rho):
+        return "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
+    return None
+
+
+def check_held(model, which: str | None) -> None:
+    """Refuse rho = 0 when the matrix keeps the stored tangential forces ``which`` says the packings
+    carry (None: none): the tangential springs hold them. Not collective."""
+    if which is not None and model.stored_forces == "keep" and 0.0 in model.rho:
+        raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")

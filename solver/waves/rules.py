@@ -1,0 +1,72 @@
+"""The scene's rules on its ``waves`` section: what its keys ask together and what the rest of the
+scene and the packings must give the waves (a dimension for the axis and mode asked, a symmetric
+matrix for the spectral path, a first-order path with dashpots, allowed wave numbers in each box).
+
+Each rule takes the waves section (``io.schema.WavesSpec``; None: the scene has no waves, and the
+rule passes) and raises InputError naming the keys; ``where`` is the section's key path prefix
+(``waves.``).  Which path the waves then take, and whether a matrix's step is stable, is decided
+per matrix by ``schedule.plan``.  Pure and not collective: every rank raises the same error.
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from . import excitation
+from .schedule import MIN_SAMPLES, SECOND_ORDER
+
+
+def check_section(spec, where: str) -> None:
+    """Refuse keys of the waves section ``spec`` that do not go together. Not collective."""
+    if (spec.n is None) == (spec.kd0 is None):
+        raise InputError(f"{where}n / {where}kd0: give exactly one of them (the wave numbers)")
+    if spec.snapshots is not None and (spec.method != "spectral" or max(spec.snapshots) > spec.t_end):
+        raise InputError(f"{where}snapshots = {spec.snapshots}: velocity fields of the spectral path, at times up to "
+                         f"{where}t_end = {spec.t_end}" + ("" if spec.method == "spectral" else
+                                                           f"; {where}method is {spec.method!r}: use spectral"))
+    if spec.sample_every * spec.dt > spec.t_end / MIN_SAMPLES:
+        raise InputError(f"{where}sample_every = {spec.sample_every}: with dt = {spec.dt} that leaves "
+                         f"fewer than {MIN_SAMPLES} samples in t_end = {spec.t_end}")
+
+
+def check_dimension(spec, dim: int, source: str) -> None:
+    """Refuse, in ``dim`` < 3 dimensions, what exists only in 3D: waves along z, the twist wave R
+    (``source`` says where ``dim`` came from, as a clause: "packing.dim is 2"). Not collective."""
+    if dim == 3 or spec is None:
+        return
+    if spec.axes is not None and "z" in spec.axes:
+        raise InputError(f"waves.axes = {spec.axes}: axis z needs 3D, but {source}")
+    if "R" in spec.modes:
+        raise InputError(f"waves.modes = {spec.modes}: mode R (angular velocity along k) needs 3D, but "
+                         f"{source}: in 2D the only rotation is about z (use RT, or spheres)")
+
+
+def check_stressed(spec, why: str) -> None:
+    """Refuse the spectral path on a matrix that is not symmetric (``why``, a clause:
+    ``model.rules.asymmetry``). Not collective."""
+    if spec is not None and spec.method == "spectral":
+        raise InputError(f"waves.method = 'spectral': {why}, so the matrix is not symmetric and has no "
+                         f"orthogonal eigendecomposition: use waves.method: exponential (exact) or ts")
+
+
+def check_damping(spec, damped: bool) -> None:
+    """Refuse, with contact dashpots (``damped``), what cannot take them: snapshots (undamped
+    Lanczos path), a second-order integrator (``SECOND_ORDER``: no velocity-dependent force).
+    Not collective."""
+    if spec is None or not damped:
+        return
+    if spec.snapshots is not None:
+        raise InputError("waves.snapshots with model.damping: the snapshots come from the undamped Lanczos path; drop "
+                         "waves.snapshots, or model.damping to see the undamped wave")
+    if spec.method == "ts" and spec.integrator in SECOND_ORDER:
+        raise InputError(f"waves.integrator = {spec.integrator!r} with model.damping: it integrates "
+                         f"M u'' = -D u and has no velocity-dependent force; use waves.method: spectral or "
+                         f"exponential (exact), or waves.integrator: rk (or theta, cn, beuler) on the first-order system")
+
+
+def check_boxes(spec, packings) -> None:
+    """Refuse wave numbers a packing's box does not allow (``excitation.wave_vectors``), for every
+    packing. Not collective."""
+    if spec is None:
+        return
+    for p in packings:
+        excitation.wave_vectors(spec, p.box, excitation.wave_axes(spec, p.dim))
