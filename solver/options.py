@@ -87,7 +87,7 @@ PREFIXES = {
     "waves_": "the standing-wave TS and its SNES/KSP (-waves_ts_*, -waves_ksp_*), or the MFN of waves.method "
               "exponential (-waves_mfn_*)",
 }
-"""Options prefix of each solver object -> what it configures (README table)."""
+"""Options prefix of each solver object -> what it configures (the manual, docs/running.md)."""
 
 STAGE_PREFIXES = {
     ("spectra", "slicing"): ("spectrum_", "inertia_", "wmax_"),

@@ -5,7 +5,7 @@ and its ``.pth`` file only looks at ``/usr/lib/petsc`` (a link created by the he
 ``-dev`` packages) unless ``PETSC_DIR`` is set.  :func:`ensure_importable` adds the
 newest installed real, 32-bit-index build to ``sys.path`` when petsc4py is not already
 importable.  Decision: the 32-bit-index build (``PetscInt`` = int32) is used; every
-stage keeps ``n * nconv`` below 2**31 (spectrum windows), see README.
+stage keeps ``n * nconv`` below 2**31 (spectrum windows), see the manual, docs/decisions_solvers.md.
 """
 
 from __future__ import annotations

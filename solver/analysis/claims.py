@@ -22,7 +22,7 @@ PHI_MAIN = 0.9  # the paper's packing fraction; files at other phi only feed the
 @dataclass
 class Data:
     """What the claims (and the report around them) need, gathered from all results files by
-    ``report.gather``; the arrays are those of the results file layout (README)."""
+    ``report.gather``; the arrays are those of the results file layout (docs/results_file.md)."""
 
     vdos: dict = field(default_factory=dict)        # rho -> (edges, density, omega_c, omega_c_std, configs)
     energies: dict = field(default_factory=dict)    # rho -> (omega, K, Q) per mode, pooled over configurations

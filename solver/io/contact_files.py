@@ -10,7 +10,7 @@ caller maps ids to the packing's particles and rescales (``hdf5``).
   for ``pair_style gran/hooke/history`` and ``gran/hertz/history`` the pair's ``single()`` gives
   p1..p3 = the tangential force on patom1 from patom2.  Further columns are allowed and ignored.
   ``ITEM: TIMESTEP``, ``ITEM: NUMBER OF ENTRIES``, ``ITEM: BOX BOUNDS``, ``ITEM: ENTRIES``; the
-  last frame is read.  The LAMMPS lines that write it are in the README ("Stressed packings").
+  last frame is read.  The LAMMPS lines that write it are in the manual, docs/stressed_packings.md.
 * ``liggghts-local`` -- a LIGGGHTS ``dump local`` of ``compute pair/gran/local pos id force
   force_tangential`` (the same frame layout): after the index, x_i y_i z_i x_j y_j z_j, id_i
   id_j, a periodic flag, the total force and the tangential force on id_i from id_j (LIGGGHTS

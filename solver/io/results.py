@@ -6,7 +6,7 @@ root attribute ``format_version`` (not a rotsound results file) and a file of a 
 ``format_version`` than this rotsound reads, each with an :class:`~solver.errors.InputError`
 naming the file.  The readers take the open file and read one quantity each (the waves' sampled
 runs only when asked: they are the largest part).  h5py and numpy only (no PETSc, no MPI); not
-collective.  Units as in the file layout (README): omega in 1/t0, k in 1/d0, t in t0.
+collective.  Units as in the file layout (the manual, docs/results_file.md): omega in 1/t0, k in 1/d0, t in t0.
 """
 
 from __future__ import annotations

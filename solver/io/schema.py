@@ -1,7 +1,7 @@
 """The scene schema: the declarations of a scene's keys, as frozen dataclasses.
 
-Every field carries its documentation, default and allowed range in ``metadata``; the README
-reference is printed from the same source (``rotsound keys``, :func:`reference`).  A mapping is
+Every field carries its documentation, default and allowed range in ``metadata``; the manual's
+key reference is printed from the same source (``rotsound keys``, :func:`reference`).  A mapping is
 validated into these classes by ``coerce.build``, key by key, then by the rules across keys
 (``scene_rules``, which takes each stage's rules from that stage).  Validation is pure (no MPI,
 no PETSc) and deterministic, so every rank that validates the same mapping raises the same
@@ -81,7 +81,7 @@ class PackingSpec:
                                  "generating, all of the file's with `file`", _range(1, 100000), int)
     file: str | list[str] | None = _f(None, "packing file, or a list of files: rotsound's HDF5 layout, a LAMMPS or "
                                             "LIGGGHTS data file or text dump (atom_style sphere), or a YADE text "
-                                            "export (see README)", None, "paths")
+                                            "export (see the manual, docs/packing_files.md)", None, "paths")
     format: str | None = _f(None, "format of packing.file: rotsound, lammps-data, lammps-dump or yade; null: "
                                   "detected from each file's content",
                             _one_of(("rotsound", "lammps-data", "lammps-dump", "yade"), null=True), str)
@@ -95,14 +95,14 @@ class PackingSpec:
                      _one_of(("fire", "lammps")), str)
     contacts: str | list[str] | None = _f(None, "with `file`: the contact file(s), one per packing file, holding "
                                                 "every contact's stored tangential force (a LAMMPS 'dump local' of "
-                                                "index, patom1 patom2, pair/local p1 p2 p3; see README, Stressed "
-                                                "packings): the packing is analysed as the DEM code left it, on its "
+                                                "index, patom1 patom2, pair/local p1 p2 p3; see the manual, "
+                                                "docs/stressed_packings.md): the packing is analysed as the DEM code left it, on its "
                                                 "tangential forces (docs/stressed_contacts.md)", None, "paths")
     contacts_format: str = _f("lammps-local", "format of packing.contacts: lammps-local (LAMMPS dump local: index, "
                                               "patom1 patom2, pair/local p1 p2 p3) or liggghts-local (LIGGGHTS dump "
                                               "local of compute pair/gran/local pos id force force_tangential; read "
                                               "it with model.lever: contact) or yade (the table id1 id2 shearForce "
-                                              "normalForce a YADE script writes, see README; read it with "
+                                              "normalForce a YADE script writes, see the manual, docs/stressed_packings.md; read it with "
                                               "model.lever: contact and model.history: yade)",
                               _one_of(("lammps-local", "liggghts-local", "yade")), str)
     friction: float | None = _f(None, "Coulomb coefficient mu. With engine: lammps, generated packings are "

@@ -1,7 +1,7 @@
 """One unit of the spectrum stage on an assembled matrix: the spectrum of one (rho, packing) by the
 method its plan chose (``plan``; ``METHODS``: one function per method), its mode shapes (the
 ``modes`` section, ``shapes``), and the vDOS of one rho pooled over its packings; each as the
-datasets and attributes of its results-file group (README, "Results file") and the lines the log
+datasets and attributes of its results-file group (docs/results_file.md) and the lines the log
 says of it.
 
 The spectrum and mode-shape units time themselves (``seconds``: the slowest rank's), so they are

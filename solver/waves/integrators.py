@@ -4,7 +4,7 @@ Integrators (``waves.integrator``, or ``-waves_ts_type``; the TS has the options
   verlet : velocity Verlet as a TS of type ``python`` on the state X = (U, V) of a block of R
            waves (one MatMatMult per step for all of them; symplectic, 2nd order; Debian's
            petsc4py 3.18 cannot set up TSBASICSYMPLECTIC, which needs setRHSSplitIS).
-           [default: see README]
+           [the default]
   rk, theta, cn, beuler, ssp, ... : any first-order PETSc TS type on X' = J X,
            J = [[0, I], [-M^-1 D, 0]] assembled (``model.operators.first_order_matrix``), so
            implicit types get a real matrix to factor or precondition.  rk is classical RK4 unless

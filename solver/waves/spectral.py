@@ -213,7 +213,7 @@ def _z_and_estimate(alpha, beta, w, norm_a: float, times, size: int, exact: bool
     z from T's eigenpairs (MRRR); where MRRR fails on the clustered Ritz values of a long open run,
     from Chebyshev moments (:func:`_z_chebyshev`, T's spectrum in [0, ``lam_max``]) instead of a
     dense O(m^3) eigensolver: at m ~ 8600 (t_end = 3000, omega_max = 4.75) the dense one had not
-    finished one chunk of four waves in 45 min (README, "Rayleigh to diffusive")."""
+    finished one chunk of four waves in 45 min (docs/rayleigh.md)."""
     from scipy.linalg import eigh_tridiagonal
 
     def z_of(m):

@@ -1,8 +1,8 @@
 """One unit of standing waves: every run (``excitation.runs``: 2 in 2D; 3 or 6 in 3D) and wave
 number of one (rho, mode, packing), run by the path its schedule chose (``PATHS``: time steps,
 ``integrators``; or without time steps, ``spectral``, ``chebyshev`` and ``exponential``) and
-reduced to the datasets and attributes of the results file's ``waves/r<i>_<mode>_p<j>`` group (README,
-"Results file").
+reduced to the datasets and attributes of the results file's ``waves/r<i>_<mode>_p<j>`` group
+(docs/results_file.md).
 
 C (K, S) and S (K, W) pool the mode's runs (``waves.correlations.pooled``): numerators and
 denominators averaged over directions and polarisations.
