@@ -282,7 +282,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     the (rho, packing) units side by side (:func:`_solve_in_groups`); packings, the vDOS, the
     analysis and the results file are made on ``comm`` as a whole.  A scene refused as bad input
     writes nothing: a packing file is read and checked before the units folder is claimed, and a
-    refusal after the claim removes what the claim made (``UnitStore.abandon``).
+    refusal after the claim undoes it (``UnitStore.abandon``: the marker goes, finished units stay).
     """
     t0 = time.perf_counter()
     asked = scene  # spectrum.method auto: as the scene alone gives it until the packings are read

@@ -87,27 +87,28 @@ class UnitStore:
                     shutil.rmtree(self.folder, ignore_errors=True)
                     if os.path.exists(output):
                         os.remove(output)
-                self._claim(output, scene_yaml, digest)
+                marked = self._claim(output, scene_yaml, digest)
                 if cache:
                     os.makedirs(cache, exist_ok=True)
             except OSError as exc:
                 raise InputError(f"{self.folder}: {exc}") from None
-            return made
-        self._made = _on_root(comm, claim)
+            return made, marked
+        self._made, self._marked = _on_root(comm, claim)
 
     def abandon(self) -> None:
-        """Remove what this store's claim made, for a run refused as bad input: the units folder if
-        the claim created it (its marker and the units this run saved there), then every folder the
-        claim created that is empty by then.  Units entered in the cache stay: they are stored under
-        their content keys, so they can never block or mix into another scene, and the corrected
-        scene takes them from there."""
+        """Undo this store's claim, for a run refused as bad input, so that it blocks no scene: the
+        marker ``scene.yaml`` if the claim wrote it, then every folder the claim created that is
+        empty by then.  A refusal before any unit was saved so leaves nothing; units finished before
+        a later refusal (a packing that did not jam, the other groups' units) stay, in the folder
+        and the cache: stored under their content keys, they never mix into another scene, and the
+        corrected scene takes those it shares."""
         def remove():
-            if os.path.abspath(self.folder) in self._made:
-                shutil.rmtree(self.folder, ignore_errors=True)
+            if self._marked:
+                os.remove(os.path.join(self.folder, "scene.yaml"))
             for folder in self._made:  # deepest first
                 try:
                     os.rmdir(folder)
-                except OSError:  # not empty (cache entries), or already gone
+                except OSError:  # not empty (finished units), or already gone
                     pass
         _on_root(self.comm, remove)
 
@@ -128,7 +129,9 @@ class UnitStore:
                 for how, number in by_how.items():
                     self.counts.setdefault(stage, {"resumed": 0, "cache": 0, "computed": 0})[how] += number
 
-    def _claim(self, output, scene_yaml, digest):
+    def _claim(self, output, scene_yaml, digest) -> bool:
+        """Check the folder's marker (or the output) is of this scene, or write the marker: whether
+        it was written now.  Rank 0."""
         marker = os.path.join(self.folder, "scene.yaml")
         if os.path.isfile(marker):
             with open(marker, encoding="utf-8") as stream:
@@ -137,7 +140,7 @@ class UnitStore:
                 raise InputError(f"output {output}: {self.folder} holds units of a different scene "
                                  f"({first[9:] or 'unknown'}, this scene is {digest}); choose another "
                                  f"output, or add --fresh to discard them")
-            return
+            return False
         if os.path.exists(output):
             with h5py.File(output, "r") as f:
                 theirs = f.attrs.get("scene_digest", "unknown")
@@ -147,6 +150,7 @@ class UnitStore:
         os.makedirs(self.folder, exist_ok=True)
         with atomic_write(marker) as partial, open(partial, "w", encoding="utf-8") as stream:
             stream.write(f"# digest {digest}\n{scene_yaml}")
+        return True
 
     def _path(self, name: str) -> str:
         return os.path.join(self.folder, name.replace("/", "__") + ".h5")

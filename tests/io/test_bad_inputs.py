@@ -1,8 +1,8 @@
 """Every row of the bad-input catalogue, through ``solver.__main__.main`` in this process on every
 rank of the suite (1, then 2 under mpirun): exit code 2, the message once (rank 0), no traceback,
-nothing written (no output, no units folder; only finished units
-entered in the shared cache, for a row refused after a packing was made), no rank left hanging (a rank that went on alone would hang its collective: the
-test's timeout fails it).  A few rows also as real ``mpirun -n 2`` processes, for the exit status
+nothing written (no output, no units folder or marker; only the finished units of a row refused
+after a packing was made, keyed by content), no rank left hanging (a rank that went on alone
+would hang its collective: the test's timeout fails it).  A few rows also as real ``mpirun -n 2`` processes, for the exit status
 the shell sees.  [decision] In-process, because one subprocess per row (112 rows x ~3 s of
 interpreter, PETSc and MPI start-up) was half of ``make test``'s serial time."""
 
@@ -78,7 +78,9 @@ def test_bad_input(shared_tmp, case, capsys, monkeypatch):
     assert_all(COMM.rank > 0 or case[3] in err.err, err.err)
     assert_all("Traceback" not in err.err + err.out, err.err)
     assert_all(not out.exists() and not (shared_tmp / "never.h5.partial").exists(), "an output was written")
-    assert_all(all(_cached_unit(path) for path in made), f"a refused run left {sorted(made)}")
+    assert_all(all(_finished_unit(path) for path in made), f"a refused run left {sorted(made)}")
+    assert_all(all(any(folder.iterdir()) for folder in (shared_tmp / p for p in made) if folder.is_dir()),
+               f"a refused run left an empty folder: {sorted(made)}")
 
 
 def _tree(folder) -> set:
@@ -86,10 +88,14 @@ def _tree(folder) -> set:
     return {path.relative_to(folder) for path in folder.rglob("*")}
 
 
-def _cached_unit(path) -> bool:
-    """Whether ``path`` (relative) is a finished unit in the shared cache, ``cache/<stage>/<key>.h5``
-    (or its folders), which a refusal after some compute keeps: content-keyed, it blocks no scene."""
-    return path.parts[0] == "cache" and len(path.parts) <= 3 and (len(path.parts) < 3 or path.suffix == ".h5")
+def _finished_unit(path) -> bool:
+    """Whether ``path`` (relative) is a finished unit, which a refusal after some compute keeps
+    (content-keyed, it blocks no scene), or a folder holding them: ``cache/<stage>/<key>.h5`` or
+    ``never.h5.units/<unit>.h5``; never the units folder's marker ``scene.yaml``."""
+    if path.parts[0] == "cache":
+        return len(path.parts) <= 3 and (len(path.parts) < 3 or path.suffix == ".h5")
+    return path.parts[0] == "never.h5.units" and (len(path.parts) == 1 or (len(path.parts) == 2 and
+                                                   path.suffix == ".h5" and path.name != "scene.yaml"))
 
 
 PROCESS_ROWS = ("unknown top-level key", "LAMMPS data file cut short", "bare solver option on the command line (-ts_dt)")
@@ -125,7 +131,7 @@ STORIES = {  # refused scene -> the corrected one, run to the same output
 def test_the_corrected_scene_runs_where_the_refused_one_did_not(shared_tmp, story, capsys):
     """A user's sequence: a scene refused (a packing file's forces, before any write; a generated
     packing, after one), then the corrected scene to the same output, without --fresh: it runs,
-    and nothing of the refused scene is left but content-keyed cache entries."""
+    and nothing of the refused scene is left but finished units, keyed by content."""
     text, bad, good = STORIES[story]
     out = shared_tmp / "story.h5"
     if COMM.rank == 0:
@@ -141,9 +147,11 @@ def test_the_corrected_scene_runs_where_the_refused_one_did_not(shared_tmp, stor
         codes.append(cli.main(["run", str(scene)]))
         if len(codes) == 1:
             left = sorted(p.name for p in shared_tmp.iterdir())
+            units = shared_tmp / "story.h5.units"
+            marker = sorted(p.name for p in units.iterdir()) if units.is_dir() else []
     err = capsys.readouterr().err
     assert_all(codes == [2, 0], f"exit codes {codes}: {err}")
     assert_all("different scene" not in err, err)
-    assert_all("story.h5.units" not in left and "story.h5" not in left, f"the refusal left {left}")
+    assert_all("story.h5" not in left and "scene.yaml" not in marker, f"the refusal left {left}, {marker}")
     assert_all(out.exists(), "the corrected scene wrote no results")
 
