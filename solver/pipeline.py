@@ -78,10 +78,9 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[Pa
     spec = scene.packing
     if spec.file is not None:
         def load(_):
-            read = hdf5.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax, law=scene.model.law,
-                                      contacts=spec.contacts, friction=spec.friction,
-                                      contacts_format=spec.contacts_format, lever=scene.model.lever,
-                                      fmt=spec.format)
+            read = hdf5.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax,
+                                      model=scene.model.at_rest, contacts=spec.contacts, friction=spec.friction,
+                                      contacts_format=spec.contacts_format, fmt=spec.format)
             return [_relaxed(p, index, scene) for index, p in enumerate(read)] if spec.relax else read
 
         return parallel.owner_compute(comm, [0], load)[0]
@@ -111,7 +110,7 @@ def _relaxed(p: Packing, index: int, scene: Scene) -> Packing:
     """``packing.relax``: configuration ``index`` of the file re-minimised frictionlessly; InputError
     if it does not stay jammed. Not collective."""
     spec = scene.packing
-    relaxed = jammed.relax(p, spec.force_tol, spec.max_steps, scene.model.law)
+    relaxed = jammed.relax(p, spec.force_tol, spec.max_steps)
     if why := mechanics.jamming_failure(relaxed):
         raise InputError(f"packing.relax: configuration {index} of {spec.file} did not stay jammed without "
                          f"friction: {why}; a packing made with friction can be looser than the frictionless "
@@ -330,8 +329,9 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
         say(comm, f"dashpots: gamma_n = {dashpots['gamma_n']:.6g}, gamma_t = {dashpots['gamma_t']:.6g} (1/t0); "
                   f"gamma_n from {dashpots['gamma_n_from']}")
     for rho in scene.model.rho:
-        if scene.waves and not scene.model.contact(rho).rotations:
-            skipped = [m for m in scene.waves.modes if m in ("RT", "R")]
+        if scene.waves:
+            kept = excitation.wave_modes(scene.waves, scene.model.contact(rho).rotations)
+            skipped = [m for m in scene.waves.modes if m not in kept]
             if skipped:
                 say(comm, f"waves rho = {rho:g}: {', '.join(skipped)} skipped (no rotational stiffness)")
     with parallel.Groups(comm, group_size) as groups:

@@ -59,12 +59,12 @@ FORMATS = ("extxyz", "vtp", "lammps-dump")
 TYPE_NAMES = ("small", "large")  # the names of types 1 and 2 in extxyz
 
 
-def particle_fields(packing, law: str) -> dict[str, np.ndarray]:
-    """The per-particle fields (N,) each of a ``jammed.Packing`` under the normal ``law``: type,
+def particle_fields(packing) -> dict[str, np.ndarray]:
+    """The per-particle fields (N,) each of a ``Packing`` under its normal law (``packing.model``): type,
     radius, diameter, rattler, contacts, force_normal (the sum of |f_n| over its contacts, kn d0)
     and, for a stressed packing, force_tangential (the sum of its stored |f_t|)."""
     d, n = packing.diameters, packing.n
-    found, f_n, f_t = mechanics.force_magnitudes(packing, law)
+    found, f_n, f_t = mechanics.force_magnitudes(packing)
     fields = {"type": np.where(d > d.mean(), 2, 1), "radius": 0.5 * d, "diameter": d,
               "rattler": packing.rattler.astype(np.int64), "contacts": found.count_per_particle(n),
               "force_normal": np.bincount(found.i, f_n, n) + np.bincount(found.j, f_n, n)}
@@ -232,9 +232,9 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
     with results.open_results(path) as f:
         results.packing(f, packing)  # InputError if there is no such configuration
         groups = [g for g in results.mode_shapes(f) if g.packing == packing]
-        law = results.contact_law(f)
-    config = hdf5.read_packings(path, count=packing + 1, check_equilibrium=False, law=law)[packing]
-    fields = particle_fields(config, law)
+        model = results.contact_model(f)
+    config = hdf5.read_packings(path, count=packing + 1, check_equilibrium=False, model=model)[packing]
+    fields = particle_fields(config)
     info = {"packing": packing, "phi": config.phi, "source": os.path.basename(path)}
     if mode is not None:
         rhos = sorted({g.rho for g in groups})

@@ -33,6 +33,7 @@ from ..errors import InputError
 from .. import profiling
 from . import contact_files, dem_formats
 from .atomic import atomic_write
+from ..contact_law import ContactModel
 from ..packing import mechanics, stressed
 from ..packing.configuration import Packing
 from ..packing.jammed import from_arrays
@@ -49,8 +50,7 @@ def _open(path: str):
         raise InputError(f"packing file {path}: not a readable HDF5 file ({exc})") from None
 
 
-def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "harmonic",
-              lever: str = "radius") -> Packing:
+def _read_one(group, where: str, check_equilibrium: bool, model: ContactModel) -> Packing:
     def fail(msg):
         raise InputError(f"packing file {where}: {msg}")
 
@@ -93,10 +93,10 @@ def _read_one(group, where: str, check_equilibrium: bool = True, law: str = "har
         _check_box(box, diameters, where, name)
         _check_distinct(positions, diameters, box, where)
         pairs, force, friction = stored
-        stored = stressed.build(pairs, force, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), law,
-                                friction, f"packing file {where}:/tangential")
+        stored = stressed.build(pairs, force, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)),
+                                model.law, friction, f"packing file {where}:/tangential")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
-                   check_equilibrium, law, stored, lever)
+                   check_equilibrium, model, stored)
 
 
 def _read_tangential(group, where: str, n: int, dim: int):
@@ -149,17 +149,18 @@ def _check_distinct(positions, diameters, box, where: str) -> None:
 
 
 def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
-            check_equilibrium: bool, law: str, tangential=None, lever: str = "radius") -> Packing:
+            check_equilibrium: bool, model: ContactModel, tangential=None) -> Packing:
     """The checks every format shares (box > 2 max d, no two centres on one point, not all rattlers, equilibrium under
-    ``law`` with the stored ``tangential`` forces if any), then the Packing.  ``info`` of a DEM
+    ``model``'s normal law and lever with the stored ``tangential`` forces if any), then the Packing, which keeps
+    ``model`` (``Packing.model``).  ``info`` of a DEM
     file holds its ``length_unit`` (then a contact file is what a frictional packing lacks)."""
     _check_box(box, diameters, where, box_name)
     _check_distinct(positions, diameters, box, where)
     if tangential is not None:
         sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
         info = {**info, "n_stored": len(tangential),
-                "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, sides, law).sum())}
-    packing = from_arrays(positions, diameters, box, rattler, info, masses, law, tangential)
+                "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, sides, model.law).sum())}
+    packing = from_arrays(positions, diameters, box, rattler, info, masses, model, tangential)
     if packing.rattler.all():
         name = mechanics.NAMES[packing.dim]
         needed = mechanics.min_contacts(packing.dim)
@@ -169,12 +170,12 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
                          + ("with its contact file, packing.contacts" if info.get("length_unit") else
                             "in the file's 'tangential' group (the manual, docs/packing_files.md)"))
     if check_equilibrium:
-        mechanics.require_equilibrium(packing, where, law, lever)
+        mechanics.require_equilibrium(packing, where)
     return packing
 
 
-def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str, contacts: str | None = None,
-              friction: float | None = None, contacts_format: str = "lammps-local", lever: str = "radius") -> Packing:
+def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel, contacts: str | None = None,
+              friction: float | None = None, contacts_format: str = "lammps-local") -> Packing:
     """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
     file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
@@ -195,10 +196,9 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, law: str, contacts: 
     if contacts is not None:
         _check_box(box, diameters, path, "box")
         _check_distinct(positions, diameters, box, path)
-        stored = _stored_forces(contacts, raw, positions, diameters, box, law, friction, unit, contacts_format)
+        stored = _stored_forces(contacts, raw, positions, diameters, box, model.law, friction, unit, contacts_format)
         info.update(contacts=contacts)
-    return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, law, stored,
-                   lever)
+    return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, model, stored)
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
@@ -224,17 +224,18 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
 
 
 def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,
-                  law: str = "harmonic", fmt: str | None = None, contacts: str | list[str] | None = None,
-                  friction: float | None = None, contacts_format: str = "lammps-local",
-                  lever: str = "radius") -> list[Packing]:
+                  model: ContactModel = ContactModel(), fmt: str | None = None,
+                  contacts: str | list[str] | None = None, friction: float | None = None,
+                  contacts_format: str = "lammps-local") -> list[Packing]:
     """Read configurations from one or more packing files (first ``count``); each must be in
     equilibrium under its normal forces (and its stored tangential forces, if any) unless
-    ``check_equilibrium`` is False (``packing.relax`` re-minimises it), under the normal ``law``;
+    ``check_equilibrium`` is False (``packing.relax`` re-minimises it), under the contact
+    ``model``'s normal law and lever (``ContactModel.at_rest``; each packing keeps it as
+    ``Packing.model``);
     ``fmt`` is ``packing.format`` (None: each file's format is detected from its content);
     ``contacts`` (``packing.contacts``) one contact file per DEM packing file, whose stored
     tangential forces join it, ``friction`` the mu they were made with (or None),
-    ``contacts_format`` their format, ``lever`` where they act (``model.lever``, for the torque
-    balance).  rotsound's own files carry their stored forces inside.  Not collective."""
+    ``contacts_format`` their format.  rotsound's own files carry their stored forces inside.  Not collective."""
     packings: list[Packing] = []
     paths = [paths] if isinstance(paths, str) else paths
     contacts = [contacts] if isinstance(contacts, str) else contacts
@@ -244,8 +245,8 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
     for index, path in enumerate(paths):
         kind = fmt or dem_formats.detect_format(path)
         if kind != "rotsound":
-            packings.append(_from_dem(path, kind, check_equilibrium, law, contacts[index] if contacts else None,
-                                      friction, contacts_format, lever))
+            packings.append(_from_dem(path, kind, check_equilibrium, model, contacts[index] if contacts else None,
+                                      friction, contacts_format))
             continue
         if contacts is not None:
             raise InputError(f"packing.contacts: {path} is a rotsound HDF5 packing file, which holds its stored "
@@ -253,11 +254,11 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
                              f"LIGGGHTS and YADE packing files")
         with _open(path) as f:
             if "positions" in f:
-                packings.append(_read_one(f, path, check_equilibrium, law, lever))
+                packings.append(_read_one(f, path, check_equilibrium, model))
             elif "packings" in f and len(f["packings"]):
                 for name in sorted(f["packings"]):
                     packings.append(_read_one(f["packings"][name], f"{path}:/packings/{name}", check_equilibrium,
-                                              law, lever))
+                                              model))
             else:
                 raise InputError(f"packing file {path}: no 'positions' dataset at the top level "
                                  f"and no '/packings/<i>' groups")

@@ -17,6 +17,7 @@ from typing import NamedTuple
 import h5py
 import numpy as np
 
+from ..contact_law import ContactModel
 from ..errors import InputError
 from . import hdf5
 from .hdf5 import FORMAT_VERSION
@@ -135,12 +136,14 @@ def packing_summary(f) -> tuple[float, int]:
     return float(groups[0].attrs["phi"]), int(groups[0]["diameters"].shape[0])
 
 
-def contact_law(f) -> str:
-    """The scene's ``model.law`` (harmonic or hertz) from the root attribute ``scene``."""
+def contact_model(f) -> ContactModel:
+    """What the packings were checked under (``ContactModel.at_rest``): the scene's ``model.law``
+    and ``model.lever``, from the root attribute ``scene`` (their defaults where it gives none)."""
     import yaml
 
     scene = yaml.safe_load(f.attrs["scene"]) if "scene" in f.attrs else {}
-    return str((scene.get("model") or {}).get("law", "harmonic"))
+    model = scene.get("model") or {}
+    return ContactModel(law=str(model.get("law", "harmonic")), lever=str(model.get("lever", "radius")))
 
 
 def packing_friction(f) -> float | None:

@@ -200,6 +200,11 @@ class ModelSpec:
                             self.stored_forces, self.history, *self.dashpots)
 
     @property
+    def at_rest(self) -> ContactModel:
+        """What the packings are checked under: the normal law and the lever (``ContactModel.at_rest``)."""
+        return ContactModel(law=self.law, lever=self.lever)
+
+    @property
     def dashpots(self) -> tuple[float, float]:
         """(gamma_n, gamma_t) (1/t0): ``damping``'s, gamma_n from ``restitution`` when that is given."""
         gamma_n, gamma_t = (0.0, 0.0) if self.damping is None else (self.damping.gamma_n, self.damping.gamma_t)

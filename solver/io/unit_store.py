@@ -33,6 +33,7 @@ import h5py
 import numpy as np
 
 from .. import parallel
+from ..contact_law import ContactModel
 from ..errors import InputError
 from ..packing.configuration import Packing
 from ..packing.stressed import TangentialForces
@@ -104,7 +105,10 @@ class UnitStore:
         corrected scene takes those it shares."""
         def remove():
             if self._marked:
-                os.remove(os.path.join(self.folder, "scene.yaml"))
+                try:
+                    os.remove(os.path.join(self.folder, "scene.yaml"))
+                except FileNotFoundError:  # removed by hand meanwhile: the refusal, not this, is the news
+                    pass
             for folder in self._made:  # deepest first
                 try:
                     os.rmdir(folder)
@@ -306,4 +310,4 @@ def packing_from_unit(unit):
     if "tangential_pairs" in datasets:
         stored = TangentialForces(datasets["tangential_pairs"], datasets["tangential_force"], info.get("friction"))
     return Packing(datasets["positions"], datasets["diameters"], box, datasets["rattler"].astype(bool), info,
-                   tangential=stored)
+                   tangential=stored, model=ContactModel(law=info.get("law", "harmonic")))  # as generated

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..contact_law import ContactModel
 from .stressed import TangentialForces
 
 
@@ -27,7 +28,10 @@ class Packing:
     masses : (N,) float64 the masses a file gave (its own units), or None (generated packings, and
     files without them); ``model.masses`` decides what the matrix uses (``dynmat.particle_masses``);
     tangential : the stored tangential forces of a packing made with friction
-    (docs/stressed_contacts.md), or None (unstressed springs).
+    (docs/stressed_contacts.md), or None (unstressed springs);  model : what its forces are
+    computed with and what it was checked under (``ContactModel.at_rest``: the normal law, and the
+    lever of the stored forces' torques): the scene's for a file read, the engine's for a
+    generated packing.
     """
 
     positions: np.ndarray
@@ -37,6 +41,7 @@ class Packing:
     info: dict = field(default_factory=dict)
     masses: np.ndarray | None = None
     tangential: TangentialForces | None = None
+    model: ContactModel = ContactModel()
 
     @property
     def stressed(self) -> bool:

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from .. import profiling
+from ..contact_law import ContactModel
 from . import fire, geometry, lammps_engine, mechanics, stressed
 from .configuration import Packing, solid_volume
 from .stressed import TangentialForces
@@ -111,7 +112,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     rattler = mechanics.find_rattlers(positions, diameters, box)
     info = mechanics.describe(positions, diameters, box, rattler, law)
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
-    return Packing(positions, diameters, box, rattler, info)
+    return Packing(positions, diameters, box, rattler, info, model=ContactModel(law=law))
 
 
 SQUEEZE_FROM = 0.75  # a frictional packing's start: phi_start = 0.75 phi, squeezed to phi
@@ -137,19 +138,19 @@ def _frictional(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_t
     info = dict(engine="lammps", friction=friction, settle_steps=steps, max_force=largest, force_tol=force_tol,
                 law=law, n_stored=len(stored), **({} if pressure is None else {"target_pressure": pressure}),
                 n_mobilised=int(stressed.mobilised(stored, positions, diameters, box, law).sum()))
-    return from_arrays(positions, diameters, box, None, info, None, law, stored)
+    return from_arrays(positions, diameters, box, None, info, None, ContactModel(law=law), stored)
 
 
 @profiling.logged("rsPackingFIRE")
-def relax(packing: Packing, force_tol: float = 1e-6, max_steps: int = 2_000_000,
-          law: str = "harmonic") -> Packing:
+def relax(packing: Packing, force_tol: float = 1e-6, max_steps: int = 2_000_000) -> Packing:
     """``packing.relax``: re-minimise a loaded packing frictionlessly with FIRE from its own
-    positions, in its own box, under the normal ``law``, to ``force_tol`` (kn d0), keeping
-    diameters and masses.  For
+    positions, in its own box, under its normal law (``packing.model``), to ``force_tol`` (kn d0),
+    keeping diameters and masses and the model.  The stored tangential forces are dropped.  For
     packings made with friction in a DEM code, which balance only with their tangential forces:
     the result is the nearest frictionless energy minimum, not the file's packing.  Rattlers and
     statistics are recomputed.  Not collective.  Raises RuntimeError if FIRE does not converge.
     """
+    law = packing.model.law
     forces = mechanics.FrictionlessForces(packing.diameters, packing.box, law=law)
     result = fire.minimize(packing.positions, forces, force_tol, max_steps)
     if not result.converged:
@@ -157,16 +158,17 @@ def relax(packing: Packing, force_tol: float = 1e-6, max_steps: int = 2_000_000,
                            f"{force_tol:.1e} after {result.steps} steps ({packing.info.get('source', 'packing')})")
     info = {key: packing.info[key] for key in ("source",) if key in packing.info}
     info.update(relaxed=True, fire_steps=result.steps, max_force=result.max_force, force_tol=force_tol, law=law)
-    return from_arrays(result.x, packing.diameters, packing.box, None, info, packing.masses, law)
+    return from_arrays(result.x, packing.diameters, packing.box, None, info, packing.masses, packing.model)
 
 
 def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.ndarray | None = None,
-                info: dict | None = None, masses: np.ndarray | None = None, law: str = "harmonic",
-                tangential: TangentialForces | None = None) -> Packing:
+                info: dict | None = None, masses: np.ndarray | None = None,
+                model: ContactModel = ContactModel(), tangential: TangentialForces | None = None) -> Packing:
     """Build a :class:`Packing` from user arrays (e.g. another code's packing), positions (N, D),
     ``box`` the (D,) sides or one side for a square or cubic box, ``masses`` (N,) or None,
-    ``tangential`` the stored tangential forces (``stressed.build``) or None; the statistics
-    (energy, pressure) under the normal ``law``.
+    ``tangential`` the stored tangential forces (``stressed.build``) or None, under the contact
+    ``model`` (its normal law and lever, kept on the packing: ``ContactModel.at_rest``): the
+    statistics (energy, pressure) are those of its normal law.
 
     Rattlers are computed with the iterative rule (``mechanics.find_rattlers``) when ``rattler``
     is None.
@@ -176,11 +178,11 @@ def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.n
     positions = geometry.wrap(positions, box)
     diameters = np.asarray(diameters, dtype=float)
     if rattler is None:
-        rattler = mechanics.find_rattlers(positions, diameters, box, tangential, law)
-    stats = mechanics.describe(positions, diameters, box, rattler, law)
+        rattler = mechanics.find_rattlers(positions, diameters, box, tangential, model.law)
+    stats = mechanics.describe(positions, diameters, box, rattler, model.law)
     stats.update(info or {})
     return Packing(positions, diameters, box, np.asarray(rattler, dtype=bool), stats,
-                   None if masses is None else np.asarray(masses, dtype=float), tangential)
+                   None if masses is None else np.asarray(masses, dtype=float), tangential, model.at_rest())
 
 
 PHI_JAMMING = {2: 0.84, 3: 0.648}

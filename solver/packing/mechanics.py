@@ -136,13 +136,13 @@ def contact_forces(found: geometry.Contacts, diameters: np.ndarray, law: str,
     return force if tangential is None else force + tangential.on(found.i, found.j)
 
 
-def force_magnitudes(packing: Packing, law: str) -> tuple[geometry.Contacts, np.ndarray, np.ndarray]:
+def force_magnitudes(packing: Packing) -> tuple[geometry.Contacts, np.ndarray, np.ndarray]:
     """(contacts among non-rattlers, |f_n| (C,), |f_t| (C,)) of ``packing``: the normal force of
-    ``law`` and the stored tangential force (zero for an unstressed packing; perpendicular to the
+    its law (``Packing.model``) and the stored tangential force (zero for an unstressed packing; perpendicular to the
     normal by construction, ``stressed.build``), kn d0.  Not collective."""
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, ~packing.rattler)
     d = packing.diameters
-    f_n = contact_law.normal_force(found.overlap, law, contact_law.reduced_radius(d[found.i], d[found.j]))
+    f_n = contact_law.normal_force(found.overlap, packing.model.law, contact_law.reduced_radius(d[found.i], d[found.j]))
     stored = packing.tangential
     f_t = np.zeros(len(found)) if stored is None else np.linalg.norm(stored.on(found.i, found.j), axis=1)
     return found, f_n, f_t
@@ -200,20 +200,21 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
 
 
 
-def net_load(packing: Packing, law: str = "harmonic", lever: str = "radius") -> tuple[np.ndarray, np.ndarray]:
+def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     """Net contact force (N, D) and torque (N, r) (r = 1 in 2D, 3 in 3D; units kn d0, kn d0^2) on
-    every particle from the contacts among non-rattlers: the normal forces of ``law`` and the
-    packing's stored tangential forces f_t (torques -l_i n x f_t on i, -l_j n x f_t on j, with
-    the ``lever`` arms l of ``contact_law.lever_arms``: R for LAMMPS; docs/stressed_contacts.md)."""
+    every particle from the contacts among non-rattlers, under ``packing.model``: the normal forces
+    of its law and the packing's stored tangential forces f_t (torques -l_i n x f_t on i, -l_j n x
+    f_t on j, with the arms l of its lever, ``contact_law.lever_arms``: R for LAMMPS;
+    docs/stressed_contacts.md)."""
     active = ~packing.rattler
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
-    f = contact_forces(found, packing.diameters, law, packing.tangential)  # eq:eij, on i
+    f = contact_forces(found, packing.diameters, packing.model.law, packing.tangential)  # eq:eij, on i
     rot = 1 if packing.dim == 2 else 3
     turn = np.zeros((len(found), rot))
     if packing.tangential is not None:  # n x f_t: the normal part of f has no torque
         turn = contact_law.cross(found.normal, f).reshape(len(found), rot)
     arm_i, arm_j = contact_law.lever_arms(0.5 * packing.diameters[found.i], 0.5 * packing.diameters[found.j],
-                                          found.overlap, lever)
+                                          found.overlap, packing.model.lever)
     net = np.zeros((packing.n, packing.dim))
     torque = np.zeros((packing.n, rot))
     for axis in range(packing.dim):
@@ -225,20 +226,22 @@ def net_load(packing: Packing, law: str = "harmonic", lever: str = "radius") -> 
     return net, torque
 
 
-def net_force(packing: Packing, law: str = "harmonic") -> float:
-    """Largest net contact force (normal, plus the stored tangential ones) on a non-rattler (kn d0)."""
-    net, _ = net_load(packing, law)
+def net_force(packing: Packing) -> float:
+    """Largest net contact force (normal, plus the stored tangential ones) on a non-rattler (kn d0),
+    under ``packing.model``."""
+    net, _ = net_load(packing)
     return float(np.sqrt((net[~packing.rattler] ** 2).sum(axis=1)).max())
 
 
-def require_equilibrium(packing: Packing, where: str, law: str = "harmonic", lever: str = "radius") -> None:
-    """Raise InputError unless the contact forces balance on every non-rattler to EQUILIBRIUM_TOL
-    (and, for a stressed packing, the torques too): the matrix is built about a state at rest.
+def require_equilibrium(packing: Packing, where: str) -> None:
+    """Raise InputError unless the contact forces under ``packing.model`` (its normal law and the
+    lever of its stored forces) balance on every non-rattler to EQUILIBRIUM_TOL (and, for a
+    stressed packing, the torques too): the matrix is built about a state at rest.
     Unstressed springs need a minimum of the normal energy; a packing made with friction fails
     that (it balances only with its tangential forces): the message names the contact file
-    (``packing.contacts``) that holds them, and ``packing.relax``.  ``lever``: where the stored
-    forces act (``model.lever``)."""
-    net, torque = net_load(packing, law, lever)
+    (``packing.contacts``) that holds them, and ``packing.relax``."""
+    net, torque = net_load(packing)
+    law, lever = packing.model.law, packing.model.lever
     active = ~packing.rattler
     residual = float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
     twist = float(np.sqrt((torque[active] ** 2).sum(axis=1)).max())

@@ -43,9 +43,8 @@ def plot_results(path: str) -> list[str]:
         first = results.first_packing(f)
         if first is not None:
             written += plot_packing(first, f"{stem}_packing")
-            law = results.contact_law(f)
-            read = hdf5.read_packings(path, count=1, check_equilibrium=False, law=law)[0]
-            written += plot_force_network(read, law, f"{stem}_forces")
+            read = hdf5.read_packings(path, count=1, check_equilibrium=False, model=results.contact_model(f))[0]
+            written += plot_force_network(read, f"{stem}_forces")
         vdos = results.vdos(f)
         damped = results.damped_modes(f)
         written += plot_vdos(vdos, f"{stem}_vdos", damped=bool(damped))

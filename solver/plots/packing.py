@@ -34,9 +34,9 @@ def _halves(positions: np.ndarray, found: geometry.Contacts) -> np.ndarray:
     return np.concatenate((np.stack((a, a - half), axis=1), np.stack((b, b + half), axis=1)))
 
 
-def plot_force_network(packing, law: str, stem: str) -> list[str]:
-    """The force-chain picture of ``packing`` (``jammed.Packing``) under the normal ``law``."""
-    found, f_n, f_t = mechanics.force_magnitudes(packing, law)
+def plot_force_network(packing, stem: str) -> list[str]:
+    """The force-chain picture of ``packing`` (a ``Packing``) under its normal law (``packing.model``)."""
+    found, f_n, f_t = mechanics.force_magnitudes(packing)
     cut, diam = section(packing.positions, packing.diameters, packing.box)
     keep = cut[found.i] & cut[found.j]
     fig, ax = plt.subplots(figsize=(7, 7))
@@ -58,7 +58,7 @@ def plot_force_network(packing, law: str, stem: str) -> list[str]:
                                          capstyle="round", alpha=0.8))
     plane = ", section $z = L_z/2$" if packing.dim == 3 else ""
     lines = [rf"force network: {len(found)} contacts, $N$ = {packing.n}{plane}, rattlers outlined in red",
-             rf"black: $|f_n|$ ({law}), width $\propto |f_n|$: the mean, {f_n.mean():.3g} $k_n d_0$, {SHARE:g} $d_0$ wide"]
+             rf"black: $|f_n|$ ({packing.model.law}), width $\propto |f_n|$: the mean, {f_n.mean():.3g} $k_n d_0$, {SHARE:g} $d_0$ wide"]
     if stressed:
         ratio = np.max(f_t / np.maximum(f_n, 1e-300))
         lines.append(rf"red: $|f_t|$ on the same scale (largest $|f_t|/|f_n|$ = {ratio:.2f})")

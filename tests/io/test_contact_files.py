@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from conftest import REPO
 
+from solver.contact_law import ContactModel
 from solver.errors import InputError
 from solver.io import contact_files, hdf5
 from solver.packing import mechanics
@@ -13,20 +14,21 @@ from solver.packing import mechanics
 pytestmark = pytest.mark.serial_only  # file reading: nothing to gain from a second rank
 
 DATA = REPO / "tests" / "data" / "dem"
+LEVER_CONTACT = ContactModel(lever="contact")  # LIGGGHTS's and YADE's lever (model.lever: contact)
 STRESSED = [("lammps_2d_friction", "harmonic", 2), ("lammps_3d_hooke", "harmonic", 3),
             ("lammps_3d_hertz", "hertz", 3)]
 
 
 @pytest.mark.parametrize("name, law, dim", STRESSED)
 def test_lammps_frictional_packings_load_at_rest_with_their_contacts(name, law, dim):
-    p = hdf5.read_packings(str(DATA / f"{name}.data"), law=law, contacts=str(DATA / f"{name}.contacts"))[0]
+    p = hdf5.read_packings(str(DATA / f"{name}.data"), model=ContactModel(law=law), contacts=str(DATA / f"{name}.contacts"))[0]
     assert p.dim == dim and p.stressed and p.info["n_stored"] > 0
-    net, torque = mechanics.net_load(p, law)
+    net, torque = mechanics.net_load(p)
     active = ~p.rattler
     # LAMMPS's own residuals at rest are below 1e-12 (README of tests/data/dem); the file's 17 digits keep them
     assert np.abs(net[active]).max() < 1e-10 and np.abs(torque[active]).max() < 1e-10
     with pytest.raises(InputError, match="packing.contacts"):  # without its contacts: refused, naming the key
-        hdf5.read_packings(str(DATA / f"{name}.data"), law=law)
+        hdf5.read_packings(str(DATA / f"{name}.data"), model=ContactModel(law=law))
 
 
 def test_reader_takes_the_first_six_columns_of_the_last_frame(tmp_path):
@@ -119,9 +121,9 @@ def test_a_liggghts_frictional_packing_loads_with_the_contact_point_lever():
     (a torque of 5.8e-4 is left, refused naming model.lever); read as a LAMMPS file, its position
     columns are refused as ids."""
     data, contacts = str(DATA / "liggghts_3d_friction.data"), str(DATA / "liggghts_3d_friction.contacts")
-    p = hdf5.read_packings(data, contacts=contacts, contacts_format="liggghts-local", lever="contact",
+    p = hdf5.read_packings(data, contacts=contacts, contacts_format="liggghts-local", model=LEVER_CONTACT,
                            friction=0.5)[0]
-    net, torque = mechanics.net_load(p, "harmonic", "contact")
+    net, torque = mechanics.net_load(p)
     active = ~p.rattler
     assert p.stressed and p.info["n_stored"] == 382
     assert np.abs(net[active]).max() < 1e-12 and np.abs(torque[active]).max() < 1e-12
@@ -149,9 +151,9 @@ def test_a_yade_frictional_packing_loads_with_its_kn_from_the_file():
     the torques balance with YADE's lever R - xi/2 to round-off. The net force keeps the normal
     part of YADE's shear forces (up to 1.3e-4 of them, README of tests/data/dem), projected away:
     below 1e-7 kn d0 where the mean |f_t| is 1.4e-3."""
-    p = hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", lever="contact", friction=0.5)[0]
+    p = hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", model=LEVER_CONTACT, friction=0.5)[0]
     assert p.stressed and p.info["n_stored"] == 305 and int(p.rattler.sum()) == 6
-    net, torque = mechanics.net_load(p, "harmonic", "contact")
+    net, torque = mechanics.net_load(p)
     active = ~p.rattler
     assert np.abs(net[active]).max() < 1e-7 and np.abs(torque[active]).max() < 1e-12
     mean_ft = np.linalg.norm(p.tangential.force, axis=1).mean()
@@ -168,7 +170,7 @@ def test_a_yade_packing_with_many_kn_is_refused():
     refused, saying how to make one rotsound reads."""
     with pytest.raises(InputError, match=r"kn = \|normalForce\| / overlap differs between contacts \(42222.1 to 59534"):
         hdf5.read_packings(str(DATA / "yade_3d_friction.spheres"), contacts=str(DATA / "yade_3d_friction.contacts"),
-                           contacts_format="yade", lever="contact")
+                           contacts_format="yade", model=LEVER_CONTACT)
 
 
 def _damaged_yade(tmp_path, how):
@@ -198,7 +200,7 @@ def _damaged_yade(tmp_path, how):
 ])
 def test_damaged_yade_contact_files_are_refused(tmp_path, how, message):
     with pytest.raises(InputError, match=message):
-        hdf5.read_packings(YADE[0], contacts=_damaged_yade(tmp_path, how), contacts_format="yade", lever="contact")
+        hdf5.read_packings(YADE[0], contacts=_damaged_yade(tmp_path, how), contacts_format="yade", model=LEVER_CONTACT)
 
 
 def test_yade_contact_files_are_not_dump_locals_and_are_linear():
@@ -207,7 +209,7 @@ def test_yade_contact_files_are_not_dump_locals_and_are_linear():
     with pytest.raises(InputError, match="no 'ITEM: ENTRIES' line"):
         contact_files.read(YADE[1], "lammps-local")
     with pytest.raises(InputError, match="model.law: harmonic"):
-        hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", law="hertz", lever="contact")
+        hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", model=ContactModel(law="hertz", lever="contact"))
 
 
 def test_the_coulomb_check_allows_the_noise_of_a_dem_code_at_rest():
@@ -261,11 +263,11 @@ def test_a_yade_contact_file_whose_interactions_do_not_touch_is_refused(tmp_path
     packing's) has none to give it: refused, naming both files' step."""
     from solver.packing import geometry
 
-    p = hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", lever="contact")[0]
+    p = hdf5.read_packings(YADE[0], contacts=YADE[1], contacts_format="yade", model=LEVER_CONTACT)[0]
     found = geometry.find_contacts(p.positions, p.diameters, p.box)
     touching = set(zip(found.i.tolist(), found.j.tolist()))
     apart = next((0, j) for j in range(1, p.n) if (0, j) not in touching)
     path = tmp_path / "apart.contacts"
     path.write_text(f"# one interaction\n{apart[0]} {apart[1]} 0 1 0 1 0 0\n")
     with pytest.raises(InputError, match="no listed interaction touches"):
-        hdf5.read_packings(YADE[0], contacts=str(path), contacts_format="yade", lever="contact")
+        hdf5.read_packings(YADE[0], contacts=str(path), contacts_format="yade", model=LEVER_CONTACT)

@@ -212,8 +212,8 @@ def test_command_line_export_imports_neither_petsc_nor_mpi(mode_file, tmp_path):
 
 def test_a_stressed_packing_exports_its_tangential_forces():
     name = REPO / "tests" / "data" / "dem" / "lammps_2d_friction"
-    p = hdf5.read_packings(f"{name}.data", law="harmonic", contacts=f"{name}.contacts")[0]
-    fields = export.particle_fields(p, "harmonic")
+    p = hdf5.read_packings(f"{name}.data", contacts=f"{name}.contacts")[0]
+    fields = export.particle_fields(p)
     stored, active = p.tangential, ~p.rattler
     among = active[stored.pairs[:, 0]] & active[stored.pairs[:, 1]]
     size = np.linalg.norm(stored.force[among], axis=1)

@@ -83,3 +83,16 @@ def test_newer_version_is_refused_with_one_clear_message(tmp_path, capsys):
         assert code == 2 and len(lines) == 1 and lines[0].startswith("rotsound: error: "), (command, lines)
         assert "newer" in lines[0], lines
     assert not (tmp_path / "R.md").exists() and not list(tmp_path.glob("*.png")), "wrote output anyway"
+
+
+def test_contact_model_is_the_scenes_law_and_lever(tmp_path):
+    """The readers of a results file (plot, export) take the law and lever its scene gave, and the
+    defaults where it gave none (``results.contact_model``)."""
+    given, bare = tmp_path / "given.h5", tmp_path / "bare.h5"
+    with h5py.File(given, "w") as f:
+        f.attrs["scene"] = "model:\n  rho: [0.5]\n  law: hertz\n  lever: contact\n"
+    with h5py.File(bare, "w") as f:
+        f.attrs["scene"] = "model:\n  rho: [0.5]\n"
+    with h5py.File(given, "r") as f, h5py.File(bare, "r") as g:
+        found = results.contact_model(f), results.contact_model(g)
+    assert found == (ContactModel(law="hertz", lever="contact"), ContactModel()), found

@@ -19,6 +19,7 @@ from ase import io as ase_io
 from conftest import COMM, REPO, assert_close, ovito_read, scene_of
 
 from solver import pipeline, plots, report
+from solver.contact_law import ContactModel
 from solver.io import export, hdf5, results
 
 pytestmark = pytest.mark.serial_only
@@ -146,12 +147,13 @@ def test_notebook_api_reads_every_kind(written, kind):
         held = results.contents(f)
         readers = [results.vdos, results.mode_energies, results.participation, results.damped_modes,
                    results.binned_energies, results.waves, results.wave_snapshots, results.fits, results.mode_shapes,
-                   results.lattice, results.bands, results.packing_summary, results.contact_law,
+                   results.lattice, results.bands, results.packing_summary, results.contact_model,
                    results.packing_friction]
         found = {reader.__name__: reader(f) for reader in readers}
     (read,) = hdf5.read_packings(str(written[kind]))
     assert np.array_equal(packing["positions"], read.positions) and packing["phi"] == read.phi
     assert found["packing_friction"] == (1.0 if kind == "stressed" else None)
+    assert found["contact_model"] == ContactModel() == read.model, "every kind is checked under the defaults"
     assert ("modes" in held) == (kind == "modes") and (len(found["mode_shapes"]) > 0) == (kind == "modes")
     assert bool(found["damped_modes"]) == (kind == "damped") and bool(found["waves"]) == (kind != "modes")
     proc = subprocess.run([sys.executable, str(REPO / "docs" / "notebook_example.py"), str(written[kind])],

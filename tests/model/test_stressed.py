@@ -444,7 +444,7 @@ def test_assembled_yade_matrix_is_yades_own_one_step_response(comm):
     data = REPO / "tests" / "data" / "dem"
     p = hdf5.read_packings(str(data / "yade_3d_friction_uniform.spheres"),
                            contacts=str(data / "yade_3d_friction_uniform.contacts"), contacts_format="yade",
-                           lever="contact", friction=0.5)[0]
+                           model=ContactModel(lever="contact"), friction=0.5)[0]
     table = np.loadtxt(data / "yade_3d_friction_uniform.response")
     d0, kn = p.info["length_unit"], 5e4  # kn = young R = 1e5 * 0.5 (yade_3d_friction.py uniform)
     active = ~p.rattler
@@ -482,7 +482,7 @@ def test_assembled_liggghts_matrix_is_liggghts_own_one_step_response(comm):
 
     data = REPO / "tests" / "data" / "dem"
     p = hdf5.read_packings(str(data / "liggghts_3d_friction.data"), contacts=str(data / "liggghts_3d_friction.contacts"),
-                           contacts_format="liggghts-local", lever="contact", friction=0.5)[0]
+                           contacts_format="liggghts-local", model=ContactModel(lever="contact"), friction=0.5)[0]
     text = (data / "liggghts_3d_friction.response").read_text()
     frames = [np.loadtxt(chunk.strip().splitlines()[:p.n]) for chunk in re.split(r"ITEM: ATOMS[^\n]*\n", text)[1:]]
     assert len(frames) == 3 and np.array_equal(frames[0][:, 0], np.arange(1, p.n + 1))

@@ -26,7 +26,7 @@ DATA = REPO / "tests" / "data" / "dem"
 
 def test_normal_forces_are_the_overlaps_of_every_contact():
     p = jammed_packing(64, 0.9, 7)
-    found, f_n, f_t = force_magnitudes(p, "harmonic")
+    found, f_n, f_t = force_magnitudes(p)
     overlap, _, _ = all_pairs(p)
     active = ~p.rattler
     touching = np.triu((overlap > 0) & active[:, None] & active[None, :], 1)
@@ -38,8 +38,8 @@ def test_normal_forces_are_the_overlaps_of_every_contact():
 
 def test_tangential_forces_are_the_contact_files(tmp_path):
     name = "lammps_2d_friction"
-    p = hdf5.read_packings(str(DATA / f"{name}.data"), law="harmonic", contacts=str(DATA / f"{name}.contacts"))[0]
-    found, f_n, f_t = force_magnitudes(p, "harmonic")
+    p = hdf5.read_packings(str(DATA / f"{name}.data"), contacts=str(DATA / f"{name}.contacts"))[0]
+    found, f_n, f_t = force_magnitudes(p)
     stored = p.tangential
     active = ~p.rattler
     among = active[stored.pairs[:, 0]] & active[stored.pairs[:, 1]]
@@ -48,7 +48,7 @@ def test_tangential_forces_are_the_contact_files(tmp_path):
     np.testing.assert_allclose(np.sort(f_t[f_t > 0]), np.sort(magnitudes[magnitudes > 0]), rtol=1e-12, atol=0)
     reference = geometry.find_contacts(p.positions, p.diameters, p.box, active)
     np.testing.assert_allclose(f_n, reference.overlap, rtol=1e-12, atol=0)  # harmonic, kn = 1
-    written = plot_force_network(p, "harmonic", str(tmp_path / "stressed"))
+    written = plot_force_network(p, str(tmp_path / "stressed"))
     assert written and all(os.path.getsize(w) > 10_000 for w in written), written
 
 
@@ -65,7 +65,7 @@ def test_line_widths_scale_with_the_drawn_particles(tmp_path, monkeypatch, n):
     N: at N = 4096 a fixed 2.5 pt (then 0.4 d0) made the network one black mass."""
     p = jammed_packing(n, 0.9, 7)
     figures = capture(monkeypatch)
-    plot_force_network(p, "harmonic", str(tmp_path / "forces"))
+    plot_force_network(p, str(tmp_path / "forces"))
     fig = figures["forces.png"]
     fig.canvas.draw()
     ax = fig.axes[0]

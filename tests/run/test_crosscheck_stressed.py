@@ -53,12 +53,12 @@ def test_the_lammps_packing_is_stressed_and_at_rest(made):
 
     p, _ = made
     assert p.stressed and not p.rattler.any()
-    net, torque = mechanics.net_load(p, "harmonic")
+    net, torque = mechanics.net_load(p)
     # LAMMPS stopped at forces and torques below 1e-13; rotsound recomputes them from the same state
     assert np.abs(net).max() < 1e-12 and np.abs(torque).max() < 1e-12
     mean_ft = np.linalg.norm(p.tangential.force, axis=1).mean()
     # without the tangential forces the packing is far from balanced
-    bare, _ = mechanics.net_load(dataclasses.replace(p, tangential=None), "harmonic")
+    bare, _ = mechanics.net_load(dataclasses.replace(p, tangential=None))
     assert np.abs(bare).max() > 0.1 * mean_ft
 
 
