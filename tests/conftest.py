@@ -133,9 +133,16 @@ def mpirun(n: int) -> list[str]:
     return cmd
 
 
+def child_env() -> dict[str, str]:
+    """This process's environment without what its own MPI start put there (a rank's place in
+    its job, and a singleton's: a pytest-xdist worker is one), so that a child mpirun or a
+    child process starts a job of its own."""
+    return {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX_", "OMPI_MCA_ess"))}
+
+
 def run_cli(args: list[str], ranks: int = 1, timeout: float = 120, cwd=None):
     """Run ``python -m solver ARGS`` (under mpirun when ranks > 1); return CompletedProcess."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX_", "OMPI_MCA_ess"))}
+    env = child_env()
     cmd = [sys.executable, "-m", "solver", *args]
     if ranks > 1:
         cmd = mpirun(ranks) + cmd

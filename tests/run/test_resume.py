@@ -10,7 +10,7 @@ import time
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, REPO, mpirun, run_cli, run_stopped_after_windows, scene_of, scene_text
+from conftest import COMM, REPO, child_env, mpirun, run_cli, run_stopped_after_windows, scene_of, scene_text
 
 pytestmark = pytest.mark.serial_only  # these tests launch and kill their own mpirun jobs
 
@@ -69,7 +69,7 @@ def assert_same(a, b):
 
 
 def start(scene_path):
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX_"))}
+    env = child_env()
     return subprocess.Popen(mpirun(2) + [sys.executable, "-m", "solver", "run", scene_path], cwd=REPO,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
                             start_new_session=True)
@@ -82,7 +82,9 @@ def wait_for_units(out, count, proc, timeout=120):
         if os.path.isdir(folder) and sum(f.endswith(".h5") for f in os.listdir(folder)) >= count:
             return
         time.sleep(0.05)
-    raise AssertionError("the run finished or stalled before the kill")
+    if proc.poll() is not None:
+        raise AssertionError(f"the run ended (exit code {proc.returncode}) before the kill: {proc.communicate()[1]}")
+    raise AssertionError(f"the run stalled before the kill: fewer than {count} units after {timeout} s")
 
 
 @pytest.fixture(scope="module")
@@ -208,7 +210,7 @@ def test_spectrum_stopped_after_one_window_resumes_on_another_rank_count(tmp_pat
     path, out, driver = tmp_path / "cut.yaml", tmp_path / "cut.h5", tmp_path / "stop_after_one_window.py"
     path.write_text(scene_text(out, **WINDOWED))
     driver.write_text(STOP_AFTER_ONE_WINDOW)
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX_", "OMPI_MCA_ess"))}
+    env = child_env()
     env["PYTHONPATH"] = str(REPO)
     stopped = subprocess.run((mpirun(first) if first > 1 else []) + [sys.executable, str(driver), "run", str(path)],
                              cwd=REPO, env=env, capture_output=True, text=True, timeout=300)

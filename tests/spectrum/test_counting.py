@@ -7,7 +7,7 @@ scene's pooled vDOS through the pipeline.  Runs on 1 and 2 ranks (edges spread o
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
+from conftest import COMM, assert_all, assert_close, child_env, jammed_packing, scene_of
 
 from solver.contact_law import ContactModel
 from solver import pipeline
@@ -149,7 +149,7 @@ def test_four_ranks_count_alike_in_every_layout():
 
     from conftest import mpirun
 
-    env = {k: v for k, v in __import__("os").environ.items() if not k.startswith(("OMPI_COMM", "PMIX_", "OMPI_MCA_ess"))}
+    env = child_env()
     done = subprocess.run(mpirun(4) + [sys.executable, "-c", FOUR_RANKS], capture_output=True, text=True,
                           timeout=180, env=env)
     assert done.returncode == 0, done.stderr[-3000:]
