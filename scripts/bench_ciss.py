@@ -47,7 +47,7 @@ def _window(A, modes: int, at: float) -> tuple[float, float, int]:
     top = A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9)  # Gershgorin: above lambda_max
     known = {1e-8: slicing.count_below(A, 1e-8), top: slicing.count_below(A, top)}
     first = max(known[1e-8] + 1, int(at * n))
-    lo, hi = slicing._place(A, known, np.array([first, first + modes], dtype=float), 1.0, top)
+    lo, hi = slicing.place_cuts(A, known, np.array([first, first + modes], dtype=float), 1.0, top)
     return lo, hi, slicing.count_below(A, hi) - slicing.count_below(A, lo)
 
 
@@ -91,7 +91,7 @@ def case(n: int, modes: int, at: float, method: str, ip: int, bs: int, ms: int) 
         known = {lo: slicing.count_below(A, lo), hi: slicing.count_below(A, hi)}
         edges = slicing.split_window(A, known, lo, hi, comm.size)
         eps = SLEPc.EPS().create(comm)
-        slicing._configure(eps, A, edges, 1e-12)
+        slicing.configure_window(eps, A, edges, 1e-12)
     else:
         eps = SLEPc.EPS().create(comm)
         eps.setOperators(A)

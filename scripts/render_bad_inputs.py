@@ -21,9 +21,9 @@ sys.path.insert(0, str(REPO / "tests" / "io"))
 
 from bad_inputs import CASES  # noqa: E402
 from conftest import PETSc  # noqa: E402
-from test_bad_inputs import _restore_options, materialise  # noqa: E402
+from test_bad_inputs import materialise  # noqa: E402
 
-from solver import __main__ as cli  # noqa: E402
+from solver import __main__ as cli, options  # noqa: E402
 
 
 def main() -> None:
@@ -31,14 +31,14 @@ def main() -> None:
     for number, case in enumerate(CASES, 1):
         with tempfile.TemporaryDirectory() as tmp:
             args, _ = materialise(Path(tmp), case)
-            before, here, err = PETSc.Options().getAll(), os.getcwd(), io.StringIO()
+            before, here, err = options.snapshot(), os.getcwd(), io.StringIO()
             os.chdir(tmp)
             try:
                 with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
                     code = cli.main(args)
             finally:
                 os.chdir(here)
-                _restore_options(before)
+                options.restore(before)
             text = err.getvalue().strip()
             message = text.splitlines()[0] if text else "(none)"
             message = message.replace(tmp, "DIR")

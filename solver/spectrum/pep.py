@@ -35,7 +35,8 @@ IMAG_TOL = 1e-10        # |Im lambda| below this times max |lambda| is real (LAP
 class Result:
     """lam (m,) complex128 the kept eigenvalues (module docstring); n_zero_modes; n_overdamped
     (real lam kept); energies: K, Q and participation of each kept mode from |x| (``modes``),
-    or None; solver; checks (windows: their number, residual, trace errors, settings)."""
+    or None; solver; checks (windows: their number, shifts: the complex shifts solved, residual, trace
+    errors, settings)."""
 
     lam: np.ndarray
     n_zero_modes: int
@@ -78,6 +79,7 @@ def solve(dm, zero_tol: float, vectors: bool = False, solver: str = "auto", tol:
         lam = np.concatenate([f[0] for f in found])
         sums = np.concatenate([f[1] for f in found])
         checks = {**found[0][2], "windows": sum(f[2]["windows"] for f in found),
+                  "shifts": sum(f[2]["shifts"] for f in found),
                   "max_residual": max(f[2]["max_residual"] for f in found)}
         return _classify(lam, sums if vectors else None, zero_tol, particles, dm.dim, "windows", checks, bands)
     if dm.size > MAX_DOF:

@@ -10,9 +10,9 @@ import re
 
 import pytest
 from bad_inputs import CASES
-from conftest import COMM, PETSc, REPO, assert_all, run_cli
+from conftest import COMM, REPO, assert_all, run_cli
 
-from solver import __main__ as cli
+from solver import __main__ as cli, options
 
 
 def materialise(tmp_path, case):
@@ -45,19 +45,6 @@ def test_docs_table_is_the_catalogue():
         assert case[3].replace("|", "/") in row[2], (case[0], row[2])
 
 
-def _restore_options(before: dict) -> None:
-    """Put PETSc's options database back as ``before`` (``getAll``): a row's options must not
-    reach the tests after it."""
-    database = PETSc.Options()
-    now = database.getAll()
-    for name in now:
-        if name not in before:
-            database.delValue(f"-{name}")
-    for name, value in before.items():
-        if now.get(name) != value:
-            database.setValue(f"-{name}", value)
-
-
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
 def test_bad_input(shared_tmp, case, capsys, monkeypatch):
     if COMM.rank == 0:
@@ -65,11 +52,11 @@ def test_bad_input(shared_tmp, case, capsys, monkeypatch):
     args, out = COMM.bcast((args, out) if COMM.rank == 0 else None, root=0)
     monkeypatch.chdir(shared_tmp)
     files = _tree(shared_tmp)
-    before = PETSc.Options().getAll()
+    before = options.snapshot()
     try:
         code = cli.main(args)
     finally:
-        _restore_options(before)
+        options.restore(before)  # a row's options must not reach the tests after it
     made = _tree(shared_tmp) - files
     err = capsys.readouterr()
     assert_all(code == 2, f"exit code {code}: {err.err}")
