@@ -171,44 +171,33 @@ def load_packing(n: int):
     return hdf5.read_packings(str(path))[0]
 
 
-def _l_wave(p, k):
-
-    r0 = p.positions[~p.rattler]
-    v0 = np.zeros((len(r0), 3))
-    v0[:, 0] = 1e-3 * np.sin(k * r0[:, 0])
-    v0[:, 0] -= v0[:, 0].mean()
-    return r0, v0
-
-
 def exact_l_wave(p, k, times):
-    """z(t) of the L wave from a dense eigendecomposition (serial; PHYSICS.md section 4)."""
-    import scipy.linalg as sl
-
+    """z(t) of the L wave (``references.l_wave_start``) from a dense eigendecomposition of the
+    packing's matrix at rho = 1 (``references.exact_l_wave``; serial; PHYSICS.md section 4)."""
     from solver import petscenv
-    from solver.model import dynmat, operators
     from solver.contact_law import ContactModel
+    from solver.model import dynmat
+    from solver.references import exact_l_wave as exact
 
     PETSc = petscenv.init([])
     dm = dynmat.assemble(p, ContactModel(1.0), PETSc.COMM_SELF)
-    lam, vec = sl.eigh(dynmat.gather_csr(operators.scaled_operator(dm)).toarray())
-    omega = np.sqrt(np.clip(lam, 0, None))
-    mass = dm.M.getArray()
-    r0, v0 = _l_wave(p, k)
-    b = np.zeros((len(r0), 3), complex)
-    b[:, 0] = np.exp(-1j * k * r0[:, 0])
-    return ((b.ravel() / np.sqrt(mass)) @ vec * (vec.T @ (np.sqrt(mass) * v0.ravel()))) @ np.cos(np.outer(omega, times))
+    try:
+        return exact(p, dm, k, times)
+    finally:
+        dm.destroy()
 
 
 def scipy_verlet_l_wave(p, k, dt, t_end, sample):
     """The obvious alternative: velocity Verlet with scipy.sparse in one process.
     Returns (seconds, z sampled every ``sample``)."""
 
-    from solver.model import dynmat
     from solver.contact_law import ContactModel
+    from solver.model import dynmat
+    from solver.references import l_wave_start
 
     D, _, _ = dynmat.local_csr(p, ContactModel(1.0), np.flatnonzero(~p.rattler), (0, int((~p.rattler).sum())))
     minv = 1.0 / dynmat.mass_diagonal(p.diameters[~p.rattler], dynmat.particle_masses(p)[~p.rattler], 2, 3)
-    r0, v = _l_wave(p, k)
+    r0, v = l_wave_start(p, k)
     v = v.ravel()
     u = np.zeros_like(v)
     phase = np.exp(-1j * k * r0[:, 0])

@@ -11,7 +11,7 @@ kt = kn, the dashpots gamma_n and gamma_t, dampflag 1, friction 1e4, masses 1, `
 nve/sphere``) at dt, dt/2, dt/4; the half difference gives C(k, t) as rotsound pools it.
 References on the same packing and start, exact to round-off: exp(tJ) of the damped first-order
 system J = [[0, I], [-M^-1 D, -M^-1 C]] (D and C from ``dynmat`` and ``damping``;
-``crosscheck_stressed.exact_velocities``), and of the undamped one, to show the check can fail.
+``references.first_order_flow``), and of the undamped one, to show the check can fail.
 LAMMPS's velocity Verlet evaluates the dashpots with half-step velocities, so it converges at
 first order in dt (the "order" column).
 
@@ -27,7 +27,7 @@ import time
 import numpy as np
 from benchlib import save
 from crosscheck_lammps import PACKINGS, lammps_z, pooled_c
-from crosscheck_stressed import add_wave_arguments, convergence_columns, exact_velocities
+from crosscheck_stressed import add_wave_arguments, convergence_columns
 
 
 def case(dim: int, law: str, n: int, args) -> dict:
@@ -37,6 +37,7 @@ def case(dim: int, law: str, n: int, args) -> dict:
     from solver.contact_law import ContactModel
     from solver.model import damping, dynmat
     from solver.packing import jammed
+    from solver.references import first_order_flow
     from solver.waves import excitation
 
     PETSc = petscenv.init([])
@@ -58,8 +59,8 @@ def case(dim: int, law: str, n: int, args) -> dict:
             return pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
                             args.sample)
 
-        exact = pooled([exact_velocities(dm, s, args.sample, count) for s in starts])
-        undamped = pooled([exact_velocities(plain, s, args.sample, count) for s in starts])
+        exact = pooled([first_order_flow(dm, s, args.sample, count)[:, 1] for s in starts])
+        undamped = pooled([first_order_flow(plain, s, args.sample, count)[:, 1] for s in starts])
         errors, misses, seconds = [], [], 0.0
         for dt in dts:
             every, steps = int(round(args.sample / dt)), int(round(args.t_end / dt))

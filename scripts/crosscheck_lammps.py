@@ -15,7 +15,7 @@ the velocities is kept (even orders in A cancel, among them the motion the packi
 forces, max|F| ~ 1e-6, cause on their own); then
 z(t) = sum_i v_i,c(t) exp(-i k r_i,a(0)) (rotsound's z_fixed) and C(k, t) pooled over the runs
 (``correlations.pooled``).  References on the same packing and start: the exact C from the full
-eigendecomposition of M^-1/2 D M^-1/2 (tests/conftest.py ``exact_z_fixed``, D from
+eigendecomposition of M^-1/2 D M^-1/2 (``references.exact_z_fixed``, D from
 ``dynmat.assemble`` with the same law), and rotsound's own Verlet (``integrate_block``) at the
 same dt.  Each LAMMPS wave runs twice: as above, and "held" -- a constant external force
 (``fix external``) equal to minus LAMMPS's net force at the start, which makes the start an exact
@@ -147,20 +147,6 @@ def lammps_z(p, dm, law: str, run: tuple[int, int], k: float, amplitude: float, 
     return 0.5 * (plus - minus)[:, :, component] @ np.exp(-1j * k * x[:, axis])
 
 
-def verlet_eigen(eig, dt: float):
-    """``eig`` = (lam, vec) with each frequency replaced by velocity Verlet's, 2/dt arcsin(omega dt/2):
-    Verlet's velocities at the steps of a linear system are exactly v(0) cos(omega~ t) per mode
-    (u_n = B sin(omega~ n dt) solves the 3-term recurrence with cos(omega~ dt) = 1 - (omega dt)^2/2,
-    and v_n = (u_{n+1} - u_{n-1}) / 2 dt), so ``exact_z_fixed`` with these gives Verlet's z at
-    the sample times.  Exact zero modes (|lam| < 1e-10 max lam, as ``exact_z_fixed``) become 0."""
-    lam, vec = eig
-    zero = np.abs(lam) < 1e-10 * lam.max()
-    omega = np.sqrt(np.where(zero, 0.0, lam))
-    if omega.max() * dt >= 2.0:
-        raise ValueError(f"dt = {dt} is above Verlet's stability limit 2/omega_max = {2 / omega.max():.4f}")
-    return np.where(zero, 0.0, (2.0 / dt * np.arcsin(0.5 * omega * dt)) ** 2), vec
-
-
 def pooled_c(z: np.ndarray, sample: float) -> np.ndarray:
     """C(k, t) (S,) of the runs z (R, S) of one (mode, k), as rotsound pools them."""
     from solver.waves import correlations
@@ -171,14 +157,11 @@ def pooled_c(z: np.ndarray, sample: float) -> np.ndarray:
 def case(dim: int, law: str, n: int, seed: int, args, details: list) -> tuple[list[dict], dict]:
     """Every mode of one (dimension, law): table rows and the curves for the figure; appends the
     unrounded errors and the packing's numbers to ``details``."""
-    if str(REPO / "tests") not in sys.path:
-        sys.path.insert(0, str(REPO / "tests"))  # rotsound's exact reference lives with the tests
-    from conftest import dense_eigen, exact_z_fixed
-
     from solver import petscenv
     from solver.model import dynmat
     from solver.contact_law import ContactModel
     from solver.packing import geometry, jammed
+    from solver.references import dense_eigen, exact_z_fixed, verlet_eigen
     from solver.waves import excitation, integrators
     from solver.waves.schedule import resolve_schedule
 

@@ -147,35 +147,6 @@ def lammps_velocities(restart: str, dim: int, start: np.ndarray, dt: float, step
     return np.array(samples)
 
 
-def exact_velocities(dm, start: np.ndarray, sample: float, count: int, offset: float = 0.0) -> np.ndarray:
-    """Velocities (count, N', dof) at t = offset, offset + sample, ... of M u'' = -D u from u = 0,
-    v = ``start`` (N', dof) at t = 0: X(t) = exp(t J) X(0), J = [[0, I], [-M^-1 D, -M^-1 C]], dense
-    (C = ``dm.C``, the dashpots, if any).  Exact to round-off whatever D's symmetry.  ``start`` and
-    the velocities are over the non-rattlers in the packing's order (``excitation.whole_start``).
-    One process."""
-    import scipy.linalg as sl
-
-    from solver.model import dynmat
-
-    d = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
-    m = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M))
-    size = d.shape[0]
-    j = np.zeros((2 * size, 2 * size))
-    j[:size, size:] = np.eye(size)
-    j[size:, :size] = -d / m[:, None]
-    if dm.C is not None:
-        j[size:, size:] = -dynmat.in_packing_order(dm, dynmat.gather_csr(dm.C).toarray()) / m[:, None]
-    step = sl.expm(sample * j)
-    x = np.concatenate((np.zeros(size), start.ravel()))
-    if offset:
-        x = sl.expm(offset * j) @ x
-    out = []
-    for _ in range(count):
-        out.append(x[size:].reshape(start.shape).copy())
-        x = step @ x
-    return np.array(out)
-
-
 def fresh(function, *calls):
     """[function(*args) for args in calls], each call in a new Python process (two at a time).
 
@@ -197,6 +168,7 @@ def case(dim: int, law: str, n: int, args) -> dict:
     from solver import petscenv
     from solver.contact_law import ContactModel
     from solver.model import dynmat
+    from solver.references import first_order_flow
     from solver.waves import excitation
 
     PETSc = petscenv.init([])
@@ -228,8 +200,8 @@ def case(dim: int, law: str, n: int, args) -> dict:
                 return pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
                                 args.sample)
 
-            exact = pooled([exact_velocities(dm, s, args.sample, count) for s in starts])
-            unstressed = pooled([exact_velocities(plain, s, args.sample, count) for s in starts])
+            exact = pooled([first_order_flow(dm, s, args.sample, count)[:, 1] for s in starts])
+            unstressed = pooled([first_order_flow(plain, s, args.sample, count)[:, 1] for s in starts])
             errors, misses, seconds = [], [], 0.0
             for dt in dts:
                 every, steps = int(round(args.sample / dt)), int(round(args.t_end / dt))

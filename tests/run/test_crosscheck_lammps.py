@@ -12,12 +12,13 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import REPO, assert_all, assert_close, dense_eigen, exact_z_fixed, modal_weights
+from conftest import REPO, assert_all, assert_close
 
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.packing import jammed
 from solver.waves import excitation
+from solver.references import dense_eigen, exact_z_fixed, modal_weights, verlet_eigen
 
 sys.path.append(str(REPO / "scripts"))  # the script holds the LAMMPS runner; appended: shadows nothing
 import crosscheck_lammps  # noqa: E402
@@ -29,11 +30,11 @@ DT, T_END, EVERY = 0.05, 20.0, 10  # 400 steps, a sample every 0.5 t0
 def verlet_bound(p, dm, eig, runs, k, t, dt) -> np.ndarray:
     """B(t) (S,) >= |C_Verlet(t) - C_exact(t)| of the pooled runs: per mode j of A = M^-1/2 D M^-1/2,
     z_r(t) = sum_j w_rj cos(omega_j t) exactly, and velocity Verlet's velocities at the steps are
-    sum_j w_rj cos(omega~_j t) with omega~ = 2/dt arcsin(omega dt/2) (crosscheck_lammps.verlet_eigen), so
+    sum_j w_rj cos(omega~_j t) with omega~ = 2/dt arcsin(omega dt/2) (references.verlet_eigen), so
     |C_Verlet - C_exact| <= sum_r |z_r(0)| sum_j |w_rj| min(2, |omega~_j - omega_j| t) / sum_r |z_r(0)|^2,
     with |omega~ - omega| t = omega^3 dt^2 t / 24 + O(dt^4): the dt^2 error, mode by mode.  The
-    weights w_rj are conftest.modal_weights' (exact_z_fixed's).  Collective."""
-    verlet = np.sqrt(crosscheck_lammps.verlet_eigen(eig, dt)[0])
+    weights w_rj are references.modal_weights' (exact_z_fixed's).  Collective."""
+    verlet = np.sqrt(verlet_eigen(eig, dt)[0])
     num, den = np.zeros(len(t)), 0.0
     for run in runs:
         omega, w = modal_weights(p, dm, eig, run, k, AMPLITUDE)
@@ -59,7 +60,7 @@ def test_lammps_standing_wave_is_rotsounds_within_verlet_error(lammps_present, c
         the +-A difference leaves (they grow as A^2: 1.3e-6 in the script's 2D Hertz L wave at
         A = 1e-6, 1e-4 at A = 1e-5) and round-off; measured here 7e-8 (2D) and 1e-9 (3D).
     (2) |C_LAMMPS - C_Verlet| <= 1e-6 pointwise, C_Verlet the closed form of velocity Verlet on
-        rotsound's D at the same dt (crosscheck_lammps.verlet_eigen): LAMMPS integrates rotsound's linear
+        rotsound's D at the same dt (references.verlet_eigen): LAMMPS integrates rotsound's linear
         model itself, not something near it.  The same 1e-6, for the same reason.
     Checked to fail: a disc's inertia taken as a sphere's (no ``disc``: check (1), error / bound
     590), ``gran/hooke/history`` in place of ``gran/hertz/history`` (1.2e4), kt = 0.9 kn (260 in
@@ -75,7 +76,7 @@ def test_lammps_standing_wave_is_rotsounds_within_verlet_error(lammps_present, c
     lmp = crosscheck_lammps.pooled_c([crosscheck_lammps.lammps_z(p, dm, law, run, k, AMPLITUDE, DT, steps, EVERY, mpi,
                                                                  hold=True) for run in runs], EVERY * DT)
     exact = crosscheck_lammps.pooled_c([exact_z_fixed(p, dm, eig, run, k, t, AMPLITUDE) for run in runs], EVERY * DT)
-    shifted = crosscheck_lammps.verlet_eigen(eig, DT)
+    shifted = verlet_eigen(eig, DT)
     verlet = crosscheck_lammps.pooled_c([exact_z_fixed(p, dm, shifted, run, k, t, AMPLITUDE) for run in runs],
                                         EVERY * DT)
     bound = verlet_bound(p, dm, eig, runs, k, t, DT)
