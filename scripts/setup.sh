@@ -14,7 +14,7 @@ PKGS=(python3-petsc4py python3-slepc4py python3-mpi4py python3-h5py-mpi python3-
       python3-matplotlib python3-yaml python3-numba python3-pytest python3-pytest-timeout openmpi-bin
       python3-venv lammps python3-lammps liblammps-dev  # LAMMPS: packing.engine, its tests
       python3-ase python3-vtk9  # `rotsound export`: extended XYZ (ASE), VTK XML PolyData (VTK)
-      xvfb xauth libgl1-mesa-dri  # scripts/render_vtk.py: VTK draws an exported file without a display
+      xvfb xauth libgl1-mesa-dri  # rotsound render: VTK draws an exported file without a display
       libvulkan1 mesa-vulkan-drivers  # OVITO's renderer, Vulkan on the CPU (tests/io/ovito_check.py)
       python3-sphinx python3-myst-parser furo)  # the manual (make docs): Sphinx, Markdown pages, a theme
 

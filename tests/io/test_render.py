@@ -1,7 +1,7 @@
-"""scripts/render_vtk.py: an exported VTP file drawn by VTK itself (under Xvfb) shows the mode where
-the file says it is: the reddest pixel of a picture coloured by the energy share lies on the
-particle with the largest share, arrows are drawn, and a field that is zero everywhere is refused.
-Serial: one process draws."""
+"""``rotsound render`` (solver/io/render.py): an exported VTP file drawn by VTK itself (under Xvfb)
+shows the mode where the file says it is: the reddest pixel of a picture coloured by the energy
+share lies on the particle with the largest share, arrows are drawn, and an unknown field is
+refused as bad input, naming the file's fields.  Serial: one process draws."""
 
 import shutil
 import subprocess
@@ -10,7 +10,7 @@ import sys
 import matplotlib.image
 import numpy as np
 import pytest
-from conftest import COMM, REPO, missing, scene_of
+from conftest import COMM, REPO, missing, run_cli, scene_of
 
 from solver import pipeline
 from solver.io import export, results
@@ -19,10 +19,9 @@ pytestmark = pytest.mark.serial_only
 
 SIZE = 400
 DRAW = """
-import sys, numpy as np
-sys.path.insert(0, {scripts!r})
-import render_vtk
-np.save({where!r}, render_vtk.render({vtp!r}, {png!r}, "share", "displacement", 2.0, "z", {size}, "test"))
+import numpy as np
+from solver.io import render
+np.save({where!r}, render.draw({vtp!r}, {png!r}, "share", "displacement", 2.0, "z", {size}, "test"))
 """
 
 
@@ -43,8 +42,8 @@ def drawn(tmp_path_factory):
                           modes={"omega": [0.3], "count": 1}), COMM, [])
     (path,), _ = export.export(str(out), "vtp", str(folder / "mode.vtp"), rho=0.5, mode=0, frames=1)
     png, where = folder / "mode.png", folder / "where.npy"
-    code = DRAW.format(scripts=str(REPO / "scripts"), where=str(where), vtp=path, png=str(png), size=SIZE)
-    subprocess.run(["xvfb-run", "-a", sys.executable, "-c", code], check=True, timeout=120)
+    code = DRAW.format(where=str(where), vtp=path, png=str(png), size=SIZE)
+    subprocess.run(["xvfb-run", "-a", sys.executable, "-c", code], check=True, timeout=120, cwd=REPO)
     with results.open_results(str(out)) as f:
         group = results.mode_shapes(f)[0]
         p = results.packing(f, 0)
@@ -73,7 +72,7 @@ def test_arrows_are_drawn_in_black(drawn):
 
 
 def test_an_unknown_field_is_named(drawn):
-    done = subprocess.run([sys.executable, str(REPO / "scripts" / "render_vtk.py"), drawn[-1], "--color", "nosuch",
-                           "--output", "/dev/null"], capture_output=True, text=True, timeout=60)
-    assert done.returncode != 0
+    done = run_cli(["render", drawn[-1], "--color", "nosuch", "--output", "/dev/null"], timeout=60)
+    assert done.returncode == 2, done.stderr  # bad input: one message, no traceback
     assert "no point array 'nosuch'" in done.stderr and "share" in done.stderr, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr

@@ -1,48 +1,52 @@
-"""Draw a file written by ``rotsound export --format vtp`` with VTK itself, the library ParaView is
-built on, the way a viewer shows it: every particle a sphere of its ``radius``, coloured by a field,
-and a vector field as arrows.  This is the README's evidence that the exported fields open and mean
-what they say outside rotsound (ParaView's GUI needs a display; OVITO's own reading and rendering
-of the exports is checked in tests/io/test_export.py).
+"""``rotsound render``: draw a file written by ``rotsound export --format vtp`` with VTK itself, the
+library ParaView is built on, the way a viewer shows it: every particle a sphere of its
+``radius``, coloured by a field, and a vector field as arrows.  This is the evidence that the
+exported fields open and mean what they say outside rotsound (ParaView's GUI needs a display;
+OVITO's own reading and rendering of the exports is checked in tests/io/test_export.py), and it
+draws the manual's pictures of exports (docs/exports.md).
 
 VTK renders through OpenGL and needs an X server: run under ``xvfb-run`` (Debian's ``xvfb``,
-installed by ``scripts/setup.sh``)::
+installed by ``tools/setup.sh``)::
 
     rotsound export results/localisation.h5 --format vtp --rho 0 --mode 1 --frames 1 --output results/localisation_mode.vtp
-    xvfb-run -a .venv/bin/python scripts/render_vtk.py results/localisation_mode.vtp --color share \\
-        --arrows displacement --output docs/export_vtk_mode.png
+    xvfb-run -a rotsound render results/localisation_mode.vtp --color share --arrows displacement \
+        --output docs/export_vtk_mode.png
 
 ``--color`` names a scalar point array, or a vector one with ``_x``, ``_y`` or ``_z`` appended for
 one component; the colour scale is symmetric about 0 (blue, white, red) when the field takes both
 signs, white to red otherwise.  ``--arrows`` names a vector point array: the longest arrow is
 ``--arrow-length`` d0, drawn above the spheres.  ``--view z`` looks down the z axis with a parallel
-projection (2D packings); ``--view iso`` looks at a 3D box from a corner.  Not collective; no PETSc.
+projection (2D packings); ``--view iso`` looks at a 3D box from a corner.  A file without points,
+an unknown or all-zero field is bad input (InputError, exit code 2, naming what the file has).
+Needs VTK's Python module (Debian's ``python3-vtk9``; the command refuses without it).  Not
+collective; no PETSc or MPI.
 """
 
 from __future__ import annotations
-
-import argparse
-import sys
 
 import numpy as np
 import vtk
 from vtk.util import numpy_support
 
+from ..errors import InputError
+
 COMPONENTS = {"_x": 0, "_y": 1, "_z": 2}
 
 
 def read(path: str) -> vtk.vtkPolyData:
-    """The points of a VTK XML PolyData file (.vtp); SystemExit naming the file if VTK reads none."""
+    """The points of a VTK XML PolyData file (.vtp); InputError naming the file if VTK reads none."""
     reader = vtk.vtkXMLPolyDataReader()
     reader.SetFileName(path)
     reader.Update()
     data = reader.GetOutput()
     if data is None or data.GetNumberOfPoints() == 0:
-        sys.exit(f"render_vtk: {path}: VTK's reader finds no points (not a `rotsound export --format vtp` file?)")
+        raise InputError(f"render: {path}: VTK's reader finds no points (not a `rotsound export --format vtp` file?)")
     return data
 
 
 def point_array(data: vtk.vtkDataSet, name: str) -> np.ndarray:
-    """The point array ``name`` as NumPy, or one component of a vector array (``name_x|_y|_z``)."""
+    """The point array ``name`` as NumPy, or one component of a vector array (``name_x|_y|_z``);
+    InputError naming the file's arrays if it has neither."""
     fields = data.GetPointData()
     if fields.GetArray(name) is not None:
         return numpy_support.vtk_to_numpy(fields.GetArray(name))
@@ -52,15 +56,15 @@ def point_array(data: vtk.vtkDataSet, name: str) -> np.ndarray:
         if values.ndim == 2:
             return values[:, COMPONENTS[suffix]]
     have = [fields.GetArrayName(i) for i in range(fields.GetNumberOfArrays())]
-    sys.exit(f"render_vtk: no point array {name!r}; the file has {have} (vectors take _x, _y or _z)")
+    raise InputError(f"render: no point array {name!r}; the file has {have} (vectors take _x, _y or _z)")
 
 
 def colour_scale(values: np.ndarray) -> vtk.vtkColorTransferFunction:
     """Blue-white-red symmetric about 0 when ``values`` take both signs, white-red otherwise;
-    SystemExit when they are all zero (a rotation at rho = 0, say): nothing to colour by."""
+    InputError when they are all zero (a rotation at rho = 0, say): nothing to colour by."""
     top = float(np.max(np.abs(values)))
     if top == 0.0:
-        sys.exit("render_vtk: the --color field is zero everywhere; choose another (share, force_normal, ...)")
+        raise InputError("render: the --color field is zero everywhere; choose another (share, force_normal, ...)")
     scale = vtk.vtkColorTransferFunction()
     if values.min() < 0 < values.max():
         scale.AddRGBPoint(-top, 0.23, 0.30, 0.75)
@@ -94,8 +98,8 @@ def glyphs(scene: vtk.vtkRenderer, points: vtk.vtkPoints, arrays: dict[str, np.n
     return mapper
 
 
-def render(path: str, output: str, colour: str, arrows: str | None, arrow_length: float, view: str,
-           size: int, title: str) -> np.ndarray:
+def draw(path: str, output: str, colour: str = "rattler", arrows: str | None = None, arrow_length: float = 3.0,
+         view: str = "z", size: int = 1200, title: str = "") -> np.ndarray:
     """Write the PNG ``output`` of the file ``path`` (see the module docstring); return where each
     particle's centre lands in it, (N, 2) pixels from the top-left corner (x right, y down)."""
     data = read(path)
@@ -128,7 +132,7 @@ def render(path: str, output: str, colour: str, arrows: str | None, arrow_length
     if arrows is not None:
         vectors = point_array(data, arrows)
         if vectors.ndim != 2:
-            sys.exit(f"render_vtk: --arrows {arrows!r} is not a vector array")
+            raise InputError(f"render: --arrows {arrows!r} is not a vector array")
         longest = float(np.linalg.norm(vectors, axis=1).max()) or 1.0
         points = numpy_support.vtk_to_numpy(data.GetPoints().GetData()).copy()
         points[:, 2] += 1.01 * radius.max()  # above the spheres seen from +z
@@ -187,22 +191,3 @@ def pixels(scene: vtk.vtkRenderer, points: np.ndarray, size: int) -> np.ndarray:
     found = 0.5 * (device[:, :2] / device[:, 3:] + 1.0) * size
     found[:, 1] = size - found[:, 1]
     return found
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("vtp", help="a file of `rotsound export --format vtp`")
-    parser.add_argument("--output", required=True, help="PNG to write")
-    parser.add_argument("--color", default="rattler", help="point array for the colour (default rattler)")
-    parser.add_argument("--arrows", help="vector point array drawn as arrows")
-    parser.add_argument("--arrow-length", type=float, default=3.0, help="longest arrow, d0 (default 3)")
-    parser.add_argument("--view", choices=("z", "iso"), default="z")
-    parser.add_argument("--size", type=int, default=1200, help="image side, pixels (default 1200)")
-    parser.add_argument("--title", default="", help="text in the top-left corner")
-    args = parser.parse_args(argv)
-    render(args.vtp, args.output, args.color, args.arrows, args.arrow_length, args.view, args.size, args.title)
-
-
-if __name__ == "__main__":
-    main()
