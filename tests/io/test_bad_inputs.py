@@ -9,31 +9,14 @@ interpreter, PETSc and MPI start-up) was half of ``make test``'s serial time."""
 import re
 
 import pytest
-from bad_inputs import CASES
 from conftest import COMM, REPO, assert_all, run_cli
 
 from solver import __main__ as cli, options
-
-
-def materialise(tmp_path, case):
-    what, scene, words, message, maker = case
-    out = tmp_path / "never.h5"
-    file = tmp_path / "packing.h5"
-    if maker:
-        maker(file)
-    args = list(words)
-    if scene is not None:
-        path = tmp_path / "scene.yaml"
-        text = scene.replace("{file}", str(file)).replace("{out}", str(out))
-        path.write_text(text if text.startswith(("- ", "packing: {n: 64, phi: 0.9\n")) or not text.strip()
-                        else f"output: {out}\n" + text)
-        if not words or words[0].startswith("--"):  # options of 'run' (--set, --group-size, ...)
-            args = ["run", str(path)] + args
-    return args, out
+from tools.bad_inputs import CASES, materialise
 
 
 def test_docs_table_is_the_catalogue():
-    """The manual's bad-input table (docs/bad_inputs.md, rendered by scripts/render_bad_inputs.py)
+    """The manual's bad-input table (docs/bad_inputs.md, rendered by tools/render_bad_inputs.py)
     holds exactly the catalogue's rows, in order, each showing a message that contains the row's
     expected fragment: a row added, renamed or reworded without re-rendering fails here."""
     text = (REPO / "docs" / "bad_inputs.md").read_text()

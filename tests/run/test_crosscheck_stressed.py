@@ -1,24 +1,20 @@
 """A stressed frictional packing made by LAMMPS, and standing waves about it integrated by LAMMPS
-itself (scripts/crosscheck_stressed.py), against rotsound's stressed matrix: LAMMPS's C(k, t)
+itself (crosschecks/crosscheck_stressed.py), against rotsound's stressed matrix: LAMMPS's C(k, t)
 converges to the exact C of the stressed D at its time-step order, and misses the unstressed D's
 by far more; rotsound's own integrators on the stressed D agree with the exact solution.  The
 full table (2D and 3D, both laws, every mode) is in BENCHMARKS.md, "crosscheck"."""
 
 import dataclasses
-import sys
 
 import numpy as np
 import pytest
-from conftest import REPO, assert_all, assert_close
+from conftest import assert_all, assert_close
 
+from crosschecks import crosscheck_stressed, harness
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.references import first_order_flow
 from solver.waves import excitation
-
-sys.path.append(str(REPO / "scripts"))  # appended: shadows nothing
-import crosscheck_lammps  # noqa: E402
-import crosscheck_stressed  # noqa: E402
 
 pytestmark = pytest.mark.serial_only  # LAMMPS runs in fresh processes (crosscheck_stressed.fresh)
 
@@ -34,8 +30,8 @@ def made(lammps_present, tmp_path_factory):
 
 
 def pooled(velocities, runs, k, x):
-    return crosscheck_lammps.pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
-                                      SAMPLE)
+    return harness.pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
+                            SAMPLE)
 
 
 def tr_waves(p, dm, comm):
