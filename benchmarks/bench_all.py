@@ -78,10 +78,10 @@ def _sections(text: str) -> dict[str, str]:
     return {part.split("\n", 1)[0].strip(): "## " + part.strip() for part in parts}
 
 
-def render(todo: list[dict]) -> None:
-    """Write BENCHMARKS.md from the records of ``todo`` (:func:`benchmarks`); a benchmark with no
-    record here (measured on another checkout, or not rerun) keeps its section from the existing
-    BENCHMARKS.md."""
+def text(todo: list[dict]) -> str:
+    """BENCHMARKS.md from the records and readings of ``todo`` (:func:`benchmarks`); a benchmark with
+    no record here (measured on another checkout, or not rerun) keeps its section from the existing
+    BENCHMARKS.md (tests/run/test_bench_all.py checks the committed file is this text)."""
     old = _sections((REPO / "BENCHMARKS.md").read_text()) if (REPO / "BENCHMARKS.md").exists() else {}
     lines = ["# Benchmarks", "",
              "Regenerate with `make bench` (runs `benchmarks/bench_*.py` and `crosschecks/crosscheck_*.py` one after "
@@ -111,7 +111,12 @@ def render(todo: list[dict]) -> None:
                 lines += [reading.read_text().strip(), ""]
     for reading in hand_written(todo):
         lines += [reading.read_text().strip(), ""]
-    (REPO / "BENCHMARKS.md").write_text("\n".join(lines))
+    return "\n".join(lines)
+
+
+def render(todo: list[dict]) -> None:
+    """Write BENCHMARKS.md (:func:`text`)."""
+    (REPO / "BENCHMARKS.md").write_text(text(todo))
     print(f"wrote {REPO / 'BENCHMARKS.md'}")
 
 
