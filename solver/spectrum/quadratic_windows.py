@@ -388,7 +388,9 @@ def solve(dm, *, zero_tol: float, tol: float = 1e-12, window: tuple[float, float
     ``window`` = (lo, hi): only the modes with |Im lambda| in [lo, hi) (the real roots too when
     lo = 0), by the columns from lo to hi, complete by their sigma bounds alone (no count, no
     trace moments: checks say so).  ``progress`` and ``checkpoint`` as ``shifted_windows.solve``.
-    RuntimeError (every rank) when a check fails."""
+    ``checks["shifts"]``: the complex shifts factorised and solved by this call (:func:`_solve_disk`;
+    none for the columns read back from ``checkpoint``), the cost a benchmark reports
+    (benchmarks/bench_damped.py).  RuntimeError (every rank) when a check fails."""
     from petsc4py import PETSc
 
     comm = dm.D.getComm()
@@ -416,12 +418,13 @@ def solve(dm, *, zero_tol: float, tol: float = 1e-12, window: tuple[float, float
         if dm.range_planes is None:  # once per matrix: every band of pep_bands shares them
             dm.range_planes = _range_planes(A, C)
         planes = dm.range_planes
-        state = {"centre": 0.0, "radius": 0.0}
+        state = {"centre": 0.0, "radius": 0.0, "shifts": 0}
 
         def bounds(w, r):
             return _rate_bounds(planes, box["omega"], box["imag"], w, r)
 
         def disk(a, w):
+            state["shifts"] += 1
             found = _solve_disk(A, C, norms, a, w, tol, zero_tol, dm.dof, dm.dim)
             used.update(found.pop("settings"))
             return found
@@ -458,7 +461,7 @@ def solve(dm, *, zero_tol: float, tol: float = 1e-12, window: tuple[float, float
         checks = _check(lam, n2, box)
     # the accepted modes' backward errors: a column's disks also return Ritz pairs outside its
     # omega range, which the march leaves to the next column (their vectors need not be converged)
-    checks.update(windows=len(parts), max_residual=float(residuals.max(initial=0.0)),
+    checks.update(windows=len(parts), shifts=state["shifts"], max_residual=float(residuals.max(initial=0.0)),
                   settings=comm.tompi4py().bcast(used, root=0))
     return lam, sums, checks
 

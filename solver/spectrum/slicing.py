@@ -177,7 +177,7 @@ rank only).  A cut is also a shift of SLEPc's: a relative distance delta amplifi
 that and the eigenvalues' accuracy (~1e-14), and far below any bin."""
 
 
-def _place(A, known: dict, targets: np.ndarray, slack: float, scale: float) -> list[float]:
+def place_cuts(A, known: dict, targets: np.ndarray, slack: float, scale: float) -> list[float]:
     """Shifts where the eigenvalue count of A reaches each of ``targets`` (ascending, strictly
     between the counts of the first and last shift of ``known``).
 
@@ -188,7 +188,8 @@ def _place(A, known: dict, targets: np.ndarray, slack: float, scale: float) -> l
     modes is a cluster of equal eigenvalues (a crystal's degenerate modes): the cut is never put
     inside it but CLUSTER_MARGIN x ``scale`` below or above it, whichever count is nearer the
     target, so the cluster stays whole in one piece.
-    Collective; every rank makes the same choices, since inertias are global.
+    Collective; every rank makes the same choices, since inertias are global.  Public, so that a
+    benchmark cuts its windows as :func:`solve` does (benchmarks/bench_ciss.py).
     """
     width, margin = CLUSTER_WIDTH * scale, CLUSTER_MARGIN * scale
     while True:
@@ -219,7 +220,7 @@ def plan_windows(A, lo: float, hi: float, max_modes: int) -> tuple[np.ndarray, n
     on the number of ranks (a checkpointed spectrum resumes on any rank count).
 
     Cut points come from Sylvester inertias, refined until every cut is known to a quarter of a
-    window (:func:`_place`), so a steep vDOS cannot put several times the intended modes into one
+    window (:func:`place_cuts`), so a steep vDOS cannot put several times the intended modes into one
     window (it once did at the low end of an N = 32768 spectrum, and the run ran out of memory);
     then the inertia at every cut is computed, so each window's mode count is exact.
     Collective.  Returns (edges (W+1,), counts (W+1,) of eigenvalues below each edge, every
@@ -229,7 +230,7 @@ def plan_windows(A, lo: float, hi: float, max_modes: int) -> tuple[np.ndarray, n
     total = known[hi] - known[lo]
     windows = max(1, -(-total // max_modes))
     step = total / windows
-    cuts = _place(A, known, known[lo] + step * np.arange(1, windows), max(1.0, step / 4),
+    cuts = place_cuts(A, known, known[lo] + step * np.arange(1, windows), max(1.0, step / 4),
                   max(abs(hi), 1.0))
     edges = np.unique([lo, *cuts, hi])
     for x in edges:
@@ -248,15 +249,17 @@ def split_window(A, known: dict, lo: float, hi: float, parts: int) -> list[float
     if pieces == 1:
         return [lo, hi]
     step = (inside[hi] - inside[lo]) / pieces
-    cuts = _place(A, inside, inside[lo] + step * np.arange(1, pieces), max(1.0, step / 4),
+    cuts = place_cuts(A, inside, inside[lo] + step * np.arange(1, pieces), max(1.0, step / 4),
                   max(abs(hi), 1.0))
     known.update(inside)
     return [float(x) for x in np.unique([lo, *cuts, hi])]
 
 
-def _configure(eps, A, edges, tol):
+def configure_window(eps, A, edges, tol):
     """Slicing EPS on the interval (edges[0], edges[-1]], one partition per sub-interval, prefix
-    ``spectrum_``: defaults in code, then setFromOptions (options win). Collective.
+    ``spectrum_``: defaults in code, then setFromOptions (options win). Collective.  Public, so
+    that a benchmark times the very solver each window of :func:`solve` runs
+    (benchmarks/bench_ciss.py: Krylov-Schur against CISS).
 
     SLEPc factorises in an internal child EPS that copies only the ST type from ``eps``: the
     KSP/PC of ``eps``'s own ST are never used (setting MUMPS there left PETSc's Cholesky in
@@ -308,7 +311,7 @@ def _solve_window(A, edges, tol: float, vectors: bool, dof: int, dim: int) -> di
 
     comm = A.getComm()
     eps = SLEPc.EPS().create(comm)
-    _configure(eps, A, edges, tol)
+    configure_window(eps, A, edges, tol)
     eps.solve()
     nconv = eps.getConverged()
     lam, residual = np.empty(nconv), 0.0

@@ -9,31 +9,14 @@ interpreter, PETSc and MPI start-up) was half of ``make test``'s serial time."""
 import re
 
 import pytest
-from bad_inputs import CASES
-from conftest import COMM, PETSc, REPO, assert_all, run_cli
+from conftest import COMM, REPO, assert_all, run_cli
 
-from solver import __main__ as cli
-
-
-def materialise(tmp_path, case):
-    what, scene, words, message, maker = case
-    out = tmp_path / "never.h5"
-    file = tmp_path / "packing.h5"
-    if maker:
-        maker(file)
-    args = list(words)
-    if scene is not None:
-        path = tmp_path / "scene.yaml"
-        text = scene.replace("{file}", str(file)).replace("{out}", str(out))
-        path.write_text(text if text.startswith(("- ", "packing: {n: 64, phi: 0.9\n")) or not text.strip()
-                        else f"output: {out}\n" + text)
-        if not words or words[0].startswith("--"):  # options of 'run' (--set, --group-size, ...)
-            args = ["run", str(path)] + args
-    return args, out
+from solver import __main__ as cli, options
+from tools.bad_inputs import CASES, materialise
 
 
 def test_docs_table_is_the_catalogue():
-    """The manual's bad-input table (docs/bad_inputs.md, rendered by scripts/render_bad_inputs.py)
+    """The manual's bad-input table (docs/bad_inputs.md, rendered by tools/render_bad_inputs.py)
     holds exactly the catalogue's rows, in order, each showing a message that contains the row's
     expected fragment: a row added, renamed or reworded without re-rendering fails here."""
     text = (REPO / "docs" / "bad_inputs.md").read_text()
@@ -45,19 +28,6 @@ def test_docs_table_is_the_catalogue():
         assert case[3].replace("|", "/") in row[2], (case[0], row[2])
 
 
-def _restore_options(before: dict) -> None:
-    """Put PETSc's options database back as ``before`` (``getAll``): a row's options must not
-    reach the tests after it."""
-    database = PETSc.Options()
-    now = database.getAll()
-    for name in now:
-        if name not in before:
-            database.delValue(f"-{name}")
-    for name, value in before.items():
-        if now.get(name) != value:
-            database.setValue(f"-{name}", value)
-
-
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
 def test_bad_input(shared_tmp, case, capsys, monkeypatch):
     if COMM.rank == 0:
@@ -65,11 +35,11 @@ def test_bad_input(shared_tmp, case, capsys, monkeypatch):
     args, out = COMM.bcast((args, out) if COMM.rank == 0 else None, root=0)
     monkeypatch.chdir(shared_tmp)
     files = _tree(shared_tmp)
-    before = PETSc.Options().getAll()
+    before = options.snapshot()
     try:
         code = cli.main(args)
     finally:
-        _restore_options(before)
+        options.restore(before)  # a row's options must not reach the tests after it
     made = _tree(shared_tmp) - files
     err = capsys.readouterr()
     assert_all(code == 2, f"exit code {code}: {err.err}")

@@ -93,10 +93,9 @@ def test_standing_waves_on_a_polydisperse_lammps_packing_match_the_exact_referen
     """LAMMPS's polydisperse 3D packing (diameters 0.8-1.2, two densities) in its 5.5 x 4.6 x 4.05
     box, with its own masses (model.masses: density): the spectral path along x (waves.axes: [x],
     k = 2 pi / L_x) equals the exact modal solution to 1e-8, run by run.  The exact reference
-    reads D and M only through A's eigendecomposition (tests/conftest.py)."""
-    from conftest import dense_eigen, exact_z_fixed
-
+    reads D and M only through A's eigendecomposition (solver/references.py)."""
     from solver.model import operators
+    from solver.references import dense_eigen, exact_z_fixed
     from solver.waves import excitation
     from solver.waves.spectral import spectral
 

@@ -159,8 +159,8 @@ def test_a_packing_tiled_along_x_is_the_same_packing_in_a_rectangular_box(dim, s
     'box_length': the sides differ), and every eigenvalue of the original's dynamical matrix is
     one of the tiled one's (its Bloch k = 0 sector).  A minimum image or a fold that used one side
     for every axis breaks all of these."""
-    from conftest import dense_eigen
     from solver.model import dynmat
+    from solver.references import dense_eigen
 
     p = small_packing if dim == 2 else jammed_packing(64, 0.7, 3, dim=3)
     shift = np.zeros(dim)

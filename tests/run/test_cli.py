@@ -300,7 +300,7 @@ def test_help_is_plain_text_and_shows_every_command():
     assert proc.returncode == 0, proc.stderr
     assert "``" not in proc.stdout, proc.stdout  # no reStructuredText markup
     for usage in ("rotsound run SCENE.yaml", "rotsound plot RESULTS.h5", "rotsound report RESULTS.h5",
-                  "rotsound keys", "rotsound --version"):
+                  "rotsound export RESULTS.h5", "rotsound render EXPORT.vtp", "rotsound keys", "rotsound --version"):
         assert usage in proc.stdout, (usage, proc.stdout)
 
 

@@ -1,21 +1,17 @@
-"""Damped standing waves integrated by LAMMPS itself (scripts/crosscheck_damped.py: ``gran/hooke/history``
+"""Damped standing waves integrated by LAMMPS itself (crosschecks/crosscheck_damped.py: ``gran/hooke/history``
 with gamma_n and gamma_t, dampflag 1) converge to rotsound's exact damped C(k, t), exp(tJ) of
 J = [[0, I], [-M^-1 D, -M^-1 C]], and miss the undamped one by far (issue 29, item 6; the script
 measures every mode and law, BENCHMARKS.md "crosscheck_damped").  LAMMPS runs on the test's
 communicator (one LAMMPS on both ranks under mpirun -n 2)."""
 
-import sys
-
 import numpy as np
-from conftest import REPO, assert_all, jammed_packing
+from conftest import assert_all, jammed_packing
 
+from crosschecks import harness  # the LAMMPS runner
 from solver.contact_law import ContactModel
 from solver.model import damping, dynmat
+from solver.references import first_order_flow
 from solver.waves import excitation
-
-sys.path.append(str(REPO / "scripts"))  # the scripts hold the LAMMPS runner and the dense reference
-import crosscheck_lammps  # noqa: E402
-import crosscheck_stressed  # noqa: E402
 
 AMPLITUDE, T_END, SAMPLE = 1e-6, 10.0, 0.1
 
@@ -37,17 +33,17 @@ def test_lammps_damped_waves_converge_to_the_damped_matrix(lammps_present, comm)
     count = int(round(T_END / SAMPLE)) + 1
 
     def pooled(velocities):
-        return crosscheck_lammps.pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
-                                          SAMPLE)
+        return harness.pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
+                                SAMPLE)
 
     starts = [excitation.whole_start(dm, p.positions, c, a, k, AMPLITUDE, mpi) for c, a in runs]
-    exact = pooled([crosscheck_stressed.exact_velocities(dm, s, SAMPLE, count) for s in starts])
-    undamped = pooled([crosscheck_stressed.exact_velocities(plain, s, SAMPLE, count) for s in starts])
+    exact = pooled([first_order_flow(dm, s, SAMPLE, count)[:, 1] for s in starts])
+    undamped = pooled([first_order_flow(plain, s, SAMPLE, count)[:, 1] for s in starts])
     errors, misses = [], []
     for dt in (0.002, 0.001):
-        lmp = crosscheck_lammps.pooled_c([crosscheck_lammps.lammps_z(p, dm, "harmonic", run, k, AMPLITUDE, dt,
-                                                                     int(round(T_END / dt)), int(round(SAMPLE / dt)),
-                                                                     mpi, hold=True) for run in runs], SAMPLE)
+        lmp = harness.pooled_c([harness.lammps_z(p, dm, "harmonic", run, k, AMPLITUDE, dt,
+                                                 int(round(T_END / dt)), int(round(SAMPLE / dt)),
+                                                 mpi, hold=True) for run in runs], SAMPLE)
         errors.append(np.abs(lmp - exact).max())
         misses.append(np.abs(lmp - undamped).max())
     dm.destroy()

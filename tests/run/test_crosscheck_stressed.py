@@ -1,23 +1,20 @@
 """A stressed frictional packing made by LAMMPS, and standing waves about it integrated by LAMMPS
-itself (scripts/crosscheck_stressed.py), against rotsound's stressed matrix: LAMMPS's C(k, t)
+itself (crosschecks/crosscheck_stressed.py), against rotsound's stressed matrix: LAMMPS's C(k, t)
 converges to the exact C of the stressed D at its time-step order, and misses the unstressed D's
 by far more; rotsound's own integrators on the stressed D agree with the exact solution.  The
 full table (2D and 3D, both laws, every mode) is in BENCHMARKS.md, "crosscheck"."""
 
 import dataclasses
-import sys
 
 import numpy as np
 import pytest
-from conftest import REPO, assert_all, assert_close
+from conftest import assert_all, assert_close
 
+from crosschecks import crosscheck_stressed, harness
 from solver.contact_law import ContactModel
 from solver.model import dynmat
+from solver.references import first_order_flow
 from solver.waves import excitation
-
-sys.path.append(str(REPO / "scripts"))  # appended: shadows nothing
-import crosscheck_lammps  # noqa: E402
-import crosscheck_stressed  # noqa: E402
 
 pytestmark = pytest.mark.serial_only  # LAMMPS runs in fresh processes (crosscheck_stressed.fresh)
 
@@ -33,8 +30,8 @@ def made(lammps_present, tmp_path_factory):
 
 
 def pooled(velocities, runs, k, x):
-    return crosscheck_lammps.pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
-                                      SAMPLE)
+    return harness.pooled_c([v[:, :, c] @ np.exp(-1j * k * x[:, a]) for v, (c, a) in zip(velocities, runs)],
+                            SAMPLE)
 
 
 def tr_waves(p, dm, comm):
@@ -44,7 +41,7 @@ def tr_waves(p, dm, comm):
     runs = excitation.runs("TR", 2)
     starts = [excitation.whole_start(dm, p.positions, c, a, k, AMPLITUDE, comm.tompi4py()) for c, a in runs]
     count = int(round(T_END / SAMPLE)) + 1
-    exact = pooled([crosscheck_stressed.exact_velocities(dm, s, SAMPLE, count) for s in starts], runs, k, p.positions)
+    exact = pooled([first_order_flow(dm, s, SAMPLE, count)[:, 1] for s in starts], runs, k, p.positions)
     return k, runs, starts, exact
 
 
@@ -74,7 +71,7 @@ def test_lammps_waves_converge_to_the_stressed_matrix(made, comm):
     k, runs, starts, exact = tr_waves(p, dm, comm)
     x = p.positions
     count = int(round(T_END / SAMPLE)) + 1
-    unstressed = pooled([crosscheck_stressed.exact_velocities(plain, s, SAMPLE, count) for s in starts], runs, k, x)
+    unstressed = pooled([first_order_flow(plain, s, SAMPLE, count)[:, 1] for s in starts], runs, k, x)
     errors, misses = [], []
     for dt in (0.004, 0.002):
         every, steps = int(round(SAMPLE / dt)), int(round(T_END / dt))

@@ -1,13 +1,9 @@
-"""scripts/frictional_scaling.py's plateau onset omega*, on vDOS whose onset is known."""
-
-import sys
+"""tools/frictional_scaling.py's plateau onset omega*, on vDOS whose onset is known."""
 
 import numpy as np
 import pytest
-from conftest import REPO
 
-sys.path.append(str(REPO / "scripts"))  # appended: shadows nothing
-import frictional_scaling  # noqa: E402
+from tools import frictional_scaling
 
 pytestmark = pytest.mark.serial_only  # plain numpy
 

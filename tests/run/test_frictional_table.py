@@ -1,15 +1,11 @@
-"""scripts/frictional_table.py's cells, on a results file whose answers are known."""
-
-import sys
+"""tools/frictional_table.py's cells, on a results file whose answers are known."""
 
 import h5py
 import numpy as np
 import pytest
 import yaml
-from conftest import REPO
 
-sys.path.append(str(REPO / "scripts"))  # appended: shadows nothing
-import frictional_table  # noqa: E402
+from tools import frictional_table
 
 pytestmark = pytest.mark.serial_only  # h5py and numpy only
 

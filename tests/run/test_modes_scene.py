@@ -5,12 +5,13 @@ pictures are drawn, and the notebook reader gives the same arrays; 1 and 2 ranks
 import os
 
 import numpy as np
-from conftest import COMM, assert_all, assert_close, dense_eigen, jammed_packing, scene_of
+from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
 
 from solver import pipeline
 from solver.contact_law import ContactModel
 from solver.io import results
 from solver.model import dynmat
+from solver.references import dense_eigen
 
 
 def test_mode_shapes_scene_writes_reads_resumes_and_draws(comm, shared_tmp):

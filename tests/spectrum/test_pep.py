@@ -231,10 +231,12 @@ def test_backward_error_is_that_of_the_accepted_modes(comm, monkeypatch):
     """A disk's Ritz pairs outside its column's omega range are left to other columns (or, beyond
     the box, to none); their vectors need not be converged.  The reported backward error is the
     accepted modes' only: here every disk also returns a spurious pair far above the box with
-    backward error 1, which must neither be accepted nor reported (it was, as 0.99 at N = 1024)."""
-    real = quadratic_windows._solve_disk
+    backward error 1, which must neither be accepted nor reported (it was, as 0.99 at N = 1024).
+    ``checks["shifts"]`` counts the disks solved."""
+    real, calls = quadratic_windows._solve_disk, []
 
     def with_spurious(*args, **kwargs):
+        calls.append(1)
         found = real(*args, **kwargs)
         far = 10.0 * (1.0 + float(np.abs(found["lambda"]).max()))
         found["lambda"] = np.append(found["lambda"], [-0.1 + 1j * far, -0.1 - 1j * far])
@@ -250,3 +252,4 @@ def test_backward_error_is_that_of_the_accepted_modes(comm, monkeypatch):
     dm.destroy()
     _assert_same_spectrum(windows, dense, 1e-8, "windows with spurious far pairs vs dense")
     assert_all(windows.checks["max_residual"] < 1e-9, f"backward error {windows.checks['max_residual']:.1e}")
+    assert_all(windows.checks["shifts"] == len(calls) > 0, f"{windows.checks['shifts']} shifts, {len(calls)} disks")

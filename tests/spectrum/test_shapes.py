@@ -4,11 +4,12 @@ sign convention, K/Q; 2D with equal and unequal masses, 3D with rolling and twis
 
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close, dense_eigen, jammed_packing
+from conftest import assert_all, assert_close, jammed_packing
 
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.spectrum import modes, shapes
+from solver.references import dense_eigen
 
 
 def _nearest(lam, target, count):

@@ -120,7 +120,7 @@ def test_shift_and_invert_factorises_with_mumps_unless_told(comm, packing96, sha
     eps = SLEPc.EPS().create(comm)
     path = str(shared_tmp / f"eps_{option}.txt")
     try:
-        slicing._configure(eps, A, [1.0, 4.0], 1e-10)
+        slicing.configure_window(eps, A, [1.0, 4.0], 1e-10)
         eps.solve()
         settings = eps_settings(eps)
         viewer = PETSc.Viewer().createASCII(path, comm=comm)

@@ -7,11 +7,12 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close, dense_first_order_flow, jammed_packing
+from conftest import assert_all, assert_close, jammed_packing
 
 from solver.contact_law import ContactModel
 from solver.model import damping, dynmat
 from solver.waves import chebyshev, excitation
+from solver.references import first_order_flow
 
 AMPLITUDE = 1e-3
 TIMES = np.arange(0.0, 20.0 + 1e-9, 0.1)
@@ -35,7 +36,8 @@ def test_damped_spectral_equals_dense_expm(comm, dim, mode, gammas):
     k = 2 * np.pi / float(p.box[axis])
     series = chebyshev.damped_spectral(dm, p.positions, mode, 0, k, amplitude=AMPLITUDE, times=TIMES, tol=1e-10)
     start = excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE, comm.tompi4py())
-    flow = dense_first_order_flow(dm, start, comm, TIMES)
+    whole = np.concatenate(comm.tompi4py().allgather(start))  # every rank's part, the matrix's order
+    flow = first_order_flow(dm, whole, TIMES[1] - TIMES[0], len(TIMES), order="matrix")
     d = dynmat.gather_csr(dm.D).toarray()
     mass = dynmat.gather_vec(dm.M)
     dm.destroy()
@@ -62,7 +64,8 @@ def test_the_bound_follows_tol_and_holds(comm):
     component, axis = excitation.runs("L", 2)[0]
     k = 2 * np.pi * 2 / float(p.box[axis])
     start = excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE, comm.tompi4py())
-    flow = dense_first_order_flow(dm, start, comm, TIMES)
+    whole = np.concatenate(comm.tompi4py().allgather(start))  # every rank's part, the matrix's order
+    flow = first_order_flow(dm, whole, TIMES[1] - TIMES[0], len(TIMES), order="matrix")
     r0 = p.positions[~p.rattler]
     z_exact = flow[:, 1, :, component] @ np.exp(-1j * k * r0[:, axis])
     mass = dynmat.gather_vec(dm.M).reshape(-1, dm.dof)[:, component]

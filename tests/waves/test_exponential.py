@@ -6,13 +6,13 @@ and a wrong scale refused; on 1 and 2 ranks."""
 
 import numpy as np
 import pytest
-from conftest import (assert_all, assert_close, dense_eigen, dense_first_order_flow, exact_z_fixed, jammed_packing,
-                      with_random_stored_forces)
+from conftest import assert_all, assert_close, jammed_packing, with_random_stored_forces
 
 from solver.contact_law import ContactModel
 from solver.errors import InputError
 from solver.model import dynmat
 from solver.waves import excitation, exponential
+from solver.references import dense_eigen, exact_z_fixed, first_order_flow
 
 AMPLITUDE = 1e-3
 TIMES = np.arange(0.0, 20.0 + 1e-9, 0.1)
@@ -24,7 +24,7 @@ def _packing(dim):
 
 @pytest.mark.parametrize("dim, mode", [(2, "L"), (2, "TR"), (2, "RT"), (3, "TR"), (3, "R")])
 def test_exponential_equals_the_eigendecomposition(comm, dim, mode):
-    """Symmetric D: z_fixed(t) = sum_j w_j cos(omega_j t) (conftest.exact_z_fixed, its own zero-mode
+    """Symmetric D: z_fixed(t) = sum_j w_j cos(omega_j t) (references.exact_z_fixed, its own zero-mode
     projection) to 1e-12 |z(0)| (measured 4e-15 to 9e-15; the reported estimate, S x the MFN
     tolerance, is 1e-8: a bound, not a measurement); energy conserved to 1e-12 (measured 5e-15)."""
     p = _packing(dim)
@@ -55,7 +55,8 @@ def test_exponential_on_a_stressed_matrix_equals_dense_expm(comm, dim):
     (series,) = exponential.exponential_all(dm, p.positions, [(mode, run, k)], amplitude=AMPLITUDE, times=TIMES,
                                             tol=1e-8)
     start = excitation.start_velocity(dm, p.positions, component, axis, k, AMPLITUDE, mpi)
-    flow = dense_first_order_flow(dm, start, comm, TIMES)
+    whole = np.concatenate(comm.tompi4py().allgather(start))  # every rank's part, the matrix's order
+    flow = first_order_flow(dm, whole, TIMES[1] - TIMES[0], len(TIMES), order="matrix")
     dm.destroy()
     assert_all(np.abs(d - d.T).max() > 1e-2 * np.abs(d).max(), "the premise: D is far from symmetric")
     r0 = p.positions[~p.rattler]

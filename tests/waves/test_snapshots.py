@@ -7,13 +7,14 @@ import os
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, dense_eigen, jammed_packing, scene_of
+from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
 
 from solver import pipeline
 from solver.contact_law import ContactModel
 from solver.io import results, unit_keys
 from solver.model import dynmat
 from solver.waves import excitation, spectral
+from solver.references import dense_eigen
 
 TIMES = np.array([0.0, 3.0, 17.5, 40.0])
 

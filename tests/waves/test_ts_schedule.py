@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 import yaml
-from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, run_cli, schedule
+from conftest import COMM, assert_all, assert_close, run_cli, schedule
 
 from solver.contact_law import ContactModel
 from solver import options
@@ -21,6 +21,7 @@ from solver.waves import excitation
 from solver.waves import integrators
 from solver.io.schema import WavesSpec
 from solver.waves.schedule import check_schedule, plan, stability_limit
+from solver.references import dense_eigen, exact_z_fixed
 
 
 @contextlib.contextmanager
@@ -186,7 +187,7 @@ def test_blow_up_in_flight_ends_with_one_error_line_and_exit_code_3(tmp_path):
                                                     ("beuler", 1, (0.04, 0.02, 0.01)),
                                                     ("ssp", 2, (0.08, 0.04, 0.02))])
 def test_theta_beuler_ssp_converge_at_their_order(comm, packing64, integrator, order, dts):
-    """Against the exact modal solution (test_waves.exact_z_fixed): each halving of dt divides the
+    """Against the exact modal solution (references.exact_z_fixed): each halving of dt divides the
     error by 2^order to within 0.1 in the observed order (measured: theta 2.00, 2.00; beuler 0.97,
     0.99; ssp 2.00, 2.00)."""
     dm = dynmat.assemble(packing64, ContactModel(1.0), comm)

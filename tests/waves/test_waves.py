@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, schedule
+from conftest import COMM, assert_all, assert_close, schedule
 from mpi4py import MPI
 
 from solver.contact_law import ContactModel
@@ -13,6 +13,7 @@ from solver.waves import excitation
 from solver.waves import integrators
 from solver.waves.schedule import stability_limit
 from solver.waves.spectral import spectral
+from solver.references import dense_eigen, exact_z_fixed
 
 
 def run(dm, p, mode, k, dt, integrator="verlet", t_end=20.0, every=None, amplitude=1e-3, direction=0):

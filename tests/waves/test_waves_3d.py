@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, dense_eigen, exact_z_fixed, jammed_packing, schedule
+from conftest import COMM, assert_all, assert_close, jammed_packing, schedule
 from mpi4py import MPI
 
 from solver.contact_law import ContactModel
@@ -20,6 +20,7 @@ from solver.waves import integrators
 from solver.waves.spectral import spectral
 from solver.waves.schedule import plan
 from solver.waves.unit import mode_unit
+from solver.references import dense_eigen, exact_z_fixed
 
 AMPLITUDE = 1e-3
 MODES = ["L", "TR", "RT", "R"]

@@ -1,0 +1,163 @@
+"""Dense references: the exact answers that the tests, the cross-checks (crosschecks/) and the
+benchmarks (benchmarks/) hold rotsound's solvers against, in one place.
+
+Each is computed densely from the gathered matrix (scipy.linalg: ``eigh`` of
+A = M^-1/2 D M^-1/2, ``expm`` of the first-order matrix), so a few thousand DOF at most (N^2
+memory, N^3 time), and independently of the solvers it checks: this module imports the matrix
+(``model``) and nothing of ``spectrum`` or ``waves`` (its layer in tests/run/test_imports.py sits
+right above ``model``).  Arrays are over the non-rattlers in the packing's order
+(``dynmat.in_packing_order``) unless a function says otherwise.  The functions that gather are
+collective and give the same result on every rank.
+
+- :func:`dense_eigen`: the full eigendecomposition of A;
+- :func:`modal_weights`, :func:`exact_z_fixed`: one standing-wave run's z(t), exactly, as a sum
+  of cosines over A's modes (PHYSICS.md section 4);
+- :func:`verlet_eigen`: velocity Verlet's own frequencies, so that :func:`exact_z_fixed` gives
+  Verlet's z at the steps exactly;
+- :func:`first_order_flow`: displacements and velocities of M u'' = -D u - C u' from u = 0,
+  v = v(0), by exp(tJ) (any D: stressed, non-symmetric; with or without dashpots C);
+- :func:`l_wave_start`, :func:`exact_l_wave`: the benchmarks' L wave and its exact z(t).
+
+Units: d0 = m = kn = 1, t0 = 1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .model import dynmat
+from .model.operators import scaled_operator
+
+
+def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:
+    """(lam, vec): the full eigendecomposition of A = M^-1/2 D M^-1/2 of ``dm`` (a symmetric
+    :class:`~solver.model.dynmat.DynamicalMatrix`), dense on every rank, with its rows in the
+    packing's order of the non-rattlers (``dynmat.in_packing_order``). Collective."""
+    import scipy.linalg as sl
+
+    A = scaled_operator(dm)
+    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(A).toarray())  # rows as the packing lists them
+    A.destroy()
+    return sl.eigh(dense)
+
+
+def _weights(vec: np.ndarray, mass: np.ndarray, start: np.ndarray, phase: np.ndarray,
+             drop: np.ndarray | None = None) -> np.ndarray:
+    """w (n,): z(t) = sum_j w_j cos(omega_j t) of the start velocity ``start`` projected on
+    ``phase`` (both (N', dof), packing order), from A's eigenvectors ``vec`` and the masses
+    ``mass`` (n,); the modes ``drop`` (a mask) carry no part of the start."""
+    a = vec.T @ (np.sqrt(mass) * start.ravel())
+    if drop is not None:
+        a[drop] = 0.0
+    return ((phase.ravel() / np.sqrt(mass)) @ vec) * a
+
+
+def modal_weights(p, dm, eig, run, k, amplitude) -> tuple[np.ndarray, np.ndarray]:
+    """(omega (n,), w (n,)): one standing-wave run's z(t) (r_i(0) in the phase) is exactly
+    sum_j w_j cos(omega_j t), from the full eigendecomposition ``eig`` = :func:`dense_eigen`
+    (PHYSICS.md section 4), 2D or 3D.  ``run`` = (component, axis): the start is the raw amplitude
+    sin(k r_a) in the component with its part in A's whole null space removed -- found from the
+    eigenvalues (|lam| < 1e-10 max lam), not from ``dm.rigid_modes()``, and in A's
+    (mass-weighted) metric, so the reference does not share the code's projection; RuntimeError
+    (on every rank: the data are the same everywhere) when the two disagree on the number of zero
+    modes.  Collective (gathers M)."""
+    lam, vec = eig
+    zero = np.abs(lam) < 1e-10 * lam.max()
+    if zero.sum() != len(dm.rigid_modes()):
+        raise RuntimeError(f"{zero.sum()} zero modes, rigid modes {dm.rigid_modes()}")
+    omega = np.sqrt(np.where(zero, 0.0, lam))
+    mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M))
+    component, axis = run
+    r0 = p.positions[~p.rattler]
+    v0 = np.zeros((len(r0), dm.dof))
+    v0[:, component] = amplitude * np.sin(k * r0[:, axis])
+    b = np.zeros((len(r0), dm.dof), complex)
+    b[:, component] = np.exp(-1j * k * r0[:, axis])
+    return omega, _weights(vec, mass, v0, b, zero)
+
+
+def exact_z_fixed(p, dm, eig, run, k, t, amplitude) -> np.ndarray:
+    """The exact z(t) (S,) of one standing-wave run (component, axis) at times ``t`` (S,)
+    (:func:`modal_weights`). Collective."""
+    omega, w = modal_weights(p, dm, eig, run, k, amplitude)
+    return w @ np.cos(np.outer(omega, t))
+
+
+def verlet_eigen(eig, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """``eig`` = (lam, vec) with each frequency replaced by velocity Verlet's, 2/dt arcsin(omega dt/2):
+    Verlet's velocities at the steps of a linear system are exactly v(0) cos(omega~ t) per mode
+    (u_n = B sin(omega~ n dt) solves the 3-term recurrence with cos(omega~ dt) = 1 - (omega dt)^2/2,
+    and v_n = (u_{n+1} - u_{n-1}) / 2 dt), so :func:`exact_z_fixed` with these gives Verlet's z at
+    the sample times.  Exact zero modes (|lam| < 1e-10 max lam, as :func:`modal_weights`) become 0.
+    ValueError above Verlet's stability limit.  Not collective."""
+    lam, vec = eig
+    zero = np.abs(lam) < 1e-10 * lam.max()
+    omega = np.sqrt(np.where(zero, 0.0, lam))
+    if omega.max() * dt >= 2.0:
+        raise ValueError(f"dt = {dt} is above Verlet's stability limit 2/omega_max = {2 / omega.max():.4f}")
+    return np.where(zero, 0.0, (2.0 / dt * np.arcsin(0.5 * omega * dt)) ** 2), vec
+
+
+def first_order_flow(dm, start: np.ndarray, sample: float, count: int, offset: float = 0.0,
+                     order: str = "packing") -> np.ndarray:
+    """X (count, 2, N', dof): displacements X[:, 0] and velocities X[:, 1] at t = offset,
+    offset + sample, ... of M u'' = -D u - C u' from u = 0, v = ``start`` at t = 0:
+    X(t) = exp(t J) X(0), J = [[0, I], [-M^-1 D, -M^-1 C]], dense (C = ``dm.C``, the dashpots,
+    if any; D as assembled, symmetric or not), J built here from the gathered D, C and M (not by
+    ``model.operators.first_order_matrix``, which the exact wave paths use).  Exact to round-off
+    whatever D's symmetry.
+    ``start`` is over the non-rattlers, (N', dof) or flat, in the packing's order (``order``
+    "packing", as ``excitation.whole_start`` gives it) or in the matrix's (``order`` "matrix",
+    as the gathered Vec of a solver's start is); the result is in the same order.  Collective
+    (gathers D, C and M)."""
+    import scipy.linalg as sl
+
+    if order not in ("packing", "matrix"):
+        raise ValueError(f"order {order!r}: packing or matrix")
+
+    def ordered(whole):
+        return dynmat.in_packing_order(dm, whole) if order == "packing" else whole
+
+    d = ordered(dynmat.gather_csr(dm.D).toarray())
+    m = ordered(dynmat.gather_vec(dm.M))
+    size = d.shape[0]
+    j = np.zeros((2 * size, 2 * size))
+    j[:size, size:] = np.eye(size)
+    j[size:, :size] = -d / m[:, None]
+    if dm.C is not None:
+        j[size:, size:] = -ordered(dynmat.gather_csr(dm.C).toarray()) / m[:, None]
+    step = sl.expm(sample * j)
+    x = np.concatenate((np.zeros(size), np.ravel(start)))
+    if offset:
+        x = sl.expm(offset * j) @ x
+    out = []
+    for _ in range(count):
+        out.append(x.reshape(2, -1, dm.dof))
+        x = step @ x
+    return np.array(out)
+
+
+def l_wave_start(p, k: float, amplitude: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+    """(r0 (N', D), v0 (N', 3)): the benchmarks' L wave on the non-rattlers of the 2D packing
+    ``p`` (benchmarks/bench_waves.py, bench_spectral.py): v_x = ``amplitude`` sin(k x), its plain
+    mean removed (the uniform translation), v_y = w_z = 0.  Not collective."""
+    r0 = p.positions[~p.rattler]
+    v0 = np.zeros((len(r0), 3))
+    v0[:, 0] = amplitude * np.sin(k * r0[:, 0])
+    v0[:, 0] -= v0[:, 0].mean()
+    return r0, v0
+
+
+def exact_l_wave(p, dm, k: float, times: np.ndarray) -> np.ndarray:
+    """z(t) (S,) of :func:`l_wave_start` (x velocities projected on exp(-i k x)) at ``times``, from
+    the full eigendecomposition of ``dm`` (the 2D matrix of ``p`` with rotations).  Unlike
+    :func:`exact_z_fixed` the start is not projected off the zero modes: its mass-weighted rigid
+    part (the plain mean is removed, not the mass-weighted one) stays, as a constant.
+    Collective."""
+    lam, vec = dense_eigen(dm)
+    omega = np.sqrt(np.clip(lam, 0, None))
+    mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M))
+    r0, v0 = l_wave_start(p, k)
+    b = np.zeros((len(r0), 3), complex)
+    b[:, 0] = np.exp(-1j * k * r0[:, 0])
+    return _weights(vec, mass, v0, b) @ np.cos(np.outer(omega, times))
