@@ -22,8 +22,11 @@ demo: setup
 test: setup
 	@$(MAKE) --no-print-directory test-serial test-mpi
 
+# The serial pass on WORKERS processes (pytest-xdist; a module's tests stay on one worker, so its
+# fixtures are made once); the MPI pass uses both cores through its ranks.
+WORKERS ?= 2
 test-serial:
-	timeout 1200 $(PY) $(PYTEST) tests
+	timeout 1200 $(PY) $(PYTEST) -n $(WORKERS) --dist loadscope tests
 
 test-mpi:
 	timeout 1200 $(MPIRUN) $(PY) $(PYTEST) -m "not serial_only" tests
