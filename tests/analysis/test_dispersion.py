@@ -8,6 +8,8 @@ from scipy import optimize
 from solver.analysis import fits
 from solver.analysis import lattice
 
+pytestmark = pytest.mark.serial_only  # fits on arrays, no communicator: nothing to gain from a second rank
+
 L_PAPER, A_R, A_T = 0.446, 0.73, 0.55
 
 

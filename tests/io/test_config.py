@@ -9,6 +9,8 @@ from solver.packing.rules import stored_forces_source
 from solver import options
 from solver.errors import InputError
 
+pytestmark = pytest.mark.serial_only  # validation alone, no communicator (the catalogue's rows run on 2 ranks)
+
 GOOD = {"output": "out.h5", "seed": 3, "packing": {"n": 64, "phi": 0.9, "count": 2},
         "model": {"rho": [0, 0.5]}, "petsc": {"eps": {"tol": 1e-9}}}
 

@@ -13,6 +13,8 @@ from conftest import REPO, assert_close
 from solver.errors import InputError
 from solver.io import dem_formats
 
+pytestmark = pytest.mark.serial_only  # file reading, no communicator: nothing to gain from a second rank
+
 DATA = REPO / "tests" / "data" / "dem"
 
 

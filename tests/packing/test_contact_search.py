@@ -7,6 +7,8 @@ from conftest import all_pairs, assert_close, jammed_packing
 
 from solver.packing import geometry
 
+pytestmark = pytest.mark.serial_only  # one rank's share, computed and checked in one process
+
 
 def brute_force(p, owned, active):
     """(i, j) of every overlapping pair i < j of active particles with an end in ``owned``, sorted

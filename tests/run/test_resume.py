@@ -21,7 +21,7 @@ seed: 5
 packing: {{n: 64, phi: 0.9, count: 2}}
 model: {{rho: [0.5, 1.0]}}
 spectrum: {{energies: true}}
-waves: {{n: [1, 2], t_end: 150, dt: 0.02}}
+waves: {{n: [1, 2], t_end: 60, dt: 0.02}}  # about 6 s of waves after the third unit: the kill lands in them
 """
 TIMING = {"seconds", "assembly_seconds"}
 
