@@ -126,6 +126,22 @@ def test_diffusivity_scales_as_size_squared_and_ignores_a_shift(comm, case):
     assert_close(d_s, s**2 * d, rtol=1e-8, atol=1e-12 * d.max() * s**2, what=f"{name}: d scales as s^2")
 
 
+@pytest.mark.mpi
+def test_two_ranks_equal_one(comm, case):
+    """The 2-rank result equals each rank's own 1-rank result (COMM_SELF) to round-off (1e-10)."""
+    from conftest import PETSc
+
+    name, p, dm = case
+    omega, d = af.allen_feldman(dm, p.positions, p.box, ETA, comm, zero_tol=ZERO_TOL, block=40)
+    alone = dynmat.assemble(p, dm.model, PETSc.COMM_SELF)
+    try:
+        omega_1, d_1 = af.allen_feldman(alone, p.positions, p.box, ETA, PETSc.COMM_SELF, zero_tol=ZERO_TOL, block=40)
+    finally:
+        alone.destroy()
+    assert_close(omega, omega_1, rtol=1e-13, what=f"{name} omega, 2 ranks vs 1")
+    assert_close(d, d_1, rtol=1e-10, atol=1e-14 * d_1.max(), what=f"{name} d, 2 ranks vs 1")
+
+
 def test_eta_must_be_positive_and_finite(comm, case):
     _, p, dm = case
     for eta in (0.0, -0.1, math.nan, math.inf):
@@ -133,18 +149,21 @@ def test_eta_must_be_positive_and_finite(comm, case):
             af.allen_feldman(dm, p.positions, p.box, eta, comm)
 
 
-def _bloch_diffusivity(rho: float, eta: float, h: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+def _bloch_diffusivity(rho: float, eta: float, h: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
     """(omega, d) of every non-zero Bloch mode of the crystal of tests/lattices.py: X^a is diagonal
     in k, and between the branches s, s' at one k its element is |u_s'^H dB/dk_a u_s| (Bloch
     matrix B(k) = sum_delta A(delta) exp(i k.delta), so sum_delta (-delta_a) A(delta) exp(i k.delta)
     = i dB/dk_a; Hellmann-Feynman on the diagonal: 2 omega v_a, the group velocity).  The diagonal
-    term s' = s is the -k partner of a real mode.  dB/dk by central differences (error ~h^2)."""
+    term s' = s is the -k partner of a real mode.  dB/dk by five-point central differences
+    (truncation ~h^4 ~ 1e-12, round-off ~1e-16 / h)."""
     omegas, ds = [], []
     for p_ in range(N_X):
         for q in range(N_Y):
             k = 2 * np.pi * np.array([p_, q]) / L
             lam, u = np.linalg.eigh(bloch_matrix(k, rho))
-            grads = [(bloch_matrix(k + h * e, rho) - bloch_matrix(k - h * e, rho)) / (2 * h) for e in np.eye(2)]
+            grads = [(8 * (bloch_matrix(k + h * e, rho) - bloch_matrix(k - h * e, rho))
+                      - (bloch_matrix(k + 2 * h * e, rho) - bloch_matrix(k - 2 * h * e, rho))) / (12 * h)
+                     for e in np.eye(2)]
             square = sum(np.abs(u.conj().T @ g @ u) ** 2 for g in grads)  # (s', s)
             live = lam > ZERO_TOL**2
             w = np.sqrt(lam[live])
