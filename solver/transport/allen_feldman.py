@@ -143,7 +143,8 @@ def _window_vectors(A, eps, vec, image) -> tuple[np.ndarray, np.ndarray]:
 
 def _clear_start(A, lam_zero: float, hi: float, zero: int) -> float:
     """A shift s with the count of ``lam_zero`` (``zero`` eigenvalues below it) and lambda_1 / 4 <= s
-    <= lambda_1 / 2 (lambda_1 the first eigenvalue above ``lam_zero``, below ``hi``), by bisection
+    < lambda_1 / 2 (lambda_1 the first eigenvalue above ``lam_zero``, below ``hi``; s = ``lam_zero``
+    itself when lambda_1 < 2 ``lam_zero``), by bisection
     in log(s) on Sylvester inertias (about log2 log2(hi / lam_zero) factorisations).  Slicing from
     lam_zero itself factorises A - lam_zero I beside the zero modes (relative distance ~1e-10):
     the vectors of the first sub-interval then had residuals of 1e-8 on 2 ranks (1e-13 from this
