@@ -16,7 +16,10 @@ collective and give the same result on every rank.
   Verlet's z at the steps exactly;
 - :func:`first_order_flow`: displacements and velocities of M u'' = -D u - C u' from u = 0,
   v = v(0), by exp(tJ) (any D: stressed, non-symmetric; with or without dashpots C);
-- :func:`l_wave_start`, :func:`exact_l_wave`: the benchmarks' L wave and its exact z(t).
+- :func:`l_wave_start`, :func:`exact_l_wave`: the benchmarks' L wave and its exact z(t);
+- :func:`allen_feldman_dense`: every mode's Allen-Feldman diffusivity, the definition of
+  docs/diffusivity.md evaluated literally (X^a built densely from the positions, the double sum
+  over all pairs of modes), the reference of ``solver.transport.allen_feldman``.
 
 Units: d0 = m = kn = 1, t0 = 1.
 """
@@ -161,3 +164,37 @@ def exact_l_wave(p, dm, k: float, times: np.ndarray) -> np.ndarray:
     b = np.zeros((len(r0), 3), complex)
     b[:, 0] = np.exp(-1j * k * r0[:, 0])
     return _weights(vec, mass, v0, b) @ np.cos(np.outer(omega, times))
+
+
+def allen_feldman_dense(dm, positions: np.ndarray, box: np.ndarray, eta: float, zero_tol: float = 1e-4
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """(omega (M,) ascending in 1/t0, d (M,) in d0^2/t0): the Allen-Feldman diffusivity of every
+    mode of ``dm`` (symmetric) with omega^2 > ``zero_tol``^2 (the spectrum's rule for zero modes),
+    by the definition (docs/diffusivity.md): A = M^-1/2 D M^-1/2 gathered dense in the packing's
+    order, ``eigh``; X^a = A times (r_i - r_j)_a per particle block, from ``positions`` (N, D,
+    every particle in packing order) and the minimum image in ``box`` (D,), built here densely;
+    Y^a = V^T X^a V; d_n = pi / (4 D omega_n^2) sum_{m != n} sum_a |Y^a_nm|^2 (omega_n + omega_m)^2
+    / (4 omega_n omega_m) (eta / pi) / ((omega_n - omega_m)^2 + eta^2).  n^2 memory, n^3 time.
+    Collective (gathers A)."""
+    import scipy.linalg as sl
+
+    A = scaled_operator(dm)
+    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(A).toarray())
+    A.destroy()
+    lam, vec = sl.eigh(dense)
+    keep = lam > zero_tol**2
+    omega, vec = np.sqrt(lam[keep]), vec[:, keep]
+    r = np.asarray(positions, dtype=float)[dm.active]  # the non-rattlers, in packing order
+    sides = np.asarray(box, dtype=float)
+    delta = r[:, None, :] - r[None, :, :]
+    delta -= sides * np.round(delta / sides)  # nearest image of each pair of centres
+    dim = r.shape[1]
+    square = np.zeros((omega.size, omega.size))
+    for a in range(dim):
+        x = dense * np.kron(delta[:, :, a], np.ones((dm.dof, dm.dof)))
+        y = vec.T @ x @ vec
+        square += y**2
+    wn, wm = omega[:, None], omega[None, :]
+    weight = (wn + wm) ** 2 / (4 * wn * wm) * (eta / np.pi) / ((wn - wm) ** 2 + eta**2)
+    np.fill_diagonal(weight, 0.0)  # m != n
+    return omega, np.pi / (4 * dim * omega**2) * (square * weight).sum(axis=1)

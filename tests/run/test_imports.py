@@ -42,6 +42,7 @@ STAGES = (  # lowest first: a module imports from its own stage or lower ones, n
     ("solver.model",),
     ("solver.references",),  # dense references: the matrix only, never the spectrum or waves code they check
     ("solver.spectrum", "solver.waves"),  # side by side: neither imports the other
+    ("solver.transport",),  # energy transport by the modes: uses the spectrum's slicing, below analysis
     ("solver.analysis",),
     ("solver.io",),
     ("solver.plots",),
@@ -83,7 +84,7 @@ def _stage(name: str) -> tuple[int, str]:
 
 def test_every_module_imports_downward_and_without_a_circle():
     """Every module of solver/: its imports (lazy ones included) go to its own stage or a lower one
-    (``STAGES``: the data flow packing -> model -> references -> spectrum, waves -> analysis -> io ->
+    (``STAGES``: the data flow packing -> model -> references -> spectrum, waves -> transport -> analysis -> io ->
     plots -> report -> pipeline), stages side by side do not import each other, and no modules import each
     other in a circle."""
     modules = _modules()
