@@ -72,6 +72,11 @@ def hand_written(todo: list[dict]) -> list[Path]:
                   key=lambda path: path.name)
 
 
+def _cell(value) -> str:
+    """A table cell's text, its '|' (an absolute value) escaped so that it does not end the cell."""
+    return str(value).replace("|", "\\|")
+
+
 def _sections(text: str) -> dict[str, str]:
     """The '## name' sections of an existing BENCHMARKS.md, name -> text (heading included)."""
     parts = ("\n" + text).split("\n## ")[1:]
@@ -102,9 +107,9 @@ def text(todo: list[dict]) -> str:
             lines += [f"## {record['name']}", "", f"Command: `{record['command']}`  ", f"Date: {record['date']}  ",
                       f"Machine: {record['machine']}", ""]
             columns = list(dict.fromkeys(k for row in record["table"] for k in row))
-            lines += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+            lines += ["| " + " | ".join(map(_cell, columns)) + " |", "|" + "---|" * len(columns)]
             for row in record["table"]:
-                lines.append("| " + " | ".join(str(row.get(c, "")) for c in columns) + " |")
+                lines.append("| " + " | ".join(_cell(row.get(c, "")) for c in columns) + " |")
             lines += ["", record["notes"], ""]
             reading = bench["path"].with_suffix(".md")
             if reading.exists() and name == bench["record"]:
