@@ -9,7 +9,8 @@ right above ``model``).  Arrays are over the non-rattlers in the packing's order
 (``dynmat.in_packing_order``) unless a function says otherwise.  The functions that gather are
 collective and give the same result on every rank.
 
-- :func:`dense_eigen`: the full eigendecomposition of A;
+- :func:`dense_eigen`: the full eigendecomposition of A; :func:`dense_eigenvalues`, its eigenvalues
+  alone;
 - :func:`modal_weights`, :func:`exact_z_fixed`: one standing-wave run's z(t), exactly, as a sum
   of cosines over A's modes (PHYSICS.md section 4);
 - :func:`verlet_eigen`: velocity Verlet's own frequencies, so that :func:`exact_z_fixed` gives
@@ -30,6 +31,16 @@ import numpy as np
 
 from .model import dynmat
 from .model.operators import scaled_operator
+
+
+def dense_eigenvalues(dm) -> np.ndarray:
+    """Every eigenvalue (ascending) of A = M^-1/2 D M^-1/2 of ``dm`` (symmetric) by LAPACK,
+    without eigenvectors, dense on every rank. Collective."""
+    A = scaled_operator(dm)
+    try:
+        return np.linalg.eigvalsh(dynmat.gather_csr(A).toarray())
+    finally:
+        A.destroy()
 
 
 def dense_eigen(dm) -> tuple[np.ndarray, np.ndarray]:
