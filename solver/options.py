@@ -83,6 +83,8 @@ PREFIXES = {
                   "-pep_shift_mat_mumps_icntl_*)",
     "modes_": "the shift-and-invert EPS of the modes section (-modes_eps_tol, -modes_eps_ncv, "
               "-modes_st_pc_factor_mat_solver_type, -modes_st_mat_mumps_icntl_*)",
+    "transport_": "the spectrum-slicing window EPS of transport.method exact (-transport_eps_tol, "
+                  "-transport_st_mat_mumps_icntl_*)",
     "wmax_": "the Lanczos EPS for the largest eigenfrequency (-wmax_eps_*)",
     "waves_": "the standing-wave TS and its SNES/KSP (-waves_ts_*, -waves_ksp_*), or the MFN of waves.method "
               "exponential (-waves_mfn_*)",
@@ -96,6 +98,7 @@ STAGE_PREFIXES = {
     ("spectra", "nonhermitian"): ("nonhermitian_", "inertia_"),
     ("spectra", "pep"): ("pep_", "wmax_"),
     ("modes", "shapes"): ("modes_",),
+    ("transport", "exact"): ("transport_", "inertia_", "wmax_"),
     ("waves", "ts"): ("waves_", "wmax_"),
     ("waves", "spectral"): ("wmax_",),
     ("waves", "exponential"): ("waves_", "wmax_"),
@@ -135,11 +138,11 @@ GLOBAL_OPTIONS = frozenset((
 """PETSc's process-wide options (read at initialisation or finalisation, by no solver object)."""
 
 _OBJECT_WORDS = {  # leading word of an unprefixed solver option -> prefixes that take it
-    "eps_": ("spectrum_", "wmax_", "modes_"), "st_": ("spectrum_", "wmax_", "modes_"),
-    "bv_": ("spectrum_", "wmax_", "modes_"), "ds_": ("spectrum_", "wmax_", "modes_"),
-    "rg_": ("spectrum_", "wmax_", "modes_"), "fn_": ("spectrum_", "wmax_", "waves_"),
+    "eps_": ("spectrum_", "wmax_", "modes_", "transport_"), "st_": ("spectrum_", "wmax_", "modes_", "transport_"),
+    "bv_": ("spectrum_", "wmax_", "modes_", "transport_"), "ds_": ("spectrum_", "wmax_", "modes_", "transport_"),
+    "rg_": ("spectrum_", "wmax_", "modes_", "transport_"), "fn_": ("spectrum_", "wmax_", "waves_"),
     "ts_": ("waves_",), "mfn_": ("waves_",), "snes_": ("waves_",), "ksp_": ("waves_",), "pc_": ("inertia_", "waves_"),
-    "mat_mumps_": ("spectrum_st_", "inertia_", "modes_st_"),
+    "mat_mumps_": ("spectrum_st_", "inertia_", "modes_st_", "transport_st_"),
 }
 
 

@@ -30,6 +30,7 @@ from .packing import mechanics
 from . import options
 from .model import operators
 from .spectrum import unit as spectrum_unit
+from .transport import unit as transport_unit
 from .waves import excitation
 from .waves import schedule
 from .waves.unit import mode_unit
@@ -173,13 +174,15 @@ def _solve_task(scene: Scene, p, task: list[Unit], keys, store: UnitStore, units
     if todo:
         spectrum = next((unit.name for unit in task if unit.kind == "spectrum"), None)
         _compute(scene, p, task[0], todo, commit, comm, WindowCheckpoint(store, task[0].tag, keys.get(spectrum)),
-                 units.get(spectrum, (None,))[0])
+                 units.get(spectrum, (None,))[0], f"{store.folder}/transport_scratch/{task[0].tag}")
 
 
-def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=None, spectrum=None) -> None:
+def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=None, spectrum=None,
+             scratch=None) -> None:
     """Assemble the matrix of task ``matrix`` (its matrix unit) on packing ``p`` and compute the
     units of ``todo`` (``checkpoint``: the spectrum's window checkpoint, a :class:`WindowCheckpoint`;
-    ``spectrum``: the datasets of the task's spectrum unit when it was loaded, not computed)."""
+    ``spectrum``: the datasets of the task's spectrum unit when it was loaded, not computed;
+    ``scratch``: the folder of the diffusivity's eigenvectors, None: in memory)."""
     from petsc4py import PETSc
 
     made = {} if spectrum is None else {"spectrum": spectrum}
@@ -235,6 +238,14 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
                                                                   made.get("spectrum"))
                 commit(wanted, datasets, attrs)
                 say(comm, line)
+        wanted = next((unit for unit in todo if unit.kind == "transport"), None)
+        if wanted is not None:
+            check_interrupt(comm)
+            with profiling.stage("transport"):
+                datasets, attrs, line = transport_unit.solve(scene.transport, dm, p.positions, p.box, rho, p_index,
+                                                             comm, scratch)
+                commit(wanted, datasets, attrs)
+                say(comm, line)
         if wave_todo:
             with profiling.stage("waves"):
                 _wave_units(scene, dm, p, wave_todo, commit, comm, plan)
@@ -270,6 +281,17 @@ def _vdos_unit(scene, rho, r_index, spectra, units, comm) -> None:
     """vDOS and omega_c of one rho from its configurations' spectrum units into ``units``."""
     datasets, attrs, line = spectrum_unit.vdos(scene.spectrum, rho, spectra)
     units[unit_keys.vdos_name(r_index)] = (datasets, attrs)
+    say(comm, line)
+
+
+def _binned_diffusivity(scene, rho, r_index, count, units, comm) -> None:
+    """d(omega) of one rho from its ``count`` configurations' transport units into ``units``, on
+    the bins of its vDOS when the scene has one."""
+    vdos = units.get(unit_keys.vdos_name(r_index))
+    datasets, attrs, line = transport_unit.binned(
+        scene.transport, scene.spectrum, rho, [units[Unit("transport", r_index, p_index, rho).name]
+                                               for p_index in range(count)], None if vdos is None else vdos[0]["edges"])
+    units[unit_keys.binned_diffusivity_name(r_index)] = (datasets, attrs)
     say(comm, line)
 
 
@@ -344,6 +366,10 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
             with profiling.stage("analysis"):
                 _vdos_unit(scene, rho, r_index, [units[Unit("spectrum", r_index, p_index, rho).name]
                                                  for p_index in range(len(packings))], units, comm)
+    if scene.transport is not None:
+        for r_index, rho in enumerate(scene.model.rho):
+            with profiling.stage("analysis"):
+                _binned_diffusivity(scene, rho, r_index, len(packings), units, comm)
     say(comm, f"units: {store.summary()} (folder {store.folder}; cache {store.cache or 'off'})")
     if scene.waves is not None:
         t = time.perf_counter()
@@ -366,6 +392,7 @@ def _write(scene: Scene, asked: Scene, comm, petsc_argv, store: UnitStore, packi
 
     stages = ([("spectra", scene.spectrum.method)] if scene.spectrum else []) + (
         [("modes", "shapes")] if scene.modes else []) + (
+        [("transport", scene.transport.method)] if scene.transport else []) + (
         [("waves", scene.waves.method)] if scene.waves else [])
     unused = options.unused(options.option_names(petsc_argv), stages)  # same on every rank
     for name in unused:

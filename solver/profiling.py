@@ -1,12 +1,14 @@
 """PETSc log stages and events, so that ``-log_view`` splits a run's time by stage and hot function.
 
 Stages (pushed by the pipeline around each stage of a scene): ``packings``, ``assembly``,
-``spectrum`` (slicing), ``kpm``, ``waves``, ``analysis``, ``output``.  Events (on the hot
-functions, counted inside whichever stage calls them): ``rsPackingFIRE`` (one FIRE minimisation),
-``rsAssemble`` (D and M), ``rsInertia`` (one Sylvester-inertia factorisation), ``rsWindowSolve``
-(one slicing window), ``rsOmegaMax`` (the Lanczos largest-eigenvalue solve, or its cached value), ``rsKPMMoments`` (one
-set of Chebyshev moments), ``rsVerletStep`` (one block-Verlet step), ``rsLanczosWave`` (one batch of spectral
-standing waves side by side), ``rsAnalyse`` (the scene analysis), ``rsWriteResults`` (the results file).
+``spectrum`` (slicing), ``kpm``, ``modes``, ``transport`` (the diffusivity), ``waves``,
+``analysis``, ``output``.  Events (on the hot functions, counted inside whichever stage calls
+them): ``rsPackingFIRE`` (one FIRE minimisation), ``rsAssemble`` (D and M), ``rsInertia`` (one
+Sylvester-inertia factorisation), ``rsWindowSolve`` (one slicing window), ``rsOmegaMax`` (the
+Lanczos largest-eigenvalue solve, or its cached value), ``rsKPMMoments`` (one set of Chebyshev
+moments), ``rsAFModes`` and ``rsAFSum`` (the diffusivity's eigenvectors and its double sum),
+``rsVerletStep`` (one block-Verlet step), ``rsLanczosWave`` (one batch of spectral standing
+waves side by side), ``rsAnalyse`` (the scene analysis), ``rsWriteResults`` (the results file).
 PETSc registers a stage or event once per name; both are made on first use, and only once PETSc
 is loaded, so the numpy-only modules (packings) stay importable and usable without it.
 Not collective: PETSc's logging is per process (``-log_view`` gathers at the end).
@@ -18,7 +20,7 @@ import contextlib
 import functools
 import sys
 
-STAGES = ("packings", "assembly", "spectrum", "kpm", "modes", "waves", "analysis", "output")
+STAGES = ("packings", "assembly", "spectrum", "kpm", "modes", "transport", "waves", "analysis", "output")
 
 
 def _petsc():

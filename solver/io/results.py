@@ -33,6 +33,21 @@ class Vdos(NamedTuple):
     configurations: int
 
 
+class Diffusivity(NamedTuple):
+    """The Allen-Feldman diffusivity of one rho (the scene's ``transport`` section): per mode
+    (``diffusivity/r<i>_p<j>``, every configuration pooled, ascending omega) and on the vDOS's
+    bins (``diffusivity_binned/r<i>``)."""
+
+    omega: np.ndarray       # (M,) 1/t0, every non-zero mode of every configuration, ascending
+    d: np.ndarray           # (M,) d0^2/t0, the mode's diffusivity
+    edges: np.ndarray       # (B+1,) 1/t0, the vDOS's bins
+    d_binned: np.ndarray    # (B,) d0^2/t0, the mean d of each bin's modes, NaN where none
+    d_std: np.ndarray       # (B,) their spread
+    count: np.ndarray       # (B,) modes in each bin
+    eta: float              # 1/t0, the Lorentzian's half-width
+    configurations: int
+
+
 class BinnedEnergies(NamedTuple):
     """KPM spectra of one rho: per-configuration bin averages, cut to the shortest grid."""
 
@@ -125,7 +140,7 @@ def _groups(f, name: str) -> list:
 
 def contents(f) -> list[str]:
     """Which of the top-level result kinds the file holds, in a fixed order."""
-    return [name for name in ("vdos", "spectra", "modes", "waves", "analysis") if name in f]
+    return [name for name in ("vdos", "spectra", "modes", "diffusivity", "waves", "analysis") if name in f]
 
 
 def packing_summary(f) -> tuple[float, int]:
@@ -187,6 +202,22 @@ def vdos(f) -> dict[float, Vdos]:
     return {float(g.attrs["rho"]): Vdos(g["edges"][()], g["density"][()], float(g.attrs["omega_c"]),
                                         float(g.attrs["omega_c_std"]), int(g.attrs["configurations"]))
             for g in _groups(f, "vdos")}
+
+
+def diffusivity(f) -> dict[float, Diffusivity]:
+    """{rho: Diffusivity} of the ``diffusivity_binned/`` groups and their ``diffusivity/`` units."""
+    per_rho: dict[float, list] = {}
+    for g in _groups(f, "diffusivity"):
+        per_rho.setdefault(float(g.attrs["rho"]), []).append(g)
+    out = {}
+    for g in _groups(f, "diffusivity_binned"):
+        rho = float(g.attrs["rho"])
+        omega = np.concatenate([unit["omega"][()] for unit in per_rho.get(rho, [])] or [np.empty(0)])
+        d = np.concatenate([unit["d"][()] for unit in per_rho.get(rho, [])] or [np.empty(0)])
+        order = np.argsort(omega, kind="stable")
+        out[rho] = Diffusivity(omega[order], d[order], g["edges"][()], g["d"][()], g["d_std"][()], g["count"][()],
+                               float(g.attrs["eta"]), int(g.attrs["configurations"]))
+    return out
 
 
 def mode_energies(f) -> dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]]:

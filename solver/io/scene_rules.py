@@ -16,13 +16,15 @@ import dataclasses
 from ..errors import InputError
 from ..model import rules as model_rules
 from ..packing import rules as packing_rules
+from ..model import dynmat
 from ..spectrum import plan as spectrum_plan
+from ..transport import rules as transport_rules
 from ..waves import rules as waves_rules
-from .schema import ModelSpec, ModesSpec, PackingSpec, Scene, SpectrumSpec, WavesSpec
+from .schema import ModelSpec, ModesSpec, PackingSpec, Scene, SpectrumSpec, TransportSpec, WavesSpec
 
 SECTION_RULES = {PackingSpec: packing_rules.check_section, ModelSpec: model_rules.check_section,
                  SpectrumSpec: spectrum_plan.check_section, ModesSpec: spectrum_plan.check_modes,
-                 WavesSpec: waves_rules.check_section}
+                 TransportSpec: transport_rules.check_section, WavesSpec: waves_rules.check_section}
 """Section class -> its rule across its own keys, ``rule(section, where)``."""
 
 
@@ -63,6 +65,7 @@ def check_scene(scene: Scene) -> None:
     check_stressed(scene, packing_rules.stored_forces_source(scene.packing))
     spectrum_plan.check_damping(scene.spectrum, scene.modes, scene.model.damped)
     waves_rules.check_damping(scene.waves, scene.model.damped)
+    transport_rules.check_scene(scene.transport, scene.spectrum, scene.model.damped)
     if not scene.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {scene.output!r}: must end in .h5 or .hdf5")
 
@@ -79,12 +82,13 @@ def check_stressed(scene: Scene, which: str | None) -> None:
     """Raise InputError if stressed packings (``which`` says whose stored tangential forces; None:
     none) or YADE's slip (``model.history: yade``) make a matrix that is not symmetric
     (``model.rules.asymmetry``) for what needs a symmetric one: the spectrum's and the modes'
-    (``spectrum.plan.check_stressed``), the waves' spectral path, and, for stored forces the matrix
+    (``spectrum.plan.check_stressed``), the diffusivity's, the waves' spectral path, and, for stored forces the matrix
     keeps, rho = 0.  Not collective."""
     why = model_rules.asymmetry(scene.model, which)
     if why is None:
         return
     spectrum_plan.check_stressed(scene.spectrum, scene.modes, why)
+    transport_rules.check_stressed(scene.transport, why)
     waves_rules.check_stressed(scene.waves, why)
     model_rules.check_held(scene.model, which)
 
@@ -92,18 +96,28 @@ def check_stressed(scene: Scene, which: str | None) -> None:
 def check_run(asked: Scene, unit_ranks: int, source: str) -> Scene:
     """``asked`` as the scene alone resolves ``spectrum.method: auto``, refused before any packing
     is made if its spectrum cannot run on the ``unit_ranks`` ranks of a unit (``source`` says where
-    that number comes from) or on the generated packings' size.  Not collective."""
+    that number comes from) or on the generated packings' size (the dense solvers', the
+    diffusivity's scratch).  Not collective."""
     scene = resolve(asked, packing_rules.stored_forces_source(asked.packing))[0]
     spectrum_plan.check_factor_ranks(scene.spectrum, unit_ranks, source)
     if scene.packing.file is None:
         spectrum_plan.check_size(scene.spectrum, scene.model, scene.packing.n, scene.packing.dim, "generated")
+        _check_scratch(scene, scene.packing.n, scene.packing.dim, "the generated packings")
     return scene
+
+
+def _check_scratch(scene: Scene, particles: int, dim: int, which: str) -> None:
+    """``transport.rules.check_scratch`` at every rho of ``scene`` for ``particles`` non-rattlers in
+    ``dim`` dimensions (``which``: the packing, for the message). Not collective."""
+    for rho in scene.model.rho:
+        dof = particles * dynmat.dof_per_particle(dim, scene.model.contact(rho))
+        transport_rules.check_scratch(scene.transport, dof, f"{which} at rho = {rho:g}")
 
 
 def check_packings(asked: Scene, packings: list) -> tuple[Scene, str | None]:
     """Refuse a scene its packings cannot run, before any compute: a file's dimension, stored
     tangential forces with what needs a symmetric matrix, the waves' k in each box, the dense
-    solvers' size.  Return the scene ``asked`` with ``spectrum.method: auto`` resolved for these
+    solvers' size, the diffusivity's scratch.  Return the scene ``asked`` with ``spectrum.method: auto`` resolved for these
     packings (:func:`resolve`) and the line that says what auto chose (None if nothing).  Not
     collective: the same on every rank."""
     if asked.packing.file is not None:  # generated packings were checked with the scene
@@ -117,4 +131,5 @@ def check_packings(asked: Scene, packings: list) -> tuple[Scene, str | None]:
     waves_rules.check_boxes(scene.waves, packings)
     for index, p in enumerate(packings):
         spectrum_plan.check_size(scene.spectrum, scene.model, int((~p.rattler).sum()), p.dim, f"packing {index}")
+        _check_scratch(scene, int((~p.rattler).sum()), p.dim, f"packing {index}")
     return scene, chosen

@@ -26,6 +26,7 @@ from ..packing.jammed import MIN_N
 from ..packing.rules import stored_forces_source
 from ..spectrum import nonhermitian, pep
 from ..spectrum import plan as spectrum_plan
+from ..transport.rules import METHODS as TRANSPORT_METHODS
 from ..waves import schedule
 
 
@@ -378,6 +379,33 @@ class WavesSpec:
 
 
 @dataclass(frozen=True)
+class TransportSpec:
+    """Section ``transport`` (absent: no diffusivity): how far each mode carries energy, the
+    Allen-Feldman diffusivity d(omega) (docs/diffusivity.md; the stage ``solver/transport``)."""
+
+    eta: float | None = _f(None, "required: half-width (1/t0) of the Lorentzian that broadens delta(omega_n - "
+                                 "omega_m) in the Allen-Feldman sum; a few mean level spacings 1/(M g(omega)) of "
+                                 "the M modes (docs/diffusivity.md: the choice of eta)",
+                           _range(0.0, 1e3, True), float)
+    method: str = _f("exact", "exact: every mode's d_n from its eigenvector (spectrum slicing in blocks of "
+                              "`block` modes, vectors in scratch files of the units folder: n M float64 in all)",
+                     _one_of(TRANSPORT_METHODS), str)
+    bin_width: float | None = _f(None, "width (1/t0) of the omega bins of d(omega), the mean d of the modes in each "
+                                       "bin; null: spectrum.bin_width (the vDOS's bins), 0.05 without a spectrum "
+                                       "section", _range(0.0, 10.0, True), float)
+    zero_tol: float = _f(1e-4, "modes with omega at or below this (1/t0) are zero modes and carry no energy "
+                               "(left out of both sums, as the spectrum leaves them out)",
+                         _range(0.0, 1.0, True), float)
+    tol: float = _f(1e-12, "exact: SLEPc relative tolerance of the slicing windows (-transport_eps_tol wins)",
+                    _range(0.0, 1e-2, True), float)
+    block: int = _f(1000, "exact: modes per slicing window and per block of the double sum; memory per rank "
+                          "~ (2 + D) n block / ranks float64", _range(10, 10**6), int)
+    max_scratch_gib: float = _f(64.0, "exact: refuse, before any compute, a packing whose eigenvectors (8 n M "
+                                      "bytes, written to the units folder) exceed this many GiB",
+                                _range(0.0, 1e6, True), float)
+
+
+@dataclass(frozen=True)
 class AnalysisSpec:
     """Section ``analysis``: how waves results are fitted (post-processing; not part of the digest,
     so changing it reuses every finished unit)."""
@@ -407,6 +435,8 @@ class Scene:
                                  ("optional", WavesSpec))
     modes: ModesSpec | None = _f(None, "see modes.*; absent or null: no mode shapes", None,
                                  ("optional", ModesSpec))
+    transport: TransportSpec | None = _f(None, "see transport.*; absent or null: no diffusivity", None,
+                                         ("optional", TransportSpec))
     petsc: dict = _f({}, "PETSc/SLEPc options database entries; nested keys join with '_' "
                          "(-spectrum_eps_*, -waves_ts_*, -log_view, ...: see the option prefixes); the command line wins", None, dict)
     analysis: AnalysisSpec = _f(None, "see analysis.*; applies when the scene has waves", None, AnalysisSpec)

@@ -21,16 +21,16 @@ from .. import options
 from ..spectrum.plan import probe_seed
 from ..waves.excitation import wave_modes
 
-FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "modes": "modes", "waves": "waves"}
+FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "modes": "modes", "transport": "diffusivity", "waves": "waves"}
 """Where each kind of unit lives, in the units folder and the results file."""
 
 
 @dataclasses.dataclass(frozen=True)
 class Unit:
-    """One unit of a (rho, packing) task: its matrix summary, its spectrum, its mode shapes, or one
-    mode's waves.
+    """One unit of a (rho, packing) task: its matrix summary, its spectrum, its mode shapes, its
+    diffusivity, or one mode's waves.
 
-    kind : ``matrix``, ``spectrum``, ``modes`` or ``waves``;  r_index, p_index : positions in ``model.rho``
+    kind : ``matrix``, ``spectrum``, ``modes``, ``transport`` or ``waves``;  r_index, p_index : positions in ``model.rho``
     and in the scene's packings;  rho : ``model.rho[r_index]`` (kt/kn);  mode : the waves' mode
     (L, TR, RT, R), None for the others.
     """
@@ -48,8 +48,8 @@ class Unit:
 
     @property
     def name(self) -> str:
-        """``matrices/<tag>``, ``spectra/<tag>``, ``modes/<tag>`` or ``waves/r<i>_<mode>_p<j>``: the unit's file in the
-        units folder and its group in the results file."""
+        """``matrices/<tag>``, ``spectra/<tag>``, ``modes/<tag>``, ``diffusivity/<tag>`` or
+        ``waves/r<i>_<mode>_p<j>``: the unit's file in the units folder and its group in the results file."""
         if self.kind == "waves":
             return f"waves/r{self.r_index:02d}_{self.mode}_p{self.p_index:04d}"
         return f"{FOLDERS[self.kind]}/{self.tag}"
@@ -61,9 +61,15 @@ def vdos_name(r_index: int) -> str:
     return f"vdos/r{r_index:02d}"
 
 
+def binned_diffusivity_name(r_index: int) -> str:
+    """``diffusivity_binned/r<rho index>``: the results file's group of one rho's d(omega) on the
+    vDOS's bins, pooled over its configurations (made from the transport units)."""
+    return f"diffusivity_binned/r{r_index:02d}"
+
+
 def task_units(scene, r_index: int, p_index: int) -> list[Unit]:
-    """The units of task (rho index, packing index): its matrix, its spectrum and its mode shapes if
-    the scene has them, and the waves of each mode the matrix has (no RT or R without rotational springs:
+    """The units of task (rho index, packing index): its matrix, its spectrum, its mode shapes and
+    its diffusivity if the scene has them, and the waves of each mode the matrix has (no RT or R without rotational springs:
     ``excitation.wave_modes``), in that order. Not collective."""
     rho = scene.model.rho[r_index]
     units = [Unit("matrix", r_index, p_index, rho)]
@@ -71,6 +77,8 @@ def task_units(scene, r_index: int, p_index: int) -> list[Unit]:
         units.append(Unit("spectrum", r_index, p_index, rho))
     if scene.modes is not None:
         units.append(Unit("modes", r_index, p_index, rho))
+    if scene.transport is not None:
+        units.append(Unit("transport", r_index, p_index, rho))
     if scene.waves is not None:
         rotations = scene.model.contact(rho).rotations
         units += [Unit("waves", r_index, p_index, rho, mode) for mode in wave_modes(scene.waves, rotations)]
@@ -178,7 +186,7 @@ def packing_key(scene, index: int) -> UnitKey:
 
 
 def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
-    """Content key of every matrix, spectrum, modes and waves unit of the scene (``task_units``), by unit
+    """Content key of every matrix, spectrum, modes, transport and waves unit of the scene (``task_units``), by unit
     name. Not collective.
 
     A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
@@ -211,6 +219,10 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     return keys
 
 
+TRANSPORT_AFTER = ("bin_width", "max_scratch_gib")
+"""Transport keys that a unit's numbers do not depend on: the bins of the pooled d(omega) (made
+from the units when the results are written) and a guard on the scratch's size."""
+
 LAYOUT_KEYS = ("factor_ranks",)
 """Spectrum keys that say how the work is laid out over ranks, not what is computed: the counts
 are the same integers on any layout, so they are left out of the keys (a unit made with one
@@ -223,7 +235,7 @@ def spectrum_settings(spec) -> dict:
 
 
 def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
-    """Key of one matrix, spectrum, modes or waves ``unit`` on the packing and springs of ``base``."""
+    """Key of one matrix, spectrum, modes, transport or waves ``unit`` on the packing and springs of ``base``."""
     if unit.kind == "matrix":
         return UnitKey.of(unit="matrix", rho=unit.rho, options={}, **base)
     if unit.kind == "spectrum":
@@ -235,6 +247,10 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
         spectrum = {"spectrum": spectrum_settings(scene.spectrum)} if scene.modes.localised else {}
         return UnitKey.of(unit="modes", rho=unit.rho, section="modes", settings=dataclasses.asdict(scene.modes),
                           options=options.acting_on(petsc_argv, "modes", "shapes"), **spectrum, **base)
+    if unit.kind == "transport":
+        settings = {k: v for k, v in dataclasses.asdict(scene.transport).items() if k not in TRANSPORT_AFTER}
+        return UnitKey.of(unit="transport", rho=unit.rho, section="transport", settings=settings,
+                          options=options.acting_on(petsc_argv, "transport", scene.transport.method), **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on
                 if k != "modes" and not (k in ("axes", "snapshots") and v is None)}  # the others; keys of before
     return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,

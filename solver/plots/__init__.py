@@ -11,7 +11,8 @@ arrays ``io.results`` reads:
   phase speeds and attenuation;
 - ``attenuation``: the Rayleigh-to-diffusive regimes of gamma(k);
 - ``modes``: single modes and standing-wave snapshots on the particles;
-- ``damped``: damped modes (sigma, Q, the damped vDOS).
+- ``damped``: damped modes (sigma, Q, the damped vDOS);
+- ``transport``: the diffusivity d(omega) of the modes.
 
 A stage module imports ``common`` only; this module imports the stage modules.  Never imports
 petsc4py or mpi4py.  Not collective (rank 0 draws).
@@ -29,6 +30,7 @@ from .damped import plot_damped_modes, plot_damped_vdos
 from .modes import plot_mode_shapes, plot_wave_snapshots
 from .packing import plot_force_network, plot_packing
 from .spectrum import plot_energies, plot_participation, plot_vdos, plot_vdos_compare
+from .transport import plot_diffusivity
 from .waves import (plot_bands, plot_dispersion, plot_dispersion_rt, plot_spectra, plot_speeds_attenuation,
                     plot_transition, plot_vafs)
 
@@ -49,6 +51,7 @@ def plot_results(path: str) -> list[str]:
         damped = results.damped_modes(f)
         written += plot_vdos(vdos, f"{stem}_vdos", damped=bool(damped))
         written += plot_energies(vdos, results.mode_energies(f), results.binned_energies(f), f"{stem}_energies")
+        written += plot_diffusivity(results.diffusivity(f), f"{stem}_diffusivity")
         waves = results.waves(f)
         written += plot_vafs(waves, f"{stem}_vaf")
         written += plot_spectra(waves, f"{stem}_spectrum")

@@ -255,9 +255,10 @@ def split_window(A, known: dict, lo: float, hi: float, parts: int) -> list[float
     return [float(x) for x in np.unique([lo, *cuts, hi])]
 
 
-def configure_window(eps, A, edges, tol):
-    """Slicing EPS on the interval (edges[0], edges[-1]], one partition per sub-interval, prefix
-    ``spectrum_``: defaults in code, then setFromOptions (options win). Collective.  Public, so
+def configure_window(eps, A, edges, tol, prefix: str = SLICING_PREFIX):
+    """Slicing EPS on the interval (edges[0], edges[-1]], one partition per sub-interval, options
+    prefix ``prefix`` (``spectrum_``; the diffusivity's windows: ``transport_``): defaults in code,
+    then setFromOptions (options win). Collective.  Public, so
     that a benchmark times the very solver each window of :func:`solve` runs
     (benchmarks/bench_ciss.py: Krylov-Schur against CISS).
 
@@ -284,7 +285,7 @@ def configure_window(eps, A, edges, tol):
     if len(edges) > 2:
         eps.setKrylovSchurPartitions(len(edges) - 1)
         eps.setKrylovSchurSubintervals(edges)
-    eps.setOptionsPrefix(SLICING_PREFIX)
+    eps.setOptionsPrefix(prefix)
     ksp = eps.getKrylovSchurKSP()
     ksp.setType(PETSc.KSP.Type.PREONLY)
     ksp.getPC().setType(PETSc.PC.Type.CHOLESKY)

@@ -46,11 +46,12 @@ from __future__ import annotations
 
 import math
 import pathlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .. import profiling
+from ..options import eps_settings
 from ..model.operators import largest_omega, scaled_operator
 from ..packing.geometry import minimum_image
 from ..spectrum import slicing
@@ -88,10 +89,13 @@ def position_operators(dm, positions: np.ndarray, box: np.ndarray, comm) -> list
 class ModeBlocks:
     """Non-zero modes of A in blocks of ascending omega: ``omegas[w]`` (b_w,) in 1/t0 and
     ``stored[w]``, this rank's rows (nloc, b_w) of the block's orthonormal eigenvectors on A's
-    layout, as an array (Fortran order) or the path of this rank's ``.npy`` scratch file."""
+    layout, as an array (Fortran order) or the path of this rank's ``.npy`` scratch file;
+    ``settings``: what the windows' EPS used (``options.eps_settings`` of the first window, after
+    setFromOptions; empty for blocks made from arrays)."""
 
     omegas: list
     stored: list
+    settings: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.omegas)
@@ -159,13 +163,17 @@ def _clear_start(A, lam_zero: float, hi: float, zero: int) -> float:
     return max(0.5 * low, lam_zero)
 
 
+PREFIX = "transport_"
+"""Options prefix of the diffusivity's slicing windows (-transport_eps_*, -transport_st_*)."""
+
+
 @profiling.logged("rsAFModes")
 def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block: int = 1000,
                  scratch=None) -> ModeBlocks:
     """Every mode of ``dm`` with omega > ``zero_tol`` in slicing windows of at most ~``block``
     modes from a start clear of the zero modes (:func:`_clear_start`), each window solved once
-    (``spectrum.slicing``'s plan, split and EPS, prefix
-    ``spectrum_``) and its vectors written to ``scratch`` (a directory, rank 0's name used by all;
+    (``spectrum.slicing``'s plan, split and EPS, options prefix :data:`PREFIX`; ``tol`` the default
+    that -transport_eps_tol overrides) and its vectors written to ``scratch`` (a directory, rank 0's name used by all;
     one ``.npy`` per window and rank) or, with ``scratch`` None, kept in memory.  omega are
     Rayleigh quotients.  Collective; RuntimeError on every rank if a window's converged count
     differs from its inertia count."""
@@ -178,21 +186,23 @@ def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block:
         scratch.mkdir(parents=True, exist_ok=True)
     A = scaled_operator(dm)
     vec, image = A.createVecRight(), A.createVecLeft()
-    omegas, stored = [], []
+    omegas, stored, settings = [], [], {}
     try:
         hi = largest_omega(dm) ** 2 * (1 + 1e-6)  # as slicing.solve: Lanczos top, Gershgorin if it misses modes
         if slicing.count_below(A, hi) < A.getSize()[0]:
             hi = A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9)
         zero = slicing.count_below(A, zero_tol**2)
         if zero == A.getSize()[0]:
-            return ModeBlocks([], [])
+            return ModeBlocks([], [], settings)
         edges, counts, known = slicing.plan_windows(A, _clear_start(A, zero_tol**2, hi, zero), hi, block)
         for w in range(edges.size - 1):
             sub = slicing.split_window(A, known, float(edges[w]), float(edges[w + 1]), comm.getSize())
             eps = SLEPc.EPS().create(comm)
             try:
-                slicing.configure_window(eps, A, sub, tol)
+                slicing.configure_window(eps, A, sub, tol, PREFIX)
                 eps.solve()
+                if not settings:  # what the windows use, read back after setFromOptions; rank 0's
+                    settings = mpi.bcast(eps_settings(eps), root=0)
                 expected = int(counts[w + 1] - counts[w])
                 if eps.getConverged() != expected:
                     raise RuntimeError(f"allen_feldman: window {w} converged {eps.getConverged()} modes, "
@@ -211,7 +221,7 @@ def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block:
         vec.destroy()
         image.destroy()
         A.destroy()
-    return ModeBlocks(omegas, stored)
+    return ModeBlocks(omegas, stored, settings)
 
 
 def pair_weights(omega_n: np.ndarray, omega_m: np.ndarray, eta: float) -> np.ndarray:
@@ -262,12 +272,14 @@ def diffusivity(X: list, modes: ModeBlocks, eta: float, comm) -> np.ndarray:
 
 
 def allen_feldman(dm, positions: np.ndarray, box: np.ndarray, eta: float, comm, *, zero_tol: float = 1e-4,
-                  tol: float = 1e-12, block: int = 1000, scratch=None) -> tuple[np.ndarray, np.ndarray]:
+                  tol: float = 1e-12, block: int = 1000, scratch=None, report: dict | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """(omega (M,) ascending in 1/t0, d (M,) in d0^2/t0) of every mode of ``dm`` with omega >
     ``zero_tol``: :func:`position_operators` of ``positions`` (N, D, packing order) in ``box``,
     :func:`sliced_modes` (windows of ~``block`` modes, EPS tolerance ``tol``, vectors in
     ``scratch`` or in memory; the scratch files are removed at the end), :func:`diffusivity` at
-    half-width ``eta``.  Symmetric matrices only (ValueError for a stressed packing's).
+    half-width ``eta``.  ``report``, a dict, receives ``windows`` (their count) and ``settings``
+    (what their EPS used).  Symmetric matrices only (ValueError for a stressed packing's).
     Collective on ``comm``, the matrix's communicator."""
     if not dm.symmetric:
         raise ValueError("the Allen-Feldman diffusivity needs a symmetric dynamical matrix (not a stressed packing's)")
@@ -277,6 +289,8 @@ def allen_feldman(dm, positions: np.ndarray, box: np.ndarray, eta: float, comm, 
     modes = None
     try:
         modes = sliced_modes(dm, comm, zero_tol=zero_tol, tol=tol, block=block, scratch=scratch)
+        if report is not None:
+            report.update(windows=len(modes), settings=modes.settings)
         return modes.omega, diffusivity(X, modes, eta, comm)
     finally:
         if modes is not None:

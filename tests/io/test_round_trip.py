@@ -31,14 +31,15 @@ SMALL = {"n": 64, "phi": 0.9}
 SPECTRAL = {"n": [1, 2], "method": "spectral", "t_end": 30, "modes": ["L", "TR"]}
 
 KINDS = {  # kind -> (scene sections, the sections the reuse keeps: only what has a spectrum to compare)
-    "frictionless": dict(packing=SMALL, model={"rho": [0.0, 0.5]}, spectrum={"energies": True}, waves=SPECTRAL),
+    "frictionless": dict(packing=SMALL, model={"rho": [0.0, 0.5]}, spectrum={"energies": True}, waves=SPECTRAL,
+                         transport={"eta": 0.2}),
     "stressed": dict(packing=FRICTIONAL, model={"rho": [2 / 7]}, spectrum={"method": "nonhermitian"},
                      waves={"n": [1], "method": "exponential", "t_end": 10, "modes": ["L"]}),
     "damped": dict(packing=SMALL, model={"rho": [0.5], "damping": {"gamma_n": 0.3, "gamma_t": 0.1}},
                    spectrum={"energies": True}, waves={"n": [1], "method": "spectral", "t_end": 10, "modes": ["TR"]}),
     "spheres": dict(packing={"n": 64, "phi": 0.7, "dim": 3}, model={"rho": [0.5], "rho_roll": 0.2, "rho_twist": 0.1},
                     spectrum={"energies": True}, waves={"n": [1], "method": "spectral", "t_end": 20,
-                                                        "modes": ["L", "R"]}),
+                                                        "modes": ["L", "R"]}, transport={"eta": 0.2}),
     "modes": dict(packing=SMALL, model={"rho": [1.0]}, spectrum={"energies": True},
                   modes={"omega": [1.0], "count": 2, "localised": 1}),
 }
@@ -89,6 +90,7 @@ def test_packing_file_reuse_gives_the_stored_spectrum(written, tmp_path, kind):
 def test_plot_and_report_read_every_kind(written, tmp_path, kind):
     paths = plots.plot_results(str(written[kind]))
     assert paths and all(p.endswith((".png", ".pdf")) for p in paths), paths
+    assert any(p.endswith("_diffusivity.png") for p in paths) == ("transport" in KINDS[kind]), paths
     for path in paths:
         with open(path, "rb") as stream:
             head = stream.read(8)
@@ -148,7 +150,7 @@ def test_notebook_api_reads_every_kind(written, kind):
         readers = [results.vdos, results.mode_energies, results.participation, results.damped_modes,
                    results.binned_energies, results.waves, results.wave_snapshots, results.fits, results.mode_shapes,
                    results.lattice, results.bands, results.packing_summary, results.contact_model,
-                   results.packing_friction]
+                   results.packing_friction, results.diffusivity]
         found = {reader.__name__: reader(f) for reader in readers}
     (read,) = hdf5.read_packings(str(written[kind]))
     assert np.array_equal(packing["positions"], read.positions) and packing["phi"] == read.phi
@@ -156,6 +158,10 @@ def test_notebook_api_reads_every_kind(written, kind):
     assert found["contact_model"] == ContactModel() == read.model, "every kind is checked under the defaults"
     assert ("modes" in held) == (kind == "modes") and (len(found["mode_shapes"]) > 0) == (kind == "modes")
     assert bool(found["damped_modes"]) == (kind == "damped") and bool(found["waves"]) == (kind != "modes")
+    with_transport = "transport" in KINDS[kind]
+    assert ("diffusivity" in held) == with_transport and bool(found["diffusivity"]) == with_transport
+    for g in found["diffusivity"].values():  # every non-zero mode once, binned once
+        assert g.omega.size == g.d.size == g.count.sum() > 0 and np.all(g.d > 0), (kind, g.count.sum())
     proc = subprocess.run([sys.executable, str(REPO / "docs" / "notebook_example.py"), str(written[kind])],
                           cwd=REPO, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and proc.stdout.startswith("holds: "), proc.stderr

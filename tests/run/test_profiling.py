@@ -24,6 +24,7 @@ packing: {{n: 64, phi: 0.9}}
 model: {{rho: 1}}
 spectrum: {{method: kpm, probes: 4}}
 modes: {{omega: [1.0]}}
+transport: {{eta: 0.2}}
 waves: {{n: [1], method: spectral, t_end: 10}}
 """
 EXPECTED = {  # stage -> events that must be counted inside it
@@ -32,6 +33,7 @@ EXPECTED = {  # stage -> events that must be counted inside it
     "spectrum": ["rsInertia", "rsWindowSolve"],
     "kpm": ["rsKPMMoments"],
     "modes": ["rsModeShapes"],
+    "transport": ["rsAFModes", "rsAFSum"],
     "waves": ["rsOmegaMax", "rsVerletStep", "rsLanczosWave"],
     "analysis": ["rsAnalyse"],
     "output": ["rsWriteResults"],

@@ -1,0 +1,36 @@
+"""Figures of how far the modes carry energy, from ``io.results``: the Allen-Feldman diffusivity
+d(omega) of every mode and its mean on the vDOS's bins (the scene's ``transport`` section;
+docs/diffusivity.md).
+
+Never imports petsc4py or mpi4py.  Each function writes ``<stem>.png`` and ``<stem>.pdf`` and
+returns their paths ([] when it has nothing to draw).  Not collective.  Units: omega in 1/t0,
+d in d0^2/t0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .common import legend, plt, rho_label, save
+
+
+def plot_diffusivity(diffusivity: dict, stem: str) -> list[str]:
+    """d(omega) for every rho of ``diffusivity`` ({rho: results.Diffusivity}): each mode's d_n as a
+    dot, the bin means as a line, on a log scale of d; eta in the title."""
+    if not any(np.isfinite(g.d_binned).any() for g in diffusivity.values()):
+        return []
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    cmap = plt.get_cmap("viridis")
+    for index, rho in enumerate(sorted(diffusivity)):
+        g = diffusivity[rho]
+        colour = "k" if rho == 0 else cmap(0.8 * index / max(1, len(diffusivity) - 1))
+        ax.plot(g.omega, g.d, ".", ms=2, alpha=0.35, color=colour)
+        centres = 0.5 * (g.edges[1:] + g.edges[:-1])
+        ax.plot(centres, g.d_binned, "-", color=colour, label=rho_label(rho))
+    etas = sorted({g.eta for g in diffusivity.values()})
+    ax.set(xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$", xlim=(0, None), yscale="log",
+           title=rf"Allen-Feldman diffusivity (dots: modes, lines: bin means; $\eta$ = "
+                 rf"{', '.join(f'{e:g}' for e in etas)}/$t_0$)")
+    legend(ax, fontsize=8)
+    fig.tight_layout()
+    return save(fig, stem)

@@ -1,0 +1,86 @@
+"""The scene's rules on its ``transport`` section: its own keys (eta given, keys of another
+method), what the rest of the scene must give (a symmetric, undamped matrix; the bins of the
+vDOS) and what the packings must fit (the exact route's scratch vectors).
+
+Each rule takes the transport section (``io.schema.TransportSpec``; None: the scene has none, and
+the rule passes) and raises InputError naming the keys.  Why a stressed or damped scene is
+refused: the Allen-Feldman diffusivity (docs/diffusivity.md) is built on the harmonic energy
+H = p^T p / 2 + q^T A q / 2 with A symmetric, whose current is conserved mode by mode; a matrix
+with stored tangential forces is not symmetric (no energy, no orthogonal modes), and with
+dashpots the energy is not conserved and the modes are damped.  Pure and not collective: every
+rank raises the same error.  Units: omega and eta in 1/t0.
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+
+METHODS = ("exact",)
+"""transport.method values: exact, every mode's d_n from its eigenvector (``allen_feldman``)."""
+DEFAULT_BIN_WIDTH = 0.05
+"""Bins of d(omega) (1/t0) without a spectrum section: the spectrum's default bin width."""
+_EXACT_ONLY = {"tol": 1e-12, "block": 1000, "max_scratch_gib": 64.0}
+"""Keys of method exact and their defaults: given with another method, they would do nothing."""
+
+
+def check_section(spec, where: str) -> None:
+    """Refuse a transport section ``spec`` without eta, or with keys its method does not take.
+    Not collective."""
+    if spec.eta is None:
+        raise InputError(f"{where}eta is missing: give the Lorentzian half-width (1/t0) that broadens the "
+                         f"Allen-Feldman sum, a few mean level spacings, e.g. {where}eta: 0.05 "
+                         f"(docs/diffusivity.md: the choice of eta)")
+    if spec.method != "exact":
+        given = [key for key, default in _EXACT_ONLY.items() if getattr(spec, key) != default]
+        if given:
+            raise InputError(f"{where}{given[0]} = {getattr(spec, given[0])!r} is a key of method 'exact'; "
+                             f"{where}method is {spec.method!r}: drop it")
+
+
+def bin_width(spec, spectrum) -> float:
+    """Width (1/t0) of the omega bins of d(omega): ``spec.bin_width``, else the spectrum section's
+    (``spectrum``, None: none), else :data:`DEFAULT_BIN_WIDTH`. Not collective."""
+    if spec.bin_width is not None:
+        return spec.bin_width
+    return spectrum.bin_width if spectrum is not None else DEFAULT_BIN_WIDTH
+
+
+def check_scene(spec, spectrum, damped: bool) -> None:
+    """Refuse a transport section ``spec`` whose d(omega) bins differ from the vDOS's
+    (``spectrum``: the spectrum section, None: none) or on a scene with dashpots (``damped``).
+    Not collective."""
+    if spec is None:
+        return
+    if spectrum is not None and spec.bin_width is not None and spec.bin_width != spectrum.bin_width:
+        raise InputError(f"transport.bin_width = {spec.bin_width} differs from spectrum.bin_width = "
+                         f"{spectrum.bin_width}: d(omega) is kept on the vDOS's bins; drop transport.bin_width "
+                         f"(or give both the same)")
+    if damped:
+        raise InputError("transport with model.damping: the Allen-Feldman diffusivity is that of the undamped "
+                         "modes of a conserved harmonic energy; with dashpots the energy decays and the modes are "
+                         "damped; drop model.damping from this scene for the diffusivity of the same packing "
+                         "(the dashpots' attenuation is measured by waves and spectrum.method pep)")
+
+
+def check_stressed(spec, why: str) -> None:
+    """Refuse a transport section ``spec`` on a matrix that is not symmetric (``why``, a clause:
+    ``model.rules.asymmetry``). Not collective."""
+    if spec is not None:
+        raise InputError(f"transport: {why}, so the dynamical matrix is not symmetric: it has no conserved "
+                         f"harmonic energy and no orthogonal modes, on which the Allen-Feldman diffusivity is "
+                         f"built (docs/diffusivity.md); use model.stored_forces: drop for the unstressed springs "
+                         f"of the same packing, or drop the transport section")
+
+
+def check_scratch(spec, dof: int, which: str) -> None:
+    """Refuse method exact on a matrix of ``dof`` DOF whose eigenvectors (8 dof^2 bytes at most)
+    exceed ``spec.max_scratch_gib`` (``which``: the packing and rho, for the message).  Not
+    collective."""
+    if spec is None or spec.method != "exact":
+        return
+    need = 8.0 * dof * dof / 2**30
+    if need > spec.max_scratch_gib:
+        raise InputError(f"transport.method = 'exact' on {which}: its {dof} DOF have up to {dof} modes, whose "
+                         f"eigenvectors take {need:.0f} GiB of scratch files in the units folder, more than "
+                         f"transport.max_scratch_gib = {spec.max_scratch_gib:g}; raise it if the disk holds them "
+                         f"(time grows as DOF^3), or use a smaller packing")

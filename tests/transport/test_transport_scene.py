@@ -1,0 +1,89 @@
+"""The ``transport`` section through a scene (issue 45, point 1): the results file holds every
+mode's omega and d where the manual says (docs/results_file.md), equal to the definition
+evaluated densely on the scene's own packings, and d(omega) on the vDOS's bins pooled over the
+configurations; a rerun loads the units, a new eta recomputes only them, the notebook reader and
+``rotsound plot`` take the file; 2D with rotations and 3D with rolling and twisting springs, on 1
+and 2 ranks."""
+
+import dataclasses
+import os
+
+import numpy as np
+from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
+
+from solver import pipeline, references
+from solver.contact_law import ContactModel
+from solver.io import results
+from solver.model import dynmat
+from solver.spectrum import modes
+
+ETA = 0.2  # 1/t0: a few mean level spacings of these 190- and 186-mode spectra
+
+
+def _dense(p, model, comm, eta):
+    """(omega, d) of the definition on packing ``p`` under ``model``, densely."""
+    dm = dynmat.assemble(p, model, comm)
+    try:
+        return references.allen_feldman_dense(dm, p.positions, p.box, eta)
+    finally:
+        dm.destroy()
+
+
+def test_diffusivity_scene_is_the_definition_pooled_on_the_vdos_bins(comm, shared_tmp, capsys):
+    scene = scene_of(shared_tmp / "transport.h5", cache=str(shared_tmp / "cache"), seed=7, packing={"n": 64, "phi": 0.9},
+                     model={"rho": [0.5]}, spectrum={}, transport={"eta": ETA})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        got = results.diffusivity(f)[0.5]
+        vdos = results.vdos(f)[0.5]
+        unit = dict(f["diffusivity/r00_p0000"].attrs)
+    omega, d = _dense(jammed_packing(64, 0.9, 7), ContactModel(0.5), comm, ETA)
+    assert_close(got.omega, omega, rtol=1e-12, what="omega vs eigh")
+    # atol: 1e-12 of the largest d, for modes whose d is far below the rest (none is zero here)
+    assert_close(got.d, d, rtol=1e-8, atol=1e-12 * d.max(), what="d vs the dense definition")
+    assert_close(got.edges, vdos.edges, rtol=0.0, what="d(omega) on the vDOS's bins")
+    assert_close(got.d_binned, modes.bin_average(omega, d, vdos.edges), rtol=1e-8, what="bin means")
+    assert_all(got.count.sum() == omega.size == 190 and got.eta == ETA and got.configurations == 1,
+               f"{got.count.sum()} modes binned of {omega.size}, eta {got.eta}")
+    assert_all(unit["n_zero_modes"] == 2 and unit["method"] == "exact" and unit["windows"] >= 1, f"{unit}")
+
+    again = pipeline.run(scene, COMM, [])  # finished: loaded, not recomputed
+    assert_close(again["units"]["diffusivity/r00_p0000"][0]["d"], got.d, rtol=0.0, what="resumed unit = file")
+    wider = dataclasses.replace(scene, output=str(shared_tmp / "wider.h5"),
+                                transport=dataclasses.replace(scene.transport, eta=2 * ETA))
+    capsys.readouterr()
+    pipeline.run(wider, COMM, [])
+    said = capsys.readouterr().out
+    assert_all(COMM.rank > 0 or ("diffusivity 1 computed" in said and "spectra 1 computed" not in said), said)
+    with results.open_results(wider.output) as f:
+        redone = results.diffusivity(f)[0.5]
+    assert_close(redone.d, _dense(jammed_packing(64, 0.9, 7), ContactModel(0.5), comm, 2 * ETA)[1], rtol=1e-8,
+                 atol=1e-12 * d.max(), what="a new eta recomputes the unit")
+    if COMM.rank == 0:
+        from solver import plots
+
+        written = plots.plot_results(scene.output)
+        picture = str(shared_tmp / "transport_diffusivity.png")
+        assert picture in written and os.path.getsize(picture) > 10_000, written
+
+
+def test_spheres_with_rolling_and_twisting_pool_their_configurations(comm, shared_tmp):
+    model = {"rho": [0.5], "rho_roll": 0.2, "rho_twist": 0.1}
+    scene = scene_of(shared_tmp / "spheres.h5", cache="off", seed=5, packing={"n": 32, "phi": 0.68, "dim": 3,
+                                                                               "count": 2},
+                     model=model, transport={"eta": ETA, "block": 40, "bin_width": 0.25})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        got = results.diffusivity(f)[0.5]
+        first = f["diffusivity/r00_p0000/d"][()], f["diffusivity/r00_p0000/omega"][()]
+        packing = results.packing(f, 0)
+    assert_all("vdos" not in results.contents(results.open_results(scene.output)), "no spectrum asked, none made")
+    p = jammed_packing(32, 0.68, 5, dim=3)  # configuration 0: SeedSequence([5, 0])
+    assert_close(packing["positions"], p.positions, rtol=0.0, what="the scene's packing")
+    omega, d = _dense(p, ContactModel(0.5, rho_roll=0.2, rho_twist=0.1), comm, ETA)
+    assert_close(first[1], omega, rtol=1e-12, what="3D omega vs eigh")
+    assert_close(first[0], d, rtol=1e-8, atol=1e-12 * d.max(), what="3D d vs the dense definition")
+    assert_all(got.configurations == 2 and got.count.sum() == got.omega.size and got.omega.size > omega.size,
+               f"two configurations pooled: {got.count.sum()} binned, {got.omega.size} modes")
+    assert_close(np.diff(got.edges), np.full(got.edges.size - 1, 0.25), rtol=1e-12, what="transport.bin_width")
+    assert_close(got.d_binned, modes.bin_average(got.omega, got.d, got.edges), rtol=1e-12, what="pooled bin means")
