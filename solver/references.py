@@ -237,6 +237,8 @@ def _binned_filters(lam: np.ndarray, edges: np.ndarray, lam_max: float, moments:
         ind = np.zeros((lam.size, nbins))
         ind[np.flatnonzero(inside), which[inside]] = 1.0
         return ind / np.sqrt(lam)[:, None], ind
+    from scipy.special import roots_legendre
+
     lo, hi = -0.01 * lam_max, 1.01 * lam_max
     c, h = (hi + lo) / 2, (hi - lo) / 2
     k = np.arange(moments)
@@ -256,7 +258,7 @@ def _binned_filters(lam: np.ndarray, edges: np.ndarray, lam_max: float, moments:
             continue
         t_low, t_high = theta(edges[b] ** 2), theta(top)
         u_max = np.sqrt(t_low - t_high)
-        nodes, weights = np.polynomial.legendre.leggauss(int(4 * moments * (t_low - t_high)) + 400)
+        nodes, weights = roots_legendre(int(4 * moments * (t_low - t_high)) + 400)
         u = u_max * (nodes + 1) / 2
         t = t_low - u**2
         lam_t = c + h * np.cos(t)  # > 0 at every node (u > 0)

@@ -93,6 +93,8 @@ def filter_coefficients(edges: np.ndarray, c: float, h: float, n_moments: int) -
     [0, omega_top] (the lambda^-1/2 singularity cancels), by Gauss-Legendre per bin.  omega is cut
     at omega_top = sqrt(c + 0.999 h) (lambda ~ 1.0098 lambda_max: no mode lies above lambda_max).
     Not collective."""
+    from scipy.special import roots_legendre
+
     edges = np.asarray(edges, dtype=float)
     top = math.sqrt(c + 0.999 * h)
     lo, hi = np.minimum(edges[:-1], top), np.minimum(edges[1:], top)
@@ -100,8 +102,7 @@ def filter_coefficients(edges: np.ndarray, c: float, h: float, n_moments: int) -
     out = np.zeros((n_moments, lo.size))
     for b in np.flatnonzero(hi > lo):  # a loop over bins, each a vectorised quadrature
         theta_span = math.acos((lo[b] ** 2 - c) / h) - math.acos((hi[b] ** 2 - c) / h)
-        nodes, weights = np.polynomial.legendre.leggauss(int(math.ceil(NODES_PER_RADIAN * n_moments * theta_span))
-                                                         + NODES_MIN)
+        nodes, weights = roots_legendre(int(math.ceil(NODES_PER_RADIAN * n_moments * theta_span)) + NODES_MIN)
         omega = 0.5 * (hi[b] - lo[b]) * nodes + 0.5 * (hi[b] + lo[b])
         x = (omega**2 - c) / h
         integrand = 2.0 / (h * np.sqrt(1.0 - x**2)) * (0.5 * (hi[b] - lo[b]) * weights)
@@ -268,7 +269,8 @@ def binned_diffusivity(dm, positions: np.ndarray, box: np.ndarray, edges: np.nda
     recursions, to bound memory), T_k vectors ``chunk`` at a time.
     datasets: edges; count (B,) estimated modes per bin; d (B,) mean d over the bin's modes
     (d0^2/t0), NaN where count < ``min_count``; d_err (B,) its standard error over the probes;
-    count_err (B,); smearing (B,) Jackson's omega smearing at the bin centres (1/t0).
+    count_err (B,); total (B,) = count x d, the sum of d^box over the bin's modes (unbiased), and
+    total_err (B,); smearing (B,) Jackson's omega smearing at the bin centres (1/t0).
     attrs: moments, probes, seed, omega_max (1/t0), lam_scale (c, h), resolution (text), n_modes.
     Symmetric matrices only.  Collective on ``comm`` (the matrix's); the same result on every rank
     and on any number of ranks, to round-off."""
@@ -310,7 +312,9 @@ def binned_diffusivity(dm, positions: np.ndarray, box: np.ndarray, edges: np.nda
         spread = np.std(s - np.nan_to_num(d) * count_r, axis=0, ddof=1)
         d_err = np.where(count >= min_count, spread / (math.sqrt(probes) * count), np.nan)
     count_err = np.std(count_r, axis=0, ddof=1) / math.sqrt(probes)
-    datasets = {"edges": edges, "count": count, "count_err": count_err, "d": d, "d_err": d_err,
+    total_err = np.std(s, axis=0, ddof=1) / math.sqrt(probes)
+    datasets = {"edges": edges, "count": count, "count_err": count_err, "total": total, "total_err": total_err,
+                "d": d, "d_err": d_err,
                 "smearing": smearing(edges, h, n_moments)}
     attrs = {"moments": n_moments, "probes": probes, "seed": seed, "omega_max": omega_max, "lam_scale": (c, h),
              "n_modes": dm.size - len(dm.rigid_modes()),
