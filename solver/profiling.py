@@ -6,9 +6,10 @@ Stages (pushed by the pipeline around each stage of a scene): ``packings``, ``as
 them): ``rsPackingFIRE`` (one FIRE minimisation), ``rsAssemble`` (D and M), ``rsInertia`` (one
 Sylvester-inertia factorisation), ``rsWindowSolve`` (one slicing window), ``rsOmegaMax`` (the
 Lanczos largest-eigenvalue solve, or its cached value), ``rsKPMMoments`` (one set of Chebyshev
-moments), ``rsAFModes`` and ``rsAFSum`` (the diffusivity's eigenvectors and its double sum),
-``rsVerletStep`` (one block-Verlet step), ``rsLanczosWave`` (one batch of spectral standing
-waves side by side), ``rsAnalyse`` (the scene analysis), ``rsWriteResults`` (the results file).
+moments), ``rsAFModes`` and ``rsAFSum`` (the exact diffusivity's slicing windows and pair sums),
+``rsAFKPMProbes`` (one block of probes of the KPM diffusivity), ``rsVerletStep`` (one
+block-Verlet step), ``rsLanczosWave`` (one batch of spectral standing waves side by side),
+``rsAnalyse`` (the scene analysis), ``rsWriteResults`` (the results file).
 PETSc registers a stage or event once per name; both are made on first use, and only once PETSc
 is loaded, so the numpy-only modules (packings) stay importable and usable without it.
 Not collective: PETSc's logging is per process (``-log_view`` gathers at the end).

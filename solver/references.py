@@ -20,7 +20,10 @@ collective and give the same result on every rank.
 - :func:`l_wave_start`, :func:`exact_l_wave`: the benchmarks' L wave and its exact z(t);
 - :func:`allen_feldman_dense`: every mode's Allen-Feldman diffusivity, the definition of
   docs/diffusivity.md evaluated literally (X^a built densely from the positions, the double sum
-  over all pairs of modes), the reference of ``solver.transport.allen_feldman``.
+  over all pairs of modes), the reference of ``solver.transport.allen_feldman``;
+- :func:`allen_feldman_binned_dense`: the Allen-Feldman diffusivity per omega bin in the trace form
+  that ``solver.transport.kpm_diffusivity`` estimates (docs/diffusivity_trace.md), sharp or with
+  the same Jackson-filtered bins, exactly: what the stochastic estimator converges to.
 
 Units: d0 = m = kn = 1, t0 = 1.
 """
@@ -209,3 +212,106 @@ def allen_feldman_dense(dm, positions: np.ndarray, box: np.ndarray, eta: float, 
     weight = (wn + wm) ** 2 / (4 * wn * wm) * (eta / np.pi) / ((wn - wm) ** 2 + eta**2)
     np.fill_diagonal(weight, 0.0)  # m != n
     return omega, np.pi / (4 * dim * omega**2) * (square * weight).sum(axis=1)
+
+
+def _jackson(m: int) -> np.ndarray:
+    """Jackson damping factors g_k, k = 0..m-1 (Weisse et al., Rev. Mod. Phys. 78, 275, eq. 71)."""
+    k = np.arange(m)
+    q = np.pi / (m + 1)
+    return ((m - k + 1) * np.cos(q * k) + np.sin(q * k) / np.tan(q)) / (m + 1)
+
+
+def _binned_filters(lam: np.ndarray, edges: np.ndarray, lam_max: float, moments: int | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(F (M, B), I (M, B)) at the eigenvalues ``lam`` (M,): F_b = 1_b lambda^-1/2 and the
+    indicator 1_b of omega in [edges_b, edges_b+1), sharp (``moments`` None) or as their
+    Jackson-damped Chebyshev series of ``moments`` terms in x = (lambda - c) / h, [c - h, c + h] =
+    [-0.01, 1.01] ``lam_max``.  The coefficients by quadrature in theta = arccos x, substituted
+    theta = theta_low - u^2 from each bin's low-lambda end so that lambda^-1/2 at lambda = 0 is
+    integrable smoothly (not the estimator's omega quadrature); F's bins are cut at
+    lambda = c + 0.999 h as the estimator's, the indicator's at c + h (``kpm.bin_masses``)."""
+    nbins = edges.size - 1
+    if moments is None:
+        which = np.searchsorted(edges, np.sqrt(lam), side="right") - 1
+        inside = (which >= 0) & (which < nbins)
+        ind = np.zeros((lam.size, nbins))
+        ind[np.flatnonzero(inside), which[inside]] = 1.0
+        return ind / np.sqrt(lam)[:, None], ind
+    from scipy.special import roots_legendre
+
+    lo, hi = -0.01 * lam_max, 1.01 * lam_max
+    c, h = (hi + lo) / 2, (hi - lo) / 2
+    k = np.arange(moments)
+    norm = (2.0 - (k == 0)) / np.pi * _jackson(moments)
+
+    def theta(lam_):
+        return np.arccos(np.clip((lam_ - c) / h, -1.0, 1.0))
+
+    f_coef = np.zeros((moments, nbins))
+    i_coef = np.zeros((moments, nbins))
+    for b in range(nbins):  # a loop over bins, each vectorised
+        # the indicator, in closed form: int cos(k theta) over [theta(high), theta(low)]
+        t_low, t_high = theta(edges[b] ** 2), theta(edges[b + 1] ** 2)
+        i_coef[:, b] = np.where(k == 0, t_low - t_high, (np.sin(k * t_low) - np.sin(k * t_high)) / np.maximum(k, 1))
+        top = min(edges[b + 1] ** 2, c + 0.999 * h)
+        if edges[b] ** 2 >= top:
+            continue
+        t_low, t_high = theta(edges[b] ** 2), theta(top)
+        u_max = np.sqrt(t_low - t_high)
+        nodes, weights = roots_legendre(int(4 * moments * (t_low - t_high)) + 400)
+        u = u_max * (nodes + 1) / 2
+        t = t_low - u**2
+        lam_t = c + h * np.cos(t)  # > 0 at every node (u > 0)
+        f_coef[:, b] = np.cos(np.outer(k, t)) @ (2 * u / np.sqrt(lam_t) * weights * u_max / 2)
+    series = np.cos(np.outer(theta(lam), k))  # T_k(x_n)
+    return series @ (norm[:, None] * f_coef), series @ (norm[:, None] * i_coef)
+
+
+def allen_feldman_binned_dense(dm, positions: np.ndarray, box: np.ndarray, edges: np.ndarray, lam_max: float,
+                               moments: int | None = None, weight: str = "trace", zero_tol: float = 1e-4,
+                               min_count: float = 1.0) -> dict:
+    """The Allen-Feldman diffusivity per omega bin of ``dm`` (symmetric) in the trace form of
+    docs/diffusivity_trace.md, exactly: {"count", "total", "d"}, each (B,) over the bins ``edges``
+    (B+1,) in 1/t0.  Over the modes with omega > ``zero_tol`` (``eigh`` of the gathered A),
+    Y^a = V^T X^a V (X^a dense, as :func:`allen_feldman_dense`):
+
+        total_b = pi / (4 D Delta_b) sum_a sum_{n, m} |Y^a_nm|^2 w_nm f_b(lambda_n) f_b(lambda_m),
+        count_b = sum_n i_b(lambda_n),   d_b = total_b / count_b (NaN where count_b < ``min_count``),
+
+    ``weight`` "trace": w = 1 and f_b = 1_b lambda^-1/2 (the estimator's target); "allen_feldman":
+    w_nm = (omega_n + omega_m)^2 / (4 omega_n^3 omega_m) (the definition's pair weight, m != n) and
+    f_b = 1_b.  i_b = 1_b; with ``moments`` K, f_b and i_b are their Jackson-damped Chebyshev
+    series of K terms on [-0.01, 1.01] ``lam_max`` (the estimator's at K moments, its
+    ``omega_max``^2 as ``lam_max``); sharp bins without.  n^2 memory.  Collective (gathers A)."""
+    import scipy.linalg as sl
+
+    if weight not in ("trace", "allen_feldman"):
+        raise ValueError(f"weight {weight!r}: trace or allen_feldman")
+    edges = np.asarray(edges, dtype=float)
+    A = scaled_operator(dm)
+    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(A).toarray())
+    A.destroy()
+    lam, vec = sl.eigh(dense)
+    keep = lam > zero_tol**2
+    lam, vec = lam[keep], vec[:, keep]
+    omega = np.sqrt(lam)
+    r = np.asarray(positions, dtype=float)[dm.active]
+    sides = np.asarray(box, dtype=float)
+    delta = r[:, None, :] - r[None, :, :]
+    delta -= sides * np.round(delta / sides)
+    dim = r.shape[1]
+    square = np.zeros((lam.size, lam.size))
+    for a in range(dim):
+        y = vec.T @ (dense * np.kron(delta[:, :, a], np.ones((dm.dof, dm.dof)))) @ vec
+        square += y**2
+    f, ind = _binned_filters(lam, edges, lam_max, moments)
+    if weight == "allen_feldman":
+        wn, wm = omega[:, None], omega[None, :]
+        square *= (wn + wm) ** 2 / (4 * wn**3 * wm)
+        np.fill_diagonal(square, 0.0)
+        f = ind
+    total = np.pi / (4 * dim * np.diff(edges)) * np.einsum("nb,nm,mb->b", f, square, f)
+    count = ind.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.where(count >= min_count, total / count, np.nan)
+    return {"count": count, "total": total, "d": d}

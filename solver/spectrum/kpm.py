@@ -44,6 +44,23 @@ def probe_rows(seed: int, start: int, stop: int, probes: int) -> np.ndarray:
     return 1.0 - 2.0 * signs
 
 
+def project_rigid(dm, z: np.ndarray) -> np.ndarray:
+    """Remove from the columns of ``z`` (this rank's rows (nloc, k) on D's layout, in place) their
+    parts along the exact zero modes of A = M^-1/2 D M^-1/2 listed by ``dm.rigid_modes()``: slot
+    s of every particle is M^1/2 (1 in slot s) in A's space (e_x ~ M^1/2 (1, 0, 0, ...));
+    different slots, so they are orthogonal to each other.  Returns ``z``.  Collective on D's
+    communicator."""
+    mpi = dm.D.getComm().tompi4py()
+    nloc = dm.D.getLocalSize()[0]
+    s = (1.0 / np.sqrt(dm.M.getArray()))[:, None]
+    for slot, _ in dm.rigid_modes():
+        e = np.zeros(nloc)
+        e[slot::dm.dof] = 1.0 / s[slot::dm.dof, 0]
+        norm2 = mpi.allreduce(float(e @ e))
+        z -= np.outer(e, mpi.allreduce(e @ z) / norm2)
+    return z
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
     """sum(a * b) of two equal-layout arrays without a temporary (BLAS dot). Not collective."""
     return float(np.dot(a.ravel(order="K"), b.ravel(order="K")))
@@ -73,15 +90,8 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel:
     if channel is not None:
         rotation = (np.arange(start, start + nloc) % dm.dof) >= dm.dim
         z[rotation if channel == "translation" else ~rotation] = 0.0
-    # project out the exact zero modes: slot s of every particle is M^1/2 (1 in slot s) in A's
-    # space (e_x ~ M^1/2 (1, 0, 0, ...)); different slots, so they are orthogonal to each other
-    rigid = dm.rigid_modes()
-    for slot, _ in rigid:
-        e = np.zeros(nloc)
-        e[slot::dm.dof] = 1.0 / s[slot::dm.dof, 0]
-        norm2 = mpi.allreduce(float(e @ e))
-        z -= np.outer(e, mpi.allreduce(e @ z) / norm2)
-    n_modes = n - len(rigid)
+    project_rigid(dm, z)
+    n_modes = n - len(dm.rigid_modes())
     X = PETSc.Mat().createDense(((nloc, n), (PETSc.DECIDE, probes)), array=np.zeros((nloc, probes), order="F"),
                                 comm=comm)
     X.assemble()
