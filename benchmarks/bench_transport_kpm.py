@@ -3,6 +3,7 @@ route 2) against route 1, the exact d_n (``transport.allen_feldman``), and alone
 
     python -m benchmarks.bench_transport_kpm [--ns 256 512 1024 2048] [--width 0.1] [--probes 16]
     python -m benchmarks.bench_transport_kpm --sizes 1000000 --ranks 2              # issue 45's target, 2D
+    python -m benchmarks.bench_transport_kpm --sizes 1048576 --ranks 2 --engine fire --tile 8
     python -m benchmarks.bench_transport_kpm --sizes 250000 --ranks 2 --dim 3       # spheres, measured
 Small N (default; one process, one core, like bench_transport.py): a FIRE packing at phi = 0.9
 (seed 5), D at rho = 0.5; bins of ``--width`` (1/t0) over [0, 1.1 omega_max]; route 1 at
@@ -19,7 +20,12 @@ bench_spheres.load_spheres), rho = 1, KPM alone: wall time (max over ranks; omeg
 included), peak RSS per rank, moments, the median and largest d_err / d over the bins holding
 1 % or more of the modes, the estimated mode count against the true one.  ``--block`` probes per
 recursion and ``--bins-per-pass`` bound the memory (2 nloc x block x bins float64 per rank plus
-``--chunk`` T_k vectors: module docstring).
+``--chunk`` T_k vectors: module docstring).  ``--tile K`` takes the packing of N / K^D particles and
+repeats it K times along each axis (:func:`tiled`): a periodic supercell, as jammed as its tile,
+whose cost per MatMult is that of any packing of N; it stands in for a fresh packing of N when
+making one would take longer than the measurement (LAMMPS made 10^6 disks in 62 min on 2 ranks,
+benchmarks/records/scaling_after.json).  Its d(omega) is that of the tile's disorder; its
+statistical error is what N modes give.
 Writes benchmarks/records/transport_kpm.json (rows merged by N, dim and ranks).
 """
 
@@ -119,11 +125,24 @@ def packing(n: int, dim: int, engine: str):
     return p if comm.rank == 0 else load(n)
 
 
+def tiled(p, copies: int):
+    """Packing ``p`` repeated ``copies`` times along each axis: a periodic supercell of copies^D
+    tiles, jammed and at rest as its tile is (every contact across the tile's seam is a contact
+    between neighbouring tiles).  Not collective."""
+    from solver.packing.configuration import Packing
+
+    shifts = np.stack(np.meshgrid(*[np.arange(copies)] * p.dim, indexing="ij"), -1).reshape(-1, p.dim) * p.box
+    return Packing((p.positions[None] + shifts[:, None]).reshape(-1, p.dim), np.tile(p.diameters, len(shifts)),
+                   p.box * copies, np.tile(p.rattler, len(shifts)), dict(p.info), model=p.model)
+
+
 def large_case(argv: list[str]) -> None:
-    """One large-N job on COMM_WORLD (``--case N DIM ENGINE WIDTH PROBES MOMENTS BLOCK BINS CHUNK``);
+    """One large-N job on COMM_WORLD (``--case N DIM ENGINE WIDTH PROBES MOMENTS BLOCK BINS CHUNK
+    TILE``: N particles, or with TILE > 1 the packing of N / TILE^DIM tiled TILE^DIM times);
     rank 0 prints one JSON line."""
-    n, dim, engine, width, probes, moments, block, per_pass, chunk = argv
+    n, dim, engine, width, probes, moments, block, per_pass, chunk, tile = argv
     n, dim, probes, moments, block, chunk = int(n), int(dim), int(probes), int(moments), int(block), int(chunk)
+    tile = int(tile)
     width, per_pass = float(width), int(per_pass) or None
     from solver import petscenv
     from solver.contact_law import ContactModel
@@ -136,7 +155,9 @@ def large_case(argv: list[str]) -> None:
 
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
-    p = packing(n, dim, engine)
+    p = packing(n // tile**dim, dim, engine) if tile > 1 else packing(n, dim, engine)
+    if tile > 1:
+        p = tiled(p, tile)
     t0 = time.perf_counter()
     dm = dynmat.assemble(p, ContactModel(1.0) if dim == 2 else ContactModel(1.0, 0.1, 0.1), comm)
     t_assemble = mpi.allreduce(time.perf_counter() - t0, op=MPI.MAX)
@@ -153,7 +174,7 @@ def large_case(argv: list[str]) -> None:
     held = (count >= 0.01 * attrs["n_modes"]) & np.isfinite(d)
     rel = d_err[held] / d[held]
     if comm.getRank() == 0:
-        print(json.dumps({"N": n, "dim": dim, "ranks": comm.getSize(), "DOF": dm.size, "bins": int(edges.size - 1),
+        print(json.dumps({"N": p.n, "tile": tile, "dim": dim, "ranks": comm.getSize(), "DOF": dm.size, "bins": int(edges.size - 1),
                           "moments": attrs["moments"], "probes": probes, "assembly_s": t_assemble, "seconds": seconds,
                           "rss": rss, "median_rel_err": float(np.median(rel)), "max_rel_err": float(rel.max()),
                           "count": float(count.sum()), "modes": attrs["n_modes"], "omega_max": w,
@@ -166,8 +187,10 @@ def large(args) -> None:
     for n in args.sizes:
         r = run_json(mpirun(args.ranks) + [PY, *ME, "--case", str(n), str(args.dim), args.engine, f"{args.width:g}",
                                            str(args.probes), str(args.moments or 0), str(args.block),
-                                           str(args.bins_per_pass or 0), str(args.chunk)], timeout=4 * 3600)
-        table.append({"N": n, "dim": r["dim"], "ranks": r["ranks"], "modes": r["modes"], "bins": r["bins"],
+                                           str(args.bins_per_pass or 0), str(args.chunk), str(args.tile)],
+                     timeout=4 * 3600)
+        table.append({"N": r["N"], "packing": f"{n // args.tile ** args.dim} tiled {args.tile}^{args.dim}"
+                      if args.tile > 1 else args.engine, "dim": r["dim"], "ranks": r["ranks"], "modes": r["modes"], "bins": r["bins"],
                       "moments": r["moments"], "probes": r["probes"], "KPM s": f"{r['seconds']:.1f}",
                       "assembly s": f"{r['assembly_s']:.1f}", "peak RSS GiB (largest rank)": f"{r['rss']:.2f}",
                       "median d_err/d": f"{r['median_rel_err']:.4f}", "largest d_err/d": f"{r['max_rel_err']:.4f}",
@@ -175,7 +198,8 @@ def large(args) -> None:
         print(table[-1], flush=True)
     save("transport_kpm", "python -m benchmarks.bench_transport_kpm " + " ".join(
         ["--sizes", *map(str, args.sizes), "--ranks", str(args.ranks), "--dim", str(args.dim), "--width",
-         f"{args.width:g}", "--probes", str(args.probes)]), table,
+         f"{args.width:g}", "--probes", str(args.probes), "--engine", args.engine]
+        + (["--tile", str(args.tile)] if args.tile > 1 else [])), table,
         "large N: KPM alone (no route 1), rho = 1 (3D: rho_roll = rho_twist = 0.1), bins of the given width; the "
         "relative errors over the bins holding 1 % or more of the modes.", merge_by=("N", "dim", "ranks"))
 
@@ -193,6 +217,8 @@ def main() -> None:
     parser.add_argument("--block", type=int, default=1, help="large N: probes per recursion")
     parser.add_argument("--bins-per-pass", type=int, default=None, help="large N: bins per pass (memory)")
     parser.add_argument("--chunk", type=int, default=32, help="T_k vectors per dgemm")
+    parser.add_argument("--tile", type=int, default=1, help="large N: tile the packing of N / TILE^DIM particles "
+                                                              "TILE times along each axis")
     args = parser.parse_args()
     if args.sizes:
         args.probes = args.probes or 4

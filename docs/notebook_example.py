@@ -26,8 +26,8 @@ def main(path: str) -> None:
             print(f"vDOS rho = {rho:g}: omega_c = {g.omega_c:.4f}/t0, peak at omega = {peak:.3f}/t0")
         for rho, (omega, K, Q) in results.mode_energies(f).items():  # per mode, with spectrum.energies
             print(f"modes rho = {rho:g}: {omega.size} modes, K/Q at the lowest = {K[0] / Q[0]:.3g}")
-        for rho, g in results.diffusivity(f).items():  # Diffusivity: omega, d per mode; edges, d_binned, ...
-            print(f"diffusivity rho = {rho:g}: {g.omega.size} modes, eta = {g.eta:g}/t0, "
+        for rho, g in results.diffusivity(f).items():  # Diffusivity: omega, d per mode (exact); edges, d_binned, ...
+            print(f"diffusivity rho = {rho:g} ({g.method}): {g.omega.size} modes with their d, "
                   f"d = {np.nanmedian(g.d_binned):.3g} d0^2/t0 (median over the vDOS's bins)")
         for (rho, mode), fit in sorted(results.fits(f).items()):  # {(rho, mode): datasets and attributes}
             k, omega, gamma = fit["k"], fit["omega"], fit["gamma"]

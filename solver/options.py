@@ -99,6 +99,7 @@ STAGE_PREFIXES = {
     ("spectra", "pep"): ("pep_", "wmax_"),
     ("modes", "shapes"): ("modes_",),
     ("transport", "exact"): ("transport_", "inertia_", "wmax_"),
+    ("transport", "kpm"): ("wmax_",),
     ("waves", "ts"): ("waves_", "wmax_"),
     ("waves", "spectral"): ("wmax_",),
     ("waves", "exponential"): ("waves_", "wmax_"),

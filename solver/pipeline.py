@@ -243,7 +243,7 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
             check_interrupt(comm)
             with profiling.stage("transport"):
                 datasets, attrs, line = transport_unit.solve(scene.transport, dm, p.positions, p.box, rho, p_index,
-                                                             comm, scratch)
+                                                             scene.seed, comm, scratch, scene.spectrum)
                 commit(wanted, datasets, attrs)
                 say(comm, line)
         if wave_todo:

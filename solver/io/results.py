@@ -35,16 +35,18 @@ class Vdos(NamedTuple):
 
 class Diffusivity(NamedTuple):
     """The Allen-Feldman diffusivity of one rho (the scene's ``transport`` section): per mode
-    (``diffusivity/r<i>_p<j>``, every configuration pooled, ascending omega) and on the vDOS's
-    bins (``diffusivity_binned/r<i>``)."""
+    (``diffusivity/r<i>_p<j>`` of method exact, every configuration pooled, ascending omega) and on
+    the vDOS's bins (``diffusivity_binned/r<i>``)."""
 
-    omega: np.ndarray       # (M,) 1/t0, every non-zero mode of every configuration, ascending
-    d: np.ndarray           # (M,) d0^2/t0, the mode's diffusivity
+    method: str             # exact or kpm
+    omega: np.ndarray       # (M,) 1/t0, every non-zero mode of every configuration, ascending (kpm: empty)
+    d: np.ndarray           # (M,) d0^2/t0, the mode's diffusivity (kpm: empty)
     edges: np.ndarray       # (B+1,) 1/t0, the vDOS's bins
     d_binned: np.ndarray    # (B,) d0^2/t0, the mean d of each bin's modes, NaN where none
-    d_std: np.ndarray       # (B,) their spread
-    count: np.ndarray       # (B,) modes in each bin
-    eta: float              # 1/t0, the Lorentzian's half-width
+    d_std: np.ndarray       # (B,) exact: their spread (kpm: NaN)
+    d_err: np.ndarray       # (B,) kpm: the standard error of d_binned over the probes (exact: NaN)
+    count: np.ndarray       # (B,) modes in each bin (kpm: estimated)
+    eta: float              # 1/t0, exact's Lorentzian half-width (kpm: NaN)
     configurations: int
 
 
@@ -212,11 +214,14 @@ def diffusivity(f) -> dict[float, Diffusivity]:
     out = {}
     for g in _groups(f, "diffusivity_binned"):
         rho = float(g.attrs["rho"])
-        omega = np.concatenate([unit["omega"][()] for unit in per_rho.get(rho, [])] or [np.empty(0)])
-        d = np.concatenate([unit["d"][()] for unit in per_rho.get(rho, [])] or [np.empty(0)])
+        units = [unit for unit in per_rho.get(rho, []) if "omega" in unit]  # exact's per-mode units
+        omega = np.concatenate([unit["omega"][()] for unit in units] or [np.empty(0)])
+        d = np.concatenate([unit["d"][()] for unit in units] or [np.empty(0)])
         order = np.argsort(omega, kind="stable")
-        out[rho] = Diffusivity(omega[order], d[order], g["edges"][()], g["d"][()], g["d_std"][()], g["count"][()],
-                               float(g.attrs["eta"]), int(g.attrs["configurations"]))
+        missing = np.full(g["d"].shape, np.nan)
+        out[rho] = Diffusivity(str(g.attrs["method"]), omega[order], d[order], g["edges"][()], g["d"][()],
+                               g["d_std"][()] if "d_std" in g else missing, g["d_err"][()] if "d_err" in g else missing,
+                               g["count"][()], float(g.attrs["eta"]), int(g.attrs["configurations"]))
     return out
 
 

@@ -383,12 +383,15 @@ class TransportSpec:
     """Section ``transport`` (absent: no diffusivity): how far each mode carries energy, the
     Allen-Feldman diffusivity d(omega) (docs/diffusivity.md; the stage ``solver/transport``)."""
 
-    eta: float | None = _f(None, "required: half-width (1/t0) of the Lorentzian that broadens delta(omega_n - "
-                                 "omega_m) in the Allen-Feldman sum; a few mean level spacings 1/(M g(omega)) of "
-                                 "the M modes (docs/diffusivity.md: the choice of eta)",
+    eta: float | None = _f(None, "exact (required there): half-width (1/t0) of the Lorentzian that broadens "
+                                 "delta(omega_n - omega_m) in the Allen-Feldman sum; a few mean level spacings "
+                                 "1/(M g(omega)) of the M modes (docs/diffusivity.md: the choice of eta)",
                            _range(0.0, 1e3, True), float)
     method: str = _f("exact", "exact: every mode's d_n from its eigenvector (spectrum slicing in blocks of "
-                              "`block` modes, vectors in scratch files of the units folder: n M float64 in all)",
+                              "`block` modes, vectors in scratch files of the units folder: n M float64 in all); "
+                              "kpm: d(omega) per bin, no eigenvectors (Chebyshev moments with random probes, "
+                              "MatMult only; the sum broadened by the bin, with a standard error per bin; "
+                              "docs/diffusivity_trace.md)",
                      _one_of(TRANSPORT_METHODS), str)
     bin_width: float | None = _f(None, "width (1/t0) of the omega bins of d(omega), the mean d of the modes in each "
                                        "bin; null: spectrum.bin_width (the vDOS's bins), 0.05 without a spectrum "
@@ -403,6 +406,10 @@ class TransportSpec:
     max_scratch_gib: float = _f(64.0, "exact: refuse, before any compute, a packing whose eigenvectors (8 n M "
                                       "bytes, written to the units folder) exceed this many GiB",
                                 _range(0.0, 1e6, True), float)
+    probes: int = _f(16, "kpm: random probe vectors (>= 2: their spread gives the standard error d_err, which "
+                         "falls as 1/sqrt(probes))", _range(2, 10**5), int)
+    moments: int = _f(0, "kpm: Chebyshev moments; 0 chooses them so that Jackson's smearing at omega = 1/t0 is "
+                         "about half a bin", _range(0, 10**6), int)
 
 
 @dataclass(frozen=True)

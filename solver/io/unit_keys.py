@@ -19,6 +19,7 @@ import numpy as np
 from .. import __version__
 from .. import options
 from ..spectrum.plan import probe_seed
+from ..transport.rules import bin_width as transport_bin_width
 from ..waves.excitation import wave_modes
 
 FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "modes": "modes", "transport": "diffusivity", "waves": "waves"}
@@ -221,7 +222,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
 
 TRANSPORT_AFTER = ("bin_width", "max_scratch_gib")
 """Transport keys that a unit's numbers do not depend on: the bins of the pooled d(omega) (made
-from the units when the results are written) and a guard on the scratch's size."""
+from exact's units when the results are written; kpm's units are made on their bins, which join
+its key) and a guard on the scratch's size."""
 
 LAYOUT_KEYS = ("factor_ranks",)
 """Spectrum keys that say how the work is laid out over ranks, not what is computed: the counts
@@ -249,6 +251,9 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
                           options=options.acting_on(petsc_argv, "modes", "shapes"), **spectrum, **base)
     if unit.kind == "transport":
         settings = {k: v for k, v in dataclasses.asdict(scene.transport).items() if k not in TRANSPORT_AFTER}
+        if scene.transport.method == "kpm":  # its probes' seed; its bins are its own (bin_width)
+            settings.update(seed=scene.seed + unit.p_index, bin_width=transport_bin_width(scene.transport,
+                                                                                          scene.spectrum))
         return UnitKey.of(unit="transport", rho=unit.rho, section="transport", settings=settings,
                           options=options.acting_on(petsc_argv, "transport", scene.transport.method), **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on

@@ -16,7 +16,8 @@ from .common import legend, plt, rho_label, save
 
 def plot_diffusivity(diffusivity: dict, stem: str) -> list[str]:
     """d(omega) for every rho of ``diffusivity`` ({rho: results.Diffusivity}): each mode's d_n as a
-    dot, the bin means as a line, on a log scale of d; eta in the title."""
+    dot (exact), the bin means as a line with their standard error as a band (kpm), on a log scale
+    of d; eta in the title (exact)."""
     if not any(np.isfinite(g.d_binned).any() for g in diffusivity.values()):
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -27,10 +28,13 @@ def plot_diffusivity(diffusivity: dict, stem: str) -> list[str]:
         ax.plot(g.omega, g.d, ".", ms=2, alpha=0.35, color=colour)
         centres = 0.5 * (g.edges[1:] + g.edges[:-1])
         ax.plot(centres, g.d_binned, "-", color=colour, label=rho_label(rho))
-    etas = sorted({g.eta for g in diffusivity.values()})
+        if np.isfinite(g.d_err).any():
+            ax.fill_between(centres, g.d_binned - g.d_err, g.d_binned + g.d_err, color=colour, alpha=0.25, lw=0)
+    etas = sorted({g.eta for g in diffusivity.values() if np.isfinite(g.eta)})
+    how = (rf"dots: modes, lines: bin means; $\eta$ = {', '.join(f'{e:g}' for e in etas)}/$t_0$" if etas
+           else "kpm: bin means, bands: standard error")
     ax.set(xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$", xlim=(0, None), yscale="log",
-           title=rf"Allen-Feldman diffusivity (dots: modes, lines: bin means; $\eta$ = "
-                 rf"{', '.join(f'{e:g}' for e in etas)}/$t_0$)")
+           title=f"Allen-Feldman diffusivity ({how})")
     legend(ax, fontsize=8)
     fig.tight_layout()
     return save(fig, stem)

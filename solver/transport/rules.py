@@ -15,25 +15,31 @@ from __future__ import annotations
 
 from ..errors import InputError
 
-METHODS = ("exact",)
-"""transport.method values: exact, every mode's d_n from its eigenvector (``allen_feldman``)."""
+METHODS = ("exact", "kpm")
+"""transport.method values: exact, every mode's d_n from its eigenvector (``allen_feldman``);
+kpm, d(omega) per bin from Chebyshev moments with random probes (``kpm_diffusivity``)."""
 DEFAULT_BIN_WIDTH = 0.05
 """Bins of d(omega) (1/t0) without a spectrum section: the spectrum's default bin width."""
-_EXACT_ONLY = {"tol": 1e-12, "block": 1000, "max_scratch_gib": 64.0}
-"""Keys of method exact and their defaults: given with another method, they would do nothing."""
+_ONLY = {"exact": {"tol": 1e-12, "block": 1000, "max_scratch_gib": 64.0}, "kpm": {"probes": 16, "moments": 0}}
+"""Keys of each method and their defaults: given with another method, they would do nothing."""
 
 
 def check_section(spec, where: str) -> None:
-    """Refuse a transport section ``spec`` without eta, or with keys its method does not take.
+    """Refuse a transport section ``spec`` of method exact without eta, of method kpm with one
+    (kpm broadens the sum by the bin: docs/diffusivity_trace.md), or with keys of another method.
     Not collective."""
-    if spec.eta is None:
+    if spec.method == "exact" and spec.eta is None:
         raise InputError(f"{where}eta is missing: give the Lorentzian half-width (1/t0) that broadens the "
                          f"Allen-Feldman sum, a few mean level spacings, e.g. {where}eta: 0.05 "
                          f"(docs/diffusivity.md: the choice of eta)")
-    if spec.method != "exact":
-        given = [key for key, default in _EXACT_ONLY.items() if getattr(spec, key) != default]
+    if spec.method == "kpm" and spec.eta is not None:
+        raise InputError(f"{where}eta = {spec.eta!r}: method 'kpm' broadens the Allen-Feldman sum by the bin "
+                         f"(a box of width {where}bin_width), not by a Lorentzian: drop {where}eta and choose the "
+                         f"bins (docs/diffusivity_trace.md)")
+    for method, keys in _ONLY.items():
+        given = [key for key, default in keys.items() if method != spec.method and getattr(spec, key) != default]
         if given:
-            raise InputError(f"{where}{given[0]} = {getattr(spec, given[0])!r} is a key of method 'exact'; "
+            raise InputError(f"{where}{given[0]} = {getattr(spec, given[0])!r} is a key of method {method!r}; "
                              f"{where}method is {spec.method!r}: drop it")
 
 

@@ -87,3 +87,41 @@ def test_spheres_with_rolling_and_twisting_pool_their_configurations(comm, share
                f"two configurations pooled: {got.count.sum()} binned, {got.omega.size} modes")
     assert_close(np.diff(got.edges), np.full(got.edges.size - 1, 0.25), rtol=1e-12, what="transport.bin_width")
     assert_close(got.d_binned, modes.bin_average(got.omega, got.d, got.edges), rtol=1e-12, what="pooled bin means")
+
+
+def test_kpm_scene_pools_its_configurations_within_their_errors(comm, shared_tmp):
+    """transport.method kpm: each unit is the estimator on the scene's packing with the probes of
+    seed + packing index, on the kpm vDOS's bins; the pooled d(omega) agrees with the pooled exact
+    target (the Jackson-filtered trace at the same moments, references.allen_feldman_binned_dense)
+    within 4 of its pooled standard errors in every bin holding 5 modes or more."""
+    from solver.model.operators import largest_omega
+
+    scene = scene_of(shared_tmp / "kpm.h5", cache="off", seed=7, packing={"n": 64, "phi": 0.9, "count": 2},
+                     model={"rho": [0.5]}, spectrum={"method": "kpm", "bin_width": 0.25},
+                     transport={"method": "kpm", "probes": 32})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        got = results.diffusivity(f)[0.5]
+        vdos = results.vdos(f)[0.5]
+        moments = [int(f[f"diffusivity/r00_p000{i}"].attrs["moments"]) for i in range(2)]
+    assert_all(got.method == "kpm" and got.omega.size == 0 and got.configurations == 2, f"{got.method}")
+    assert_close(got.edges[:vdos.edges.size], vdos.edges[:got.edges.size], rtol=0.0, what="the kpm vDOS's bins")
+    count, total = np.zeros(got.count.size), np.zeros(got.count.size)
+    for index in range(2):  # configuration i: SeedSequence([7, i])
+        from solver.packing import jammed
+
+        p = jammed.generate(64, 0.9, np.random.SeedSequence([7, index]))
+        dm = dynmat.assemble(p, ContactModel(0.5), comm)
+        try:
+            exact = references.allen_feldman_binned_dense(dm, p.positions, p.box, got.edges, largest_omega(dm) ** 2,
+                                                          moments=moments[index])
+        finally:
+            dm.destroy()
+        count += exact["count"]
+        total += exact["total"]
+    held = count >= 5
+    target = total[held] / count[held]
+    assert_all(held.sum() >= 8, f"{held.sum()} bins hold 5 modes or more")
+    # atol: 4 pooled standard errors, the estimator's stated statistical error (no rtol: it is exact in expectation)
+    assert_close(got.d_binned[held], target, rtol=0.0, atol=4 * got.d_err[held], what="pooled kpm vs its exact target")
+    assert_all(np.all(got.d_err[held] > 0), "every held bin has a standard error")
