@@ -1,2 +1,3 @@
 """Energy transport by the vibrational modes: the Allen-Feldman diffusivity of each mode
-(``allen_feldman``; docs/diffusivity.md).  A stage above spectrum and waves, below analysis."""
+(``allen_feldman``; docs/diffusivity.md) and the diffusivity measured directly as a spreading
+energy packet (``packet``; docs/diffusivity_packet.md).  A stage above spectrum and waves, below analysis."""

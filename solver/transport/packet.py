@@ -244,6 +244,44 @@ def start_vector(dm, positions: np.ndarray, box: np.ndarray, centre, radius: flo
     return s, int(np.count_nonzero(inside & dm.active))
 
 
+@profiling.logged("rsAFPacketStart")
+def band_starts(A, dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, float], centre, radius: float,
+                seed: int, probes: int, lam_top: float, comm, tol: float = 1e-10) -> tuple[list, int, int]:
+    """(starts, count, terms): the packet's starts [(q0, None), (None, pi0)] per probe (this rank's
+    rows of A's layout), phase A q0 = F_A(A) s and phase B pi0 = F_B(A) s of :func:`start_vector`'s
+    s, scaled by one factor per probe to energy 1 / ``probes`` (module docstring); how many
+    particles the region holds; the filters' Chebyshev terms.  ``A`` = M^-1/2 D M^-1/2 of ``dm``,
+    spectrum in [0, ``lam_top``].  ValueError (every rank) for an empty region or a band without
+    energy.  Collective on ``comm``."""
+    mpi = comm.tompi4py()
+    omega0, sigma = band_filters(band)
+    raw, count = [], 0
+    for probe in range(probes):  # a handful of probes
+        s, count = start_vector(dm, positions, box, centre, radius, seed, probe, comm)
+        raw.append(s)
+    if count == 0:
+        raise ValueError(f"no particle lies within radius {radius} of centre {centre!r}")
+    fcoef = chebyshev_coefficients(lambda lam: filter_values(lam, omega0, sigma), lam_top, tol)
+    filtered = chebyshev_apply(A, np.stack(raw, axis=1), [fcoef] * probes, lam_top, comm)
+    starts = []
+    image, vec = A.createVecLeft(), A.createVecRight()
+    try:
+        for f in filtered:
+            qa, pb = f[:, 0].copy(), f[:, 1].copy()
+            vec.setArray(qa)
+            A.mult(vec, image)
+            ea, eb = mpi.allreduce(np.array([0.5 * qa @ image.getArray(readonly=True), 0.5 * pb @ pb]))
+            if not (ea > 0 and eb > 0):
+                raise ValueError(f"the band {band!r} holds no energy of the start (no modes there?)")
+            # ea and eb agree to the filters' 2 exp(-2 omega omega_0 / sigma^2)
+            scale = 1.0 / math.sqrt(probes * (ea + eb))  # one factor for both: keeps F_B = omega F_A
+            starts += [(qa * scale, None), (None, pb * scale)]
+    finally:
+        image.destroy()
+        vec.destroy()
+    return starts, count, int(fcoef.shape[0])
+
+
 @profiling.logged("rsAFPacketSpread")
 def energy_spread(A, dof: int, starts: list, times: np.ndarray, centre, positions: np.ndarray, box: np.ndarray,
                   lam_top: float, comm, tol: float = 1e-10) -> dict:
@@ -341,7 +379,8 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
     ``band`` = (lo, hi) 1/t0; ``centre`` (D,) and ``radius`` d0 the start region; ``times`` (T,)
     t0, ascending from >= 0; ``seed`` the start's random numbers; ``tol`` each Chebyshev series'
     truncation bound relative to its function's largest value; ``probes`` independent starts
-    averaged; ``window`` (t_a, t_b) the fit window (default :func:`default_window`).
+    averaged; ``window`` (t_a, t_b) the fit window (default :func:`default_window`; d and its
+    error are NaN when it holds fewer than 4 samples: no diffusive window).
 
     datasets: ``times`` (T,) t0; ``msd`` (T,) d0^2; ``msd_rate`` (T,) d0^2/t0 (exact derivative);
     ``local_d`` (T,) = msd_rate / (2 D), d0^2/t0; ``energy`` (T,) (1 at the start);
@@ -358,7 +397,6 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
         raise ValueError(f"radius must be > 0, not {radius!r}")
     if not dm.symmetric:
         raise ValueError("the spreading packet needs a symmetric dynamical matrix (not a stressed packing's)")
-    mpi = comm.tompi4py()
     omega0, sigma = band_filters(band)
     positions = np.asarray(positions, dtype=float)
     box = np.asarray(box, dtype=float)
@@ -367,51 +405,33 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
     try:
         pstart, pstop = _rows(A, dm.dof)
         mine = positions[dm.order[pstart:pstop]]
-        raw, count = [], 0
-        for probe in range(probes):
-            s, count = start_vector(dm, positions, box, centre, radius, seed, probe, comm)
-            raw.append(s)
-        if count == 0:
-            raise ValueError(f"no particle lies within radius {radius} of centre {centre!r}")
-        fcoef = chebyshev_coefficients(lambda lam: filter_values(lam, omega0, sigma), lam_top, tol)
-        filtered = chebyshev_apply(A, np.stack(raw, axis=1), [fcoef] * probes, lam_top, comm)
-        starts = []
-        image = A.createVecLeft()
-        vec = A.createVecRight()
-        try:
-            for f in filtered:  # per probe: phase A (q0 = F_A s) and phase B (pi0 = F_B s), energy 1/2 each
-                qa, pb = f[:, 0].copy(), f[:, 1].copy()
-                vec.setArray(qa)
-                A.mult(vec, image)
-                ea, eb = mpi.allreduce(np.array([0.5 * qa @ image.getArray(readonly=True), 0.5 * pb @ pb]))
-                if not (ea > 0 and eb > 0):
-                    raise ValueError(f"the band {band!r} holds no energy of the start (no modes there?)")
-                # ea and eb agree to the filters' 2 exp(-2 omega omega_0 / sigma^2)
-                scale = 1.0 / math.sqrt(probes * (ea + eb))  # one factor for both: keeps F_B = omega F_A
-                starts += [(qa * scale, None), (None, pb * scale)]
-        finally:
-            image.destroy()
-            vec.destroy()
+        starts, count, filter_terms = band_starts(A, dm, positions, box, band=band, centre=centre, radius=radius,
+                                                  seed=seed, probes=probes, lam_top=lam_top, comm=comm, tol=tol)
         # r_c: the start's energy-weighted centre, from the start region's centre by the minimum image
         at0 = energy_spread(A, dm.dof, starts, np.zeros(1), np.asarray(centre, dtype=float), mine, box,
                             lam_top, comm, tol)
         r_c = np.asarray(centre, dtype=float) + at0["first"][0]
-        spread = energy_spread(A, dm.dof, starts, times, r_c, mine, box, lam_top, comm, tol)
+        spread = energy_spread(A, dm.dof, starts, np.concatenate([[0.0], times]), r_c, mine, box, lam_top, comm, tol)
+        msd0 = float(spread["msd"][0])  # the start's, about r_c
+        spread = {key: value[1:] if key != "terms" else value for key, value in spread.items()}
     finally:
         A.destroy()
     dim = dm.dim
     saturation = float(np.sum(box**2) / 12.0)
     if window is None:
         window = default_window(times, spread["msd"], saturation)
-    d, error, d1, d2 = fit_diffusivity(times, spread["msd"], dim, window)
+    if np.count_nonzero((times >= window[0]) & (times <= window[1])) >= 4:
+        d, error, d1, d2 = fit_diffusivity(times, spread["msd"], dim, window)
+    else:  # no diffusive window (a box too small, or times too coarse): no fit, NaN
+        d = error = d1 = d2 = math.nan
     local_d = spread["msd_rate"] / (2 * dim)
     reached = np.flatnonzero(local_d >= 0.5 * d)
     datasets = {"times": times, "msd": spread["msd"], "msd_rate": spread["msd_rate"], "local_d": local_d,
                 "energy": spread["energy"], "centre_shift": spread["first"]}
     attrs = {"d": d, "d_error": error, "d_first_half": d1, "d_second_half": d2, "window": tuple(window),
              "energy_drift": float(np.max(np.abs(spread["energy"] - 1.0))), "terms": int(spread["terms"]),
-             "filter_terms": int(fcoef.shape[0]), "lam_top": lam_top, "omega0": omega0, "sigma": sigma,
+             "filter_terms": filter_terms, "lam_top": lam_top, "omega0": omega0, "sigma": sigma,
              "saturation": saturation, "r_c": r_c,
-             "msd0": float(at0["msd"][0] - at0["first"][0] @ at0["first"][0]), "start_particles": count,
+             "msd0": msd0, "start_particles": count,
              "probes": probes, "t_cross": float(times[reached[0]]) if reached.size else math.nan}
     return datasets, attrs
