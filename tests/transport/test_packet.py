@@ -238,8 +238,8 @@ def test_packet_diffusivity_agrees_with_allen_feldman(comm):
     """The packet's d (default window, 8 probes, averaged over 4 start regions) against route 1's
     d_n (dense, eta = 0.05: about 1 / t in the fit window, 25 level spacings) weighted by each
     start's modal energies E_n = 1/2 (omega_n^2 (e_n.q0)^2 + (e_n.pi0)^2): within AGREEMENT (15 %)
-    -- see docs/diffusivity_packet.md for the measured spread (start regions: +-10 %; the local d
-    drifts down through the window by ~10 %) that sets it."""
+    (measured +8 %): the spread over start regions (+-8 % at this size) and the local d's drift
+    through the window (+-5 %) set it (docs/diffusivity_packet.md, section 3)."""
     p = jammed_packing(N_PHYSICS, 0.9, 7)
     dm = dynmat.assemble(p, ContactModel(0.5), comm)
     try:
