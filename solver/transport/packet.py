@@ -388,13 +388,17 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
     attrs: ``d``, ``d_error``, ``d_first_half``, ``d_second_half`` (d0^2/t0), ``window`` (t0),
     ``energy_drift`` (max |H(t) - H| / H, H = 1 exactly), ``terms`` (propagation series),
     ``filter_terms``, ``lam_top`` (1/t0^2), ``omega0``, ``sigma`` (1/t0), ``saturation``
-    (sum L_a^2 / 12, d0^2), ``r_c`` (d0), ``msd0`` (d0^2), ``start_particles``, ``probes``,
+    (sum L_a^2 / 12, d0^2), ``r_c`` (d0; the start's energy-weighted centre, by the minimum image
+    about ``centre``: the fixed centre of every <dr^2>), ``msd0`` (d0^2, the start's <dr^2> about
+    r_c), ``start_particles`` (in the region), ``probes``,
     ``t_cross`` (the first sample where local_d reaches half of d: the end of the ballistic start)."""
     times = np.asarray(times, dtype=float)
     if times.ndim != 1 or times.size < 2 or np.any(np.diff(times) <= 0) or times[0] < 0:
         raise ValueError("times must be ascending, at least two, from >= 0")
     if not (radius > 0):
         raise ValueError(f"radius must be > 0, not {radius!r}")
+    if int(probes) != probes or probes < 1:
+        raise ValueError(f"probes must be a positive integer, not {probes!r}")
     if not dm.symmetric:
         raise ValueError("the spreading packet needs a symmetric dynamical matrix (not a stressed packing's)")
     omega0, sigma = band_filters(band)

@@ -203,6 +203,9 @@ def test_bad_inputs(comm, case):
     with pytest.raises(ValueError, match="no particle"):
         packet.spreading(dm, p.positions, p.box, band=(1, 2), centre=0.5 * p.box, radius=1e-9, times=times,
                          seed=1, comm=comm)
+    with pytest.raises(ValueError, match="probes"):
+        packet.spreading(dm, p.positions, p.box, band=(1, 2), centre=0.5 * p.box, radius=2, times=times,
+                         seed=1, comm=comm, probes=0)
     with pytest.raises(ValueError, match="times"):
         packet.spreading(dm, p.positions, p.box, band=(1, 2), centre=0.5 * p.box, radius=2, times=times[::-1],
                          seed=1, comm=comm)
