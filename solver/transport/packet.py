@@ -39,7 +39,7 @@ Decisions, and why:
   recursion with a rigorous bound.
 
 - **The start: two phases of one band-filtered random vector.**  s: independent normal numbers
-  (SeedSequence([seed, 45]), drawn over every particle of the packing in its order, then restricted:
+  (SeedSequence([seed, 45, probe]), drawn over every particle of the packing in its order, then restricted:
   rank-free) on all DOF of the non-rattlers within ``radius`` of ``centre`` (minimum image), the
   exact zero modes (``dm.rigid_modes()``) projected out.  The band filter is a Gaussian in omega,
   centre omega_0 = (lo + hi)/2, sigma = (hi - lo)/4 (the band holds +-2 sigma), made even in
@@ -59,7 +59,7 @@ Decisions, and why:
   with polynomials in A; the odd/even Gaussian pair is exact up to the bound above.  Both phases
   are exact solutions; the filters' own truncation only changes the start, not the exactness.
   Both phases are scaled by one factor to H = 1 in all (each then holds 1/2, to that bound).  ``probes`` > 1 adds independent random
-  vectors (each a pair of phases, each of energy 1/(2 probes)): an average over starts.
+  vectors (each a pair of phases, each pair of energy 1/probes): an average over starts.
 
 - **The fit.**  d = slope / (2 D) of a least-squares line through <dr^2>(t) over a window
   [t_a, t_b]; by default t_b is the last sample with <dr^2> below ``SATURATION_FRACTION`` of the
