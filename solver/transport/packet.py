@@ -52,12 +52,12 @@ Decisions, and why:
   2 exp(-2 omega omega_0 / sigma^2) (at the band's centre at most 2 e^-8 = 7e-4, for a band
   from 0; e^-200 for the band 2-3), so phase B is phase A a quarter period on in every mode.
   Summing the two phases' particle energies then cancels the terms oscillating at
-  omega_n + omega_m (kinetic against potential, the 2 omega breathing of a start at rest) and leaves the difference-frequency terms, the ones that carry
-  the diffusion: the packet's energy density is that of the complex wave e^(-i t sqrt(A)) psi.
+  omega_n + omega_m (kinetic against potential, the 2 omega breathing of a start at rest) and
+  leaves the difference-frequency terms, the ones that carry the diffusion: the packet's energy density is that of the complex wave e^(-i t sqrt(A)) psi.
   A start at rest alone has that breathing in <dr^2>; it averages out of a long fit but shows in
   the exact rate d<dr^2>/dt (measured, N = 512, band 2-3: an rms of 7 % of the mean rate for
-  t < 3, 500 times more than with both phases; docs/diffusivity_packet.md section 2).  Needing sqrt(A) exactly (F_B = omega F_A exactly) is impossible
-  with polynomials in A; the odd/even Gaussian pair is exact up to the bound above.  Both phases
+  t < 3, 500 times more than with both phases; docs/diffusivity_packet.md section 2).  Needing
+  sqrt(A) exactly (F_B = omega F_A exactly) is impossible with polynomials in A; the odd/even Gaussian pair is exact up to the bound above.  Both phases
   are exact solutions; the filters' own truncation only changes the start, not the exactness.
   Both phases are scaled by one factor to H = 1 in all (each then holds about 1/2).
   ``probes`` > 1 adds independent random vectors (each a pair of phases, each pair of energy
