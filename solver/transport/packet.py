@@ -53,15 +53,16 @@ Decisions, and why:
   from 0; e^-200 for the band 2-3), so phase B is phase A a quarter period on in every mode.
   Summing the two phases' particle energies then cancels the terms oscillating at
   omega_n + omega_m (kinetic against potential, the 2 omega breathing of a start at rest) and
-  leaves the difference-frequency terms, the ones that carry the diffusion: the packet's energy density is that of the complex wave e^(-i t sqrt(A)) psi.
-  A start at rest alone has that breathing in <dr^2>; it averages out of a long fit but shows in
-  the exact rate d<dr^2>/dt (measured, N = 512, band 2-3: an rms of 7 % of the mean rate for
-  t < 3, 500 times more than with both phases; docs/diffusivity_packet.md section 2).  Needing
-  sqrt(A) exactly (F_B = omega F_A exactly) is impossible with polynomials in A; the odd/even Gaussian pair is exact up to the bound above.  Both phases
-  are exact solutions; the filters' own truncation only changes the start, not the exactness.
-  Both phases are scaled by one factor to H = 1 in all (each then holds about 1/2).
-  ``probes`` > 1 adds independent random vectors (each a pair of phases, each pair of energy
-  1/probes): an average over starts.
+  leaves the difference-frequency terms, the ones that carry the diffusion: the packet's energy
+  density is that of the complex wave e^(-i t sqrt(A)) psi.  A start at rest alone has that
+  breathing in <dr^2>; it averages out of a long fit but shows in the exact rate d<dr^2>/dt
+  (measured, N = 512, band 2-3: an rms of 7 % of the mean rate for t < 3, 500 times more than
+  with both phases; docs/diffusivity_packet.md section 2).  Needing sqrt(A) exactly
+  (F_B = omega F_A exactly) is impossible with polynomials in A; the odd/even Gaussian pair is
+  exact up to the bound above.  Both phases are exact solutions; the filters' own truncation only
+  changes the start, not the exactness.  Both phases are scaled by one factor to H = 1 in all
+  (each then holds about 1/2).  ``probes`` > 1 adds independent random vectors (each a pair of
+  phases, each pair of energy 1/probes): an average over starts.
 
 - **The fit.**  d = slope / (2 D) of a least-squares line through <dr^2>(t) over a window
   [t_a, t_b]; by default t_b is the last sample with <dr^2> below ``SATURATION_FRACTION`` of the
