@@ -24,10 +24,13 @@ test: setup
 
 # The serial pass on WORKERS processes (pytest-xdist, tests dealt one by one: measured 6:42 against
 # 7:42 with a module per worker, whose long modules left one worker idle; a module fixture may be
-# made on both); the MPI pass uses both cores through its ranks.
+# made on both), then the tests that start mpirun jobs of their own (marker spawns_ranks) alone:
+# beside a busy worker their ranks starve (the rank-count test took 110 s there, 32 s alone); the
+# MPI pass uses both cores through its ranks.
 WORKERS ?= 2
 test-serial:
-	timeout 1200 $(PY) $(PYTEST) -n $(WORKERS) --dist load tests
+	timeout 1200 $(PY) $(PYTEST) -n $(WORKERS) --dist load -m "not spawns_ranks" tests
+	timeout 1200 $(PY) $(PYTEST) -m spawns_ranks tests
 
 test-mpi:
 	timeout 1200 $(MPIRUN) $(PY) $(PYTEST) -m "not serial_only" tests

@@ -41,7 +41,7 @@ TOL = {
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if COMM.size > 1 and item.get_closest_marker("serial_only"):
+        if COMM.size > 1 and (item.get_closest_marker("serial_only") or item.get_closest_marker("spawns_ranks")):
             item.add_marker(pytest.mark.skip(reason="serial_only: runs in the 1-rank pass"))
         if COMM.size < 2 and item.get_closest_marker("mpi"):
             item.add_marker(pytest.mark.skip(reason="needs 2 ranks: runs in the mpirun -n 2 pass"))

@@ -71,6 +71,7 @@ def _finished_unit(path) -> bool:
 PROCESS_ROWS = ("unknown top-level key", "LAMMPS data file cut short", "bare solver option on the command line (-ts_dt)")
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own mpirun
 @pytest.mark.parametrize("what", PROCESS_ROWS)
 def test_bad_input_as_a_process(tmp_path, what):

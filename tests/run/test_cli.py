@@ -27,6 +27,7 @@ def write(tmp_path, text, name="scene.yaml"):
     return str(path)
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_run_writes_results_and_reports_unused_options(tmp_path, ranks):
     out = tmp_path / "r.h5"
@@ -180,6 +181,7 @@ def rank_tolerance(key, ref, got, fit_change):
     raise AssertionError(f"{key}: no stated rank-count tolerance")
 
 
+@pytest.mark.spawns_ranks
 def test_results_do_not_depend_on_rank_count(tmp_path):
     """The same scene on 1, 2 and 3 ranks (3 oversubscribed; 3 sub-intervals per slicing window):
     every dataset and attribute agrees to the tolerance rank_tolerance states for it."""
@@ -241,6 +243,7 @@ def test_keys_prints_reference():
     assert proc.returncode == 0 and "`packing.phi`" in proc.stdout
 
 
+@pytest.mark.spawns_ranks
 def test_multi_document_scene_runs_each_in_order(tmp_path):
     doc = "output: {out}\npacking: {{n: 32, phi: 0.9}}\nmodel: {{rho: 1}}\nspectrum: {{}}\n"
     outs = [tmp_path / "first.h5", tmp_path / "second.h5"]

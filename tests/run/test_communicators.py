@@ -202,6 +202,7 @@ def test_unpicklable_error_on_rank_0_raises_on_every_rank():
     assert_all(type(caught) is expected[0] and expected[1] in str(caught), f"rank {COMM.rank} raised {caught!r}")
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own mpirun
 def test_unwritable_output_stops_every_rank_with_one_message(tmp_path):
     """On 2 ranks: an output whose folder is a regular file, and an output whose temporary file

@@ -145,6 +145,7 @@ def test_sigterm_in_one_group_stops_every_rank_and_resumes_with_another_group_si
     assert_within_rank_tolerance(contents(out), contents(ref), fit_sensitivity(ref), "resumed as one group")
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own mpirun
 def test_cli_groups_on_2_and_4_ranks_equal_one_group(tmp_path):
     """`rotsound run --group-size G` of the rank-count scene (slicing, spectral waves and the

@@ -95,6 +95,7 @@ def reference(tmp_path_factory):
     return out
 
 
+@pytest.mark.spawns_ranks
 def test_kill_9_then_resume_equals_uninterrupted(tmp_path, reference):
     path, out = scene(tmp_path, "killed")
     proc = start(path)
@@ -109,6 +110,7 @@ def test_kill_9_then_resume_equals_uninterrupted(tmp_path, reference):
     assert_same(out, reference)
 
 
+@pytest.mark.spawns_ranks
 def test_sigterm_stops_cleanly_and_resumes(tmp_path, reference):
     path, out = scene(tmp_path, "termed")
     proc = start(path)
@@ -126,6 +128,7 @@ def test_sigterm_stops_cleanly_and_resumes(tmp_path, reference):
     assert_same(out, reference)
 
 
+@pytest.mark.spawns_ranks
 def test_damaged_unit_is_recomputed(tmp_path, reference):
     path, out = scene(tmp_path, "damaged")
     assert run_cli(["run", path], ranks=2, timeout=300).returncode == 0
@@ -196,6 +199,7 @@ sys.exit(main())
 """
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.parametrize("first, then", [(2, 1), (1, 2)])
 def test_spectrum_stopped_after_one_window_resumes_on_another_rank_count(tmp_path, first, then):
     """`rotsound run` of a many-window spectrum stopped after its first window (as by SIGTERM)

@@ -131,6 +131,7 @@ if comm.rank == 0:
 """
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.serial_only
 def test_four_ranks_count_alike_in_every_layout():
     """4 ranks (oversubscribed): factors per rank, shared by pairs, shared by all four: the same

@@ -158,6 +158,7 @@ def run_scene(tmp_path, words):
     return run_cli(["run", str(path), *words], ranks=2, timeout=120, cwd=tmp_path), out
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own mpirun
 def test_dt_option_above_the_limit_is_refused_before_integrating(tmp_path):
     """N = 64, rho = 1: limit ~0.43.  -waves_ts_dt 0.6 stops every rank with exit code 2 and one
@@ -170,6 +171,7 @@ def test_dt_option_above_the_limit_is_refused_before_integrating(tmp_path):
     assert not out.exists() and not list(tmp_path.glob("never.h5.units/waves*"))
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own mpirun
 def test_blow_up_in_flight_ends_with_one_error_line_and_exit_code_3(tmp_path):
     """ssp has no tabulated stability limit (it passes the check) and diverges at dt = 0.6: every

@@ -251,6 +251,7 @@ waves: {{modes: [L, TR, RT, R], n: [1, 2], t_end: 20, dt: 0.02, sample_every: 10
 """
 
 
+@pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own (mpirun) processes
 def test_cli_runs_a_3d_scene_with_every_mode_on_1_and_2_ranks(tmp_path):
     """``rotsound run`` end to end on 32 spheres with L, TR, RT and R: each waves group has one row
