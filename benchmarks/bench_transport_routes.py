@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 
 from benchmarks.benchlib import peak_rss_gib, save  # noqa: E402
 
-BENCH = {"order": 245, "record": "transport_routes_2d"}  # make bench (bench_all.py)
+BENCH = {"order": 245, "record": "transport_routes_2d", "also": ["transport_routes_3d"]}  # make bench (bench_all.py)
 
 
 def main() -> None:
