@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close, jammed_packing
+from conftest import assert_all, assert_close
+from diffusivity_cases import case  # noqa: F401 (a fixture)
 from lattices import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
 
 from solver import references
@@ -20,19 +21,7 @@ from solver.transport import allen_feldman as af
 ZERO_TOL = 1e-4   # the spectrum's default: omega <= zero_tol are zero modes
 ETA = 0.2         # 1/t0: a few mean level spacings of these 94- and 186-mode spectra
 
-CASES = {  # name: (packing, contact model)
-    "2d": (lambda: jammed_packing(32, 0.9, 7), ContactModel(0.5)),
-    "3d_rolling": (lambda: jammed_packing(32, 0.68, 5, dim=3), ContactModel(0.5, rho_roll=0.2, rho_twist=0.1)),
-}
 
-
-@pytest.fixture(params=sorted(CASES))
-def case(request, comm):
-    make, model = CASES[request.param]
-    p = make()
-    dm = dynmat.assemble(p, model, comm)
-    yield request.param, p, dm
-    dm.destroy()
 
 
 def _matrix_rows(dm, whole: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 from conftest import assert_all, assert_close, jammed_packing
+from diffusivity_cases import case  # noqa: F401 (a fixture)
 
 from solver import references
 from solver.contact_law import ContactModel
@@ -21,19 +22,7 @@ from solver.transport import allen_feldman as af
 from solver.transport import kpm_diffusivity as kd
 
 SIGMAS = 4.0  # tolerance in reported standard errors: a 4-sigma miss has probability ~6e-5 per bin
-CASES = {  # name: (packing, contact model)
-    "2d": (lambda: jammed_packing(32, 0.9, 7), ContactModel(0.5)),
-    "3d_rolling": (lambda: jammed_packing(32, 0.68, 5, dim=3), ContactModel(0.5, rho_roll=0.2, rho_twist=0.1)),
-}
 
-
-@pytest.fixture(params=sorted(CASES))
-def case(request, comm):
-    make, model = CASES[request.param]
-    p = make()
-    dm = dynmat.assemble(p, model, comm)
-    yield request.param, p, dm
-    dm.destroy()
 
 
 def _edges(dm, bins: int = 6) -> np.ndarray:

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 from conftest import COMM, assert_all, assert_close, jammed_packing
+from diffusivity_cases import case  # noqa: F401 (a fixture)
 
 from solver import references
 from solver.contact_law import ContactModel
@@ -17,20 +18,8 @@ from solver.model import dynmat
 from solver.model.operators import largest_omega, scaled_operator
 from solver.transport import packet
 
-CASES = {  # name: (packing, contact model)
-    "2d": (lambda: jammed_packing(32, 0.9, 7), ContactModel(0.5)),
-    "3d_rolling": (lambda: jammed_packing(32, 0.68, 5, dim=3), ContactModel(0.5, rho_roll=0.2, rho_twist=0.1)),
-}
 TIMES = np.array([0.0, 0.3, 1.7, 6.0, 25.0])  # t0: the start, short, and past many periods (omega_max ~ 3-4)
 
-
-@pytest.fixture(params=sorted(CASES))
-def case(request, comm):
-    make, model = CASES[request.param]
-    p = make()
-    dm = dynmat.assemble(p, model, comm)
-    yield request.param, p, dm
-    dm.destroy()
 
 
 def _whole(local: np.ndarray) -> np.ndarray:
