@@ -142,7 +142,8 @@ def _figures(rows: list[dict], table: dict | None, folder: str) -> list[str]:
             if np.isfinite(r["omega_star"]):
                 ax.axvline(r["omega_star"], color=colour, ls=":", lw=0.8)
         ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
-               title=f"frictionless spheres, N = {spheres[0]['N']}: d($\\omega$) ($\\omega^*$ dotted)")
+               title=f"frictionless spheres, N = {spheres[0]['N']}-{spheres[-1]['N']} (non-rattlers): "
+                     f"d($\\omega$) ($\\omega^*$ dotted)")
         ax.legend(fontsize=7)
         dz = np.array([r["dz"] for r in spheres])
         star = np.array([r["omega_star"] for r in spheres])

@@ -90,8 +90,9 @@ def binned(spec, spectrum, rho: float, units: list[tuple[dict, dict]], edges: np
     (B,) the mean d of each bin's modes (NaN where none), ``d_std`` (B,) their spread (ddof 0),
     ``count`` (B,) their number.  Binned units (kpm: bins [0, w), [w, 2w), ... of one width, which
     differ only in how far they reach): on the longest grid, ``count`` the summed estimated counts,
-    ``d`` = summed totals / summed counts, ``d_err`` = sqrt(sum (count_i d_err_i)^2) / sum count_i
-    (independent configurations).  Not collective."""
+    ``d`` = summed totals / summed counts (NaN where the bins hold less than one mode per
+    configuration, as a unit's own d is NaN below one mode), ``d_err`` = sqrt(sum (count_i
+    d_err_i)^2) / sum count_i (independent configurations).  Not collective."""
     attrs = {"rho": rho, "eta": np.nan if spec.eta is None else spec.eta, "method": spec.method,
              "configurations": len(units)}
     if "omega" not in units[0][0]:
