@@ -49,8 +49,26 @@ def pytest_collection_modifyitems(config, items):
 
 @pytest.fixture(autouse=True)
 def _collective_teardown():
+    """After each test, on every rank at once: the test's cyclic garbage collected, its PETSc
+    objects destroyed (``garbage_cleanup``), the ranks in step.  What survives the collection
+    (modules, caches, module fixtures) is frozen out of later collections (``gc.freeze``): a
+    full collection over the imported libraries' objects took 0.1-0.3 s a test, a quarter of
+    the suite's time."""
     yield
     gc.collect()
+    gc.freeze()
+    PETSc.garbage_cleanup()
+    COMM.Barrier()
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _module_teardown():
+    """After each module: everything frozen is collected once more, so that a module fixture's
+    cyclic garbage (and any PETSc object in it) does not outlive its module."""
+    yield
+    gc.unfreeze()
+    gc.collect()
+    gc.freeze()
     PETSc.garbage_cleanup()
     COMM.Barrier()
 
