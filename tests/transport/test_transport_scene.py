@@ -125,3 +125,9 @@ def test_kpm_scene_pools_its_configurations_within_their_errors(comm, shared_tmp
     # atol: 4 pooled standard errors, the estimator's stated statistical error (no rtol: it is exact in expectation)
     assert_close(got.d_binned[held], target, rtol=0.0, atol=4 * got.d_err[held], what="pooled kpm vs its exact target")
     assert_all(np.all(got.d_err[held] > 0), "every held bin has a standard error")
+    if COMM.rank == 0:  # rotsound plot reads a kpm file too (no per-mode d: the binned one with its errors)
+        from solver import plots
+
+        written = plots.plot_results(scene.output)
+        picture = str(shared_tmp / "kpm_diffusivity.png")
+        assert picture in written and os.path.getsize(picture) > 10_000, written
