@@ -31,7 +31,7 @@ from . import options
 from .model import operators
 from .spectrum import unit as spectrum_unit
 from .transport import unit as transport_unit
-from .waves import excitation
+from .waves import excitation, lammps_dem
 from .waves import schedule
 from .waves.unit import mode_unit
 from .io import scene_rules
@@ -259,6 +259,8 @@ def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Sch
 
     ``plan``: how they run (``schedule.plan``).  Collective."""
     spec = scene.waves
+    dem = lammps_dem.Setting(p.diameters, p.box, scene.packing.friction, scene.packing.force_tol) \
+        if plan.path == "lammps" else None
     axes = excitation.wave_axes(spec, dm.dim)
     ns, ks = excitation.wave_vectors(spec, p.box, axes)
     if spec.kd0 is not None:
@@ -270,7 +272,7 @@ def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Sch
     for unit in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
-        datasets, attrs, summary = mode_unit(dm, p.positions, spec, unit.mode, ns, ks, axes, plan)
+        datasets, attrs, summary = mode_unit(dm, p.positions, spec, unit.mode, ns, ks, axes, plan, dem)
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
         commit(unit, datasets, {**attrs, "packing": unit.p_index, "seconds": seconds})
         say(comm, f"waves rho = {unit.rho:g}, {unit.mode}, packing {unit.p_index}: {len(ks)} k x "
@@ -309,6 +311,8 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
     asked = scene  # spectrum.method auto: as the scene alone gives it until the packings are read
     scene = scene_rules.check_run(asked, group_size or comm.size, f"--group-size {group_size}" if group_size else
                                   f"{comm.size} rank{'s' * (comm.size > 1)} in the run")
+    if scene.waves is not None and scene.waves.engine == "lammps":  # LAMMPS missing: refused before any compute
+        lammps_dem.require(comm)
     packings = chosen = None
     if scene.packing.file is not None:  # a refused file or scene writes nothing: read and check before the store
         with profiling.stage("packings"):

@@ -374,6 +374,35 @@ CASES = [
      "transport.probes = 1: must be in [2", None),
     ("exact diffusivity beyond its scratch", "packing: {n: 100000, phi: 0.9}\ntransport: {eta: 0.01}\n", [],
      "eigenvectors take 671 GiB of scratch files", None),
+    ("finite-amplitude waves with amplitude 0", GOOD + "waves: {engine: lammps, n: [1], amplitude: 0}\n", [],
+     "waves.amplitude = 0: must be in (0.0, 1.0]", None),
+    ("finite-amplitude waves with a non-finite amplitude", GOOD + "waves: {engine: lammps, n: [1], amplitude: .nan}\n",
+     [], "waves.amplitude = nan: must be in (0.0, 1.0]", None),
+    ("an unknown waves engine", GOOD + "waves: {engine: yade, n: [1]}\n", [],
+     "waves.engine = 'yade': must be one of rotsound, lammps", None),
+    ("the LAMMPS engine with rotsound's own method", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
+     "waves: {engine: lammps, method: spectral, n: [1]}\n", [],
+     "waves.method = 'spectral' with waves.engine: lammps: LAMMPS integrates the waves with its own velocity "
+     "Verlet", None),
+    ("the LAMMPS engine with rotsound's own integrator", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
+     "waves: {engine: lammps, integrator: rk, n: [1]}\n", [], "waves.integrator = 'rk' with waves.engine: lammps",
+     None),
+    ("the LAMMPS engine without a Coulomb coefficient", GOOD + "waves: {engine: lammps, n: [1]}\n", [],
+     "waves.engine: lammps needs packing.friction, the Coulomb coefficient mu > 0", None),
+    ("the LAMMPS engine with rolling springs", "packing: {n: 64, phi: 0.7, dim: 3, friction: 0.3}\n"
+     "model: {rho_roll: 0.1}\nwaves: {engine: lammps, n: [1]}\n", [],
+     "rolling and twisting springs (rho_roll = 0.1, rho_twist = 0) need LAMMPS's pair granular", None),
+    ("the LAMMPS engine with YADE's history", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
+     "model: {history: yade}\nwaves: {engine: lammps, n: [1]}\n", [],
+     "LAMMPS's gran/*/history takes the tangential force at the radius, with its own history", None),
+    ("the LAMMPS engine with density masses", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
+     "model: {masses: density}\nwaves: {engine: lammps, n: [1]}\n", [],
+     "model.masses = 'density' with waves.engine: lammps", None),
+    ("the LAMMPS engine on a packing with stored forces", "packing: {file: '{file}', contacts: '{file}.contacts', "
+     "friction: 0.3}\nwaves: {engine: lammps, n: [1]}\n", [],
+     "LAMMPS's contact history cannot be given them yet", _stressed()),
+    ("the LAMMPS engine on LAMMPS's frictional packings", "packing: {n: 64, phi: 0.9, engine: lammps, friction: 0.3}\n"
+     "waves: {engine: lammps, n: [1]}\n", [], "LAMMPS's contact history cannot be given them yet", None),
     ("YADE export without its periodic cell", "packing: {file: '{file}'}\n", [],
      "the yade file records no periodic box",
      _dem("yade_3d.txt", lambda text: "".join(l for l in text.splitlines(True) if "PERIODIC" not in l))),

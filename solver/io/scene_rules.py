@@ -55,14 +55,17 @@ def resolve(scene: Scene, which: str | None) -> tuple[Scene, str | None]:
 def check_scene(scene: Scene) -> None:
     """The rules across the sections of ``scene``, in order: mode shapes picked from the spectrum,
     a generated packing's dimension, a contact file's DEM convention, friction for mobilised
-    contacts, a non-symmetric matrix (of the stored forces the scene alone gives), dashpots, the
-    output's name.  Not collective."""
+    contacts, what packing.friction is for, the waves' LAMMPS engine, a non-symmetric matrix (of
+    the stored forces the scene alone gives), dashpots, the output's name.  Not collective."""
     spectrum_plan.check_localised(scene.spectrum, scene.modes)
     if scene.packing.file is None:
         check_dimension(scene, scene.packing.dim, f"packing.dim is {scene.packing.dim}")
     model_rules.check_dem_convention(scene.model, scene.packing)
     model_rules.check_mobilised(scene.model, scene.packing)
+    packing_rules.check_friction(scene.packing, scene.waves)
+    waves_rules.check_engine(scene.waves, scene.packing, scene.model)
     check_stressed(scene, packing_rules.stored_forces_source(scene.packing))
+    waves_rules.check_engine_stored(scene.waves, packing_rules.stored_forces_source(scene.packing))
     spectrum_plan.check_damping(scene.spectrum, scene.modes, scene.model.damped)
     waves_rules.check_damping(scene.waves, scene.model.damped)
     transport_rules.check_scene(scene.transport, scene.spectrum, scene.model.damped)
@@ -128,6 +131,7 @@ def check_packings(asked: Scene, packings: list) -> tuple[Scene, str | None]:
         else None
     scene, chosen = resolve(asked, which or packing_rules.stored_forces_source(asked.packing))
     check_stressed(scene, which)
+    waves_rules.check_engine_stored(scene.waves, which or packing_rules.stored_forces_source(scene.packing))
     waves_rules.check_boxes(scene.waves, packings)
     for index, p in enumerate(packings):
         spectrum_plan.check_size(scene.spectrum, scene.model, int((~p.rattler).sum()), p.dim, f"packing {index}")

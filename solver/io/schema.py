@@ -369,6 +369,11 @@ class WavesSpec:
                            "exponential: exp(h J) of the first-order system from sample to sample by SLEPc MFN "
                            "(exact to tol, any matrix: the exact path for stressed packings)",
                      _one_of(schedule.METHODS), str)
+    engine: str = _f("rotsound", "rotsound: the linear waves of the dynamical matrix (waves.method); lammps: LAMMPS "
+                                 "integrates the packing itself with its full contact law at waves.amplitude, from "
+                                 "the packing held at rest: Coulomb mu = packing.friction, contacts that open and "
+                                 "form, its velocity Verlet at waves.dt; the unit also keeps its contacts' series "
+                                 "(docs/finite_amplitude.md)", _one_of(schedule.ENGINES), str)
     snapshots: list[float] | None = _f(None, "times (t0, up to t_end) at which the whole velocity field of the "
                                              "mode's first run at the smallest k is kept, for pictures (method "
                                              "spectral without dashpots); null: none", _times, "floats_list")

@@ -179,8 +179,8 @@ def packing_key(scene, index: int) -> UnitKey:
         settings["engine"] = spec.engine
     if scene.model.law != "harmonic":  # the normal law FIRE minimises
         settings["law"] = scene.model.law
-    if spec.friction is not None:  # a frictional packing made by LAMMPS
-        settings["friction"] = spec.friction
+    if spec.friction is not None and spec.engine == "lammps":  # a frictional packing made by LAMMPS (with FIRE
+        settings["friction"] = spec.friction  # it is the mu of the waves' LAMMPS engine: the packing's recipe is not)
     if spec.pressure is not None:  # held at a pressure
         settings["pressure"] = spec.pressure
     return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
@@ -257,6 +257,9 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
         return UnitKey.of(unit="transport", rho=unit.rho, section="transport", settings=settings,
                           options=options.acting_on(petsc_argv, "transport", scene.transport.method), **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on
-                if k != "modes" and not (k in ("axes", "snapshots") and v is None)}  # the others; keys of before
+                if k != "modes" and not (k in ("axes", "snapshots") and v is None)  # the others; keys of before
+                and not (k == "engine" and v == "rotsound")}
+    if scene.waves.engine == "lammps":  # LAMMPS's contacts slide at packing.friction; its rest check
+        settings.update(friction=scene.packing.friction, rest_tol=scene.packing.force_tol)
     return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,
                       options=options.acting_on(petsc_argv, "waves", scene.waves.method), **base)

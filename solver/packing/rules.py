@@ -1,5 +1,6 @@
 """The scene's rules on its ``packing`` section: what its keys ask together (a contact file needs
-its packing file, friction and pressure need the protocol that uses them, generated packings
+its packing file, friction and pressure need the protocol that uses them (or, for friction,
+the waves' LAMMPS engine), generated packings
 need N and phi), and which stored tangential forces the section alone gives its packings.
 
 Each rule takes the section (``io.schema.PackingSpec``) and raises InputError naming the keys;
@@ -18,10 +19,6 @@ def check_section(spec, where: str) -> None:
         raise InputError(f"{where}contacts: the stored tangential forces of packing.file's packings; they need "
                          f"packing.file" + (" and cannot go with packing.relax, which re-minimises without them"
                                             if spec.relax else ""))
-    if spec.friction is not None and spec.contacts is None and (spec.file is not None or spec.engine != "lammps"):
-        raise InputError(f"{where}friction = {spec.friction}: the Coulomb mu of a frictional packing, made by LAMMPS "
-                         f"(generated packings with packing.engine: lammps) or read with its contact file "
-                         f"(packing.file with packing.contacts); give one of these")
     if spec.pressure is not None and (spec.friction is None or spec.file is not None):
         raise InputError(f"{where}pressure = {spec.pressure}: the pressure at which LAMMPS holds a frictional packing "
                          f"it makes: needs packing.friction with packing.engine: lammps and no packing.file (for a "
@@ -36,13 +33,27 @@ def check_section(spec, where: str) -> None:
                              f"packings are minimised already: give packing.file or drop packing.relax")
 
 
+def check_friction(spec, waves) -> None:
+    """Refuse ``packing.friction`` where nothing uses it: it is the Coulomb mu of a frictional
+    packing made by LAMMPS (``engine: lammps``), of one read with its contact file
+    (``contacts``), or of the contacts the waves' LAMMPS engine moves (``waves.engine: lammps``).
+    Not collective."""
+    engine = waves is not None and waves.engine == "lammps"
+    if spec.friction is not None and spec.contacts is None and not engine and (spec.file is not None
+                                                                               or spec.engine != "lammps"):
+        raise InputError(f"packing.friction = {spec.friction}: the Coulomb mu of a frictional packing, made by LAMMPS "
+                         f"(generated packings with packing.engine: lammps), read with its contact file "
+                         f"(packing.file with packing.contacts), or of the contacts LAMMPS moves in finite-amplitude "
+                         f"waves (waves.engine: lammps); give one of these")
+
+
 def stored_forces_source(spec) -> str | None:
     """Whose stored tangential forces the packing section ``spec`` alone gives its packings, as a
     clause for messages; None when it gives none (a packing file's own, in its ``tangential``
     group, are known once it is read). Not collective."""
     if spec.contacts is not None:
         return "packing.contacts gives the packings stored tangential forces"
-    if spec.file is None and spec.friction:
+    if spec.file is None and spec.engine == "lammps" and spec.friction:
         return (f"packing.friction = {spec.friction} makes frictional packings that stand on stored "
                 f"tangential forces")
     return None

@@ -49,7 +49,20 @@ from ..packing import geometry, lammps_engine
 
 PAIR_STYLES = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
 MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this
+KEY = "waves.engine: lammps"  # the scene key, in messages
 LIMIT_SLACK = 1e-9  # relative: |f_t| this close to mu |f_n| is at the Coulomb limit (LAMMPS rescales to it exactly)
+
+
+@dataclass(frozen=True)
+class Setting:
+    """What a scene's LAMMPS waves need beyond the matrix: the packing's ``diameters`` (N,) and
+    ``box`` (D,), the Coulomb coefficient ``friction`` (packing.friction) and ``rest_tol``
+    (packing.force_tol: the largest force LAMMPS may find on the packing at rest)."""
+
+    diameters: np.ndarray
+    box: np.ndarray
+    friction: float
+    rest_tol: float
 
 
 @dataclass
@@ -69,6 +82,12 @@ class Contacts:
         """The series under their results-file names (``contacts_<name>``)."""
         return {f"contacts_{name}": getattr(self, name) for name in
                 ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
+
+
+def require(comm) -> None:
+    """InputError on every rank, saying how to install it, when LAMMPS cannot start on ``comm``
+    (mpi4py), before any compute.  Collective."""
+    lammps_engine.open_lammps(comm, False, KEY).close()
 
 
 def unsupported(model) -> str | None:
@@ -116,7 +135,7 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     if why is not None:
         raise ValueError(why)
     positions = geometry.wrap(np.asarray(positions, dtype=float), box)
-    lmp = lammps_engine.open_lammps(comm, False, "waves.engine: lammps")
+    lmp = lammps_engine.open_lammps(comm, False, KEY)
     try:
         lammps_engine.create_particles(lmp, positions, diameters, box)
         lmp.commands_string(f"""

@@ -1,6 +1,7 @@
 """The scene's rules on its ``waves`` section: what its keys ask together and what the rest of the
 scene and the packings must give the waves (a dimension for the axis and mode asked, a symmetric
-matrix for the spectral path, a first-order path with dashpots, allowed wave numbers in each box).
+matrix for the spectral path, a first-order path with dashpots, allowed wave numbers in each box,
+what LAMMPS needs and can run for ``engine: lammps``).
 
 Each rule takes the waves section (``io.schema.WavesSpec``; None: the scene has no waves, and the
 rule passes) and raises InputError naming the keys; ``where`` is the section's key path prefix
@@ -11,7 +12,7 @@ per matrix by ``schedule.plan``.  Pure and not collective: every rank raises the
 from __future__ import annotations
 
 from ..errors import InputError
-from . import excitation
+from . import excitation, lammps_dem
 from .schedule import MIN_SAMPLES, SECOND_ORDER
 
 
@@ -70,3 +71,37 @@ def check_boxes(spec, packings) -> None:
         return
     for p in packings:
         excitation.wave_vectors(spec, p.box, excitation.wave_axes(spec, p.dim))
+
+
+def check_engine(spec, packing, model) -> None:
+    """Refuse, with ``waves.engine: lammps``, what LAMMPS's waves cannot take: rotsound's own
+    path or integrator given too, no Coulomb coefficient (``packing.friction``), a contact model
+    gran/*/history lacks (``lammps_dem.unsupported``), masses other than equal.  Not collective."""
+    if spec is None or spec.engine != "lammps":
+        return
+    if spec.method != "ts" or spec.integrator != "verlet":
+        key, value = ("method", spec.method) if spec.method != "ts" else ("integrator", spec.integrator)
+        raise InputError(f"waves.{key} = {value!r} with waves.engine: lammps: LAMMPS integrates the waves with its "
+                         f"own velocity Verlet, and waves.{key} chooses rotsound's linear path: give one of the two")
+    if not packing.friction:
+        raise InputError(f"waves.engine: lammps needs packing.friction, the Coulomb coefficient mu > 0 of the contacts "
+                         f"LAMMPS moves (got {packing.friction}); without tangential springs (model.rho: 0) it does "
+                         f"not act")
+    for rho in model.rho:
+        why = lammps_dem.unsupported(model.contact(rho))
+        if why is not None:
+            raise InputError(f"waves.engine: lammps at model.rho = {rho:g}: {why}")
+    if model.masses != "equal":
+        raise InputError(f"model.masses = {model.masses!r} with waves.engine: lammps: the LAMMPS waves give every "
+                         "particle mass 1 (model.masses: equal)")
+
+
+def check_engine_stored(spec, which: str | None) -> None:
+    """Refuse ``waves.engine: lammps`` on packings with stored tangential forces (``which`` says
+    whose; None: none): LAMMPS's tangential springs start unstressed, so such a packing is not at
+    rest under its forces (docs/finite_amplitude.md).  Not collective."""
+    if spec is not None and spec.engine == "lammps" and which is not None:
+        raise InputError(f"waves.engine: lammps: {which}, and LAMMPS's contact history cannot be given them yet (its "
+                         "springs would start unstressed and the packing would not be at rest); use a packing "
+                         "without stored forces (packing.friction with the rotsound engine, or packing.file without "
+                         "packing.contacts)")

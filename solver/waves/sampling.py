@@ -26,7 +26,8 @@ from .excitation import channel
 class WaveSeries:
     """Samples of one run: t (S,), z and z_fixed (S,) complex, energy (S,); steps taken (time
     steps, or Lanczos steps for the spectral path), for the spectral path its error estimate, and
-    what the solver used (``settings``: read back from the TS, or the Lanczos parameters)."""
+    what the solver used (``settings``: read back from the TS, or the Lanczos parameters); a
+    LAMMPS run's contact series (``lammps_dem.Contacts.as_datasets``: name -> (S,)), else None."""
 
     t: np.ndarray
     z: np.ndarray
@@ -35,6 +36,7 @@ class WaveSeries:
     steps: int
     error_estimate: float = float("nan")
     settings: dict | None = None
+    contacts: dict | None = None
 
 
 class FourierSampler:

@@ -29,6 +29,7 @@ from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
 METHODS = ("ts", "spectral", "exponential")
+ENGINES = ("rotsound", "lammps")  # waves.engine: the linear waves of the matrix, or LAMMPS's nonlinear ones
 """waves.method values: time steps, or the paths without (``SAMPLED``); :func:`plan` decides the path."""
 INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
 """waves.integrator values of a scene (``-waves_ts_type`` takes any PETSc TS type; python is verlet)."""
@@ -224,11 +225,18 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max
 def plan(spec, omega_max: float, rho: float, damping_max: float = 0.0) -> Schedule:
     """The schedule of the waves section ``spec`` on a matrix whose largest eigenfrequency is
     ``omega_max`` and whose dashpots' fastest rate is ``damping_max`` (0: none; rho = kt/kn, for
-    messages): the one place ``waves.method`` and the runs' path (``PATHS``) are decided.
+    messages): the one place ``waves.engine``, ``waves.method`` and the runs' path (``PATHS``) are
+    decided; ``engine: lammps`` runs on the TS schedule's dt, samples and stability limit (path
+    ``lammps``).
     ``spectral``, ``exponential``: the sample grid (with dashpots, a ``waves.tol`` the damped spectral
     path cannot bound is refused here); ``ts``: :func:`resolve_schedule`, refused by
     :func:`check_schedule` (InputError, the same on every rank) if it cannot work.  Not collective.
     """
+    if spec.engine == "lammps":  # LAMMPS's velocity Verlet (fix nve/sphere) at the TS schedule's dt and samples
+        resolved = resolve_schedule(integrator="verlet", dt=spec.dt, t_end=spec.t_end, sample_every=spec.sample_every)
+        limit = check_schedule(resolved, omega_max, rho)  # the undamped Verlet limit; LAMMPS's dashpots are first order
+        return dataclasses.replace(resolved, integrator="lammps (velocity Verlet)", method="ts", path="lammps",
+                                   omega_max=omega_max, damping_max=damping_max, limit=limit)
     if spec.method in SAMPLED:
         path = "damped_spectral" if spec.method == "spectral" and damping_max > 0.0 else spec.method
         label = DAMPED_SPECTRAL if path == "damped_spectral" else SAMPLED[spec.method]

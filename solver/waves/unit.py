@@ -11,18 +11,20 @@ Collective on the matrix's communicator.  Units: d0 = m = kn = 1.
 
 from __future__ import annotations
 
+import functools
 import json
 
 import numpy as np
 
 from . import correlations
 from ..model import dynmat
-from . import chebyshev, excitation, exponential, integrators, spectral
+from . import chebyshev, excitation, exponential, integrators, lammps_dem, spectral
+from .sampling import WaveSeries
 from .schedule import Schedule
 
 
 def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, axes: list[int],
-              schedule: Schedule) -> tuple[dict, dict, str]:
+              schedule: Schedule, dem: lammps_dem.Setting | None = None) -> tuple[dict, dict, str]:
     """(datasets, attrs, summary) of one mode on ``dm`` for the wave numbers ``ks`` (``ns``), both
     (K, A) over the A ``axes`` used (``excitation.wave_vectors``), every run of the mode in
     ``dm.dim`` dimensions along those axes (R runs: the first axis of z, z_fixed, energy_drift,
@@ -32,7 +34,9 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     ``spec``: the scene's waves section; ``schedule``: how the runs go (``schedule.plan``: its
     ``path`` picks the function of ``PATHS``; the paths without time steps sample every
     ``dt * sample_every`` to ``t_end``, time stepping follows the TS schedule; it carries omega_max
-    and the stability limit).  ``summary``: one line for the log.
+    and the stability limit; path ``lammps``: LAMMPS integrates the packing ``dem`` describes,
+    and the unit also keeps each run's contact series, datasets ``contacts_*`` (R, K, S)).
+    ``summary``: one line for the log.
     Raises StabilityError on every rank if a run blows up (nothing is returned then).
     """
     chosen = [r for r, (_, axis) in enumerate(excitation.runs(mode, dm.dim)) if axis in axes]
@@ -40,7 +44,8 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     column = {r: axes.index(axis) for r, (_, axis) in zip(chosen, excited)}  # the k of the run's axis
     count = len(ks)
     waves = [(mode, r, k) for r in chosen for k in ks[:, column[r]]]
-    flat, estimated, path_settings, summary = PATHS[schedule.path](dm, positions, spec, waves, schedule)
+    run_path = functools.partial(_lammps, dem) if schedule.path == "lammps" else PATHS[schedule.path]
+    flat, estimated, path_settings, summary = run_path(dm, positions, spec, waves, schedule)
     series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
     z = np.array([[r.z for r in row] for row in series])  # (R, K, S)
     z_fixed = np.array([[r.z_fixed for r in row] for row in series])
@@ -53,6 +58,9 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
                 "runs": np.array(excited, dtype=np.int64)}
     if not (same and np.all(ns == ns[:, :1])):  # sides that differ: each axis' own n and k (k: their mean)
         datasets.update(n_axes=ns, k_axes=ks)
+    if flat[0].contacts is not None:
+        datasets.update({name: np.array([[r.contacts[name] for r in row] for row in series])
+                         for name in flat[0].contacts})
     if estimated:
         datasets["error_estimate"] = np.array([[r.error_estimate for r in row] for row in series])
     settings = {"wmax": dm.wmax_settings, **path_settings}
@@ -119,6 +127,34 @@ def _mfn(dm, positions, spec, waves, schedule: Schedule):
     summary = (f"exponential, {len(flat[0].t) - 1} MFN solves each (up to {mfn['max_iterations']} "
                f"iterations), error estimate {np.nanmax([r.error_estimate for r in flat]):.1e}")
     return flat, True, {"mfn": mfn}, summary
+
+
+def _lammps(dem: lammps_dem.Setting, dm, positions, spec, waves, schedule: Schedule):
+    """Path ``lammps``: every wave integrated by LAMMPS with its full contact law
+    (``lammps_dem.run``), one after another, from rotsound's start at ``waves.amplitude``;
+    z = z_fixed with the r_i(0) phase.  Collective."""
+    mpi = dm.D.getComm().tompi4py()
+    x = positions[dm.active]
+    t = np.arange(schedule.steps // schedule.sample_every + 1) * (schedule.dt * schedule.sample_every)
+    flat = []
+    for mode, r, k in waves:
+        component, axis = excitation.runs(mode, dm.dim)[r]
+        start = excitation.whole_start(dm, positions, component, axis, k, spec.amplitude, mpi)
+        velocities, contacts = lammps_dem.run(positions, dem.diameters, dem.box, dm.active, dm.model, dem.friction,
+                                              start, schedule.dt, schedule.steps, schedule.sample_every,
+                                              dem.rest_tol, mpi)
+        z = velocities[:, :, component] @ np.exp(-1j * k * x[:, axis])
+        flat.append(WaveSeries(t, z, z, contacts.energy, schedule.steps, contacts=contacts.as_datasets()))
+    settings = {"dt": schedule.dt, "steps": schedule.steps, "sample_every": schedule.sample_every,
+                "friction": dem.friction, "pair_style": lammps_dem.PAIR_STYLES[dm.model.law]}
+    energy = np.array([r.energy for r in flat])
+    lost = 100.0 * (1.0 - energy[:, -1] / energy[:, 0])
+    sliding = max(int(r.contacts["contacts_sliding"].max()) for r in flat)
+    opened = max(int(r.contacts["contacts_opened"].max()) for r in flat)
+    summary = (f"LAMMPS, {schedule.steps} steps each (dt = {schedule.dt:g}, mu = {dem.friction:g}), "
+               f"up to {sliding} contacts sliding and {opened} opened at once, energy lost by t = "
+               f"{t[-1]:g}: {lost.min():.3g} to {lost.max():.3g} %")
+    return flat, False, {"lammps": settings}, summary
 
 
 PATHS = {"ts": _time_steps, "spectral": _lanczos, "damped_spectral": _series, "exponential": _mfn}

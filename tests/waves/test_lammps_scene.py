@@ -1,0 +1,65 @@
+"""``waves.engine: lammps`` in a scene (issue 46): the scene's waves integrated by LAMMPS with its
+full contact law, in the same results groups as the linear paths, with their contacts' series;
+at small amplitude they are the scene's linear Verlet waves.  2D and 3D, on 1 and 2 ranks."""
+
+import numpy as np
+import pytest
+from conftest import COMM, assert_all, assert_close, scene_of
+
+from solver import pipeline
+from solver.io import results
+
+CONTACTS = ("contacts_sliding", "contacts_opened", "contacts_formed", "contacts_opening", "contacts_coulomb",
+            "contacts_energy")
+
+
+def _run(shared_tmp, name, dim, **waves):
+    packing = {"n": 64, "phi": 0.9 if dim == 2 else 0.7, "dim": dim}
+    if waves.get("engine") == "lammps":
+        packing["friction"] = 1.0
+    scene = scene_of(shared_tmp / f"{name}.h5", cache="off", seed=1, packing=packing, model={"rho": [1.0]},
+                     waves={"n": [1], "modes": ["TR"], "t_end": 10.0, "dt": 0.02, "amplitude": 1e-5, **waves})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        group = f["waves/r00_TR_p0000"]
+        return {name: group[name][()] for name in group}, dict(group.attrs)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_small_amplitude_scene_is_the_linear_verlet_scene(lammps_present, shared_tmp, dim):
+    """A = 1e-5, mu = 1: every run's z_fixed equals rotsound's own Verlet waves of the same scene
+    (waves.engine: rotsound, method ts) to 1e-5 of its largest value (measured 7e-7 in the library
+    test: the O(A) nonlinearity), C to 1e-5 of C(0); no contact slides, opens or forms, and each
+    contact series has the unit's (R, K, S) shape.  The LAMMPS scene's plot and report read it."""
+    lammps, attrs = _run(shared_tmp, f"lammps{dim}", dim, engine="lammps")
+    linear, _ = _run(shared_tmp, f"linear{dim}", dim)
+    scale = np.abs(linear["z_fixed"]).max()
+    assert_close(lammps["z_fixed"], linear["z_fixed"], rtol=0.0, atol=1e-5 * scale, what="z_fixed against Verlet")
+    assert_close(lammps["C"], linear["C"], rtol=0.0, atol=1e-5 * np.abs(linear["C"]).max(), what="C against Verlet")
+    shape = lammps["z_fixed"].shape
+    assert_all(all(lammps[name].shape == shape for name in CONTACTS), {n: lammps[n].shape for n in CONTACTS})
+    assert_all(lammps["contacts_sliding"].max() == 0 and lammps["contacts_opened"].max() == 0
+               and lammps["contacts_formed"].max() == 0, "nothing slides, opens or forms at A = 1e-5")
+    assert_all(attrs["integrator"].startswith("lammps") and '"friction": 1.0' in attrs["solver_settings"],
+               f"{attrs['integrator']}, {attrs['solver_settings']}")
+    if COMM.rank == 0:
+        from solver import plots
+
+        assert plots.plot_results(str(shared_tmp / f"lammps{dim}.h5"))
+
+
+def test_sliding_scene_records_its_contacts(lammps_present, shared_tmp):
+    """2D, A = 1e-2, mu = 1 -> 0.1 by packing.friction: contacts slide and open and the wave loses
+    energy (energy_drift, the largest |E - E(0)| / E(0), is the share lost); a new mu is a new unit."""
+    scene = scene_of(shared_tmp / "slide.h5", cache="off", seed=1, packing={"n": 64, "phi": 0.9, "friction": 0.1},
+                     model={"rho": [1.0]}, waves={"engine": "lammps", "n": [1], "modes": ["TR"], "t_end": 20.0,
+                                                  "dt": 0.02, "amplitude": 1e-2})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        group = f["waves/r00_TR_p0000"]
+        sliding, opened, drift = group["contacts_sliding"][()], group["contacts_opened"][()], group["energy_drift"][()]
+        energy = group["contacts_energy"][()]
+    assert_all(sliding.max() > 5 and opened.max() > 0, f"sliding {sliding.max()}, opened {opened.max()}")
+    assert_close(drift, np.abs(energy - energy[..., :1]).max(axis=-1) / energy[..., 0], rtol=1e-12,
+                 what="energy_drift is the contacts' energy series'")
+    assert_all(np.all(drift > 0.5), f"share of the wave's energy lost by t = 20: {drift}")
