@@ -25,7 +25,8 @@ def main(path: str) -> None:
             peak = centres[np.argmax(g.density)]
             print(f"vDOS rho = {rho:g}: omega_c = {g.omega_c:.4f}/t0, peak at omega = {peak:.3f}/t0")
         for rho, (omega, K, Q) in results.mode_energies(f).items():  # per mode, with spectrum.energies
-            print(f"modes rho = {rho:g}: {omega.size} modes, K/Q at the lowest = {K[0] / Q[0]:.3g}")
+            low = int(np.argmax(Q > 0))  # the lowest mode with a potential energy (not a zero mode)
+            print(f"modes rho = {rho:g}: {omega.size} modes, K/Q at the lowest = {K[low] / Q[low]:.3g}")
         for rho, g in results.diffusivity(f).items():  # Diffusivity: omega, d per mode (exact); edges, d_binned, ...
             print(f"diffusivity rho = {rho:g} ({g.method}): {g.omega.size} modes with their d, "
                   f"d = {np.nanmedian(g.d_binned):.3g} d0^2/t0 (median over the vDOS's bins)")
@@ -33,6 +34,10 @@ def main(path: str) -> None:
             k, omega, gamma = fit["k"], fit["omega"], fit["gamma"]
             print(f"dispersion rho = {rho:g} {mode}: k d0 = {k[0]:.3f}..{k[-1]:.3f}, "
                   f"omega = {omega[0]:.4f}..{omega[-1]:.4f}/t0, gamma(k_min) = {gamma[0]:.2e}/t0")
+        for (rho, mode), sweep in sorted(results.sweeps(f).items()):  # Sweep: amplitude (A,), omega (A, K), ...
+            print(f"amplitude sweep rho = {rho:g} {mode}: A = {sweep.amplitude[0]:.1e}..{sweep.amplitude[-1]:.1e}, "
+                  f"omega(k_min) {sweep.omega[0, 0]:.4f} -> {sweep.omega[-1, 0]:.4f}/t0, up to "
+                  f"{int(sweep.sliding[-1].max())} contacts sliding at the largest")
         for shapes in results.mode_shapes(f):  # ModeShapes: omega (M,), displacement (M, N, D), rotation, ...
             m = int(np.argmin(shapes.participation))
             u = np.linalg.norm(shapes.displacement[m], axis=1)

@@ -13,6 +13,7 @@ own sub-communicator (``parallel.Groups``); every rank then holds every unit.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import sys
@@ -272,10 +273,13 @@ def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Sch
     for unit in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
-        datasets, attrs, summary = mode_unit(dm, p.positions, spec, unit.mode, ns, ks, axes, plan, dem)
+        at = spec if unit.amplitude is None else dataclasses.replace(spec, amplitude=spec.sweep[unit.amplitude])
+        datasets, attrs, summary = mode_unit(dm, p.positions, at, unit.mode, ns, ks, axes, plan, dem)
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
-        commit(unit, datasets, {**attrs, "packing": unit.p_index, "seconds": seconds})
-        say(comm, f"waves rho = {unit.rho:g}, {unit.mode}, packing {unit.p_index}: {len(ks)} k x "
+        sweep = {} if unit.amplitude is None else {"amplitude_index": unit.amplitude}
+        commit(unit, datasets, {**attrs, "packing": unit.p_index, "seconds": seconds, **sweep})
+        say(comm, f"waves rho = {unit.rho:g}, {unit.mode}, packing {unit.p_index}"
+                  + ("" if unit.amplitude is None else f", A = {at.amplitude:g}") + f": {len(ks)} k x "
                   f"{len(datasets['runs'])} runs, {summary}, {seconds:.1f} s")
 
 

@@ -378,6 +378,12 @@ CASES = [
      "waves.amplitude = 0: must be in (0.0, 1.0]", None),
     ("finite-amplitude waves with a non-finite amplitude", GOOD + "waves: {engine: lammps, n: [1], amplitude: .nan}\n",
      [], "waves.amplitude = nan: must be in (0.0, 1.0]", None),
+    ("a sweep of amplitudes of the linear waves", GOOD + "waves: {n: [1], amplitude: [1e-4, 1e-3]}\n", [],
+     "waves.amplitude = [0.0001, 0.001]: a sweep of amplitudes needs waves.engine: lammps", None),
+    ("an empty sweep of amplitudes", GOOD + "waves: {engine: lammps, n: [1], amplitude: []}\n", [],
+     "waves.amplitude = []: must not be empty", None),
+    ("a sweep with a negative amplitude", GOOD + "waves: {engine: lammps, n: [1], amplitude: [0.001, -0.001]}\n", [],
+     "waves.amplitude = [0.001, -0.001]: must be in (0.0, 1.0]", None),
     ("an unknown waves engine", GOOD + "waves: {engine: yade, n: [1]}\n", [],
      "waves.engine = 'yade': must be one of rotsound, lammps", None),
     ("the LAMMPS engine with rotsound's own method", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"

@@ -25,6 +25,9 @@ Pure post-processing (numpy/scipy, no MPI; the pipeline runs it on rank 0): it r
   on the same range (``a_t``, the long-wave TR value), and separately to the RT frequencies beyond
   k_c, which follow the acoustic branch (``a_t_edge``; PHYSICS.md section 6: one a_t cannot fit
   both).  Figures 5b and 7 draw omega_t with a_t_edge where it exists, as the paper's do.
+* An amplitude sweep (``waves.engine: lammps`` with a list of amplitudes): each amplitude's
+  units are pooled and fitted on their own, into ``analysis/rho<rho>_<mode>_a<LL>`` (attribute
+  ``amplitude``); k_c, the lattice model and the band limits are the linear waves'.
 * Band limits from data: omega_r(0) is the RT frequency at the smallest k, omega_r(k_max) and
   omega_t(k_max) the RT and TR frequencies at the largest k of the run (the report states both
   k); omega_c from the vDOS of the same file when it has one.
@@ -42,7 +45,7 @@ from . import attenuation, lattice
 from ..waves import correlations
 from . import fits
 
-_WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT|R)_p(\d+)$")
+_WAVES = re.compile(r"waves/r(\d+)_(L|TR|RT|R)_p(\d+)(_a\d+)?$")
 
 
 def _fit_one(t, c, omega_grid, power, decay_window):
@@ -64,21 +67,50 @@ def _fit_one(t, c, omega_grid, power, decay_window):
     return row
 
 
-def averaged_waves(units: dict) -> dict:
+def averaged_waves(units: dict, sweep: bool = False) -> dict:
     """{(rho, mode): (k (K,), t (S,), C (K, S), omega (W,), S (K, W), packings)} from
     ``waves/rXX_MODE_pYYYY`` units (name -> (datasets, attrs)): C and S pool the runs of every
     direction, polarisation and configuration (correlations module), not averages of per-file
-    ratios."""
+    ratios.  ``sweep``: instead the units of an amplitude sweep (``..._aLL``), keyed
+    (rho, mode, LL: the amplitude's position in ``waves.amplitude``); each is pooled on its own."""
     groups: dict = {}
     for name, (data, attrs) in sorted(units.items()):
-        if _WAVES.match(name):
-            groups.setdefault((float(attrs["rho"]), str(attrs["mode"])), []).append(data)
+        if _WAVES.match(name) and ("amplitude_index" in attrs) == sweep:
+            key = (float(attrs["rho"]), str(attrs["mode"])) + ((int(attrs["amplitude_index"]),) if sweep else ())
+            groups.setdefault(key, []).append(data)
     out = {}
     for key, items in groups.items():
         k, t = np.asarray(items[0]["k"]), np.asarray(items[0]["t"])
         z = np.concatenate([np.asarray(d["z"]) for d in items], axis=0)  # (runs x P, K, S)
         c, omega, power = correlations.pooled(z, t[1] - t[0])
         out[key] = (k, t, c, omega, power, len(items))
+    return out
+
+
+def _fit_mode(mode, k, t, c, omega_grid, power, spec) -> tuple[dict, tuple]:
+    """The fits of one pooled (rho, mode): their table per k (``_fit_one``; a Lorentzian peak
+    outside the grid is a failed fit) and (p, p_err, points) of gamma ~ k^p (L and TR only)."""
+    rows = [_fit_one(t, c[i], omega_grid, power[i], spec.decay_window) for i in range(k.size)]
+    table = {key: np.array([r[key] for r in rows]) for key in rows[0]}
+    for key in ("omega_lorentz", "gamma_lorentz"):
+        table[key][(table["omega_lorentz"] <= 0) | (table["omega_lorentz"] > omega_grid[-1])] = np.nan
+    law = (_power_law(k, table, t[-1], spec.power_law_kd0_max) if mode in ("L", "TR")
+           else (np.nan, np.nan, 0))  # RT and R are optical-like: gamma(0) > 0
+    return table, law
+
+
+def _sweep(units: dict, spec) -> dict:
+    """Analysis groups ``analysis/rho<rho>_<mode>_a<LL>`` of an amplitude sweep: each amplitude's
+    fits, as for one without (no k_c, lattice or bands: those belong to the linear waves)."""
+    out = {}
+    amplitudes = {int(a["amplitude_index"]): float(a["amplitude"]) for _, a in units.values() if "amplitude_index" in a}
+    for (rho, mode, index), (k, t, c, omega_grid, power, count) in sorted(averaged_waves(units, True).items()):
+        table, (p, p_err, p_points) = _fit_mode(mode, k, t, c, omega_grid, power, spec)
+        amplitude = amplitudes[index]
+        out[f"analysis/rho{rho:g}_{mode}_a{index:02d}"] = (
+            {"k": k, **table, "c": table["omega"] / k},
+            {"rho": rho, "mode": mode, "amplitude": amplitude, "configurations": count, "t_end": float(t[-1]),
+             "power_law_p": p, "power_law_p_err": p_err, "power_law_points": p_points})
     return out
 
 
@@ -107,17 +139,12 @@ def _fit_a_t(rows, l):
 def analyse(units: dict, spec) -> dict:
     """Analysis groups {name: (datasets, attrs)} from result units; {} without waves."""
     waves = averaged_waves(units)
+    out: dict = _sweep(units, spec)
     if not waves:
-        return {}
-    out: dict = {}
+        return out
     fitted: dict = {}
     for (rho, mode), (k, t, c, omega_grid, power, count) in sorted(waves.items()):
-        rows = [_fit_one(t, c[i], omega_grid, power[i], spec.decay_window) for i in range(k.size)]
-        table = {key: np.array([r[key] for r in rows]) for key in rows[0]}
-        for key in ("omega_lorentz", "gamma_lorentz"):  # a peak outside the grid is a failed fit
-            table[key][(table["omega_lorentz"] <= 0) | (table["omega_lorentz"] > omega_grid[-1])] = np.nan
-        p, p_err, p_points = (_power_law(k, table, t[-1], spec.power_law_kd0_max) if mode in ("L", "TR")
-                              else (np.nan, np.nan, 0))  # RT and R are optical-like: gamma(0) > 0
+        table, (p, p_err, p_points) = _fit_mode(mode, k, t, c, omega_grid, power, spec)
         fitted[(rho, mode)] = (k, table)
         out[f"analysis/rho{rho:g}_{mode}"] = (
             {"k": k, **table, "c": table["omega"] / k},

@@ -16,7 +16,7 @@ from . import scene_rules
 
 def _type_name(kind) -> str:
     return {int: "an integer", float: "a number", str: "a string", dict: "a mapping",
-            "floats": "a number or a list of numbers", "paths": "a path or a list of paths",
+            "floats": "a number or a list of numbers", "number_or_list": "a number or a list of numbers", "paths": "a path or a list of paths",
             bool: "true or false", "window": "a list [omega_lo, omega_hi]", "strs": "a list of names",
             "ints": "a list of integers", "floats_list": "a list of numbers",
             "cache": "auto, a folder path, or off", "ranks": "auto or a whole number"}.get(
@@ -82,6 +82,12 @@ def _coerce(value, kind, where):
         if not items:
             raise InputError(f"{where} = []: must not be empty")
         return [_coerce(v, float, where) for v in items]
+    if kind == "number_or_list":  # a number stays one; a list (a sweep) stays a list
+        if not isinstance(value, list):
+            return _coerce(value, float, where)
+        if not value:
+            raise InputError(f"{where} = []: must not be empty")
+        return [_coerce(v, float, where) for v in value]
     if kind == "paths":
         items = value if isinstance(value, list) else [value]
         if not items or not all(isinstance(v, str) and v for v in items):
@@ -119,7 +125,7 @@ def build(cls, raw, where: str = ""):
         if name not in raw or raw[name] is None:
             continue
         value = _coerce(raw[name], kind, key)
-        for item in (value if isinstance(value, list) and kind == "floats" else [value]):
+        for item in (value if isinstance(value, list) and kind in ("floats", "number_or_list") else [value]):
             problem = check(item) if check else None
             if problem:
                 raise InputError(f"{key} = {raw[name]!r}: {problem}")

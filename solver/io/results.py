@@ -98,6 +98,23 @@ class WaveSnapshot(NamedTuple):
     spin: np.ndarray | None         # (T, N, R) 1/t0; None without rotations
 
 
+class Sweep(NamedTuple):
+    """An amplitude sweep of one (rho, mode) (``waves.engine: lammps`` with a list of
+    amplitudes), in ascending amplitude: the fits per amplitude and k, and what the contacts did."""
+
+    amplitude: np.ndarray   # (A,) d0/t0 (1/t0 for RT and R)
+    k: np.ndarray           # (K,) 1/d0
+    omega: np.ndarray       # (A, K) damped-cosine frequency (1/t0), NaN where the fit failed
+    gamma: np.ndarray       # (A, K) its decay rate (1/t0)
+    omega_err: np.ndarray   # (A, K) 1-sigma
+    gamma_err: np.ndarray   # (A, K)
+    sliding: np.ndarray     # (A, K) most contacts at the Coulomb limit at once, over runs, configurations, t
+    opened: np.ndarray      # (A, K) most of the start's contacts open at once
+    formed: np.ndarray      # (A, K) most new contacts at once
+    energy_change: np.ndarray  # (A, K) largest |E - E(0)| / E(0) of the wave's energy (the share sliding took),
+    #                            mean over runs and configurations
+
+
 class Waves(NamedTuple):
     """Sampled Fourier components of one (rho, mode), the runs of every configuration pooled."""
 
@@ -277,11 +294,12 @@ def binned_energies(f) -> dict[float, BinnedEnergies]:
 
 
 def waves(f, rhos=None) -> dict[tuple[float, str], Waves]:
-    """{(rho, mode): Waves} of the ``waves/`` groups (only the rho in ``rhos`` when given)."""
+    """{(rho, mode): Waves} of the ``waves/`` groups (only the rho in ``rhos`` when given), an
+    amplitude sweep's left out (:func:`sweeps`)."""
     per_key: dict[tuple, list] = {}
     for g in _groups(f, "waves"):
         rho = float(g.attrs["rho"])
-        if rhos is None or rho in rhos:
+        if (rhos is None or rho in rhos) and "amplitude_index" not in g.attrs:  # a sweep's: ``sweeps``
             per_key.setdefault((rho, str(g.attrs["mode"])), []).append(g)
     return {key: Waves(groups[0]["k"][()], groups[0]["t"][()],
                        np.concatenate([g["z"][()] for g in groups], axis=0),
@@ -298,12 +316,42 @@ def wave_snapshots(f) -> list[WaveSnapshot]:
 
 
 def fits(f) -> dict[tuple[float, str], dict]:
-    """{(rho, mode): datasets and attributes} of the ``analysis/rho<rho>_<mode>`` groups."""
+    """{(rho, mode): datasets and attributes} of the ``analysis/rho<rho>_<mode>`` groups (an
+    amplitude sweep's: :func:`sweeps`)."""
     if "analysis" not in f:
         return {}
-    groups = [f["analysis"][name] for name in f["analysis"] if "mode" in f["analysis"][name].attrs]
+    groups = [f["analysis"][name] for name in f["analysis"]
+              if "mode" in f["analysis"][name].attrs and "amplitude" not in f["analysis"][name].attrs]
     return {(float(g.attrs["rho"]), str(g.attrs["mode"])): {**{key: g[key][()] for key in g}, **dict(g.attrs)}
             for g in groups}
+
+
+def sweeps(f) -> dict[tuple[float, str], Sweep]:
+    """{(rho, mode): Sweep} of an amplitude sweep's ``analysis/rho<rho>_<mode>_a<LL>`` fits and
+    ``waves/..._a<LL>`` contact series; {} without one."""
+    per_key: dict[tuple, dict] = {}
+    for g in _groups(f, "waves"):
+        if "amplitude_index" in g.attrs:
+            key = (float(g.attrs["rho"]), str(g.attrs["mode"]))
+            per_key.setdefault(key, {}).setdefault(float(g.attrs["amplitude"]), []).append(g)
+    fitted = {(float(g.attrs["rho"]), str(g.attrs["mode"]), float(g.attrs["amplitude"])): g
+              for g in _groups(f, "analysis") if "amplitude" in g.attrs}
+    out = {}
+    for (rho, mode), by_amplitude in per_key.items():
+        amplitudes = sorted(by_amplitude)
+        fits_ = [fitted[(rho, mode, a)] for a in amplitudes]
+
+        def most(name):
+            return np.array([np.max([g[name][()].max(axis=(0, 2)) for g in by_amplitude[a]], axis=0)
+                             for a in amplitudes])
+
+        lost = np.array([np.mean([g["energy_drift"][()].mean(axis=0) for g in by_amplitude[a]], axis=0)
+                         for a in amplitudes])
+        out[(rho, mode)] = Sweep(np.array(amplitudes), fits_[0]["k"][()],
+                                 *(np.array([g[name][()] for g in fits_]) for name in
+                                   ("omega", "gamma", "omega_err", "gamma_err")),
+                                 most("contacts_sliding"), most("contacts_opened"), most("contacts_formed"), lost)
+    return out
 
 
 def lattice(f) -> dict | None:

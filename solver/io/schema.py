@@ -355,8 +355,9 @@ class WavesSpec:
     axes: list[str] | None = _f(None, "axes along which k runs, from x, y, z (z in 3D only); null: every axis. The "
                                       "runs along them are pooled, so in a box whose sides differ their allowed k "
                                       "must agree to 1 %", _axes, "strs")
-    amplitude: float = _f(1e-3, "initial velocity amplitude A (d0/t0, or 1/t0 for RT)",
-                          _range(0.0, 1.0, True), float)
+    amplitude: float | list[float] = _f(1e-3, "initial velocity amplitude A (d0/t0, or 1/t0 for RT); with "
+                                               "engine: lammps a list is a sweep, one unit per amplitude",
+                                        _range(0.0, 1.0, True), "number_or_list")
     dt: float = _f(0.02, "time step (t0); refused at or above the scheme's stability limit (-waves_ts_dt wins)", _range(0.0, 10.0, True),
                    float)
     t_end: float = _f(100.0, "run length (t0) (-waves_ts_max_time wins)", _range(0.0, 1e7, True), float)
@@ -381,6 +382,12 @@ class WavesSpec:
                           "series' error bound, relative to |X(0)|); exponential: the "
                           "error bound of the samples, relative to |X(0)| (each MFN solve to tol / samples)",
                     _range(0.0, 1e-2, True), float)
+
+
+    @property
+    def sweep(self) -> list[float] | None:
+        """The amplitudes of a sweep (``amplitude`` given as a list), else None."""
+        return self.amplitude if isinstance(self.amplitude, list) else None
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,8 @@ class Unit:
 
     kind : ``matrix``, ``spectrum``, ``modes``, ``transport`` or ``waves``;  r_index, p_index : positions in ``model.rho``
     and in the scene's packings;  rho : ``model.rho[r_index]`` (kt/kn);  mode : the waves' mode
-    (L, TR, RT, R), None for the others.
+    (L, TR, RT, R), None for the others;  amplitude : a sweep's waves unit, its position in
+    ``waves.amplitude`` (None without a sweep).
     """
 
     kind: str
@@ -41,6 +42,7 @@ class Unit:
     p_index: int
     rho: float
     mode: str | None = None
+    amplitude: int | None = None
 
     @property
     def tag(self) -> str:
@@ -50,9 +52,11 @@ class Unit:
     @property
     def name(self) -> str:
         """``matrices/<tag>``, ``spectra/<tag>``, ``modes/<tag>``, ``diffusivity/<tag>`` or
-        ``waves/r<i>_<mode>_p<j>``: the unit's file in the units folder and its group in the results file."""
+        ``waves/r<i>_<mode>_p<j>`` (a sweep's: ``..._a<l>``, l its amplitude's position): the
+        unit's file in the units folder and its group in the results file."""
         if self.kind == "waves":
-            return f"waves/r{self.r_index:02d}_{self.mode}_p{self.p_index:04d}"
+            sweep = "" if self.amplitude is None else f"_a{self.amplitude:02d}"
+            return f"waves/r{self.r_index:02d}_{self.mode}_p{self.p_index:04d}{sweep}"
         return f"{FOLDERS[self.kind]}/{self.tag}"
 
 
@@ -82,7 +86,9 @@ def task_units(scene, r_index: int, p_index: int) -> list[Unit]:
         units.append(Unit("transport", r_index, p_index, rho))
     if scene.waves is not None:
         rotations = scene.model.contact(rho).rotations
-        units += [Unit("waves", r_index, p_index, rho, mode) for mode in wave_modes(scene.waves, rotations)]
+        amplitudes = [None] if scene.waves.sweep is None else range(len(scene.waves.sweep))
+        units += [Unit("waves", r_index, p_index, rho, mode, a) for mode in wave_modes(scene.waves, rotations)
+                  for a in amplitudes]
     return units
 
 
@@ -259,6 +265,8 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on
                 if k != "modes" and not (k in ("axes", "snapshots") and v is None)  # the others; keys of before
                 and not (k == "engine" and v == "rotsound")}
+    if unit.amplitude is not None:  # a sweep's unit: its own amplitude
+        settings["amplitude"] = scene.waves.sweep[unit.amplitude]
     if scene.waves.engine == "lammps":  # LAMMPS's contacts slide at packing.friction; its rest check
         settings.update(friction=scene.packing.friction, rest_tol=scene.packing.force_tol)
     return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,

@@ -24,6 +24,9 @@ def check_section(spec, where: str) -> None:
         raise InputError(f"{where}snapshots = {spec.snapshots}: velocity fields of the spectral path, at times up to "
                          f"{where}t_end = {spec.t_end}" + ("" if spec.method == "spectral" else
                                                            f"; {where}method is {spec.method!r}: use spectral"))
+    if spec.sweep is not None and spec.engine != "lammps":
+        raise InputError(f"{where}amplitude = {spec.sweep}: a sweep of amplitudes needs {where}engine: lammps; the "
+                         "linear waves scale with A, so C(k, t) is the same at every amplitude: give one number")
     if spec.sample_every * spec.dt > spec.t_end / MIN_SAMPLES:
         raise InputError(f"{where}sample_every = {spec.sample_every}: with dt = {spec.dt} that leaves "
                          f"fewer than {MIN_SAMPLES} samples in t_end = {spec.t_end}")

@@ -4,7 +4,8 @@
 
 The kinds: frictionless (spectrum with energies, spectral waves), stressed (a frictional LAMMPS
 packing with its stored tangential forces: nonhermitian spectrum, exponential waves), damped
-(dashpots: pep spectrum), 3D spheres with rolling and twisting springs, and modes kept whole.
+(dashpots: pep spectrum), 3D spheres with rolling and twisting springs, modes kept whole, and
+an amplitude sweep of LAMMPS's nonlinear waves.
 The oracle of the reuse is the spectrum: the packing a results file holds, read back as a
 packing file, gives the spectrum stored beside it (cache off, so nothing is taken from a cache).
 Serial: the readers are one process each."""
@@ -42,6 +43,9 @@ KINDS = {  # kind -> (scene sections, the sections the reuse keeps: only what ha
                                                         "modes": ["L", "R"]}, transport={"eta": 0.2}),
     "modes": dict(packing=SMALL, model={"rho": [1.0]}, spectrum={"energies": True},
                   modes={"omega": [1.0], "count": 2, "localised": 1}),
+    "finite_amplitude": dict(packing={**SMALL, "friction": 0.3}, model={"rho": [1.0]}, spectrum={"energies": True},
+                             waves={"engine": "lammps", "amplitude": [1e-4, 1e-2], "n": [1], "t_end": 10,
+                                    "modes": ["TR"]}),
 }
 
 
@@ -150,14 +154,16 @@ def test_notebook_api_reads_every_kind(written, kind):
         readers = [results.vdos, results.mode_energies, results.participation, results.damped_modes,
                    results.binned_energies, results.waves, results.wave_snapshots, results.fits, results.mode_shapes,
                    results.lattice, results.bands, results.packing_summary, results.contact_model,
-                   results.packing_friction, results.diffusivity]
+                   results.packing_friction, results.diffusivity, results.sweeps]
         found = {reader.__name__: reader(f) for reader in readers}
     (read,) = hdf5.read_packings(str(written[kind]))
     assert np.array_equal(packing["positions"], read.positions) and packing["phi"] == read.phi
-    assert found["packing_friction"] == (1.0 if kind == "stressed" else None)
+    assert found["packing_friction"] == {"stressed": 1.0, "finite_amplitude": 0.3}.get(kind)
     assert found["contact_model"] == ContactModel() == read.model, "every kind is checked under the defaults"
     assert ("modes" in held) == (kind == "modes") and (len(found["mode_shapes"]) > 0) == (kind == "modes")
-    assert bool(found["damped_modes"]) == (kind == "damped") and bool(found["waves"]) == (kind != "modes")
+    assert bool(found["damped_modes"]) == (kind == "damped")
+    assert bool(found["waves"]) == (kind not in ("modes", "finite_amplitude"))  # a sweep's: sweeps
+    assert bool(found["sweeps"]) == (kind == "finite_amplitude")
     with_transport = "transport" in KINDS[kind]
     assert ("diffusivity" in held) == with_transport and bool(found["diffusivity"]) == with_transport
     for g in found["diffusivity"].values():  # every non-zero mode once, binned once

@@ -63,3 +63,35 @@ def test_sliding_scene_records_its_contacts(lammps_present, shared_tmp):
     assert_close(drift, np.abs(energy - energy[..., :1]).max(axis=-1) / energy[..., 0], rtol=1e-12,
                  what="energy_drift is the contacts' energy series'")
     assert_all(np.all(drift > 0.5), f"share of the wave's energy lost by t = 20: {drift}")
+
+
+def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_present, shared_tmp):
+    """waves.amplitude [1e-2, 1e-5] with the LAMMPS engine: one unit per amplitude
+    (``waves/..._a00``, ``_a01``), each the unit a scene of that one amplitude makes (equal z), fitted
+    on its own (``analysis/..._a<LL>``); ``results.sweeps`` reads them in ascending amplitude, with
+    the contacts that slid (none at 1e-5, some at 1e-2) and the fits of the single-amplitude scene;
+    ``results.waves`` and ``results.fits`` leave the sweep out; the plots take the file."""
+    sweep = {"engine": "lammps", "n": [1, 2], "modes": ["TR"], "t_end": 20.0, "dt": 0.02}
+    swept = scene_of(shared_tmp / "sweep.h5", cache="off", seed=1, packing={"n": 64, "phi": 0.9, "friction": 0.1},
+                     model={"rho": [1.0]}, waves={**sweep, "amplitude": [1e-2, 1e-5]})
+    alone = scene_of(shared_tmp / "alone.h5", cache="off", seed=1, packing={"n": 64, "phi": 0.9, "friction": 0.1},
+                     model={"rho": [1.0]}, waves={**sweep, "amplitude": 1e-5})
+    pipeline.run(swept, COMM, [])
+    pipeline.run(alone, COMM, [])
+    with results.open_results(swept.output) as f, results.open_results(alone.output) as g:
+        got = results.sweeps(f)[(1.0, "TR")]
+        small = f["waves/r00_TR_p0000_a01"]["z"][()]
+        assert_all(f["waves/r00_TR_p0000_a01"].attrs["amplitude"] == 1e-5 and "waves/r00_TR_p0000" not in f,
+                   "the second amplitude's unit")
+        reference, fitted = g["waves/r00_TR_p0000"]["z"][()], results.fits(g)[(1.0, "TR")]
+        assert_all(results.waves(f) == {} and results.fits(f) == {}, "the linear readers leave the sweep out")
+    assert_close(small, reference, rtol=0.0, atol=1e-14 * np.abs(reference).max(), what="the 1e-5 unit")
+    assert_close(got.amplitude, np.array([1e-5, 1e-2]), rtol=0.0, what="ascending amplitudes")
+    assert_close(got.omega[0], fitted["omega"], rtol=1e-12, what="the small amplitude's fits")
+    assert_all(got.omega.shape == (2, 2) and got.sliding[0].max() == 0 and got.sliding[1].min() > 0,
+               f"sliding {got.sliding}")
+    assert_all(np.all(got.energy_change[1] > 10 * got.energy_change[0]), f"{got.energy_change}")
+    if COMM.rank == 0:
+        from solver import plots
+
+        plots.plot_results(swept.output)
