@@ -23,7 +23,8 @@ What each sample records besides the velocities (:class:`Contacts`; one entry a 
   ``single``: f_t after the rescaling);
 - ``opened``: contacts of the start that no longer overlap; ``formed``: contacts that overlap
   and did not at the start;
-- ``opening``: the largest (xi_0 - xi) / xi_0 over the start's contacts (1: a contact opens);
+- ``opening``: the largest (xi_0 - xi) / xi_0 over the start's contacts still touching; 1 once
+  one has opened;
 - ``coulomb``: the largest |f_t| / (mu |f_n|) (1: a contact slides);
 - ``energy``: the wave's energy: kinetic + the normal springs' (``contact_law.normal_energy``)
   + the tangential springs' |f_t|^2 / (2 k_t) (k_t = rho kn, times sqrt(a' xi) under hertz)
@@ -39,6 +40,7 @@ Units: d0 = m = kn = 1.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,6 +52,7 @@ from ..packing import geometry, lammps_engine
 PAIR_STYLES = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
 MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this
 KEY = "waves.engine: lammps"  # the scene key, in messages
+CALLBACK = "rotsound_lammps_sample"  # the name of LAMMPS's python function that samples a run
 LIMIT_SLACK = 1e-9  # relative: |f_t| this close to mu |f_n| is at the Coulomb limit (LAMMPS rescales to it exactly)
 
 
@@ -103,25 +106,28 @@ def unsupported(model) -> str | None:
 
 
 def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: np.ndarray, model,
-        friction: float, start: np.ndarray, dt: float, steps: int, every: int, rest_tol: float, comm
-        ) -> tuple[np.ndarray, Contacts]:
+        friction: float, start: np.ndarray, dt: float, steps: int, every: int, rest_tol: float,
+        channel: tuple[int, np.ndarray], comm) -> tuple[np.ndarray, Contacts]:
     """One standing wave integrated by LAMMPS from v(0) = ``start`` (N', dof), zero displacement.
 
     ``positions`` (N, D), ``diameters`` (N,): the packing, in the periodic ``box`` (D,) from the
     origin; ``active`` (N,) bool: the particles that move (the matrix's, N' of them; ``start``
-    and the velocities returned list them in packing order); the others, the rattlers, stay in
+    lists them in packing order); the others, the rattlers, stay in
     LAMMPS's box but touch nothing (``neigh_modify exclude``) and do not move; ``model`` the contact model
     (``ContactModel``: law, rho, dashpots; :func:`unsupported` must be None); ``friction`` the
     Coulomb coefficient mu (0 < mu <= ``MAX_FRICTION``); ``dof`` = D, or D + rotations (2D: w_z;
-    3D: w_x, w_y, w_z).  ``steps`` of ``dt``, sampled every ``every`` steps.
+    3D: w_x, w_y, w_z).  ``steps`` of ``dt``, sampled every ``every`` steps.  ``channel`` =
+    (c, b): the sampled Fourier component is z(t) = sum_i v_i,c(t) b_i, b (N',) complex over the
+    moving particles (``excitation.channel``'s exp(-i k r_i,a(0))).
 
     Before the wave starts, LAMMPS's own forces and torques on the whole packing at rest must all
     be below ``rest_tol`` (the packing's force tolerance): InputError on every rank naming the
     largest otherwise (a packing LAMMPS does not find at rest would move on its own).  Then the
     rattlers are let go and the rest is held (:func:`_hold`).
 
-    Returns (velocities (S, N', dof), S = steps // every + 1 with t = 0 first, in rotsound's DOF
-    order; :class:`Contacts`), the same on every rank.  Collective on ``comm`` (mpi4py).
+    Returns (z (S,) complex, S = steps // every + 1 with t = 0 first; :class:`Contacts`), the
+    same on every rank.  Each sample is reduced where LAMMPS holds the atoms, one allreduce of a
+    few numbers: nothing per particle or contact is gathered.  Collective on ``comm`` (mpi4py).
     """
     n, dim = positions.shape
     active = np.asarray(active, dtype=bool)
@@ -149,29 +155,49 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
             run 0
         """)
         _check_rest(lmp, n, rest_tol)
-        ids = " ".join(str(i + 1) for i in np.flatnonzero(~active))
+        rattlers = " ".join(str(i + 1) for i in np.flatnonzero(~active))
         lmp.commands_string(f"""
-            group moving id {" ".join(str(i + 1) for i in np.flatnonzero(active))}
-            {f'group rattlers id {ids}' if ids else ''}
-            {'neigh_modify exclude group rattlers all' if ids else ''}
+            {f'group rattlers id {rattlers}' if rattlers else 'group rattlers empty'}
+            group moving subtract all rattlers
+            {'neigh_modify exclude group rattlers all' if rattlers else ''}
             fix move moving nve/sphere{' disc' if dim == 2 else ''}
             {'fix plane all enforce2d' if dim == 2 else ''}
             fix hold moving external pf/array 1
         """)
-        held = _hold(lmp, n, active)
-        tracker = _Tracker(lmp, positions, diameters, box, active, model, friction, held, comm)
+        held = np.zeros((n, dim))
+        held[active] = _hold(lmp, n, active)
+        component, phase = channel
+        weights = np.zeros(n, dtype=complex)
+        weights[active] = phase
+        sampler = _Sampler(lmp, positions, diameters, box, model, friction, held, component, weights, comm)
         whole = np.zeros((n, dof))
         whole[active] = start
         set_velocities(lmp, whole, dim)
-        samples = [velocities(lmp, n, dim, dof)[active]]
-        tracker.sample(samples[-1])
-        for _ in range(steps // every):
-            lmp.command(f"run {every} pre no post no")  # a run's setup leaves the shear history alone
-            samples.append(velocities(lmp, n, dim, dof)[active])
-            tracker.sample(samples[-1])
+        sampler.sample()
+        _sample_in_the_run(lmp, sampler, every)
+        lmp.command(f"run {int(steps - steps % every)} post no")  # a new fix needs the setup; no history yet
     finally:
         lmp.close()
-    return np.array(samples), tracker.contacts()
+        sys.modules["__main__"].__dict__.pop(CALLBACK, None)
+    return np.array(sampler.z), sampler.contacts()
+
+
+def _sample_in_the_run(lmp, sampler, every: int) -> None:
+    """Sample every ``every`` steps inside one LAMMPS ``run`` (``fix python/invoke ...
+    end_of_step``: after the step's second half-kick, so the velocities are the step's): one
+    ``run`` a sample cost 1.4 ms of setup each (N = 1024, one rank), more than the five steps
+    between samples.  The callback is LAMMPS's ``python`` function ``CALLBACK``, found in
+    ``__main__`` (keyword ``exists``); an exception in it would end the process (LAMMPS is built
+    without exceptions), so it only calls the sampler.  Collective (the sampler's reductions, on
+    every rank at the same step)."""
+    def callback(_):
+        sampler.sample()
+
+    sys.modules["__main__"].__dict__[CALLBACK] = callback
+    lmp.commands_string(f"""
+        python {CALLBACK} input 1 SELF format p exists
+        fix sampler all python/invoke {int(every)} end_of_step {CALLBACK}
+    """)
 
 
 def _check_rest(lmp, n: int, rest_tol: float) -> None:
@@ -227,19 +253,25 @@ def velocities(lmp, n: int, dim: int, dof: int) -> np.ndarray:
     return np.hstack((lammps_engine.gather(lmp, "v", n, dim), w[:, 2:] if dim == 2 else w))[:, :dof]
 
 
-class _Tracker:
-    """The contact series of one run (:class:`Contacts`), a sample at a time.  Collective."""
+class _Sampler:
+    """z(t) and the contact series of one run (:class:`Contacts`), a sample at a time, each
+    reduced on the rank that holds the atoms and contacts (one allreduce of sums and one of
+    maxima a sample).  Collective."""
 
-    def __init__(self, lmp, positions, diameters, box, active, model, friction, held, comm):
-        self.lmp, self.model, self.friction, self.held, self.comm = lmp, model, friction, held, comm
-        self.box, self.diameters, self.x0, self.active = box, diameters, positions, active
-        self.dim = positions.shape[1]
-        pairs, _ = self._local()
-        self.pairs = np.concatenate(comm.allgather(pairs))  # (C0, 2) 0-based, every rank
-        self.overlap0 = self._overlaps(positions)
-        self.rows = {name: [] for name in ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
+    def __init__(self, lmp, positions, diameters, box, model, friction, held, component, weights, comm):
+        self.lmp, self.model, self.friction, self.comm = lmp, model, friction, comm
+        self.box, self.diameters, self.x0, self.held = box, diameters, positions, held
+        self.n, self.dim = positions.shape
+        self.component, self.weights = component, weights
+        self.inertia = diameters**2 / (8.0 if self.dim == 2 else 10.0)
+        pairs, values = self._local()
+        keys = np.concatenate(comm.allgather(self._keys(pairs)))
+        overlaps = np.concatenate(comm.allgather(self._overlaps(pairs, values[:, 0])))
+        order = np.argsort(keys)
+        self.keys, self.overlap0 = keys[order], overlaps[order]  # the start's contacts, every rank
+        self.z, self.rows = [], {name: [] for name in ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
         self.rest = 0.0
-        self.rest = self._potential(positions, *self._local())  # at rest, before the start's velocities
+        self.rest = self._sums(at_rest=True)[3]  # the springs' energy at rest, before the start's velocities
 
     def _local(self) -> tuple[np.ndarray, np.ndarray]:
         """This rank's contacts: pairs (c, 2) 0-based and (r, f_n, f_t x, y, z, |f_t|) (c, 6): the
@@ -252,56 +284,65 @@ class _Tracker:
                          for a, width in zip(arrays, (2, 6)))
         return pairs.astype(np.int64) - 1, values
 
-    def _overlaps(self, x: np.ndarray) -> np.ndarray:
-        """Overlaps xi (C0,) of the start's contacts at positions ``x`` (N, D) (negative: a gap)."""
-        i, j = self.pairs[:, 0], self.pairs[:, 1]
-        separation = geometry.minimum_image(x[i] - x[j], self.box)
-        return 0.5 * (self.diameters[i] + self.diameters[j]) - np.linalg.norm(separation, axis=1)
+    def _keys(self, pairs: np.ndarray) -> np.ndarray:
+        """One integer (c,) per contact, whichever particle LAMMPS lists first."""
+        return pairs.min(axis=1) * self.n + pairs.max(axis=1)
 
-    def _potential(self, x: np.ndarray, pairs: np.ndarray, values: np.ndarray) -> float:
-        """The springs' energy (normal + tangential) minus the hold force's work since the start,
-        minus its value at rest: the potential part of the wave's energy.  Collective."""
-        distance, tangential = values[:, 0], values[:, 5]
+    def _overlaps(self, pairs: np.ndarray, distance: np.ndarray) -> np.ndarray:
+        return 0.5 * (self.diameters[pairs[:, 0]] + self.diameters[pairs[:, 1]]) - distance
+
+    def _sums(self, at_rest: bool = False) -> np.ndarray:
+        """This sample's [Re z, Im z, kinetic, potential, sliding, touching, of the start's] summed
+        over the ranks, and [coulomb, opening] maximised (appended).  Collective."""
+        lmp, dim = self.lmp, self.dim
+        nlocal = lmp.extract_global("nlocal")
+        ids = lmp.numpy.extract_atom("id")[:nlocal] - 1 if nlocal else np.zeros(0, dtype=np.int64)
+        x = lmp.numpy.extract_atom("x")[:nlocal, :dim] if nlocal else np.zeros((0, dim))
+        v = lmp.numpy.extract_atom("v")[:nlocal, :dim] if nlocal else np.zeros((0, dim))
+        w = lmp.numpy.extract_atom("omega")[:nlocal] if nlocal else np.zeros((0, 3))
+        w = w[:, 2:] if dim == 2 else w
+        pairs, values = self._local()
+        distance, normal, tangential = values[:, 0], np.abs(values[:, 1]), values[:, 5]
         d_i, d_j = self.diameters[pairs[:, 0]], self.diameters[pairs[:, 1]]
         overlap = 0.5 * (d_i + d_j) - distance
         reduced = contact_law.reduced_radius(d_i, d_j)
-        elastic = contact_law.normal_energy(overlap, self.model.law, reduced).sum()
+        potential = contact_law.normal_energy(overlap, self.model.law, reduced).sum()
         if self.model.rho > 0.0:
             kt = self.model.rho * contact_law.spring_scale(overlap, self.model.law, reduced)
-            elastic += (tangential**2 / (2.0 * kt)).sum()
-        moved = geometry.minimum_image(x[self.active] - self.x0[self.active], self.box)
-        return float(self.comm.allreduce(elastic)) - float(np.einsum("nd,nd->", self.held, moved)) - self.rest
-
-    def sample(self, velocities: np.ndarray) -> None:
-        n = self.diameters.size
-        x = geometry.wrap(lammps_engine.gather(self.lmp, "x", n, self.dim), self.box)
-        pairs, values = self._local()
-        normal, tangential = np.abs(values[:, 1]), values[:, 5]  # |f_n| with its dashpot, as LAMMPS's Coulomb test
+            potential += (tangential**2 / (2.0 * kt)).sum()
+        moved = geometry.minimum_image(x - self.x0[ids], self.box)
+        potential -= np.einsum("nd,nd->", self.held[ids], moved)  # the hold force's work
+        channel = (v[:, self.component] if self.component < dim else w[:, self.component - dim]) @ self.weights[ids]
+        kinetic = 0.5 * (np.einsum("nd,nd->", v, v) + np.einsum("n,nr,nr->", self.inertia[ids], w, w))
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(normal > 0, tangential / (self.friction * normal), 0.0)
-        sliding, touching = self.comm.allreduce(np.array([np.count_nonzero(ratio >= 1.0 - LIMIT_SLACK), len(pairs)]))
-        coulomb = self.comm.allreduce(float(ratio.max(initial=0.0)), op=_max())
-        overlap0 = self._overlaps(x)
-        opened = int(np.count_nonzero(overlap0 <= 0.0))
-        kinetic = 0.5 * float(np.einsum("nd,nd->", velocities[:, :self.dim], velocities[:, :self.dim]))
-        if velocities.shape[1] > self.dim:
-            inertia = self.diameters[self.active]**2 / (8.0 if self.dim == 2 else 10.0)
-            kinetic += 0.5 * float(np.einsum("n,nr,nr->", inertia, velocities[:, self.dim:], velocities[:, self.dim:]))
+        keys = self._keys(pairs)
+        at = np.minimum(np.searchsorted(self.keys, keys), self.keys.size - 1) if not at_rest else None
+        held = (self.keys[at] == keys) if not at_rest else np.zeros(0, dtype=bool)
+        opening = ((self.overlap0[at[held]] - overlap[held]) / self.overlap0[at[held]]).max(initial=0.0) \
+            if not at_rest else 0.0
+        from mpi4py import MPI
+
+        sums = np.array([channel.real, channel.imag, kinetic, potential,
+                         np.count_nonzero(ratio >= 1.0 - LIMIT_SLACK), keys.size, held.sum()], dtype=float)
+        maxima = np.array([ratio.max(initial=0.0), opening], dtype=float)
+        self.comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+        self.comm.Allreduce(MPI.IN_PLACE, maxima, op=MPI.MAX)
+        return np.concatenate((sums, maxima))
+
+    def sample(self) -> None:
+        re, im, kinetic, potential, sliding, touching, kept, coulomb, opening = self._sums()
+        opened = self.keys.size - int(kept)
         row = self.rows
+        self.z.append(re + 1j * im)
         row["sliding"].append(int(sliding))
         row["opened"].append(opened)
-        row["formed"].append(int(touching) - (self.pairs.shape[0] - opened))
-        row["opening"].append(float(np.max((self.overlap0 - overlap0) / self.overlap0, initial=0.0)))
-        row["coulomb"].append(coulomb)
-        row["energy"].append(kinetic + self._potential(x, pairs, values))
+        row["formed"].append(int(touching) - int(kept))
+        row["opening"].append(1.0 if opened else float(opening))
+        row["coulomb"].append(float(coulomb))
+        row["energy"].append(float(kinetic + potential - self.rest))
 
     def contacts(self) -> Contacts:
         kinds = {"sliding": np.int64, "opened": np.int64, "formed": np.int64}
         return Contacts(**{name: np.array(values, dtype=kinds.get(name, float)) for name, values in self.rows.items()},
-                        start=int(self.pairs.shape[0]))
-
-
-def _max():
-    from mpi4py import MPI
-
-    return MPI.MAX
+                        start=int(self.keys.size))

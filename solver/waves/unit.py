@@ -140,10 +140,9 @@ def _lammps(dem: lammps_dem.Setting, dm, positions, spec, waves, schedule: Sched
     for mode, r, k in waves:
         component, axis = excitation.runs(mode, dm.dim)[r]
         start = excitation.whole_start(dm, positions, component, axis, k, spec.amplitude, mpi)
-        velocities, contacts = lammps_dem.run(positions, dem.diameters, dem.box, dm.active, dm.model, dem.friction,
-                                              start, schedule.dt, schedule.steps, schedule.sample_every,
-                                              dem.rest_tol, mpi)
-        z = velocities[:, :, component] @ np.exp(-1j * k * x[:, axis])
+        z, contacts = lammps_dem.run(positions, dem.diameters, dem.box, dm.active, dm.model, dem.friction, start,
+                                     schedule.dt, schedule.steps, schedule.sample_every, dem.rest_tol,
+                                     (component, np.exp(-1j * k * x[:, axis])), mpi)
         flat.append(WaveSeries(t, z, z, contacts.energy, schedule.steps, contacts=contacts.as_datasets()))
     settings = {"dt": schedule.dt, "steps": schedule.steps, "sample_every": schedule.sample_every,
                 "friction": dem.friction, "pair_style": lammps_dem.PAIR_STYLES[dm.model.law]}
