@@ -24,10 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import benchlib
+from solver.waves import lammps_dem
 
 RECORDS = Path(__file__).resolve().parent / "records"  # the cross-checks' JSON records (committed)
-LAMMPS_PAIR = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
-FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021 stable) refuses xmu > 1e4; |F_t| / |F_n| stays far below it here
+LAMMPS_PAIR = lammps_dem.PAIR_STYLES
+FRICTION = lammps_dem.MAX_FRICTION  # Debian's LAMMPS refuses more; |F_t| / |F_n| stays far below it here
 PACKINGS = {2: 0.9, 3: 0.7}  # phi of the 2D and 3D packings (rotsound's default recipes)
 
 
@@ -50,7 +51,6 @@ def lammps_velocities(positions, diameters, box, law: str, start: np.ndarray, dt
     from lammps import lammps
 
     from solver.packing import lammps_engine
-    from solver.waves import lammps_dem
 
     n, dim = positions.shape
     dof = start.shape[1]

@@ -49,7 +49,7 @@ from .. import contact_law
 from ..errors import InputError
 from ..packing import geometry, lammps_engine
 
-PAIR_STYLES = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
+PAIR_STYLES = lammps_engine.FRICTIONAL_STYLES  # the normal law -> LAMMPS's pair style with a shear history
 MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this
 KEY = "waves.engine: lammps"  # the scene key, in messages
 CALLBACK = "rotsound_lammps_sample"  # the name of LAMMPS's python function that samples a run
@@ -70,8 +70,7 @@ class Setting:
 
 @dataclass
 class Contacts:
-    """What a run's contacts did, one entry per sample (S,) (module docstring); ``start``: the
-    number of contacts at t = 0."""
+    """What a run's contacts did, one entry per sample (S,) (module docstring)."""
 
     sliding: np.ndarray
     opened: np.ndarray
@@ -79,7 +78,6 @@ class Contacts:
     opening: np.ndarray
     coulomb: np.ndarray
     energy: np.ndarray
-    start: int
 
     def as_datasets(self) -> dict[str, np.ndarray]:
         """The series under their results-file names (``contacts_<name>``)."""
@@ -118,7 +116,7 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     Coulomb coefficient mu (0 < mu <= ``MAX_FRICTION``); ``dof`` = D, or D + rotations (2D: w_z;
     3D: w_x, w_y, w_z).  ``steps`` of ``dt``, sampled every ``every`` steps.  ``channel`` =
     (c, b): the sampled Fourier component is z(t) = sum_i v_i,c(t) b_i, b (N',) complex over the
-    moving particles (``excitation.channel``'s exp(-i k r_i,a(0))).
+    moving particles in packing order (exp(-i k r_i,a(0)) for z_fixed).
 
     Before the wave starts, LAMMPS's own forces and torques on the whole packing at rest must all
     be below ``rest_tol`` (the packing's force tolerance): InputError on every rank naming the
@@ -270,8 +268,7 @@ class _Sampler:
         order = np.argsort(keys)
         self.keys, self.overlap0 = keys[order], overlaps[order]  # the start's contacts, every rank
         self.z, self.rows = [], {name: [] for name in ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
-        self.rest = 0.0
-        self.rest = self._sums(at_rest=True)[3]  # the springs' energy at rest, before the start's velocities
+        self.rest = self._sums()[3]  # the springs' energy at rest, before the start's velocities
 
     def _local(self) -> tuple[np.ndarray, np.ndarray]:
         """This rank's contacts: pairs (c, 2) 0-based and (r, f_n, f_t x, y, z, |f_t|) (c, 6): the
@@ -291,7 +288,7 @@ class _Sampler:
     def _overlaps(self, pairs: np.ndarray, distance: np.ndarray) -> np.ndarray:
         return 0.5 * (self.diameters[pairs[:, 0]] + self.diameters[pairs[:, 1]]) - distance
 
-    def _sums(self, at_rest: bool = False) -> np.ndarray:
+    def _sums(self) -> np.ndarray:
         """This sample's [Re z, Im z, kinetic, potential, sliding, touching, of the start's] summed
         over the ranks, and [coulomb, opening] maximised (appended).  Collective."""
         lmp, dim = self.lmp, self.dim
@@ -302,10 +299,9 @@ class _Sampler:
         w = lmp.numpy.extract_atom("omega")[:nlocal] if nlocal else np.zeros((0, 3))
         w = w[:, 2:] if dim == 2 else w
         pairs, values = self._local()
-        distance, normal, tangential = values[:, 0], np.abs(values[:, 1]), values[:, 5]
-        d_i, d_j = self.diameters[pairs[:, 0]], self.diameters[pairs[:, 1]]
-        overlap = 0.5 * (d_i + d_j) - distance
-        reduced = contact_law.reduced_radius(d_i, d_j)
+        normal, tangential = np.abs(values[:, 1]), values[:, 5]
+        overlap = self._overlaps(pairs, values[:, 0])
+        reduced = contact_law.reduced_radius(self.diameters[pairs[:, 0]], self.diameters[pairs[:, 1]])
         potential = contact_law.normal_energy(overlap, self.model.law, reduced).sum()
         if self.model.rho > 0.0:
             kt = self.model.rho * contact_law.spring_scale(overlap, self.model.law, reduced)
@@ -317,11 +313,11 @@ class _Sampler:
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(normal > 0, tangential / (self.friction * normal), 0.0)
         keys = self._keys(pairs)
-        at = np.minimum(np.searchsorted(self.keys, keys), self.keys.size - 1) if not at_rest else None
-        held = (self.keys[at] == keys) if not at_rest else np.zeros(0, dtype=bool)
-        opening = ((self.overlap0[at[held]] - overlap[held]) / self.overlap0[at[held]]).max(initial=0.0) \
-            if not at_rest else 0.0
-        from mpi4py import MPI
+        at = np.minimum(np.searchsorted(self.keys, keys), self.keys.size - 1)
+        held = self.keys[at] == keys  # the start's contacts still touching
+        start = self.overlap0[at[held]]
+        opening = ((start - overlap[held]) / start).max(initial=0.0)
+        from mpi4py import MPI  # here, not at the top: importing mpi4py starts MPI (rotsound keys must not)
 
         sums = np.array([channel.real, channel.imag, kinetic, potential,
                          np.count_nonzero(ratio >= 1.0 - LIMIT_SLACK), keys.size, held.sum()], dtype=float)
@@ -344,5 +340,4 @@ class _Sampler:
 
     def contacts(self) -> Contacts:
         kinds = {"sliding": np.int64, "opened": np.int64, "formed": np.int64}
-        return Contacts(**{name: np.array(values, dtype=kinds.get(name, float)) for name, values in self.rows.items()},
-                        start=int(self.keys.size))
+        return Contacts(**{name: np.array(values, dtype=kinds.get(name, float)) for name, values in self.rows.items()})

@@ -29,8 +29,9 @@ from ..options import ts_adapt_type, ts_settings
 
 PREFIX = "waves_"
 METHODS = ("ts", "spectral", "exponential")
-ENGINES = ("rotsound", "lammps")  # waves.engine: the linear waves of the matrix, or LAMMPS's nonlinear ones
 """waves.method values: time steps, or the paths without (``SAMPLED``); :func:`plan` decides the path."""
+ENGINES = ("rotsound", "lammps")
+"""waves.engine values: the linear waves of the matrix (by ``METHODS``), or LAMMPS's nonlinear ones."""
 INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
 """waves.integrator values of a scene (``-waves_ts_type`` takes any PETSc TS type; python is verlet)."""
 SECOND_ORDER = ("verlet", "alpha2")
