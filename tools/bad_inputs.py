@@ -404,6 +404,10 @@ CASES = [
     ("the LAMMPS engine with density masses", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
      "model: {masses: density}\nwaves: {engine: lammps, n: [1]}\n", [],
      "model.masses = 'density' with waves.engine: lammps", None),
+    ("contact records with the linear waves", GOOD + "waves: {n: [1], contacts_every: 5}\n", [],
+     "waves.contacts_every = 5 with waves.engine: rotsound: it spaces the records of LAMMPS's contacts", None),
+    ("contact records every 0 samples", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
+     "waves: {engine: lammps, n: [1], contacts_every: 0}\n", [], "waves.contacts_every = 0: must be in [1", None),
     ("the LAMMPS engine on a packing with stored forces", "packing: {file: '{file}', contacts: '{file}.contacts', "
      "friction: 0.3}\nwaves: {engine: lammps, n: [1]}\n", [],
      "LAMMPS's contact history cannot be given them yet", _stressed()),

@@ -375,6 +375,9 @@ class WavesSpec:
                                  "the packing held at rest: Coulomb mu = packing.friction, contacts that open and "
                                  "form, its velocity Verlet at waves.dt; the unit also keeps its contacts' series "
                                  "(docs/finite_amplitude.md)", _one_of(schedule.ENGINES), str)
+    contacts_every: int | None = _f(None, "engine: lammps: samples between records of the contacts' series (the "
+                                          "Fourier components are kept every sample); null: 10. A record costs "
+                                          "more than ten of LAMMPS's steps (BENCHMARKS)", _range(1, 10**6), int)
     snapshots: list[float] | None = _f(None, "times (t0, up to t_end) at which the whole velocity field of the "
                                              "mode's first run at the smallest k is kept, for pictures (method "
                                              "spectral without dashpots); null: none", _times, "floats_list")

@@ -20,6 +20,7 @@ from .. import __version__
 from .. import options
 from ..spectrum.plan import probe_seed
 from ..transport.rules import bin_width as transport_bin_width
+from ..waves import lammps_dem
 from ..waves.excitation import wave_modes
 
 FOLDERS = {"matrix": "matrices", "spectrum": "spectra", "modes": "modes", "transport": "diffusivity", "waves": "waves"}
@@ -264,10 +265,11 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
                           options=options.acting_on(petsc_argv, "transport", scene.transport.method), **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on
                 if k != "modes" and not (k in ("axes", "snapshots") and v is None)  # the others; keys of before
-                and not (k == "engine" and v == "rotsound")}
+                and not (k == "engine" and v == "rotsound") and not (k == "contacts_every" and v is None)}
     if unit.amplitude is not None:  # a sweep's unit: its own amplitude
         settings["amplitude"] = scene.waves.sweep[unit.amplitude]
     if scene.waves.engine == "lammps":  # LAMMPS's contacts slide at packing.friction; its rest check
-        settings.update(friction=scene.packing.friction, rest_tol=scene.packing.force_tol)
+        settings.update(friction=scene.packing.friction, rest_tol=scene.packing.force_tol,
+                        contacts_every=lammps_dem.record_every(scene.waves.contacts_every))
     return UnitKey.of(unit="waves", rho=unit.rho, mode=unit.mode, section="waves", settings=settings,
                       options=options.acting_on(petsc_argv, "waves", scene.waves.method), **base)

@@ -17,7 +17,8 @@ rest (:func:`_hold`).  The tangential springs start unstressed (LAMMPS's shear h
 a packing with stored tangential forces is not at rest under LAMMPS's forces without them, and
 is refused (docs/finite_amplitude.md).
 
-What each sample records besides the velocities (:class:`Contacts`; one entry a sample):
+What a record holds besides the velocities (:class:`Contacts`; a record every ``record_every``-th
+sample, z every sample):
 - ``sliding``: contacts at the Coulomb limit, |f_t| >= mu |f_n| (1 - ``LIMIT_SLACK``), f_n the
   normal force with its dashpot, as LAMMPS tests it (``compute pair/local``, the pair style's
   ``single``: f_t after the rescaling);
@@ -53,24 +54,27 @@ PAIR_STYLES = lammps_engine.FRICTIONAL_STYLES  # the normal law -> LAMMPS's pair
 MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this
 KEY = "waves.engine: lammps"  # the scene key, in messages
 CALLBACK = "rotsound_lammps_sample"  # the name of LAMMPS's python function that samples a run
+RECORD_EVERY = 10  # waves.contacts_every's default: a record costs more than ten steps (BENCHMARKS "lammps_waves")
 LIMIT_SLACK = 1e-9  # relative: |f_t| this close to mu |f_n| is at the Coulomb limit (LAMMPS rescales to it exactly)
 
 
 @dataclass(frozen=True)
 class Setting:
     """What a scene's LAMMPS waves need beyond the matrix: the packing's ``diameters`` (N,) and
-    ``box`` (D,), the Coulomb coefficient ``friction`` (packing.friction) and ``rest_tol``
-    (packing.force_tol: the largest force LAMMPS may find on the packing at rest)."""
+    ``box`` (D,), the Coulomb coefficient ``friction`` (packing.friction), ``rest_tol``
+    (packing.force_tol: the largest force LAMMPS may find on the packing at rest) and
+    ``record_every`` (samples between contact records: :func:`record_every`)."""
 
     diameters: np.ndarray
     box: np.ndarray
     friction: float
     rest_tol: float
+    record_every: int = 1
 
 
 @dataclass
 class Contacts:
-    """What a run's contacts did, one entry per sample (S,) (module docstring)."""
+    """What a run's contacts did, one entry per record (S_c,) (module docstring)."""
 
     sliding: np.ndarray
     opened: np.ndarray
@@ -83,6 +87,11 @@ class Contacts:
         """The series under their results-file names (``contacts_<name>``)."""
         return {f"contacts_{name}": getattr(self, name) for name in
                 ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
+
+
+def record_every(contacts_every: int | None) -> int:
+    """Samples between contact records: ``waves.contacts_every``, or ``RECORD_EVERY`` when null."""
+    return RECORD_EVERY if contacts_every is None else int(contacts_every)
 
 
 def require(comm) -> None:
@@ -105,7 +114,7 @@ def unsupported(model) -> str | None:
 
 def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: np.ndarray, model,
         friction: float, start: np.ndarray, dt: float, steps: int, every: int, rest_tol: float,
-        channel: tuple[int, np.ndarray], comm) -> tuple[np.ndarray, Contacts]:
+        channel: tuple[int, np.ndarray], comm, record_every: int = 1) -> tuple[np.ndarray, Contacts]:
     """One standing wave integrated by LAMMPS from v(0) = ``start`` (N', dof), zero displacement.
 
     ``positions`` (N, D), ``diameters`` (N,): the packing, in the periodic ``box`` (D,) from the
@@ -123,8 +132,9 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     largest otherwise (a packing LAMMPS does not find at rest would move on its own).  Then the
     rattlers are let go and the rest is held (:func:`_hold`).
 
-    Returns (z (S,) complex, S = steps // every + 1 with t = 0 first; :class:`Contacts`), the
-    same on every rank.  Each sample is reduced where LAMMPS holds the atoms, one allreduce of a
+    Returns (z (S,) complex, S = steps // every + 1 with t = 0 first; :class:`Contacts` of
+    every ``record_every``-th sample, (S - 1) // record_every + 1 of them from t = 0), the same
+    on every rank.  Each sample is reduced where LAMMPS holds the atoms, one allreduce of a
     few numbers: nothing per particle or contact is gathered.  Collective on ``comm`` (mpi4py).
     """
     n, dim = positions.shape
@@ -132,9 +142,9 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     dof = start.shape[1]
     if active.shape != (n,) or start.shape[0] != active.sum() or dof not in (dim, dim + (1 if dim == 2 else 3)):
         raise ValueError(f"start of shape {start.shape} for {active.sum()} of {n} particles moving in {dim}D")
-    if not (0 < friction <= MAX_FRICTION and 0 < every <= steps and dt > 0):
+    if not (0 < friction <= MAX_FRICTION and 0 < every <= steps and dt > 0 and record_every >= 1):
         raise ValueError(f"friction {friction} in (0, {MAX_FRICTION:g}], every {every} in [1, steps = {steps}], "
-                         f"dt {dt} > 0")
+                         f"dt {dt} > 0, record_every {record_every} >= 1")
     why = unsupported(model)
     if why is not None:
         raise ValueError(why)
@@ -167,7 +177,8 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
         component, phase = channel
         weights = np.zeros(n, dtype=complex)
         weights[active] = phase
-        sampler = _Sampler(lmp, positions, diameters, box, model, friction, held, component, weights, comm)
+        sampler = _Sampler(lmp, positions, diameters, box, model, friction, held, component, weights, comm,
+                           record_every)
         whole = np.zeros((n, dof))
         whole[active] = start
         set_velocities(lmp, whole, dim)
@@ -252,12 +263,16 @@ def velocities(lmp, n: int, dim: int, dof: int) -> np.ndarray:
 
 
 class _Sampler:
-    """z(t) and the contact series of one run (:class:`Contacts`), a sample at a time, each
-    reduced on the rank that holds the atoms and contacts (one allreduce of sums and one of
-    maxima a sample).  Collective."""
+    """z(t) every sample and the contact series of one run (:class:`Contacts`) every
+    ``record_every``-th, each reduced on the rank that holds the atoms and contacts (one
+    allreduce of z's two parts a sample; a record: one of sums and one of maxima).  A record
+    costs LAMMPS's ``compute pair/local`` and numpy over every contact (about 4 ms at N = 8192 on
+    two ranks, more than ten steps: BENCHMARKS "lammps_waves"); z costs 0.1-0.2 ms.  Collective."""
 
-    def __init__(self, lmp, positions, diameters, box, model, friction, held, component, weights, comm):
+    def __init__(self, lmp, positions, diameters, box, model, friction, held, component, weights, comm,
+                 record_every: int = 1):
         self.lmp, self.model, self.friction, self.comm = lmp, model, friction, comm
+        self.record_every, self.count = record_every, 0
         self.box, self.diameters, self.x0, self.held = box, diameters, positions, held
         self.n, self.dim = positions.shape
         self.component, self.weights = component, weights
@@ -327,7 +342,29 @@ class _Sampler:
         self.comm.Allreduce(MPI.IN_PLACE, maxima, op=MPI.MAX)
         return np.concatenate((sums, maxima))
 
+    def _z(self) -> complex:
+        """This sample's Fourier component alone (one allreduce of its two parts).  Collective."""
+        from mpi4py import MPI
+
+        lmp, dim = self.lmp, self.dim
+        nlocal = lmp.extract_global("nlocal")
+        parts = np.zeros(2)
+        if nlocal:
+            ids = lmp.numpy.extract_atom("id")[:nlocal] - 1
+            if self.component < dim:
+                values = lmp.numpy.extract_atom("v")[:nlocal, self.component]
+            else:
+                values = lmp.numpy.extract_atom("omega")[:nlocal, self.component - dim + (2 if dim == 2 else 0)]
+            channel = values @ self.weights[ids]
+            parts[:] = channel.real, channel.imag
+        self.comm.Allreduce(MPI.IN_PLACE, parts, op=MPI.SUM)
+        return complex(parts[0], parts[1])
+
     def sample(self) -> None:
+        self.count += 1
+        if (self.count - 1) % self.record_every:
+            self.z.append(self._z())
+            return
         re, im, kinetic, potential, sliding, touching, kept, coulomb, opening = self._sums()
         opened = self.keys.size - int(kept)
         row = self.rows

@@ -78,8 +78,11 @@ def check_boxes(spec, packings) -> None:
 
 def check_engine(spec, packing, model) -> None:
     """Refuse, with ``waves.engine: lammps``, what LAMMPS's waves cannot take: rotsound's own
-    path or integrator given too, no Coulomb coefficient (``packing.friction``), a contact model
+    path or integrator given too (and ``contacts_every`` without it), no Coulomb coefficient (``packing.friction``), a contact model
     gran/*/history lacks (``lammps_dem.unsupported``), masses other than equal.  Not collective."""
+    if spec is not None and spec.engine != "lammps" and spec.contacts_every is not None:
+        raise InputError(f"waves.contacts_every = {spec.contacts_every} with waves.engine: {spec.engine}: it spaces the "
+                         "records of LAMMPS's contacts (waves.engine: lammps); rotsound's linear waves have none")
     if spec is None or spec.engine != "lammps":
         return
     if spec.method != "ts" or spec.integrator != "verlet":

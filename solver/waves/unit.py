@@ -35,7 +35,8 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     ``path`` picks the function of ``PATHS``; the paths without time steps sample every
     ``dt * sample_every`` to ``t_end``, time stepping follows the TS schedule; it carries omega_max
     and the stability limit; path ``lammps``: LAMMPS integrates the packing ``dem`` describes,
-    and the unit also keeps each run's contact series, datasets ``contacts_*`` (R, K, S)).
+    and the unit also keeps each run's contact series, datasets ``contacts_*`` (R, K, S_c) at the
+    times ``contacts_t`` (S_c,), every ``dem.record_every``-th sample).
     ``summary``: one line for the log.
     Raises StabilityError on every rank if a run blows up (nothing is returned then).
     """
@@ -58,9 +59,10 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
                 "runs": np.array(excited, dtype=np.int64)}
     if not (same and np.all(ns == ns[:, :1])):  # sides that differ: each axis' own n and k (k: their mean)
         datasets.update(n_axes=ns, k_axes=ks)
-    if flat[0].contacts is not None:
+    if flat[0].contacts is not None:  # the LAMMPS path's: their times, and each run's series (R, K, S_c)
+        datasets["contacts_t"] = flat[0].contacts["contacts_t"]
         datasets.update({name: np.array([[r.contacts[name] for r in row] for row in series])
-                         for name in flat[0].contacts})
+                         for name in flat[0].contacts if name != "contacts_t"})
     if estimated:
         datasets["error_estimate"] = np.array([[r.error_estimate for r in row] for row in series])
     settings = {"wmax": dm.wmax_settings, **path_settings}
@@ -142,17 +144,19 @@ def _lammps(dem: lammps_dem.Setting, dm, positions, spec, waves, schedule: Sched
         start = excitation.whole_start(dm, positions, component, axis, k, spec.amplitude, mpi)
         z, contacts = lammps_dem.run(positions, dem.diameters, dem.box, dm.active, dm.model, dem.friction, start,
                                      schedule.dt, schedule.steps, schedule.sample_every, dem.rest_tol,
-                                     (component, np.exp(-1j * k * x[:, axis])), mpi)
-        flat.append(WaveSeries(t, z, z, contacts.energy, schedule.steps, contacts=contacts.as_datasets()))
+                                     (component, np.exp(-1j * k * x[:, axis])), mpi, dem.record_every)
+        flat.append(WaveSeries(t, z, z, contacts.energy, schedule.steps,
+                               contacts={"contacts_t": t[::dem.record_every], **contacts.as_datasets()}))
     settings = {"dt": schedule.dt, "steps": schedule.steps, "sample_every": schedule.sample_every,
-                "friction": dem.friction, "pair_style": lammps_dem.PAIR_STYLES[dm.model.law]}
+                "contacts_every": dem.record_every, "friction": dem.friction,
+                "pair_style": lammps_dem.PAIR_STYLES[dm.model.law]}
     energy = np.array([r.energy for r in flat])
     lost = 100.0 * (1.0 - energy[:, -1] / energy[:, 0])
     sliding = max(int(r.contacts["contacts_sliding"].max()) for r in flat)
     opened = max(int(r.contacts["contacts_opened"].max()) for r in flat)
     summary = (f"LAMMPS, {schedule.steps} steps each (dt = {schedule.dt:g}, mu = {dem.friction:g}), "
                f"up to {sliding} contacts sliding and {opened} opened at once, energy lost by t = "
-               f"{t[-1]:g}: {lost.min():.3g} to {lost.max():.3g} %")
+               f"{flat[0].contacts['contacts_t'][-1]:g}: {lost.min():.3g} to {lost.max():.3g} %")
     return flat, False, {"lammps": settings}, summary
 
 

@@ -95,3 +95,25 @@ def test_a_packing_lammps_does_not_find_at_rest_is_refused(lammps_present, comm)
     with pytest.raises(InputError, match=r"does not find the packing at rest: its largest force component is "):
         lammps_dem.run(moved, p.diameters, p.box, active, ContactModel(1.0), 1.0, start, 0.05, 10, 1, 1e-6,
                        (0, np.ones(active.sum(), dtype=complex)), comm.tompi4py())
+
+
+def test_contact_records_every_mth_sample_leave_the_wave_alone(lammps_present, comm):
+    """record_every = 7 against 1 (2D, A = 1e-2, mu = 0.1: contacts slide and open): the same z at
+    every sample, bit for bit (the records only read LAMMPS's state), and each record the full
+    series' every 7th, from t = 0."""
+    p = jammed_packing(*PACKINGS[2], 1)
+    model = ContactModel(1.0)
+    dm = dynmat.assemble(p, model, comm)
+    try:
+        k = 2 * np.pi / float(p.box[0])
+        mpi = comm.tompi4py()
+        start = excitation.whole_start(dm, p.positions, 0, 1, k, 1e-2, mpi)
+        runs = [lammps_dem.run(p.positions, p.diameters, p.box, dm.active, model, 0.1, start, 0.02, 400, 5, 1e-6,
+                               (0, np.exp(-1j * k * p.positions[dm.active, 1])), mpi, record_every=m) for m in (1, 7)]
+    finally:
+        dm.destroy()
+    (z1, every), (z7, seventh) = runs
+    assert_all(z1.size == 81 and np.array_equal(z1, z7), f"z differs: {np.abs(z1 - z7).max()}")
+    for name, series in every.as_datasets().items():
+        assert_all(np.array_equal(series[::7], seventh.as_datasets()[name]), f"{name}")
+    assert_all(every.sliding.max() > 0 and seventh.opened.size == 12, f"{every.sliding.max()}, {seventh.opened.size}")

@@ -30,13 +30,14 @@ def test_small_amplitude_scene_is_the_linear_verlet_scene(lammps_present, shared
     """A = 1e-5, mu = 1: every run's z_fixed equals rotsound's own Verlet waves of the same scene
     (waves.engine: rotsound, method ts) to 1e-5 of its largest value (measured 7e-7 in the library
     test: the O(A) nonlinearity), C to 1e-5 of C(0); no contact slides, opens or forms, and each
-    contact series has the unit's (R, K, S) shape.  The LAMMPS scene's plot and report read it."""
+    contact series has the unit's (R, K, S_c) shape at the times contacts_t.  The LAMMPS scene's plot and report read it."""
     lammps, attrs = _run(shared_tmp, f"lammps{dim}", dim, engine="lammps")
     linear, _ = _run(shared_tmp, f"linear{dim}", dim)
     scale = np.abs(linear["z_fixed"]).max()
     assert_close(lammps["z_fixed"], linear["z_fixed"], rtol=0.0, atol=1e-5 * scale, what="z_fixed against Verlet")
     assert_close(lammps["C"], linear["C"], rtol=0.0, atol=1e-5 * np.abs(linear["C"]).max(), what="C against Verlet")
-    shape = lammps["z_fixed"].shape
+    shape = lammps["z_fixed"].shape[:2] + lammps["contacts_t"].shape  # a record every 10th sample (the default)
+    assert_all(np.array_equal(lammps["contacts_t"], lammps["t"][::10]), f"{lammps['contacts_t']}")
     assert_all(all(lammps[name].shape == shape for name in CONTACTS), {n: lammps[n].shape for n in CONTACTS})
     assert_all(lammps["contacts_sliding"].max() == 0 and lammps["contacts_opened"].max() == 0
                and lammps["contacts_formed"].max() == 0, "nothing slides, opens or forms at A = 1e-5")
