@@ -408,11 +408,6 @@ CASES = [
      "waves.contacts_every = 5 with waves.engine: rotsound: it spaces the records of LAMMPS's contacts", None),
     ("contact records every 0 samples", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
      "waves: {engine: lammps, n: [1], contacts_every: 0}\n", [], "waves.contacts_every = 0: must be in [1", None),
-    ("the LAMMPS engine on a packing with stored forces", "packing: {file: '{file}', contacts: '{file}.contacts', "
-     "friction: 0.3}\nwaves: {engine: lammps, n: [1]}\n", [],
-     "LAMMPS's contact history cannot be given them yet", _stressed()),
-    ("the LAMMPS engine on LAMMPS's frictional packings", "packing: {n: 64, phi: 0.9, engine: lammps, friction: 0.3}\n"
-     "waves: {engine: lammps, n: [1]}\n", [], "LAMMPS's contact history cannot be given them yet", None),
     ("YADE export without its periodic cell", "packing: {file: '{file}'}\n", [],
      "the yade file records no periodic box",
      _dem("yade_3d.txt", lambda text: "".join(l for l in text.splitlines(True) if "PERIODIC" not in l))),

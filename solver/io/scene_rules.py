@@ -65,7 +65,6 @@ def check_scene(scene: Scene) -> None:
     packing_rules.check_friction(scene.packing, scene.waves)
     waves_rules.check_engine(scene.waves, scene.packing, scene.model)
     check_stressed(scene, packing_rules.stored_forces_source(scene.packing))
-    waves_rules.check_engine_stored(scene.waves, packing_rules.stored_forces_source(scene.packing))
     spectrum_plan.check_damping(scene.spectrum, scene.modes, scene.model.damped)
     waves_rules.check_damping(scene.waves, scene.model.damped)
     transport_rules.check_scene(scene.transport, scene.spectrum, scene.model.damped)
@@ -120,7 +119,7 @@ def _check_scratch(scene: Scene, particles: int, dim: int, which: str) -> None:
 def check_packings(asked: Scene, packings: list) -> tuple[Scene, str | None]:
     """Refuse a scene its packings cannot run, before any compute: a file's dimension, stored
     tangential forces with what needs a symmetric matrix, the waves' k in each box, the dense
-    solvers' size, the diffusivity's scratch.  Return the scene ``asked`` with ``spectrum.method: auto`` resolved for these
+    solvers' size, the diffusivity's scratch, stored forces LAMMPS's waves cannot take.  Return the scene ``asked`` with ``spectrum.method: auto`` resolved for these
     packings (:func:`resolve`) and the line that says what auto chose (None if nothing).  Not
     collective: the same on every rank."""
     if asked.packing.file is not None:  # generated packings were checked with the scene
@@ -131,7 +130,7 @@ def check_packings(asked: Scene, packings: list) -> tuple[Scene, str | None]:
         else None
     scene, chosen = resolve(asked, which or packing_rules.stored_forces_source(asked.packing))
     check_stressed(scene, which)
-    waves_rules.check_engine_stored(scene.waves, which or packing_rules.stored_forces_source(scene.packing))
+    waves_rules.check_history(scene.waves, scene.model, packings)
     waves_rules.check_boxes(scene.waves, packings)
     for index, p in enumerate(packings):
         spectrum_plan.check_size(scene.spectrum, scene.model, int((~p.rattler).sum()), p.dim, f"packing {index}")

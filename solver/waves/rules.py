@@ -102,12 +102,16 @@ def check_engine(spec, packing, model) -> None:
                          "particle mass 1 (model.masses: equal)")
 
 
-def check_engine_stored(spec, which: str | None) -> None:
-    """Refuse ``waves.engine: lammps`` on packings with stored tangential forces (``which`` says
-    whose; None: none): LAMMPS's tangential springs start unstressed, so such a packing is not at
-    rest under its forces (docs/finite_amplitude.md).  Not collective."""
-    if spec is not None and spec.engine == "lammps" and which is not None:
-        raise InputError(f"waves.engine: lammps: {which}, and LAMMPS's contact history cannot be given them yet (its "
-                         "springs would start unstressed and the packing would not be at rest); use a packing "
-                         "without stored forces (packing.friction with the rotsound engine, or packing.file without "
-                         "packing.contacts)")
+def check_history(spec, model, packings: list) -> None:
+    """Refuse ``waves.engine: lammps`` on a packing whose stored tangential forces LAMMPS's
+    contact history cannot be given (``lammps_dem.history_velocities``: more contacts than the
+    particles' freedoms reach), naming the configuration, before any wave runs.  Not collective."""
+    if spec is None or spec.engine != "lammps":
+        return
+    for index, p in enumerate(packings):
+        if p.stressed:
+            try:
+                lammps_dem.history_velocities(p.positions, p.diameters, p.box, model.contact(model.rho[0]),
+                                              p.tangential)
+            except InputError as error:
+                raise InputError(f"configuration {index}: {error}") from None

@@ -144,7 +144,8 @@ def _lammps(dem: lammps_dem.Setting, dm, positions, spec, waves, schedule: Sched
         start = excitation.whole_start(dm, positions, component, axis, k, spec.amplitude, mpi)
         z, contacts = lammps_dem.run(positions, dem.diameters, dem.box, dm.active, dm.model, dem.friction, start,
                                      schedule.dt, schedule.steps, schedule.sample_every, dem.rest_tol,
-                                     (component, np.exp(-1j * k * x[:, axis])), mpi, dem.record_every)
+                                     (component, np.exp(-1j * k * x[:, axis])), mpi, dem.record_every,
+                                     dem.tangential)
         flat.append(WaveSeries(t, z, z, contacts.energy, schedule.steps,
                                contacts={"contacts_t": t[::dem.record_every], **contacts.as_datasets()}))
     settings = {"dt": schedule.dt, "steps": schedule.steps, "sample_every": schedule.sample_every,

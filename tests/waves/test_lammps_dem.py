@@ -3,13 +3,18 @@ issue 46): at small amplitude they are rotsound's linear waves, and the contact 
 their books (energy, the Coulomb limit, opened contacts).  LAMMPS runs on the test's
 communicator (one LAMMPS on both ranks under mpirun -n 2)."""
 
+import dataclasses
+import functools
+
 import numpy as np
 import pytest
-from conftest import assert_all, jammed_packing
+from conftest import COMM, assert_all, jammed_packing
 
+from solver import references
 from solver.contact_law import ContactModel
 from solver.errors import InputError
 from solver.model import dynmat
+from solver.packing import geometry, jammed
 from solver.references import dense_eigen, exact_z_fixed, verlet_eigen
 from solver.waves import excitation, lammps_dem
 
@@ -117,3 +122,71 @@ def test_contact_records_every_mth_sample_leave_the_wave_alone(lammps_present, c
     for name, series in every.as_datasets().items():
         assert_all(np.array_equal(series[::7], seventh.as_datasets()[name]), f"{name}")
     assert_all(every.sliding.max() > 0 and seventh.opened.size == 12, f"{every.sliding.max()}, {seventh.opened.size}")
+
+
+@functools.lru_cache(maxsize=None)
+def lammps_frictional(dim: int):
+    """A frictional packing made by LAMMPS (mu = 1, forces below 1e-10), its stored forces kept
+    with mu unknown, so that the matrix counts none as mobilised (all stick, as under LAMMPS's
+    mu = 1e4 below); made on COMM_WORLD once per session."""
+    p = jammed.generate(128, 0.82 if dim == 2 else 0.62, np.random.SeedSequence([1, 0]), force_tol=1e-10, dim=dim,
+                        engine="lammps", comm=COMM, friction=1.0)
+    return dataclasses.replace(p, tangential=dataclasses.replace(p.tangential, friction=None))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_stored_forces_go_into_lammps_history_and_the_linear_limit_is_the_stressed_matrix(lammps_present, comm, dim):
+    """A LAMMPS frictional packing's stored tangential forces loaded into LAMMPS's contact history
+    (``_load_history``: LAMMPS's forces equal them to 1e-9 of the largest, and the packing is at
+    rest under them to 1e-9): at A = 1e-5 the TR wave converges to the exact one of the stressed,
+    non-symmetric matrix (exp(tJ), ``first_order_flow``) at second order in dt (2D: 4.8e-4,
+    1.2e-4, 2.9e-5 of max |z| at dt = 0.05, 0.025, 0.0125), and the matrix without its stored
+    forces is more than ten times that error away (2D 1.1e-3, 3D 7.4e-3: the stressed terms'
+    effect).  Without the history, the same packing is refused as not at rest."""
+    p = lammps_frictional(dim)
+    model = ContactModel(1.0)
+    dm = dynmat.assemble(p, model, comm)
+    plain = dynmat.assemble(dataclasses.replace(p, tangential=None), model, comm)
+    try:
+        k = 2 * np.pi / float(p.box[0])
+        component, axis = excitation.runs("TR", dim)[0]
+        mpi = comm.tompi4py()
+        start = excitation.whole_start(dm, p.positions, component, axis, k, 1e-5, mpi)
+        phase = np.exp(-1j * k * p.positions[dm.active, axis])
+        count = int(round(T_END / SAMPLE)) + 1
+        exact = references.first_order_flow(dm, start, SAMPLE, count)[:, 1, :, component] @ phase
+        unstressed = references.first_order_flow(plain, start, SAMPLE, count)[:, 1, :, component] @ phase
+
+        def lammps(dt, stored=p.tangential):
+            return lammps_dem.run(p.positions, p.diameters, p.box, dm.active, model, 1e4, start, dt,
+                                  int(round(T_END / dt)), int(round(SAMPLE / dt)), 1e-9, (component, phase), mpi,
+                                  tangential=stored)[0]
+
+        scale = np.abs(exact).max()
+        errors = [np.abs(lammps(dt) - exact).max() / scale for dt in (0.025, 0.0125)]
+        missed = np.abs(unstressed - exact).max() / scale
+        assert_all(3.6 < errors[0] / errors[1] < 4.4 and missed > 10 * errors[1], f"errors {errors}, stressed terms {missed}")
+        with pytest.raises(InputError, match="does not find the packing at rest"):
+            lammps(0.05, stored=None)
+    finally:
+        dm.destroy()
+        plain.destroy()
+
+
+def test_stored_forces_beyond_the_particles_freedoms_are_refused():
+    """A triangular crystal of 8 x 8 disks squeezed by 1 %: z = 6, so 192 tangential equations in
+    192 unknowns of which two (the uniform translations) move no contact: random stored forces
+    are out of reach of one step's relative motion, and the message says why (z)."""
+    from solver.packing import stressed
+
+    rows, cols = 8, 8
+    x = np.array([[(c + 0.5 * (r % 2)) * 0.99, r * 0.99 * np.sqrt(3) / 2] for r in range(rows) for c in range(cols)])
+    box = np.array([cols * 0.99, rows * 0.99 * np.sqrt(3) / 2])
+    d = np.ones(rows * cols)
+    found = geometry.find_contacts(x, d, box)
+    assert len(found.i) == 3 * rows * cols
+    t = np.stack((-found.normal[:, 1], found.normal[:, 0]), axis=1)
+    forces = stressed.TangentialForces(np.stack((found.i, found.j), 1),
+                                       1e-3 * np.random.default_rng(0).standard_normal(len(found.i))[:, None] * t)
+    with pytest.raises(InputError, match=r"192 contacts among 64 particles \(z = 6.00\) leave .* unreachable"):
+        lammps_dem.history_velocities(x, d, box, ContactModel(1.0), forces)

@@ -13,10 +13,10 @@ CONTACTS = ("contacts_sliding", "contacts_opened", "contacts_formed", "contacts_
             "contacts_energy")
 
 
-def _run(shared_tmp, name, dim, **waves):
-    packing = {"n": 64, "phi": 0.9 if dim == 2 else 0.7, "dim": dim}
+def _run(shared_tmp, name, dim, packing=None, **waves):
+    packing = packing or {"n": 64, "phi": 0.9 if dim == 2 else 0.7, "dim": dim}
     if waves.get("engine") == "lammps":
-        packing["friction"] = 1.0
+        packing = {"friction": 1.0, **packing}
     scene = scene_of(shared_tmp / f"{name}.h5", cache="off", seed=1, packing=packing, model={"rho": [1.0]},
                      waves={"n": [1], "modes": ["TR"], "t_end": 10.0, "dt": 0.02, "amplitude": 1e-5, **waves})
     pipeline.run(scene, COMM, [])
@@ -47,6 +47,21 @@ def test_small_amplitude_scene_is_the_linear_verlet_scene(lammps_present, shared
         from solver import plots
 
         assert plots.plot_results(str(shared_tmp / f"lammps{dim}.h5"))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_lammps_frictional_packing_waves_from_its_stored_forces(lammps_present, shared_tmp, dim):
+    """A frictional packing made by LAMMPS (packing.engine: lammps, mu = 1: stored tangential
+    forces, none at the Coulomb limit) waved by LAMMPS from its own stored forces (loaded into its
+    contact history) at A = 1e-5: every run's z_fixed equals the same scene's Verlet waves on the
+    stressed matrix (waves.engine: rotsound) to 1e-5 of its largest value, and nothing slides."""
+    packing = {"n": 64, "phi": 0.82 if dim == 2 else 0.62, "dim": dim, "engine": "lammps", "friction": 1.0,
+               "force_tol": 1e-10}
+    lammps, _ = _run(shared_tmp, f"stored_lammps{dim}", dim, packing, engine="lammps")
+    linear, _ = _run(shared_tmp, f"stored_linear{dim}", dim, packing)
+    scale = np.abs(linear["z_fixed"]).max()
+    assert_close(lammps["z_fixed"], linear["z_fixed"], rtol=0.0, atol=1e-5 * scale, what="z_fixed against Verlet")
+    assert_all(lammps["contacts_sliding"].max() == 0 and lammps["contacts_opened"].max() == 0, "nothing slides")
 
 
 def test_sliding_scene_records_its_contacts(lammps_present, shared_tmp):
