@@ -11,6 +11,8 @@ collective.  Units as in the file layout (the manual, docs/results_file.md): ome
 
 from __future__ import annotations
 
+import json
+
 import os
 from typing import NamedTuple
 
@@ -113,6 +115,8 @@ class Sweep(NamedTuple):
     formed: np.ndarray      # (A, K) most new contacts at once
     energy_change: np.ndarray  # (A, K) largest |E - E(0)| / E(0) of the wave's energy (the share sliding took),
     #                            mean over runs and configurations
+    coulomb: np.ndarray     # (A, K) largest |f_t| / (mu |f_n|) over contacts, runs, configurations, t (1: sliding)
+    opening: np.ndarray     # (A, K) largest (xi_0 - xi) / xi_0 over the start's contacts (1: one opened)
 
 
 class Waves(NamedTuple):
@@ -350,8 +354,18 @@ def sweeps(f) -> dict[tuple[float, str], Sweep]:
         out[(rho, mode)] = Sweep(np.array(amplitudes), fits_[0]["k"][()],
                                  *(np.array([g[name][()] for g in fits_]) for name in
                                    ("omega", "gamma", "omega_err", "gamma_err")),
-                                 most("contacts_sliding"), most("contacts_opened"), most("contacts_formed"), lost)
+                                 most("contacts_sliding"), most("contacts_opened"), most("contacts_formed"), lost,
+                                 most("contacts_coulomb"), most("contacts_opening"))
     return out
+
+
+def sweep_friction(f) -> float | None:
+    """The Coulomb mu an amplitude sweep's LAMMPS waves ran at (their units' ``solver_settings``);
+    None without a sweep."""
+    for g in _groups(f, "waves"):
+        if "amplitude_index" in g.attrs:
+            return float(json.loads(g.attrs["solver_settings"])["lammps"]["friction"])
+    return None
 
 
 def lattice(f) -> dict | None:

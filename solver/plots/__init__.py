@@ -12,7 +12,9 @@ arrays ``io.results`` reads:
 - ``attenuation``: the Rayleigh-to-diffusive regimes of gamma(k);
 - ``modes``: single modes and standing-wave snapshots on the particles;
 - ``damped``: damped modes (sigma, Q, the damped vDOS);
-- ``transport``: the diffusivity d(omega) of the modes.
+- ``transport``: the diffusivity d(omega) of the modes;
+- ``sweeps``: an amplitude sweep's departure from the linear omega and gamma, its loss and its
+  contacts, with the thresholds predicted from the packing.
 
 A stage module imports ``common`` only; this module imports the stage modules.  Never imports
 petsc4py or mpi4py.  Not collective (rank 0 draws).
@@ -24,6 +26,7 @@ import os
 
 import numpy as np
 
+from ..analysis import thresholds
 from ..io import hdf5, results
 from .attenuation import plot_attenuation_regimes
 from .damped import plot_damped_modes, plot_damped_vdos
@@ -31,6 +34,7 @@ from .modes import plot_mode_shapes, plot_wave_snapshots
 from .packing import plot_force_network, plot_packing
 from .spectrum import plot_energies, plot_participation, plot_vdos, plot_vdos_compare
 from .transport import plot_diffusivity
+from .sweeps import plot_sweeps, predictions
 from .waves import (plot_bands, plot_dispersion, plot_dispersion_rt, plot_spectra, plot_speeds_attenuation,
                     plot_transition, plot_vafs)
 
@@ -43,10 +47,12 @@ def plot_results(path: str) -> list[str]:
     written: list[str] = []
     with results.open_results(path) as f:
         first = results.first_packing(f)
+        read = None
         if first is not None:
             written += plot_packing(first, f"{stem}_packing")
             read = hdf5.read_packings(path, count=1, check_equilibrium=False, model=results.contact_model(f))[0]
             written += plot_force_network(read, f"{stem}_forces")
+        written += _sweeps(results.sweeps(f), results.sweep_friction(f), read, f"{stem}_sweep")
         vdos = results.vdos(f)
         damped = results.damped_modes(f)
         written += plot_vdos(vdos, f"{stem}_vdos", damped=bool(damped))
@@ -74,6 +80,21 @@ def plot_results(path: str) -> list[str]:
         written += plot_damped_modes(damped, f"{stem}_damped_modes")
         written += plot_damped_vdos(damped, float(np.diff(vdos[next(iter(vdos))].edges[:2])[0]), f"{stem}_damped_vdos")
     return written
+
+
+def _sweeps(sweeps: dict, friction: float | None, packing, stem: str) -> list[str]:
+    """An amplitude sweep's figures (``plot_sweeps``), with the thresholds predicted from the
+    first ``packing``'s contacts (rho > 0: a tangential spring to slide) at the sweep's mu."""
+    if not sweeps:
+        return []
+    predicted, contacts = {}, None
+    if packing is not None and friction:
+        for rho, mode in sweeps:
+            if rho > 0:
+                slacks = thresholds.slacks(packing, rho, friction)
+                contacts = len(slacks.opening)
+                predicted[(rho, mode)] = predictions(sweeps[(rho, mode)], slacks, mode, packing.dim)
+    return plot_sweeps(sweeps, stem, contacts, predicted)
 
 
 def report_figures(data, folder: str) -> list[tuple[str, str]]:

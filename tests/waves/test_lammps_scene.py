@@ -86,7 +86,7 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
     (``waves/..._a00``, ``_a01``), each the unit a scene of that one amplitude makes (equal z), fitted
     on its own (``analysis/..._a<LL>``); ``results.sweeps`` reads them in ascending amplitude, with
     the contacts that slid (none at 1e-5, some at 1e-2) and the fits of the single-amplitude scene;
-    ``results.waves`` and ``results.fits`` leave the sweep out; the plots take the file."""
+    ``results.waves`` and ``results.fits`` leave the sweep out; the plots draw the sweep."""
     sweep = {"engine": "lammps", "n": [1, 2], "modes": ["TR"], "t_end": 20.0, "dt": 0.02}
     swept = scene_of(shared_tmp / "sweep.h5", cache="off", seed=1, packing={"n": 64, "phi": 0.9, "friction": 0.1},
                      model={"rho": [1.0]}, waves={**sweep, "amplitude": [1e-2, 1e-5]})
@@ -107,7 +107,10 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
     assert_all(got.omega.shape == (2, 2) and got.sliding[0].max() == 0 and got.sliding[1].min() > 0,
                f"sliding {got.sliding}")
     assert_all(np.all(got.energy_change[1] > 10 * got.energy_change[0]), f"{got.energy_change}")
+    assert_all(got.coulomb[0].max() < 1.0 and abs(got.coulomb[1].max() - 1.0) < 1e-9 and got.opening[1].max() == 1.0,
+               f"largest Coulomb ratios {got.coulomb}, openings {got.opening}")
     if COMM.rank == 0:
         from solver import plots
 
-        plots.plot_results(swept.output)
+        written = plots.plot_results(swept.output)
+        assert any(path.endswith("_sweep_TR_rho1.png") for path in written), written
