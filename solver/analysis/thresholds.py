@@ -23,8 +23,9 @@ share of 2 %: the predicted A*.  An estimate: the real displacements are not aff
 jamming), and a contact opens or slides for part of each cycle only.
 
 Measured (``crossover``): the smallest amplitude at which omega(k) or gamma(k) of a sweep departs
-from its value at the sweep's smallest amplitude (the linear one: checked against rotsound's own
-waves) by ``tol`` (1 %) and by more than twice the fits' combined error, interpolated in log A.
+from its linear value (rotsound's linear waves of the same packing, or the sweep's smallest
+amplitude) by ``tol`` (1 %) and by more than twice the fits' combined error, interpolated in
+log A.
 
 numpy only.  Not collective.  Units: d0 = m = kn = 1; A in d0/t0.
 """
@@ -120,22 +121,29 @@ def predicted_crossover(s: Slacks, strain: np.ndarray, speed: float, share: floa
     return float(candidates[reached[0]]) if reached.size else float("inf")
 
 
-def crossover(amplitude: np.ndarray, value: np.ndarray, error: np.ndarray, tol: float = 0.01) -> np.ndarray:
+def crossover(amplitude: np.ndarray, value: np.ndarray, error: np.ndarray, tol: float = 0.01,
+              reference: np.ndarray | None = None, reference_error: np.ndarray | None = None) -> np.ndarray:
     """Measured A* per k (K,): the smallest amplitude where |value/value_0 - 1| reaches ``tol``
-    and exceeds twice the combined 1-sigma error of the two fits, value_0 the first (smallest)
-    amplitude's; log-linear between the two sweep points that straddle it; NaN where it never
-    does (or value_0 is not finite).  ``amplitude`` (A,) ascending, ``value``, ``error`` (A, K)
-    (``results.Sweep``: omega or gamma and their errors)."""
-    ref, ref_err = value[0], error[0]
+    and exceeds twice the combined 1-sigma error of the two fits; value_0 is the linear value
+    ``reference`` (K,) with its ``reference_error`` (rotsound's linear waves of the same packing)
+    or, without one, the first (smallest) amplitude's.  Log-linear between the two sweep points
+    that straddle it; 0 where the smallest amplitude already departs (A* is below the sweep); NaN
+    where it never does (or value_0 is not finite).  ``amplitude`` (A,) ascending, ``value``,
+    ``error`` (A, K) (``results.Sweep``: omega or gamma and their errors)."""
+    ref = value[0] if reference is None else np.asarray(reference, dtype=float)
+    ref_err = error[0] if reference is None else np.asarray(reference_error, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         departure = np.abs(value / ref - 1.0)
         noise = 2.0 * np.hypot(error, ref_err) / np.abs(ref)
     out = np.full(value.shape[1], np.nan)
     for kk in range(value.shape[1]):  # K wave numbers: a handful
         over = np.flatnonzero((departure[:, kk] >= tol) & (departure[:, kk] > noise[:, kk]))
-        if over.size == 0 or not np.isfinite(ref[kk]) or over[0] == 0:
+        if over.size == 0 or not np.isfinite(ref[kk]):
             continue
         i = over[0]
+        if i == 0:
+            out[kk] = 0.0 if reference is not None else np.nan
+            continue
         lo, hi = np.log(amplitude[i - 1]), np.log(amplitude[i])
         d_lo, d_hi = departure[i - 1, kk], departure[i, kk]
         frac = 1.0 if not np.isfinite(d_lo) or d_hi == d_lo else np.clip((tol - d_lo) / (d_hi - d_lo), 0.0, 1.0)

@@ -88,7 +88,8 @@ def test_lost_share_counts_opened_and_sliding_springs():
 def test_crossover_interpolates_in_log_amplitude_and_ignores_noise():
     """omega departs as 0.004 log(A / 1e-4) above 1e-4 (so by 1 % at A* = 1e-4 e^2.5), gamma never:
     A* is found exactly (the departure is linear in log A), a departure within twice the fits'
-    errors is not one, and a k whose reference fit failed gives NaN."""
+    errors is not one, and a k whose reference fit failed gives NaN; against a linear reference
+    the same, and 0 when the smallest amplitude already departs."""
     amplitude = np.logspace(-5, -1, 9)
     departure = np.where(amplitude > 1e-4, 0.004 * np.log(amplitude / 1e-4), 0.0)
     omega = np.stack((1.0 - departure, 2.0 * (1.0 - departure), np.full(9, np.nan)), axis=1)
@@ -97,6 +98,11 @@ def test_crossover_interpolates_in_log_amplitude_and_ignores_noise():
     assert_close(found[:2], [1e-4 * np.exp(2.5)] * 2, rtol=1e-9, atol=0.0, what="A*")
     assert np.isnan(found[2])
     assert np.isnan(thresholds.crossover(amplitude, omega, loose)[0])  # 1.5 % at the top, errors 7 %
+    linear = np.array([1.0, 2.0, 1.0])  # against a linear reference: the same A*, and 0 below the sweep
+    shifted = thresholds.crossover(amplitude, omega, tight, reference=linear, reference_error=np.full(3, 1e-5))
+    assert_close(shifted[:2], [1e-4 * np.exp(2.5)] * 2, rtol=1e-9, atol=0.0, what="A* against the reference")
+    below = thresholds.crossover(amplitude, omega, tight, reference=1.02 * linear, reference_error=np.full(3, 1e-5))
+    assert below[0] == 0.0 and below[1] == 0.0, below
 
 
 def test_linear_run_scales_to_the_first_crossings():
