@@ -134,6 +134,7 @@ def lammps_frictional(dim: int):
     return dataclasses.replace(p, tangential=dataclasses.replace(p.tangential, friction=None))
 
 
+@pytest.mark.serial_only  # four LAMMPS runs and a dense exp(tJ) each; 2 ranks: the stored-forces scene test
 @pytest.mark.parametrize("dim", [2, 3])
 def test_stored_forces_go_into_lammps_history_and_the_linear_limit_is_the_stressed_matrix(lammps_present, comm, dim):
     """A LAMMPS frictional packing's stored tangential forces loaded into LAMMPS's contact history
@@ -173,6 +174,7 @@ def test_stored_forces_go_into_lammps_history_and_the_linear_limit_is_the_stress
         plain.destroy()
 
 
+@pytest.mark.serial_only  # numpy and scipy only
 def test_stored_forces_beyond_the_particles_freedoms_are_refused():
     """A triangular crystal of 8 x 8 disks squeezed by 1 %: z = 6, so 192 tangential equations in
     192 unknowns of which two (the uniform translations) move no contact: random stored forces
