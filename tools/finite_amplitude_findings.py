@@ -106,6 +106,19 @@ def reference_omega(c: dict, mode: str) -> float:
     return float(c["linear"][mode]["omega"][0]) if c["linear"] and mode in c["linear"] else float(s.omega[0, 0])
 
 
+def softening(c: dict, mode: str) -> np.ndarray:
+    """|omega/omega_0 - 1| (A,) at the smallest k, omega_0 the linear reference."""
+    return np.abs(c["sweeps"][mode].omega[:, 0] / reference_omega(c, mode) - 1.0)
+
+
+def extra_loss(c: dict, mode: str) -> np.ndarray:
+    """Q^-1 - Q^-1_0 (A,) at the smallest k, Q^-1 = 2 gamma / omega, Q^-1_0 the linear reference's."""
+    s = c["sweeps"][mode]
+    lin = c["linear"][mode] if c["linear"] and mode in c["linear"] else None
+    q0 = 2.0 * (lin["gamma"][0] / lin["omega"][0] if lin else s.gamma[0, 0] / s.omega[0, 0])
+    return 2.0 * s.gamma[:, 0] / s.omega[:, 0] - q0
+
+
 def markdown(table: list[dict]) -> str:
     keys = list(dict.fromkeys(key for row in table for key in row))
     lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
@@ -126,7 +139,7 @@ def collapse(cases: list[dict], mode: str) -> dict[str, float]:
             s = c["sweeps"].get(mode)
             if s is None or c["dim"] != 2:
                 continue
-            soft = np.abs(s.omega[:, 0] / reference_omega(c, mode) - 1.0)
+            soft = softening(c, mode)
             share = getattr(s, name)[:, 0] / c["contacts"]
             keep = (soft > 0) & (share > 0) & np.isfinite(soft)
             x += list(np.log(share[keep]))
@@ -141,37 +154,24 @@ def figures(cases: list[dict]) -> list[str]:
     written = []
     modes = [m for m in ("L", "TR") if any(m in c["sweeps"] for c in cases)]
     colors = {c["label"]: plt.get_cmap("tab10")(i % 10) for i, c in enumerate(cases)}
-    fig, axes = plt.subplots(1, len(modes), figsize=(6 * len(modes), 4.5), squeeze=False)
-    for ax, mode in zip(axes[0], modes):
-        for c in cases:
-            s = c["sweeps"].get(mode)
-            if s is None:
-                continue
-            soft = np.abs(s.omega[:, 0] / reference_omega(c, mode) - 1.0)
-            ax.loglog(s.amplitude[soft > 0], soft[soft > 0], "o-", ms=3, color=colors[c["label"]], label=c["label"])
-        ax.axhline(0.01, color="k", lw=0.6, alpha=0.5)
-        ax.set(xlabel=r"$A$ ($d_0/t_0$)", ylabel=r"$|\omega/\omega_0 - 1|$ (smallest $k$)", title=f"softening, {mode}")
-        log_ticks(ax.xaxis)
-        legend(ax, fontsize=6)
-    fig.tight_layout()
-    written += save(fig, os.path.join(DOCS, "finite_amplitude_softening"))
-
-    fig, axes = plt.subplots(1, len(modes), figsize=(6 * len(modes), 4.5), squeeze=False)
-    for ax, mode in zip(axes[0], modes):
-        for c in cases:
-            s = c["sweeps"].get(mode)
-            if s is None:
-                continue
-            q = 2.0 * s.gamma[:, 0] / s.omega[:, 0]
-            extra = q - q[0]
-            ax.loglog(s.amplitude[extra > 0], extra[extra > 0], "o-", ms=3, color=colors[c["label"]], label=c["label"])
-        guide = np.array([1e-4, 1e-2])
-        ax.loglog(guide, 3.0 * guide, "k-", lw=2, alpha=0.3, label=r"$\propto A$ (Mindlin-Deresiewicz)")
-        ax.set(xlabel=r"$A$ ($d_0/t_0$)", ylabel=r"$Q^{-1} - Q^{-1}_0$ (smallest $k$)", title=f"extra loss, {mode}")
-        log_ticks(ax.xaxis)
-        legend(ax, fontsize=6)
-    fig.tight_layout()
-    written += save(fig, os.path.join(DOCS, "finite_amplitude_loss"))
+    panels = (("finite_amplitude_softening", softening, r"$|\omega/\omega_0 - 1|$ (smallest $k$)", "softening"),
+              ("finite_amplitude_loss", extra_loss, r"$Q^{-1} - Q^{-1}_0$ (smallest $k$)", "extra loss"))
+    for name, curve, ylabel, title in panels:
+        fig, axes = plt.subplots(1, len(modes), figsize=(6 * len(modes), 4.5), squeeze=False)
+        for ax, mode in zip(axes[0], modes):
+            for c in (c for c in cases if mode in c["sweeps"]):
+                s, y = c["sweeps"][mode], curve(c, mode)
+                ax.loglog(s.amplitude[y > 0], y[y > 0], "o-", ms=3, color=colors[c["label"]], label=c["label"])
+            if curve is softening:
+                ax.axhline(0.01, color="k", lw=0.6, alpha=0.5)
+            else:
+                guide = np.array([1e-4, 1e-2])
+                ax.loglog(guide, 3.0 * guide, "k-", lw=2, alpha=0.3, label=r"$\propto A$ (Mindlin-Deresiewicz)")
+            ax.set(xlabel=r"$A$ ($d_0/t_0$)", ylabel=ylabel, title=f"{title}, {mode}")
+            log_ticks(ax.xaxis)
+            legend(ax, fontsize=6)
+        fig.tight_layout()
+        written += save(fig, os.path.join(DOCS, name))
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for c in cases:
@@ -179,7 +179,7 @@ def figures(cases: list[dict]) -> list[str]:
             s = c["sweeps"].get(mode)
             if s is None:
                 continue
-            soft = np.abs(s.omega[:, 0] / reference_omega(c, mode) - 1.0)
+            soft = softening(c, mode)
             for ax, name in zip(axes, ("opened", "sliding")):
                 share = getattr(s, name)[:, 0] / c["contacts"]
                 keep = (soft > 0) & (share > 0)
