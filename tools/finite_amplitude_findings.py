@@ -74,8 +74,9 @@ def rows(cases: list[dict]) -> list[dict]:
             for kk, k in enumerate(s.k):
                 opens, slides = thresholds.from_linear_run(a[0], s.opening[0, kk:kk + 1], s.coulomb[0, kk:kk + 1])
                 q = 2.0 * s.gamma[:, kk] / s.omega[:, kk]
-                above = (a > star_w[kk]) & np.isfinite(q) & (q > q[0])
-                slope = float(np.polyfit(np.log(a[above]), np.log(q[above] - q[0]), 1)[0]) if above.sum() >= 3 \
+                q0 = 2.0 * lin["gamma"][kk] / lin["omega"][kk] if lin else q[0]
+                above = (a > star_w[kk]) & np.isfinite(q) & (q > q0)
+                slope = float(np.polyfit(np.log(a[above]), np.log(q[above] - q0), 1)[0]) if above.sum() >= 3 \
                     else float("nan")
                 out.append({"case": c["label"], "mode": mode, "k": float(k),
                             "omega linear": float(lin["omega"][kk]) if lin else float("nan"),
