@@ -61,10 +61,16 @@ def first_where(amplitude: np.ndarray, series: np.ndarray) -> float:
     return float(amplitude[hit[0]]) if hit.size else float("nan")
 
 
+def _slope(a: np.ndarray, y: np.ndarray) -> float:
+    """The log-log slope of y against a over the points where y > 0 (NaN with fewer than 3)."""
+    keep = np.isfinite(y) & (y > 0)
+    return float(np.polyfit(np.log(a[keep]), np.log(y[keep]), 1)[0]) if keep.sum() >= 3 else float("nan")
+
+
 def rows(cases: list[dict]) -> list[dict]:
     """One row per (file, mode, k): measured A* of omega and gamma, first amplitude with a contact
     sliding and one opened, the predicted thresholds, the linear run's scaled first crossings,
-    and the slope of Q^-1 - Q^-1_0 against A above A*."""
+    and the log-log slopes of the softening below A* and of Q^-1 - Q^-1_0 below and above A*."""
     out = []
     for c in cases:
         for mode, s in c["sweeps"].items():
@@ -75,9 +81,9 @@ def rows(cases: list[dict]) -> list[dict]:
                 opens, slides = thresholds.from_linear_run(a[0], s.opening[0, kk:kk + 1], s.coulomb[0, kk:kk + 1])
                 q = 2.0 * s.gamma[:, kk] / s.omega[:, kk]
                 q0 = 2.0 * lin["gamma"][kk] / lin["omega"][kk] if lin else q[0]
-                above = (a > star_w[kk]) & np.isfinite(q) & (q > q0)
-                slope = float(np.polyfit(np.log(a[above]), np.log(q[above] - q0), 1)[0]) if above.sum() >= 3 \
-                    else float("nan")
+                slopes = [_slope(a[side], q[side] - q0) for side in (a <= star_w[kk], a > star_w[kk])]
+                soft = np.abs(s.omega[:, kk] / (lin["omega"][kk] if lin else s.omega[0, kk]) - 1.0)
+                soft_slope = _slope(a[a <= star_w[kk]], soft[a <= star_w[kk]])
                 out.append({"case": c["label"], "mode": mode, "k": float(k),
                             "omega linear": float(lin["omega"][kk]) if lin else float("nan"),
                             "omega(A_min)": float(s.omega[0, kk]),
@@ -85,7 +91,8 @@ def rows(cases: list[dict]) -> list[dict]:
                             "first sliding": first_where(a, s.sliding[:, kk]),
                             "first opened": first_where(a, s.opened[:, kk]),
                             "linear run: opens": opens, "linear run: slides": slides,
-                            **(c["predicted"][mode] if kk == 0 else {}), "Q^-1 slope": slope})
+                            **(c["predicted"][mode] if kk == 0 else {}), "softening slope below A*": soft_slope,
+                            "Q^-1 slope below A*": slopes[0], "Q^-1 slope above A*": slopes[1]})
     return out
 
 
