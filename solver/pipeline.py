@@ -169,8 +169,11 @@ def _solve_task(scene: Scene, p, task: list[Unit], keys, store: UnitStore, units
         found = store.load(unit.name, keys.get(unit.name))
         if found is None:
             todo.append(unit)
-        else:  # a cached unit may come from another scene's numbering
+        else:  # a cached unit may come from another scene's numbering, and from a sweep or not
             found[1]["packing"] = unit.p_index
+            found[1].pop("amplitude_index", None)
+            if unit.amplitude is not None:  # the same content: here a sweep unit, with its place in this sweep
+                found[1]["amplitude_index"] = unit.amplitude
             units[unit.name] = found
     if todo:
         spectrum = next((unit.name for unit in task if unit.kind == "spectrum"), None)

@@ -17,7 +17,8 @@ def _run(shared_tmp, name, dim, packing=None, **waves):
     packing = packing or {"n": 64, "phi": 0.9 if dim == 2 else 0.7, "dim": dim}
     if waves.get("engine") == "lammps":
         packing = {"friction": 1.0, **packing}
-    scene = scene_of(shared_tmp / f"{name}.h5", cache="off", seed=1, packing=packing, model={"rho": [1.0]},
+    scene = scene_of(shared_tmp / f"{name}.h5", cache=str(shared_tmp / "cache"), seed=1, packing=packing,
+                     model={"rho": [1.0]},
                      waves={"n": [1], "modes": ["TR"], "t_end": 10.0, "dt": 0.02, "amplitude": 1e-5, **waves})
     pipeline.run(scene, COMM, [])
     with results.open_results(scene.output) as f:
@@ -86,14 +87,18 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
     (``waves/..._a00``, ``_a01``), each the unit a scene of that one amplitude makes (equal z), fitted
     on its own (``analysis/..._a<LL>``); ``results.sweeps`` reads them in ascending amplitude, with
     the contacts that slid (none at 1e-5, some at 1e-2) and the fits of the single-amplitude scene;
-    ``results.waves`` and ``results.fits`` leave the sweep out; the plots draw the sweep."""
+    ``results.waves`` and ``results.fits`` leave the sweep out; the plots draw the sweep.  A scene
+    of that one amplitude taking the sweep's unit from the cache reads it as its own (not a sweep)."""
     sweep = {"engine": "lammps", "n": [1, 2], "modes": ["TR"], "t_end": 20.0, "dt": 0.02}
-    swept = scene_of(shared_tmp / "sweep.h5", cache="off", seed=1, packing={"n": 64, "phi": 0.9, "friction": 0.1},
+    cache, packing = str(shared_tmp / "cache"), {"n": 64, "phi": 0.9, "friction": 0.1}
+    swept = scene_of(shared_tmp / "sweep.h5", cache=cache, seed=1, packing=packing,
                      model={"rho": [1.0]}, waves={**sweep, "amplitude": [1e-2, 1e-5]})
-    alone = scene_of(shared_tmp / "alone.h5", cache="off", seed=1, packing={"n": 64, "phi": 0.9, "friction": 0.1},
-                     model={"rho": [1.0]}, waves={**sweep, "amplitude": 1e-5})
-    pipeline.run(swept, COMM, [])
-    pipeline.run(alone, COMM, [])
+    alone, reused = (scene_of(shared_tmp / f"{name}.h5", cache=where, seed=1, packing=packing, model={"rho": [1.0]},
+                              waves={**sweep, "amplitude": 1e-5}) for name, where in (("alone", "off"), ("reused", cache)))
+    for scene in (swept, alone, reused):  # reused: the sweep's cached 1e-5 unit, in a scene of that one amplitude
+        pipeline.run(scene, COMM, [])
+    with results.open_results(reused.output) as f:
+        reused_fit = results.fits(f)[(1.0, "TR")]
     with results.open_results(swept.output) as f, results.open_results(alone.output) as g:
         got = results.sweeps(f)[(1.0, "TR")]
         small = f["waves/r00_TR_p0000_a01"]["z"][()]
@@ -104,6 +109,7 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
     assert_close(small, reference, rtol=0.0, atol=1e-14 * np.abs(reference).max(), what="the 1e-5 unit")
     assert_close(got.amplitude, np.array([1e-5, 1e-2]), rtol=0.0, what="ascending amplitudes")
     assert_close(got.omega[0], fitted["omega"], rtol=1e-12, what="the small amplitude's fits")
+    assert_close(reused_fit["omega"], fitted["omega"], rtol=1e-12, what="a cached sweep unit read as a single amplitude")
     assert_all(got.omega.shape == (2, 2) and got.sliding[0].max() == 0 and got.sliding[1].min() > 0,
                f"sliding {got.sliding}")
     assert_all(np.all(got.energy_change[1] > 10 * got.energy_change[0]), f"{got.energy_change}")
