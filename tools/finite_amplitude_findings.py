@@ -42,14 +42,15 @@ def case(path: str, linear: list) -> dict:
     with results.open_results(path) as f:
         sweeps = {mode: s for (rho, mode), s in results.sweeps(f).items()}
         mu = results.sweep_friction(f)
-        positions = results.first_packing(f)["positions"]
+        first = results.first_packing(f)
+        positions = first["positions"]
         packing = hdf5.read_packings(path, count=1, check_equilibrium=False, model=results.contact_model(f))[0]
     reference = next((fits for x, fits in linear if x.shape == positions.shape and np.array_equal(x, positions)), None)
     slacks = thresholds.slacks(packing, 1.0, mu)
     label = f"{packing.dim}D, mu = {mu:g}, p = {packing.info.get('pressure', np.nan):.1e}" + \
         (", LAMMPS (stored f_t)" if packing.stressed else "")
     return {"path": path, "label": label, "mu": mu, "dim": packing.dim, "stored": packing.stressed,
-            "phi": float(packing.info.get("phi", np.nan)), "pressure": float(packing.info.get("pressure", np.nan)),
+            "phi": first["phi"], "pressure": float(packing.info.get("pressure", np.nan)),
             "z": float(packing.info.get("z", np.nan)), "contacts": len(slacks.opening), "sweeps": sweeps,
             "linear": reference,
             "predicted": {mode: predictions(s, slacks, mode, packing.dim) for mode, s in sweeps.items()}}
