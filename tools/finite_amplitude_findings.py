@@ -217,14 +217,16 @@ def figures(cases: list[dict]) -> list[str]:
                     continue
                 x, color = c[key], colors[c["label"]]
                 star = stars(c, mode)[0][0]
-                ax.loglog([x], [star if star > 0 else s.amplitude[0]], "*" if star > 0 else "v", ms=12, color=color,
+                ax.loglog([x], [star if star > 0 else s.amplitude[0]], "*" if star > 0 else "x", ms=12, color=color,
                           label=c["label"])
                 for name, marker in (("A* predicted (affine)", "o"), ("first slides (affine)", "v"),
                                      ("first opens (affine)", "^")):
                     ax.loglog([x], [c["predicted"][mode].get(name, np.nan)], marker, ms=7, mfc="none", color=color)
             ax.set(xlabel=xlabel, ylabel=r"$A$ ($d_0/t_0$)",
-                   title=f"{mode}: A* measured (*; v: below the sweep), affine A* (o), first slide (v), first opening (^)")
+                   title=f"{mode}, against {key}")
             legend(ax, fontsize=6)
+    fig.suptitle("A* of omega: measured (*; x: below the sweep), predicted affinely (o); "
+                 "the first contact to slide (v) and to open (^), affinely", fontsize=9)
     fig.tight_layout()
     written += save(fig, os.path.join(DOCS, "finite_amplitude_crossover"))
     return written
