@@ -159,7 +159,8 @@ def collapse(cases: list[dict], mode: str) -> dict[str, float]:
     return out
 
 
-def figures(cases: list[dict]) -> list[str]:
+def figures(cases: list[dict], folder: str = DOCS) -> list[str]:
+    """The four figures of the findings into ``folder``; returns the files written."""
     written = []
     modes = [m for m in ("L", "TR") if any(m in c["sweeps"] for c in cases)]
     colors = {c["label"]: plt.get_cmap("tab10")(i % 10) for i, c in enumerate(cases)}
@@ -180,7 +181,7 @@ def figures(cases: list[dict]) -> list[str]:
             log_ticks(ax.xaxis)
             legend(ax, fontsize=6)
         fig.tight_layout()
-        written += save(fig, os.path.join(DOCS, name))
+        written += save(fig, os.path.join(folder, name))
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for c in cases:
@@ -199,7 +200,7 @@ def figures(cases: list[dict]) -> list[str]:
                title=f"softening against the contacts {name}")
         legend(ax, fontsize=5)
     fig.tight_layout()
-    written += save(fig, os.path.join(DOCS, "finite_amplitude_contacts"))
+    written += save(fig, os.path.join(folder, "finite_amplitude_contacts"))
 
     flat = [c for c in cases if c["dim"] == 2 and not c["stored"]]
     pressures = [c["pressure"] for c in flat]
@@ -228,7 +229,7 @@ def figures(cases: list[dict]) -> list[str]:
     fig.suptitle("A* of omega: measured (*; x: below the sweep), predicted affinely (o); "
                  "the first contact to slide (v) and to open (^), affinely", fontsize=9)
     fig.tight_layout()
-    written += save(fig, os.path.join(DOCS, "finite_amplitude_crossover"))
+    written += save(fig, os.path.join(folder, "finite_amplitude_crossover"))
     return written
 
 

@@ -99,26 +99,33 @@ def affine_amplitudes(s: Slacks, strain: np.ndarray, speed: float) -> tuple[np.n
         return (speed * s.opening / (s.length * normal), speed * s.sliding / (s.length * tangential))
 
 
+def _losses(s: Slacks, strain: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
+    """(amplitudes, cumulative share) of the affine modulus lost: sorted amplitudes at which a
+    term goes (a contact's tangential term at the first of its opening and sliding, its normal
+    term at its opening) and the share gone by each.  O(C log C)."""
+    normal, tangential = _parts(s, strain)
+    w_n, w_t = s.length**2 * s.kn * normal**2, s.length**2 * s.kt * tangential**2
+    a_open, a_slide = affine_amplitudes(s, strain, speed)
+    at = np.concatenate((np.minimum(a_open, a_slide), a_open))
+    weight = np.concatenate((w_t, w_n))
+    order = np.argsort(at, kind="stable")
+    return at[order], np.cumsum(weight[order]) / (w_n + w_t).sum()
+
+
 def lost_share(s: Slacks, strain: np.ndarray, speed: float, amplitudes: np.ndarray) -> np.ndarray:
     """(A,) share of the affine modulus lost at each of ``amplitudes``: the normal and tangential
     terms of contacts opened by then and the tangential terms of those sliding (module
     docstring).  Not collective."""
-    normal, tangential = _parts(s, strain)
-    w_n, w_t = s.length**2 * s.kn * normal**2, s.length**2 * s.kt * tangential**2
-    a_open, a_slide = affine_amplitudes(s, strain, speed)
-    amplitudes = np.asarray(amplitudes, dtype=float)[:, None]
-    opened = a_open[None, :] <= amplitudes
-    lost = np.where(opened, w_n + w_t, 0.0) + np.where(~opened & (a_slide[None, :] <= amplitudes), w_t, 0.0)
-    return lost.sum(axis=1) / (w_n + w_t).sum()
+    at, lost = _losses(s, strain, speed)
+    index = np.searchsorted(at, np.asarray(amplitudes, dtype=float), side="right")
+    return np.where(index > 0, lost[np.maximum(index - 1, 0)], 0.0)
 
 
 def predicted_crossover(s: Slacks, strain: np.ndarray, speed: float, share: float = OMEGA_SHARE) -> float:
     """The amplitude (d0/t0) at which :func:`lost_share` reaches ``share``: the predicted A*."""
-    candidates = np.sort(np.concatenate(affine_amplitudes(s, strain, speed)))
-    candidates = candidates[np.isfinite(candidates)]
-    lost = lost_share(s, strain, speed, candidates)
-    reached = np.flatnonzero(lost >= share)
-    return float(candidates[reached[0]]) if reached.size else float("inf")
+    at, lost = _losses(s, strain, speed)
+    reached = np.flatnonzero((lost >= share) & np.isfinite(at))
+    return float(at[reached[0]]) if reached.size else float("inf")
 
 
 def crossover(amplitude: np.ndarray, value: np.ndarray, error: np.ndarray, tol: float = 0.01,

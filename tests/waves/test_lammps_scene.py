@@ -88,7 +88,8 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
     on its own (``analysis/..._a<LL>``); ``results.sweeps`` reads them in ascending amplitude, with
     the contacts that slid (none at 1e-5, some at 1e-2) and the fits of the single-amplitude scene;
     ``results.waves`` and ``results.fits`` leave the sweep out; the plots draw the sweep.  A scene
-    of that one amplitude taking the sweep's unit from the cache reads it as its own (not a sweep)."""
+    of that one amplitude taking the sweep's unit from the cache reads it as its own (not a sweep).
+    The findings tool reads both files: A* against the single amplitude's fits, its figures."""
     sweep = {"engine": "lammps", "n": [1, 2], "modes": ["TR"], "t_end": 20.0, "dt": 0.02}
     cache, packing = str(shared_tmp / "cache"), {"n": 64, "phi": 0.9, "friction": 0.1}
     swept = scene_of(shared_tmp / "sweep.h5", cache=cache, seed=1, packing=packing,
@@ -120,3 +121,10 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
 
         written = plots.plot_results(swept.output)
         assert any(path.endswith("_sweep_TR_rho1.png") for path in written), written
+        from tools import finite_amplitude_findings as findings
+
+        found = findings.case(swept.output, findings.linear_fits([swept.output, alone.output]))
+        table = findings.rows([found])  # A* against the single-amplitude scene's fits: between 1e-5 and 1e-2
+        assert found["linear"] is not None and len(table) == 2, table
+        assert all(1e-5 < row["A*_omega"] < 1e-2 for row in table), table
+        assert len(findings.figures([found], str(shared_tmp))) == 8
