@@ -30,6 +30,8 @@ A packing made with friction stands on stored tangential forces f_t (per contact
 from j): :func:`stressed_blocks` adds what they contribute in LAMMPS's history convention, a
 non-symmetric term (docs/stressed_contacts.md; tests/model/test_stressed.py checks it against
 finite differences of LAMMPS's update).
+Capillary bridges (``ContactModel.cohesion``, :mod:`solver.capillary`) add their pull F(s) at the
+gap s = -xi to the normal force, touching or across a gap (docs/capillary_bridges.md).
 Every function is vectorised over the C contacts.  The springs of a model travel together as
 one :class:`ContactModel`.  Not collective.
 """
@@ -39,6 +41,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from solver.capillary import Cohesion, bridge_energy, bridge_force, bridge_stiffness
 
 KN = 1.0  # normal stiffness, the unit of stiffness
 LAWS = ("harmonic", "hertz")
@@ -61,8 +65,11 @@ class ContactModel:
     normal with the pair's mean spin, :func:`stressed_blocks`, and its own slip,
     :func:`slip_blocks`).  The scene gives one per
     rho (``ModelSpec.contact``).  ``gamma_n``, ``gamma_t``: the contact dashpots (1/t0), in
-    LAMMPS's gran/*/history convention (:func:`damping_blocks`; 0: none).  A stressed packing's
-    stored tangential forces belong to the packing (``Packing.tangential``), not to the model.
+    LAMMPS's gran/*/history convention (:func:`damping_blocks`; 0: none).  ``cohesion``: the
+    capillary bridges (:class:`solver.capillary.Cohesion`; None: dry), whose pull acts along the
+    line of centres of every bridged pair, touching or across a gap (docs/capillary_bridges.md).
+    A stressed packing's stored tangential forces belong to the packing (``Packing.tangential``),
+    not to the model.
     """
 
     rho: float = 0.0
@@ -75,6 +82,7 @@ class ContactModel:
     history: str = "lammps"
     gamma_n: float = 0.0
     gamma_t: float = 0.0
+    cohesion: Cohesion | None = None
 
     @property
     def damped(self) -> bool:
@@ -83,10 +91,10 @@ class ContactModel:
 
     def at_rest(self) -> ContactModel:
         """The part of this model that a packing at rest is checked under and its forces are
-        computed with (``Packing.model``): the normal ``law`` and the ``lever`` of the stored
-        tangential forces' torques.  The springs, the Coulomb response, the history and the
-        dashpots act on motion only: they are at their defaults."""
-        return ContactModel(law=self.law, lever=self.lever)
+        computed with (``Packing.model``): the normal ``law``, the ``lever`` of the stored
+        tangential forces' torques and the bridges' pull.  The springs, the Coulomb response, the
+        history and the dashpots act on motion only: they are at their defaults."""
+        return ContactModel(law=self.law, lever=self.lever, cohesion=self.cohesion)
 
     @property
     def rotations(self) -> bool:
@@ -144,8 +152,12 @@ def spring_scale(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray
     and, as in LAMMPS's gran/hertz/history (Mindlin), the tangential stiffness kt sqrt(a' xi);
     the rolling and twisting springs scale the same way [choice], so that rho, rho_roll and
     rho_twist stay ratios to kn for both laws.  The normal tangent stiffness is
-    df_n/dxi = (3/2) kn sqrt(a' xi) (:func:`normal_stiffness`)."""
-    return np.ones_like(overlap) if law == "harmonic" else np.sqrt(reduced * overlap)
+    df_n/dxi = (3/2) kn sqrt(a' xi) (:func:`normal_stiffness`).  0 for a pair that does not touch
+    (xi < 0: a capillary bridge across a gap carries no spring)."""
+    touching = overlap >= 0
+    if law == "harmonic":
+        return touching.astype(float)
+    return np.sqrt(reduced * np.where(touching, overlap, 0.0))
 
 
 def tangential_growth(overlap: np.ndarray, law: str) -> np.ndarray:
@@ -155,8 +167,8 @@ def tangential_growth(overlap: np.ndarray, law: str) -> np.ndarray:
 
 
 def normal_stiffness(overlap: np.ndarray, law: str = "harmonic", reduced: np.ndarray | None = None) -> np.ndarray:
-    """df_n / dxi (C,): kn (harmonic) or (3/2) kn sqrt(a' xi) (hertz)."""
-    return KN * np.ones_like(overlap) if law == "harmonic" else 1.5 * KN * np.sqrt(reduced * overlap)
+    """df_n / dxi (C,): kn (harmonic) or (3/2) kn sqrt(a' xi) (hertz); 0 where xi < 0."""
+    return (1.5 if law == "hertz" else 1.0) * KN * spring_scale(overlap, law, reduced)
 
 
 def normal_pair(separation: np.ndarray, contact: np.ndarray, law: str = "harmonic",
@@ -254,9 +266,13 @@ def pair_energy(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     scale = spring_scale(overlap, model.law, reduced)
     s_t, s_r, s_o = stretches(normal, radius_i, radius_j, du, theta_i, theta_j,
                               lever_arms(radius_i, radius_j, overlap, model.lever))
-    return normal_part + 0.5 * KN * scale * (model.rho * np.einsum("cd,cd->c", s_t, s_t)
-                                             + model.rho_roll * np.einsum("cd,cd->c", s_r, s_r)
-                                             + model.rho_twist * s_o**2)
+    energy = normal_part + 0.5 * KN * scale * (model.rho * np.einsum("cd,cd->c", s_t, s_t)
+                                               + model.rho_roll * np.einsum("cd,cd->c", s_r, s_r)
+                                               + model.rho_twist * s_o**2)
+    if model.cohesion is not None:
+        gap = np.linalg.norm(separation + du, axis=1) - contact
+        energy = energy + bridge_energy(gap, radius_i, radius_j, model.cohesion)
+    return energy
 
 
 def _reference_overlap(separation: np.ndarray, contact: np.ndarray) -> np.ndarray:
@@ -275,7 +291,8 @@ def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     """Minus the gradient of ``pair_energy`` (same arguments): (F_i (C, D), tau_i, tau_j), the
     torques (C,) in 2D and (C, 3) in 3D.
 
-    F_i = f_n n' - kt s_t (n' the current normal), F_j = -F_i;
+    F_i = (f_n - F_b) n' - kt s_t (n' the current normal, F_b the bridge's pull at the current
+    gap under ``model.cohesion``), F_j = -F_i;
     tau_i = -kt R_i s_t x n - kr a' n x s_r - ko a' s_o n,
     tau_j = -kt R_j s_t x n + kr a' n x s_r + ko a' s_o n (torques about each centre).
     In 2D (s_t = delta_t t): tau_i = kt delta_t R_i - kr a'^2 (theta_i - theta_j).  Under hertz,
@@ -284,6 +301,11 @@ def pair_forces(separation: np.ndarray, contact: np.ndarray, normal: np.ndarray,
     _refuse_twist_in_2d(normal, model)
     reduced = radius_i * radius_j / (radius_i + radius_j)
     force, _ = normal_pair(separation + du, contact, model.law, reduced)
+    if model.cohesion is not None:
+        current = separation + du
+        distance = np.linalg.norm(current, axis=1)
+        pull = bridge_force(distance - contact, radius_i, radius_j, model.cohesion)
+        force = force - (pull / distance)[:, None] * current
     overlap = _reference_overlap(separation, contact)
     k = KN * spring_scale(overlap, model.law, reduced)
     arm_i, arm_j = lever_arms(radius_i, radius_j, overlap, model.lever)
@@ -313,6 +335,9 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
     map of its stretch on (u_i, theta_i, u_j, theta_j) (PHYSICS.md section 8); the normal spring
     adds [[K, -K], [-K, K]] on the translations, K = k_n n n^T - (f_n / r_ij) P (geometric term
     kept), k_n = df_n/dxi; under hertz every spring carries :func:`spring_scale` (``model.law``).
+    Under ``model.cohesion`` the bridge's pull F_b(s) at the gap s = -xi joins both terms,
+    K = (k_n + dF_b/ds) n n^T - ((f_n - F_b) / r_ij) P (docs/capillary_bridges.md); a pair across a
+    gap (xi < 0, bridged) has that alone, no spring.
     """
     _refuse_twist_in_2d(normal, model)
     law = model.law
@@ -322,8 +347,13 @@ def pair_blocks(normal: np.ndarray, distance: np.ndarray, overlap: np.ndarray,
     m = dim + rot
     reduced = radius_i * radius_j / (radius_i + radius_j)
     proj = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
-    stiff = (normal_stiffness(overlap, law, reduced)[:, None, None] * normal[:, :, None] * normal[:, None, :]
-             - (normal_force(overlap, law, reduced) / distance)[:, None, None] * proj)
+    along = normal_stiffness(overlap, law, reduced)
+    net_force = normal_force(np.maximum(overlap, 0.0), law, reduced)
+    if model.cohesion is not None:
+        along = along + bridge_stiffness(-overlap, radius_i, radius_j, model.cohesion)
+        net_force = net_force - bridge_force(-overlap, radius_i, radius_j, model.cohesion)
+    stiff = (along[:, None, None] * normal[:, :, None] * normal[:, None, :]
+             - (net_force / distance)[:, None, None] * proj)
     scale = spring_scale(overlap, law, reduced)
     full = np.zeros((count, 2 * m, 2 * m))
     for a, sa in ((0, 1), (m, -1)):
