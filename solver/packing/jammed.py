@@ -134,7 +134,8 @@ def _frictional(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_t
     new_index = np.empty_like(order)
     new_index[order] = np.arange(order.size)
     positions, diameters = x[order], diameters[order]
-    stored = stressed.build(new_index[pairs], shear, positions, diameters, box, law, friction, "LAMMPS's contacts")
+    stored = stressed.build(new_index[pairs], shear, positions, diameters, box, law, friction, "LAMMPS's contacts",
+                            cap=force_tol)
     info = dict(engine="lammps", friction=friction, settle_steps=steps, max_force=largest, force_tol=force_tol,
                 law=law, n_stored=len(stored), **({} if pressure is None else {"target_pressure": pressure}),
                 n_mobilised=int(stressed.mobilised(stored, positions, diameters, box, law).sum()))

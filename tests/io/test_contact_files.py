@@ -4,7 +4,7 @@ packings at rest, and damaged or inconsistent contact files get one clear error.
 
 import numpy as np
 import pytest
-from conftest import REPO
+from conftest import REPO, assert_close
 
 from solver.contact_law import ContactModel
 from solver.errors import InputError
@@ -237,6 +237,41 @@ def test_the_coulomb_check_allows_the_noise_of_a_dem_code_at_rest():
         else:
             stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test")
 
+
+
+def test_a_packing_engine_puts_forces_within_its_rest_tolerance_back_on_the_cone():
+    """LAMMPS's own frictional packing at force_tol 1e-9 left |f_t| 1.1e-10 kn d0 above mu f_n (the
+    finite-amplitude scene): the engine passes its rest tolerance as ``cap``, and a force that far
+    above the cone is put back on it, exactly, so that the packing reads back under the file check
+    and counts as mobilised; one further above is refused as before."""
+    from solver import contact_law
+    from solver.packing import geometry, stressed
+
+    p = hdf5.read_packings(str(DATA / "lammps_2d_friction.data"), contacts=str(DATA / "lammps_2d_friction.contacts"))[0]
+    pairs, force = p.tangential.pairs, p.tangential.force.copy()
+    _, _, overlap = geometry.pair_geometry(p.positions, p.diameters, p.box, pairs)
+    fn = contact_law.normal_force(overlap)
+    k = int(np.argmin(fn))
+    direction = force[k] / np.linalg.norm(force[k])
+    trial = force.copy()
+    trial[np.linalg.norm(trial, axis=1) > 0.5 * fn] *= 0.1  # every other contact below the cone of mu = 0.5
+    trial[k] = (0.5 * fn[k] + 8e-10) * direction
+    with pytest.raises(InputError, match="above the Coulomb limit"):
+        stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test")
+    capped = stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test", cap=1e-9)
+    assert_close(np.linalg.norm(capped.force[k]), 0.5 * fn[k], rtol=1e-15, what="|f_t| put back on the cone")
+    assert_close(capped.force[k] / np.linalg.norm(capped.force[k]), direction, rtol=1e-14, atol=1e-15,
+                 what="its direction kept (atol: components of a unit vector)")
+    on_cone = trial.copy()
+    on_cone[k] = 0.5 * fn[k] * direction
+    reference = stressed.build(pairs, on_cone, p.positions, p.diameters, p.box, "harmonic", 0.5, "test")
+    others = np.arange(len(fn)) != k
+    assert np.array_equal(capped.force[others], reference.force[others]), "forces below the cone changed"
+    again = stressed.build(capped.pairs, capped.force, p.positions, p.diameters, p.box, "harmonic", 0.5, "re-read")
+    assert stressed.at_limit(again.force, again.pairs, overlap, p.diameters, "harmonic", 0.5)[k]
+    trial[k] = (0.5 * fn[k] + 3e-9) * direction
+    with pytest.raises(InputError, match="above the Coulomb limit"):
+        stressed.build(pairs, trial, p.positions, p.diameters, p.box, "harmonic", 0.5, "test", cap=1e-9)
 
 def test_the_normal_part_check_allows_round_off_on_a_vanishing_force():
     """A stored force of 1e-13 kn d0 (LAMMPS left one on a contact of overlap 1e-12) may carry a
