@@ -2,7 +2,9 @@
 M u'' = -D u with the mass matrix eq:mm, D the Hessian of the contact energy eq:eij (in 3D and
 with rolling and twisting springs, PHYSICS.md section 8) summed over contacts (blocks from
 ``contact_law``), plus, on a packing made with friction, the non-symmetric terms of its stored
-tangential forces (docs/stressed_contacts.md).
+tangential forces (docs/stressed_contacts.md), and on a wet packing (``model.cohesion``) the
+capillary bridges' pull on every contact and on the bridged pairs across a gap
+(``Packing.bridges``; docs/capillary_bridges.md).
 
 DOF order: the non-rattler particles in the matrix's order (:func:`matrix_order`: by cells in
 space, so that each rank's contiguous rows are a slab of the box and couple to its two
@@ -35,7 +37,7 @@ from .. import profiling
 from ..packing import geometry
 from .. import contact_law
 from ..contact_law import ContactModel
-from ..packing import stressed
+from ..packing import bridges, stressed
 from ..packing.configuration import Packing
 from ..packing.jammed import spatial_order
 
@@ -226,8 +228,33 @@ def local_csr(packing: Packing, model: ContactModel, order: np.ndarray, disk_ran
                                                with_rotation=dof > packing.dim)
             for block, extra in zip((h_ii, h_ij, h_ji, h_jj), slide):
                 block[limit] += extra
-    csr = blocks_csr(contacts.a, contacts.b, (h_ii, h_ij, h_ji, h_jj), disk_range, dof, int((~packing.rattler).sum()))
+    a, b = contacts.a, contacts.b
+    if model.cohesion is not None and packing.bridges is not None:  # bridged pairs across a gap
+        bridged, (g_ii, g_ij, g_jj) = _gap_bridges(packing, model, order, disk_range, dof > packing.dim)
+        a, b = np.concatenate((a, bridged[:, 0])), np.concatenate((b, bridged[:, 1]))
+        h_ii, h_ij, h_ji, h_jj = (np.concatenate(pair) for pair in
+                                  ((h_ii, g_ii), (h_ij, g_ij), (h_ji, np.transpose(g_ij, (0, 2, 1))), (h_jj, g_jj)))
+    csr = blocks_csr(a, b, (h_ii, h_ij, h_ji, h_jj), disk_range, dof, int((~packing.rattler).sum()))
     return csr, dof, int(contacts.first.sum())
+
+
+def _gap_bridges(packing: Packing, model: ContactModel, order: np.ndarray, disk_range: tuple[int, int],
+                 with_rotation: bool) -> tuple[np.ndarray, tuple]:
+    """The bridged pairs across a gap (``Packing.bridges``) with an end among the matrix particles
+    ``disk_range`` owns, as matrix particles (B, 2), and their blocks (H_ii, H_ij, H_jj) under
+    ``model`` (its cohesion's pull alone: no spring acts across a gap; docs/capillary_bridges.md).
+    Not collective."""
+    start, stop = disk_range
+    owned = np.zeros(packing.n, dtype=bool)
+    owned[order[start:stop]] = True
+    pairs = packing.bridges[bridges.touching_any(packing.bridges, owned, ~packing.rattler)]
+    normal, distance, overlap = geometry.pair_geometry(packing.positions, packing.diameters, packing.box, pairs)
+    radius = 0.5 * packing.diameters
+    blocks = contact_law.pair_blocks(normal, distance, overlap, radius[pairs[:, 0]], radius[pairs[:, 1]], model,
+                                     with_rotation=with_rotation)
+    index = np.full(packing.n, -1)
+    index[order] = np.arange(order.size)
+    return index[pairs], blocks
 
 
 @profiling.logged("rsAssemble")

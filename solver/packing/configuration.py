@@ -30,8 +30,10 @@ class Packing:
     tangential : the stored tangential forces of a packing made with friction
     (docs/stressed_contacts.md), or None (unstressed springs);  model : what its forces are
     computed with and what it was checked under (``ContactModel.at_rest``: the normal law, and the
-    lever of the stored forces' torques): the scene's for a file read, the engine's for a
-    generated packing.
+    lever of the stored forces' torques, and the capillary bridges' cohesion): the scene's for a
+    file read, the engine's for a generated packing;  bridges : (B, 2) int64 the pairs of a wet
+    packing that are apart but still bridged (``bridges.build``; every contact is bridged too), or
+    None (dry).
     """
 
     positions: np.ndarray
@@ -42,6 +44,7 @@ class Packing:
     masses: np.ndarray | None = None
     tangential: TangentialForces | None = None
     model: ContactModel = ContactModel()
+    bridges: np.ndarray | None = None
 
     @property
     def stressed(self) -> bool:
