@@ -19,8 +19,9 @@ import numpy as np
 
 from ..errors import InputError
 from .. import profiling
+from ..capillary import Cohesion
 from ..contact_law import ContactModel
-from . import fire, geometry, lammps_engine, mechanics, stressed
+from . import bridges, fire, geometry, lammps_engine, mechanics, stressed, wet
 from .configuration import Packing, solid_volume
 from .stressed import TangentialForces
 
@@ -67,7 +68,8 @@ def spatial_order(positions: np.ndarray, box: np.ndarray) -> np.ndarray:
 @profiling.logged("rsPackingFIRE")
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
              max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
-             law: str = "harmonic", friction: float | None = None, pressure: float | None = None) -> Packing:
+             law: str = "harmonic", friction: float | None = None, pressure: float | None = None,
+             cohesion: Cohesion | None = None) -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
     fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``:
     rotsound's FIRE (not collective) or LAMMPS's
@@ -77,6 +79,12 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     With ``friction`` = mu (``engine`` lammps only) the packing is a frictional one as a DEM code
     leaves it, with its stored tangential forces (:func:`_frictional`), held at ``pressure`` when
     one is given (phi is then where the squeeze ends, and the final phi is the packing's).
+
+    With ``cohesion`` (``engine`` fire only) the packing is wet: FIRE runs on the normal forces
+    and the capillary bridges' pull from the same random start, the bridges forming at every
+    contact met on the way and breaking at their rupture distance (``wet.WetForces``) [protocol
+    decision: the particles are wet from the start, so the same seed gives the dry packing of the
+    same start]; it keeps its bridged pairs across a gap (``Packing.bridges``).
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the box would not exceed
     two large diameters (a pair could touch through two periodic images: tiny N at high phi in
@@ -99,20 +107,29 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
         x, steps, max_force = lammps_engine.minimize(start, diameters, box, force_tol, max_steps, comm, law=law)
         stats = {"engine": "lammps"}
     else:
-        forces = mechanics.FrictionlessForces(diameters, box, law=law)
+        forces = (mechanics.FrictionlessForces(diameters, box, law=law) if cohesion is None
+                  else wet.WetForces(diameters, box, cohesion, law))
         result = fire.minimize(start, forces, force_tol, max_steps)
         if not result.converged:
             raise RuntimeError(f"FIRE did not converge: max |F| = {result.max_force:.3e} > "
                                f"{force_tol:.1e} after {result.steps} steps (n={n}, phi={phi}, dim={dim})")
         x, steps, max_force = result.x, result.steps, result.max_force
-        stats = {"neighbour_rebuilds": forces.rebuilds, "neighbour_refreshes": forces.refreshes}
+        dry = forces if cohesion is None else forces.dry
+        stats = {"neighbour_rebuilds": dry.rebuilds, "neighbour_refreshes": dry.refreshes}
     positions = geometry.wrap(x, box)
     order = spatial_order(positions, box)
     positions, diameters = positions[order], diameters[order]
-    rattler = mechanics.find_rattlers(positions, diameters, box)
-    info = mechanics.describe(positions, diameters, box, rattler, law)
+    gap = None
+    if cohesion is not None:
+        new_index = np.empty_like(order)
+        new_index[order] = np.arange(n)
+        gap = bridges.build(new_index[forces.bridged(n)], positions, diameters, box, cohesion, "the wet packing")
+        stats["bridges_broken"] = forces.broken
+    rattler = mechanics.find_rattlers(positions, diameters, box, law=law, cohesion=cohesion, bridges=gap)
+    info = mechanics.describe(positions, diameters, box, rattler, law, cohesion, gap)
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
-    return Packing(positions, diameters, box, rattler, info, model=ContactModel(law=law))
+    return Packing(positions, diameters, box, rattler, info, model=ContactModel(law=law, cohesion=cohesion),
+                   bridges=gap)
 
 
 SQUEEZE_FROM = 0.75  # a frictional packing's start: phi_start = 0.75 phi, squeezed to phi

@@ -6,8 +6,11 @@ count that decides whether a matrix can be built on a generated one (:func:`jamm
 
 Rattlers [choice]: a particle with fewer than D + 1 contacts among the remaining non-rattlers is
 a rattler (3 for a disk, 4 for a sphere: fewer cannot hold it in force balance against every
-direction); in a stressed packing, a particle whose contacts carry (almost) no force
-(:func:`find_rattlers`).  The rule is applied repeatedly until no new rattler appears.
+direction); in a stressed (dry) packing, a particle whose contacts carry (almost) no force; in a
+wet one, a particle with both too few links (contacts and bridges) and no force in them
+(:func:`find_rattlers`).  A wet packing's capillary bridges
+(``ContactModel.cohesion``) pull on every contact and on the bridged pairs across a gap
+(``Packing.bridges``; docs/capillary_bridges.md).  The rule is applied repeatedly until no new rattler appears.
 Rattlers stay in the packing (flagged) and are excluded from the dynamical matrix.
 Units kn = d0 = m = 1.  Not collective.
 """
@@ -19,8 +22,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .. import contact_law
+from .. import capillary, contact_law
 from ..errors import InputError
+from . import bridges as bridging
 from . import geometry
 
 if TYPE_CHECKING:
@@ -128,12 +132,26 @@ class FrictionlessForces:
 
 
 def contact_forces(found: geometry.Contacts, diameters: np.ndarray, law: str,
-                   tangential: TangentialForces | None) -> np.ndarray:
+                   tangential: TangentialForces | None, cohesion: capillary.Cohesion | None = None) -> np.ndarray:
     """Force on i from j (C, D) of each contact of ``found``: the normal force of ``law`` along n,
-    plus the stored tangential force when ``tangential`` is given (units kn d0)."""
+    less the bridge's pull under ``cohesion``, plus the stored tangential force when
+    ``tangential`` is given (units kn d0)."""
     reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
-    force = contact_law.normal_force(found.overlap, law, reduced)[:, None] * found.normal
+    along = contact_law.normal_force(found.overlap, law, reduced)
+    if cohesion is not None:
+        along = along - capillary.bridge_force(-found.overlap, 0.5 * diameters[found.i], 0.5 * diameters[found.j],
+                                               cohesion)
+    force = along[:, None] * found.normal
     return force if tangential is None else force + tangential.on(found.i, found.j)
+
+
+def wet_pairs(positions: np.ndarray, box, bridges: np.ndarray | None, active: np.ndarray | None = None
+              ) -> np.ndarray:
+    """The bridged pairs across a gap (B, 2) between ``active`` particles (all when None); (0, 2)
+    for a dry packing (``bridges`` None)."""
+    if bridges is None:
+        return np.zeros((0, 2), dtype=np.int64)
+    return bridges if active is None else bridges[active[bridges[:, 0]] & active[bridges[:, 1]]]
 
 
 def force_magnitudes(packing: Packing) -> tuple[geometry.Contacts, np.ndarray, np.ndarray]:
@@ -149,52 +167,88 @@ def force_magnitudes(packing: Packing) -> tuple[geometry.Contacts, np.ndarray, n
 
 
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential: TangentialForces | None = None,
-                  law: str = "harmonic") -> np.ndarray:
+                  law: str = "harmonic", cohesion: capillary.Cohesion | None = None,
+                  bridges: np.ndarray | None = None) -> np.ndarray:
     """Rattler mask (N,), applied until no new rattler appears.
 
-    Unstressed (``tangential`` None): particles with fewer than D + 1 contacts among non-rattlers.
+    Unstressed (``tangential`` None): particles with fewer than D + 1 contacts among
+    non-rattlers.
+    Wet (``cohesion``) [choice]: a particle with fewer than D + 1 links (contacts and bridged
+    pairs across a gap, ``bridges``) among non-rattlers that together carry less than
+    EQUILIBRIUM_TOL (sum of |(f_n - F) n + f_t|).  A bridge holds what no contact does, and a
+    particle on two links in tension is held (their geometric terms stiffen it across), so the
+    count alone cuts load-bearing particles; the force alone cuts particles whose contacts the pull
+    balances exactly (f_n = F), which are stiff; a dangling particle on one link is both.
     Stressed [choice]: with tangential springs a disk on 2 contacts (a sphere on 2 or 3) carries
     load, so the count rule would cut load-bearing particles; instead a particle is a rattler when
-    its contacts among non-rattlers carry together less than EQUILIBRIUM_TOL (sum of |f_n n + f_t|
-    under ``law``): removing it changes no neighbour's force balance beyond the tolerance the
-    equilibrium check allows.
+    its contacts among non-rattlers carry together less than EQUILIBRIUM_TOL (sum of
+    |f_n n + f_t| under ``law``): removing it changes no neighbour's force balance beyond the
+    tolerance the equilibrium check allows.
     """
     found = geometry.find_contacts(positions, diameters, box)
     rattler = np.zeros(diameters.size, dtype=bool)
-    if tangential is None:
-        needed = min_contacts(positions.shape[1])
-        weight = np.ones(len(found))
-    else:
-        needed = EQUILIBRIUM_TOL
-        weight = np.linalg.norm(contact_forces(found, diameters, law, tangential), axis=1)
+    counted = tangential is None  # the count rule: dry unstressed, and wet
+    weighed = tangential is not None or cohesion is not None  # the force rule: stressed, and wet
+    first, second = found.i, found.j
+    weight = np.linalg.norm(contact_forces(found, diameters, law, tangential, cohesion), axis=1)
+    if cohesion is not None:
+        gap = wet_pairs(positions, box, bridges)
+        pull = np.linalg.norm(bridging.pull_forces(positions, diameters, box, gap, cohesion), axis=1)
+        first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
+        weight = np.concatenate((weight, pull))
+
+    def per_particle(values, keep):
+        return (np.bincount(first[keep], values[keep], minlength=rattler.size)
+                + np.bincount(second[keep], values[keep], minlength=rattler.size))
+
     while True:
-        keep = ~rattler[found.i] & ~rattler[found.j]
-        count = (np.bincount(found.i[keep], weight[keep], minlength=rattler.size)
-                 + np.bincount(found.j[keep], weight[keep], minlength=rattler.size))
-        new = ~rattler & (count < needed)
+        keep = ~rattler[first] & ~rattler[second]
+        new = ~rattler
+        if counted:
+            new &= per_particle(np.ones(len(first)), keep) < min_contacts(positions.shape[1])
+        if weighed:
+            new &= per_particle(weight, keep) < EQUILIBRIUM_TOL
         if not new.any():
             return rattler
         rattler |= new
 
 
 def describe(positions: np.ndarray, diameters: np.ndarray, box,
-             rattler: np.ndarray, law: str = "harmonic") -> dict:
-    """Energy, pressure (virial sum_c f_c r_c / (D V), V the box volume), mean contact number z
-    and rattler fraction of a packing under the normal ``law`` (units kn = d0 = 1)."""
+             rattler: np.ndarray, law: str = "harmonic", cohesion: capillary.Cohesion | None = None,
+             bridges: np.ndarray | None = None) -> dict:
+    """Energy, pressure (virial sum_c f_c r_c / (D V), V the box volume, f_c the net normal force),
+    mean contact number z and rattler fraction of a packing under the normal ``law`` (units
+    kn = d0 = 1); wet (``cohesion``), the bridges' energy and pull join them (every contact, and
+    the pairs across a gap ``bridges``), and ``n_bridges`` counts the bridged pairs among
+    non-rattlers (contacts and across a gap)."""
     dim = positions.shape[1]
     found = geometry.find_contacts(positions, diameters, box)
     reduced = contact_law.reduced_radius(diameters[found.i], diameters[found.j])
     fn = contact_law.normal_force(found.overlap, law, reduced)
+    energy = contact_law.normal_energy(found.overlap, law, reduced)
+    distance = found.distance
     active = ~rattler
     keep = active[found.i] & active[found.j]
     n_active = int(active.sum())
+    wet = {}
+    if cohesion is not None:
+        gap = wet_pairs(positions, box, bridges)
+        _, gap_distance, gap_overlap = geometry.pair_geometry(positions, diameters, box, gap)
+        first, second = np.concatenate((found.i, gap[:, 0])), np.concatenate((found.j, gap[:, 1]))
+        xi = np.concatenate((found.overlap, gap_overlap))
+        radii = 0.5 * diameters[first], 0.5 * diameters[second]
+        fn = np.concatenate((fn, np.zeros(len(gap)))) - capillary.bridge_force(-xi, *radii, cohesion)
+        energy = np.concatenate((energy, np.zeros(len(gap)))) + capillary.bridge_energy(-xi, *radii, cohesion)
+        distance = np.concatenate((distance, gap_distance))
+        wet = {"n_bridges": int((active[first] & active[second]).sum())}
     return {
-        "energy": float(np.sum(contact_law.normal_energy(found.overlap, law, reduced))),
-        "pressure": float(np.sum(fn * found.distance) / (dim * np.prod(np.broadcast_to(box, (dim,))))),
+        "energy": float(np.sum(energy)),
+        "pressure": float(np.sum(fn * distance) / (dim * np.prod(np.broadcast_to(box, (dim,))))),
         "z": float(2.0 * keep.sum() / n_active) if n_active else 0.0,
         "rattler_fraction": float(rattler.mean()),
         "n_contacts": int(keep.sum()),
         "mean_overlap": float(found.overlap.mean()) if len(found) else 0.0,
+        **wet,
     }
 
 
@@ -208,7 +262,8 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     docs/stressed_contacts.md)."""
     active = ~packing.rattler
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
-    f = contact_forces(found, packing.diameters, packing.model.law, packing.tangential)  # eq:eij, on i
+    cohesion = packing.model.cohesion
+    f = contact_forces(found, packing.diameters, packing.model.law, packing.tangential, cohesion)  # eq:eij, on i
     rot = 1 if packing.dim == 2 else 3
     turn = np.zeros((len(found), rot))
     if packing.tangential is not None:  # n x f_t: the normal part of f has no torque
@@ -217,9 +272,14 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
                                           found.overlap, packing.model.lever)
     net = np.zeros((packing.n, packing.dim))
     torque = np.zeros((packing.n, rot))
+    first, second = found.i, found.j
+    if cohesion is not None:  # the bridges across a gap pull along their centre lines: no torque
+        gap = wet_pairs(packing.positions, packing.box, packing.bridges, active)
+        f = np.concatenate((f, bridging.pull_forces(packing.positions, packing.diameters, packing.box, gap, cohesion)))
+        first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
     for axis in range(packing.dim):
-        net[:, axis] = (np.bincount(found.i, f[:, axis], minlength=packing.n)
-                        - np.bincount(found.j, f[:, axis], minlength=packing.n))
+        net[:, axis] = (np.bincount(first, f[:, axis], minlength=packing.n)
+                        - np.bincount(second, f[:, axis], minlength=packing.n))
     for axis in range(rot):
         torque[:, axis] = -(np.bincount(found.i, arm_i * turn[:, axis], minlength=packing.n)
                             + np.bincount(found.j, arm_j * turn[:, axis], minlength=packing.n))
@@ -281,10 +341,11 @@ def jamming_failure(packing: Packing) -> str | None:
     to 1024, phi = 0.83 to 0.9, 90 seeds; the smallest margin was 1 contact).  A packing with
     stored tangential forces has D + r DOF per particle (r = 1 in 2D, 3 in 3D) and D constraints
     per contact (normal and tangential springs): it needs ceil(((D + r) N' - D + 1) / D) contacts,
-    z >= D + 1 for large N' (frictional isostaticity).
+    z >= D + 1 for large N' (frictional isostaticity).  In a wet packing every bridged pair
+    across a gap is a constraint too (a normal one, as a contact).
     """
     stats = describe(packing.positions, packing.diameters, packing.box, packing.rattler,
-                     packing.info.get("law", "harmonic"))
+                     packing.info.get("law", "harmonic"), packing.model.cohesion, packing.bridges)
     dim, name = packing.dim, NAMES[packing.dim]
     n_active = packing.n - int(packing.rattler.sum())
     if n_active == 0:
@@ -296,8 +357,9 @@ def jamming_failure(packing: Packing) -> str | None:
     else:
         needed = dim * (n_active - 1) + 1
         rule = f"{dim}N' - {dim - 1}"
-    if stats["n_contacts"] < needed:
+    links = stats.get("n_bridges", stats["n_contacts"])  # wet: contacts and bridges across a gap
+    if links < needed:
         return (f"only {n_active} of {packing.n} {name} are not rattlers and they share "
-                f"{stats['n_contacts']} contacts, fewer than the {rule} = {needed} of a "
-                f"rigid packing (pressure {stats['pressure']:.1e})")
+                f"{links} contacts{' and bridges' if 'n_bridges' in stats else ''}, fewer than the {rule} = {needed} "
+                f"of a rigid packing (pressure {stats['pressure']:.1e})")
     return None
