@@ -98,7 +98,8 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[Pa
                 for s in seeds]
     else:
         made = parallel.owner_compute(comm, seeds, lambda s: jammed.generate(
-            spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law))
+            spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law,
+            cohesion=scene.model.bridges))
     for i, p in zip(missing, made):
         if store:
             store.save(f"packings/{i:04d}", *packing_unit(p), key=recipe[i])
@@ -355,6 +356,7 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
         say(comm, f"packing {index}: N = {p.n}, phi = {p.phi:.4f}, z = {i['z']:.3f}, "
                   f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                   f"rattlers = {100 * i['rattler_fraction']:.2f} %"
+                  + (f", bridges = {i['n_bridges']} ({len(p.bridges)} apart)" if p.bridges is not None else "")
                   + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
     if chosen:
         say(comm, chosen)

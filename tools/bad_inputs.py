@@ -126,6 +126,36 @@ def _nan(path):
         f["positions"][3, 0] = np.nan
 
 
+WET = "model: {cohesion: {surface_tension: 0.002, volume: 1.0e-3}}\n"
+
+
+def _wet(change=None):
+    """A maker: a wet 64-disk packing (phi 0.86, the bridges of WET) saved by rotsound, its group
+    passed through ``change`` (an h5py group -> None) when given."""
+    def make(path):
+        from solver.capillary import Cohesion
+        from solver.io import hdf5
+        from solver.packing import jammed
+
+        p = jammed.generate(64, 0.86, np.random.SeedSequence([1, 0]),
+                            cohesion=Cohesion(surface_tension=0.002, volume=1e-3))
+        hdf5.save_packings(path, [p])
+        if change is not None:
+            with h5py.File(path, "r+") as f:
+                change(f["packings/0000"])
+    return make
+
+
+def _far_bridge(group):
+    """A bridge between particle 0 and the one farthest from it across the periodic box."""
+    positions, box = group["positions"][()], group.attrs["box"]
+    delta = positions - positions[0]
+    far = int(np.argmax(np.linalg.norm(delta - box * np.rint(delta / box), axis=1)))
+    pairs = np.concatenate((group["bridges"][()].reshape(-1, 2), [[0, far]]))
+    del group["bridges"]
+    group["bridges"] = pairs
+
+
 CASES = [
     # --- YAML and scene keys
     ("YAML syntax error", "packing: {n: 64, phi: 0.9\n", [], "invalid YAML", None),
@@ -312,6 +342,35 @@ CASES = [
      "packing.pressure = 0.01: the pressure at which LAMMPS holds a frictional packing", None),
     ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],
      "packing.friction = 0.5: the Coulomb mu of a frictional packing", None),
+    # --- capillary bridges (model.cohesion)
+    ("bridges without a surface tension", GOOD + "model: {cohesion: {volume: 1.0e-3}}\n", [],
+     "model.cohesion.surface_tension is required", None),
+    ("negative surface tension", GOOD + "model: {cohesion: {surface_tension: -0.1, volume: 1.0e-3}}\n", [],
+     "model.cohesion.surface_tension = -0.1: must be in (0.0", None),
+    ("contact angle of 90 degrees or more", GOOD + "model: {cohesion: {surface_tension: 0.01, volume: 1.0e-3, "
+     "contact_angle: 1.6}}\n", [], "model.cohesion.contact_angle = 1.6: must be in [0.0, 1.57", None),
+    ("non-finite bridge volume", GOOD + "model: {cohesion: {surface_tension: 0.01, volume: .inf}}\n", [],
+     "model.cohesion.volume = inf: must be in (0.0", None),
+    ("bridge volume and liquid content both given", GOOD + "model: {cohesion: {surface_tension: 0.01, volume: 1.0e-3, "
+     "liquid_content: 0.01}}\n", [], "model.cohesion.volume and model.cohesion.liquid_content: give exactly one", None),
+    ("neither bridge volume nor liquid content", GOOD + "model: {cohesion: {surface_tension: 0.01}}\n", [],
+     "got neither", None),
+    ("unknown bridge law", GOOD + "model: {cohesion: {law: rabinovich, surface_tension: 0.01, volume: 1.0e-3}}\n", [],
+     "model.cohesion.law = 'rabinovich': must be one of willett, soulie", None),
+    ("bridges on LAMMPS's packing engine", "packing: {n: 64, phi: 0.9, engine: lammps}\n" + WET, [],
+     "model.cohesion (capillary bridges) with packing.engine: lammps", None),
+    ("bridges with a contact file", "packing: {file: '{file}', contacts: '{file}.contacts'}\n" + WET, [],
+     "a contact file gives no bridged pairs apart", _stressed()),
+    ("bridges with LAMMPS's waves", GOOD + WET + "waves: {engine: lammps, amplitude: 1.0e-4, n: [1]}\n", [],
+     "with waves.engine: lammps: LAMMPS's waves have no bridges", None),
+    ("a wet packing file read dry", "packing: {file: '{file}'}\n", [],
+     "a wet packing (dataset 'bridges'), but the scene is dry", _wet()),
+    ("a dry packing file read wet", "packing: {file: '{file}'}\n" + WET, [],
+     "model.cohesion asks for a wet packing, but the file has no dataset 'bridges'", _valid),
+    ("a wet packing under another law", "packing: {file: '{file}'}\nmodel: {cohesion: {surface_tension: 0.004, "
+     "volume: 1.0e-3}}\n", [], "the packing was made with the bridges", _wet()),
+    ("a bridge beyond its rupture distance", "packing: {file: '{file}'}\n" + WET, [],
+     "bridge(s) span a gap at or beyond the rupture distance", _wet(_far_bridge)),
     ("negative dashpot rate", GOOD + "model: {damping: {gamma_n: -0.3}}\n", [],
      "model.damping.gamma_n = -0.3: must be in [0.0", None),
     ("an undamped spectrum method with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\n"

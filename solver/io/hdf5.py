@@ -14,6 +14,10 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
                 (docs/stressed_contacts.md): pairs (C, 2) int64 0-based indices i < j, force
                 (C, D) float64 the tangential force on i from j (kn d0), attribute friction
                 (the Coulomb mu, optional)
+    bridges     (B, 2) int64     a wet packing's bridged pairs apart (0-based indices; B may be 0):
+                                 required with model.cohesion, refused without it
+                                 (docs/capillary_bridges.md); the packing's attributes
+                                 cohesion_law, surface_tension, ... record the law it was made with
     attribute box   (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box
                                  (origin at 0), each > 2 max(diameters) (a pair then touches
                                  through one image only)
@@ -34,6 +38,7 @@ from .. import profiling
 from . import contact_files, dem_formats
 from .atomic import atomic_write
 from ..contact_law import ContactModel
+from ..packing import bridges as bridging
 from ..packing import mechanics, stressed
 from ..packing.configuration import Packing
 from ..packing.jammed import from_arrays
@@ -79,6 +84,7 @@ def _read_one(group, where: str, check_equilibrium: bool, model: ContactModel) -
     if masses is not None and (masses.shape != (n,) or not np.all(np.isfinite(masses)) or np.any(masses <= 0)):
         fail(f"'masses' (shape {masses.shape}) must be ({n},), finite and > 0")
     stored = _read_tangential(group, where, n, positions.shape[1]) if "tangential" in group else None
+    gap = _read_bridges(group, where, model)
     if not np.all(np.isfinite(positions)):
         fail("'positions' contains NaN or inf")
     if not np.all(np.isfinite(diameters)) or np.any(diameters <= 0):
@@ -95,8 +101,40 @@ def _read_one(group, where: str, check_equilibrium: bool, model: ContactModel) -
         pairs, force, friction = stored
         stored = stressed.build(pairs, force, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)),
                                 model.law, friction, f"packing file {where}:/tangential")
+    if gap is not None:
+        _check_box(box, diameters, where, name)
+        gap = bridging.build(gap, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), model.cohesion,
+                             f"packing file {where}:/bridges")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
-                   check_equilibrium, model, stored)
+                   check_equilibrium, model, stored, gap)
+
+
+def _read_bridges(group, where: str, model: ContactModel):
+    """The ``bridges`` dataset (B, 2) of a packing group, or None when the scene is dry; InputError
+    when one is given without the other."""
+    if model.cohesion is None:
+        if "bridges" in group:
+            raise InputError(f"packing file {where}: a wet packing (dataset 'bridges'), but the scene is dry: give "
+                             f"model.cohesion, the law the packing was made with (its attributes cohesion_law, "
+                             f"surface_tension, ... record it)")
+        return None
+    if "bridges" not in group:
+        raise InputError(f"packing file {where}: model.cohesion asks for a wet packing, but the file has no dataset "
+                         f"'bridges' (B, 2): the bridged pairs apart, 0-based, written with the packing (empty "
+                         f"when every bridge is a contact; docs/capillary_bridges.md)")
+    made_with = bridging.cohesion_of(dict(group.attrs))
+    if made_with is not None and made_with != model.cohesion:
+        raise InputError(f"packing file {where}: the packing was made with the bridges {made_with}, but "
+                         f"model.cohesion gives {model.cohesion}: its bridged pairs and its rest hold under its own "
+                         f"law; give that one")
+    try:
+        pairs = np.asarray(group["bridges"][()])
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(f"packing file {where}: cannot read dataset 'bridges' ({exc})") from None
+    if pairs.ndim != 2 or pairs.shape[1] != 2 or not (pairs.size == 0 or np.issubdtype(pairs.dtype, np.integer)):
+        raise InputError(f"packing file {where}: 'bridges' has shape {pairs.shape} and type {pairs.dtype}; need "
+                         f"(B, 2) integers (0-based particle indices)")
+    return pairs
 
 
 def _read_tangential(group, where: str, n: int, dim: int):
@@ -149,7 +187,7 @@ def _check_distinct(positions, diameters, box, where: str) -> None:
 
 
 def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
-            check_equilibrium: bool, model: ContactModel, tangential=None) -> Packing:
+            check_equilibrium: bool, model: ContactModel, tangential=None, bridges=None) -> Packing:
     """The checks every format shares (box > 2 max d, no two centres on one point, not all rattlers, equilibrium under
     ``model``'s normal law and lever with the stored ``tangential`` forces if any), then the Packing, which keeps
     ``model`` (``Packing.model``).  ``info`` of a DEM
@@ -160,7 +198,7 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
         sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
         info = {**info, "n_stored": len(tangential),
                 "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, sides, model.law).sum())}
-    packing = from_arrays(positions, diameters, box, rattler, info, masses, model, tangential)
+    packing = from_arrays(positions, diameters, box, rattler, info, masses, model, tangential, bridges)
     if packing.rattler.all():
         name = mechanics.NAMES[packing.dim]
         needed = mechanics.min_contacts(packing.dim)
@@ -244,6 +282,9 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
                          f"one contact file per packing file, in the same order")
     for index, path in enumerate(paths):
         kind = fmt or dem_formats.detect_format(path)
+        if kind != "rotsound" and model.cohesion is not None:
+            raise InputError(f"packing file {path}: a {kind} file gives no bridged pairs apart, which model.cohesion "
+                             f"needs (docs/capillary_bridges.md); give a wet packing in rotsound's HDF5 format")
         if kind != "rotsound":
             packings.append(_from_dem(path, kind, check_equilibrium, model, contacts[index] if contacts else None,
                                       friction, contacts_format))
@@ -293,6 +334,8 @@ def write_packing(group, packing: Packing) -> None:
         sub.create_dataset("force", data=packing.tangential.force)
         if packing.tangential.friction is not None:
             sub.attrs["friction"] = packing.tangential.friction
+    if packing.bridges is not None:
+        group.create_dataset("bridges", data=packing.bridges.reshape(-1, 2).astype(np.int64))
 
 
 def box_of(group, dim: int) -> np.ndarray:

@@ -175,13 +175,19 @@ def packing_summary(f) -> tuple[float, int]:
 
 
 def contact_model(f) -> ContactModel:
-    """What the packings were checked under (``ContactModel.at_rest``): the scene's ``model.law``
-    and ``model.lever``, from the root attribute ``scene`` (their defaults where it gives none)."""
+    """What the packings were checked under (``ContactModel.at_rest``): the scene's ``model.law``,
+    ``model.lever`` and ``model.cohesion``, from the root attribute ``scene`` (their defaults where
+    it gives none)."""
     import yaml
+
+    from .coerce import build
+    from .schema import CohesionSpec
 
     scene = yaml.safe_load(f.attrs["scene"]) if "scene" in f.attrs else {}
     model = scene.get("model") or {}
-    return ContactModel(law=str(model.get("law", "harmonic")), lever=str(model.get("lever", "radius")))
+    wet = model.get("cohesion")
+    return ContactModel(law=str(model.get("law", "harmonic")), lever=str(model.get("lever", "radius")),
+                        cohesion=None if wet is None else build(CohesionSpec, wet, "model.cohesion.").cohesion())
 
 
 def packing_friction(f) -> float | None:
@@ -196,7 +202,7 @@ def packing_friction(f) -> float | None:
 def first_packing(f) -> dict | None:
     """The first configuration: positions (N, D) (D = 2 or 3), diameters (N,), rattler (N,) bool and the
     attributes box (D,) side lengths, phi, z (mean contact number; NaN if absent: a loaded packing
-    has none); None without packings."""
+    has none), and a wet packing's bridges (B, 2) (its bridged pairs apart); None without packings."""
     return packing(f, 0) if _groups(f, "packings") else None
 
 
@@ -207,9 +213,10 @@ def packing(f, index: int) -> dict:
     if not 0 <= index < len(groups):
         raise InputError(f"results file {f.filename}: no packing {index} (it has {len(groups)})")
     g = groups[index]
+    wet = {"bridges": g["bridges"][()].reshape(-1, 2)} if "bridges" in g else {}
     return {"positions": g["positions"][()], "diameters": g["diameters"][()], "rattler": g["rattler"][()],
             "box": hdf5.box_of(g, g["positions"].shape[1]), "phi": float(g.attrs["phi"]),
-            "z": float(g.attrs.get("z", np.nan))}
+            "z": float(g.attrs.get("z", np.nan)), **wet}
 
 
 def mode_shapes(f) -> list[ModeShapes]:

@@ -20,9 +20,10 @@ from ..model import dynmat
 from ..spectrum import plan as spectrum_plan
 from ..transport import rules as transport_rules
 from ..waves import rules as waves_rules
-from .schema import ModelSpec, ModesSpec, PackingSpec, Scene, SpectrumSpec, TransportSpec, WavesSpec
+from .schema import CohesionSpec, ModelSpec, ModesSpec, PackingSpec, Scene, SpectrumSpec, TransportSpec, WavesSpec
 
 SECTION_RULES = {PackingSpec: packing_rules.check_section, ModelSpec: model_rules.check_section,
+                 CohesionSpec: model_rules.check_cohesion,
                  SpectrumSpec: spectrum_plan.check_section, ModesSpec: spectrum_plan.check_modes,
                  TransportSpec: transport_rules.check_section, WavesSpec: waves_rules.check_section}
 """Section class -> its rule across its own keys, ``rule(section, where)``."""
@@ -55,13 +56,14 @@ def resolve(scene: Scene, which: str | None) -> tuple[Scene, str | None]:
 def check_scene(scene: Scene) -> None:
     """The rules across the sections of ``scene``, in order: mode shapes picked from the spectrum,
     a generated packing's dimension, a contact file's DEM convention, friction for mobilised
-    contacts, what packing.friction is for, the waves' LAMMPS engine, a non-symmetric matrix (of
+    contacts, capillary bridges where they cannot go, what packing.friction is for, the waves' LAMMPS engine, a non-symmetric matrix (of
     the stored forces the scene alone gives), dashpots, the output's name.  Not collective."""
     spectrum_plan.check_localised(scene.spectrum, scene.modes)
     if scene.packing.file is None:
         check_dimension(scene, scene.packing.dim, f"packing.dim is {scene.packing.dim}")
     model_rules.check_dem_convention(scene.model, scene.packing)
     model_rules.check_mobilised(scene.model, scene.packing)
+    model_rules.check_wet(scene.model, scene.packing, scene.waves)
     packing_rules.check_friction(scene.packing, scene.waves)
     waves_rules.check_engine(scene.waves, scene.packing, scene.model)
     check_stressed(scene, packing_rules.stored_forces_source(scene.packing))

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
+from ..capillary import COHESION_LAWS, Cohesion
 from ..contact_law import (HISTORIES, LAWS, LEVERS, MOBILISED, RESTITUTION_RULE, STORED_FORCES, ContactModel,
                            restitution_damping)
 from ..packing.jammed import MIN_N
@@ -140,6 +141,31 @@ class DampingSpec:
 
 
 @dataclass(frozen=True)
+class CohesionSpec:
+    """Section ``model.cohesion``: capillary bridges (docs/capillary_bridges.md)."""
+
+    law: str = _f("willett", "the bridge's force law: willett (Willett et al. 2000, MercuryDPM's closed form) or "
+                             "soulie (Soulie et al. 2006, as LIGGGHTS's cohesion easo/capillary/viscous evaluates it)",
+                  _one_of(COHESION_LAWS), str)
+    surface_tension: float = _f(None, "the liquid's surface tension gamma in units of kn (harmonic: gamma/kn; hertz: "
+                                      "gamma/(kn d0)); > 0, required",
+                                _range(0.0, 1e6, True), float)
+    contact_angle: float = _f(0.0, "contact angle theta (radians), in [0, pi/2)", _range(0.0, math.pi / 2, False, True),
+                              float)
+    volume: float | None = _f(None, "the volume V of every bridge (d0^3); or give liquid_content",
+                              _range(0.0, 1e3, True), float)
+    liquid_content: float | None = _f(None, "LIGGGHTS's surface liquid content: the liquid a particle carries as a "
+                                            "fraction of its volume (4/3) pi R^3; each bridge takes a share of both "
+                                            "particles' (docs/capillary_bridges.md); or give volume",
+                                      _range(0.0, 1e3, True), float)
+
+    def cohesion(self) -> Cohesion:
+        """The bridges' law (``capillary.Cohesion``); ``model.rules.check_cohesion`` has checked it."""
+        return Cohesion(self.law, self.surface_tension, self.contact_angle, self.volume or 0.0,
+                        self.liquid_content or 0.0)
+
+
+@dataclass(frozen=True)
 class ModelSpec:
     """Section ``model``: contact law parameters (kn = 1)."""
 
@@ -195,15 +221,27 @@ class ModelSpec:
                                          "the impact speed). null: none",
                                    _range(0.0, 1.0, True), float)
 
+    cohesion: CohesionSpec | None = _f(None, "capillary bridges in the contact law (docs/capillary_bridges.md): "
+                                             "each pulls a pair together while it touches and across a gap up to "
+                                             "the rupture distance; generated packings are wet from the start, and "
+                                             "a packing file must give its bridged pairs apart. Absent or null: dry",
+                                       None, ("optional", CohesionSpec))
+
     def contact(self, rho: float) -> ContactModel:
         """The contact model of this section at tangential ratio ``rho`` (one of ``self.rho``)."""
         return ContactModel(rho, self.rho_roll, self.rho_twist, self.law, self.mobilised, self.lever,
-                            self.stored_forces, self.history, *self.dashpots)
+                            self.stored_forces, self.history, *self.dashpots, cohesion=self.bridges)
+
+    @property
+    def bridges(self) -> Cohesion | None:
+        """The capillary bridges' law, or None (dry)."""
+        return None if self.cohesion is None else self.cohesion.cohesion()
 
     @property
     def at_rest(self) -> ContactModel:
-        """What the packings are checked under: the normal law and the lever (``ContactModel.at_rest``)."""
-        return ContactModel(law=self.law, lever=self.lever)
+        """What the packings are checked under: the normal law, the lever and the bridges
+        (``ContactModel.at_rest``)."""
+        return ContactModel(law=self.law, lever=self.lever, cohesion=self.bridges)
 
     @property
     def dashpots(self) -> tuple[float, float]:

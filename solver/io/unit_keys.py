@@ -190,6 +190,8 @@ def packing_key(scene, index: int) -> UnitKey:
         settings["friction"] = spec.friction  # it is the mu of the waves' LAMMPS engine: the packing's recipe is not)
     if spec.pressure is not None:  # held at a pressure
         settings["pressure"] = spec.pressure
+    if scene.model.cohesion is not None:  # wet: FIRE runs with the bridges
+        settings["cohesion"] = dataclasses.asdict(scene.model.cohesion)
     return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
 
 
@@ -215,10 +217,13 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
             springs[name] = getattr(scene.model, name)
     if scene.model.damped:  # likewise: undamped keys stay as before
         springs["damping"] = dict(zip(("gamma_n", "gamma_t"), scene.model.dashpots))  # however it was given
+    if scene.model.cohesion is not None:  # likewise: dry keys stay as before
+        springs["cohesion"] = dataclasses.asdict(scene.model.cohesion)
     for p_index, p in enumerate(packings):
         box = np.float64(p.box[0]) if np.all(p.box == p.box[0]) else p.box  # cubic: the keys of before
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
         stored = [] if p.tangential is None else [p.tangential.pairs, p.tangential.force]  # likewise
+        stored += [] if p.bridges is None else [p.bridges]  # a wet packing's bridged pairs apart
         base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses, *stored),
                 "version": __version__, **springs}
         for r_index in range(len(scene.model.rho)):

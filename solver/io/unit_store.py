@@ -35,6 +35,7 @@ import numpy as np
 from .. import parallel
 from ..contact_law import ContactModel
 from ..errors import InputError
+from ..packing.bridges import cohesion_of
 from ..packing.configuration import Packing
 from ..packing.stressed import TangentialForces
 from .atomic import atomic_write
@@ -296,6 +297,8 @@ def packing_unit(p) -> tuple[dict, dict]:
     datasets = {"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler}
     if p.tangential is not None:  # a frictional packing's stored forces
         datasets.update(tangential_pairs=p.tangential.pairs, tangential_force=p.tangential.force)
+    if p.bridges is not None:  # a wet packing's bridged pairs apart (its cohesion is in info)
+        datasets.update(bridges=p.bridges)
     return datasets, {"box": p.box, **p.info}  # generated packings only: no masses
 
 
@@ -310,4 +313,5 @@ def packing_from_unit(unit):
     if "tangential_pairs" in datasets:
         stored = TangentialForces(datasets["tangential_pairs"], datasets["tangential_force"], info.get("friction"))
     return Packing(datasets["positions"], datasets["diameters"], box, datasets["rattler"].astype(bool), info,
-                   tangential=stored, model=ContactModel(law=info.get("law", "harmonic")))  # as generated
+                   tangential=stored, bridges=datasets.get("bridges"),
+                   model=ContactModel(law=info.get("law", "harmonic"), cohesion=cohesion_of(info)))  # as generated

@@ -75,3 +75,45 @@ def check_held(model, which: str | None) -> None:
     carry (None: none): the tangential springs hold them. Not collective."""
     if which is not None and model.stored_forces == "keep" and 0.0 in model.rho:
         raise InputError(f"model.rho contains 0: {which}, held by the tangential springs: every rho must be > 0")
+
+
+def check_cohesion(cohesion, where: str) -> None:
+    """Refuse a ``model.cohesion`` section (``where``: its key path prefix) whose bridges cannot be
+    built: no surface tension, or not exactly one of volume and liquid_content (``capillary.Cohesion``
+    says what is allowed).  Not collective."""
+    from ..capillary import Cohesion
+
+    if cohesion.surface_tension is None:
+        raise InputError(f"{where}surface_tension is required: the liquid's surface tension in units of kn (> 0)")
+    if (cohesion.volume is None) == (cohesion.liquid_content is None):
+        raise InputError(f"{where}volume and {where}liquid_content: give exactly one (the volume of every bridge in "
+                         f"d0^3, or the liquid each particle carries as a fraction of its volume); got "
+                         f"{'both' if cohesion.volume is not None else 'neither'}")
+    try:
+        Cohesion(cohesion.law, cohesion.surface_tension, cohesion.contact_angle, cohesion.volume or 0.0,
+                 cohesion.liquid_content or 0.0)
+    except ValueError as exc:
+        raise InputError(f"{where.rstrip('.')}: {exc}") from None
+
+
+def check_wet(model, packing, waves) -> None:
+    """Refuse capillary bridges (``model.cohesion``) where rotsound cannot take them yet: packings
+    made by LAMMPS (its engine has no bridges; rotsound's FIRE makes wet packings), a contact
+    file (it gives no bridged pairs), ``packing.relax`` (a dry re-minimisation) and LAMMPS's
+    waves.  (The sliding branch needs the packings' mu, which only those give.)  Not collective."""
+    if model.cohesion is None:
+        return
+    said = "model.cohesion (capillary bridges)"
+    if packing.file is None and packing.engine == "lammps":
+        raise InputError(f"{said} with packing.engine: lammps: LAMMPS's packing engine has no bridges; rotsound's "
+                         f"FIRE (packing.engine: fire) makes wet packings")
+    if packing.contacts is not None:
+        raise InputError(f"{said} with packing.contacts: a contact file gives no bridged pairs apart, which a wet "
+                         f"packing needs (docs/capillary_bridges.md); give a wet packing file (rotsound's HDF5, with "
+                         f"its 'bridges' dataset)")
+    if packing.relax:
+        raise InputError(f"{said} with packing.relax: the relaxation is dry (frictionless FIRE without bridges); "
+                         f"give the wet packing at rest")
+    if waves is not None and waves.engine == "lammps":
+        raise InputError(f"{said} with waves.engine: lammps: LAMMPS's waves have no bridges; use rotsound's "
+                         f"linear waves (waves.engine: rotsound)")

@@ -61,3 +61,20 @@ def pull_forces(positions: np.ndarray, diameters: np.ndarray, box, pairs: np.nda
     radius = 0.5 * diameters
     pull = capillary.bridge_force(-overlap, radius[pairs[:, 0]], radius[pairs[:, 1]], cohesion)
     return -pull[:, None] * normal
+
+
+def cohesion_record(cohesion: capillary.Cohesion) -> dict:
+    """The bridges' law as flat attributes of a packing's ``info`` (for its unit and the results
+    file; :func:`cohesion_of` reads them back)."""
+    return {"cohesion_law": cohesion.law, "surface_tension": cohesion.surface_tension,
+            "contact_angle": cohesion.contact_angle, "bridge_volume": cohesion.volume,
+            "liquid_content": cohesion.liquid_content}
+
+
+def cohesion_of(info: dict) -> capillary.Cohesion | None:
+    """The bridges' law :func:`cohesion_record` wrote into ``info``, or None (dry)."""
+    if "cohesion_law" not in info:
+        return None
+    return capillary.Cohesion(str(info["cohesion_law"]), float(info["surface_tension"]),
+                              float(info["contact_angle"]), float(info["bridge_volume"]),
+                              float(info["liquid_content"]))

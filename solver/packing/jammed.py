@@ -124,7 +124,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
         new_index = np.empty_like(order)
         new_index[order] = np.arange(n)
         gap = bridges.build(new_index[forces.bridged(n)], positions, diameters, box, cohesion, "the wet packing")
-        stats["bridges_broken"] = forces.broken
+        stats.update(bridges_broken=forces.broken, **bridges.cohesion_record(cohesion))
     rattler = mechanics.find_rattlers(positions, diameters, box, law=law, cohesion=cohesion, bridges=gap)
     info = mechanics.describe(positions, diameters, box, rattler, law, cohesion, gap)
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
@@ -181,12 +181,14 @@ def relax(packing: Packing, force_tol: float = 1e-6, max_steps: int = 2_000_000)
 
 def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.ndarray | None = None,
                 info: dict | None = None, masses: np.ndarray | None = None,
-                model: ContactModel = ContactModel(), tangential: TangentialForces | None = None) -> Packing:
+                model: ContactModel = ContactModel(), tangential: TangentialForces | None = None,
+                bridges: np.ndarray | None = None) -> Packing:
     """Build a :class:`Packing` from user arrays (e.g. another code's packing), positions (N, D),
     ``box`` the (D,) sides or one side for a square or cubic box, ``masses`` (N,) or None,
-    ``tangential`` the stored tangential forces (``stressed.build``) or None, under the contact
-    ``model`` (its normal law and lever, kept on the packing: ``ContactModel.at_rest``): the
-    statistics (energy, pressure) are those of its normal law.
+    ``tangential`` the stored tangential forces (``stressed.build``) or None, ``bridges`` the
+    bridged pairs apart of a wet packing (``bridges.build``) or None, under the contact ``model``
+    (its normal law, lever and cohesion, kept on the packing: ``ContactModel.at_rest``): the
+    statistics (energy, pressure) are those of its normal law and bridges.
 
     Rattlers are computed with the iterative rule (``mechanics.find_rattlers``) when ``rattler``
     is None.
@@ -196,11 +198,11 @@ def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.n
     positions = geometry.wrap(positions, box)
     diameters = np.asarray(diameters, dtype=float)
     if rattler is None:
-        rattler = mechanics.find_rattlers(positions, diameters, box, tangential, model.law)
-    stats = mechanics.describe(positions, diameters, box, rattler, model.law)
+        rattler = mechanics.find_rattlers(positions, diameters, box, tangential, model.law, model.cohesion, bridges)
+    stats = mechanics.describe(positions, diameters, box, rattler, model.law, model.cohesion, bridges)
     stats.update(info or {})
     return Packing(positions, diameters, box, np.asarray(rattler, dtype=bool), stats,
-                   None if masses is None else np.asarray(masses, dtype=float), tangential, model.at_rest())
+                   None if masses is None else np.asarray(masses, dtype=float), tangential, model.at_rest(), bridges)
 
 
 PHI_JAMMING = {2: 0.84, 3: 0.648}

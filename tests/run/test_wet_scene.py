@@ -1,0 +1,36 @@
+"""A wet scene (model.cohesion) through the pipeline on 1 and 2 ranks: the packing rotsound's FIRE
+makes with the bridges, its units resumed, its results file read back by packing.file (the same
+counts), by the notebook API (the bridges) and by the plots."""
+
+import numpy as np
+from conftest import COMM, assert_all, assert_close, scene_of
+
+from solver import pipeline
+from solver.capillary import Cohesion
+from solver.io import results
+from solver.packing import jammed
+
+WET = {"law": "willett", "surface_tension": 0.01, "volume": 1.0e-3}
+
+
+def test_wet_scene_runs_resumes_and_reads_back(comm, shared_tmp):
+    scene = scene_of(shared_tmp / "wet.h5", cache="off", seed=3, packing={"n": 64, "phi": 0.8},
+                     model={"rho": [0.5], "cohesion": WET}, spectrum={"bin_width": 0.1})
+    first = pipeline.run(scene, COMM, [])["units"]
+    again = pipeline.run(scene, COMM, [])["units"]  # every unit finished: loaded
+    made = jammed.generate(64, 0.8, np.random.SeedSequence([3, 0]), cohesion=Cohesion(**WET))
+    with results.open_results(scene.output) as f:
+        packing = results.packing(f, 0)
+        assert_all(results.contact_model(f).cohesion == Cohesion(**WET), "the results file's model is dry")
+    assert_close(packing["positions"], made.positions, rtol=0.0, what="the scene's wet packing")
+    assert_all(np.array_equal(packing["bridges"], made.bridges), "the bridges written")
+    vdos = "spectra/r00_p0000"
+    assert_all(np.array_equal(first[vdos][0]["counts"], again[vdos][0]["counts"]), "resumed counts")
+    reread = scene_of(shared_tmp / "reread.h5", cache="off", packing={"file": str(scene.output)},
+                      model={"rho": [0.5], "cohesion": WET}, spectrum={"bin_width": 0.1})
+    units = pipeline.run(reread, COMM, [])["units"]
+    assert_all(np.array_equal(units[vdos][0]["counts"], first[vdos][0]["counts"]), "read back: other counts")
+    if COMM.rank == 0:
+        from solver import plots
+
+        assert any(path.endswith(".png") for path in plots.plot_results(str(scene.output)))
