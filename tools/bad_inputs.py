@@ -146,6 +146,15 @@ def _wet(change=None):
     return make
 
 
+def _liggghts_wet(path):
+    """A maker: LIGGGHTS's wet packing at ``path``, its contact file at ``path.contacts``."""
+    shutil.copyfile(DEM / "liggghts_3d_wet.data", path)
+    shutil.copyfile(DEM / "liggghts_3d_wet.contacts", f"{path}.contacts")
+
+
+LIGGGHTS_WET = "packing: {file: '{file}', contacts: '{file}.contacts', contacts_format: liggghts-local}\n"
+
+
 def _far_bridge(group):
     """A bridge between particle 0 and the one farthest from it across the periodic box."""
     positions, box = group["positions"][()], group.attrs["box"]
@@ -360,7 +369,7 @@ CASES = [
     ("bridges on LAMMPS's packing engine", "packing: {n: 64, phi: 0.9, engine: lammps}\n" + WET, [],
      "model.cohesion (capillary bridges) with packing.engine: lammps", None),
     ("bridges with a contact file", "packing: {file: '{file}', contacts: '{file}.contacts'}\n" + WET, [],
-     "a contact file gives no bridged pairs apart", _stressed()),
+     "that contact file gives no bridged pairs apart", _stressed()),
     ("bridges with LAMMPS's waves", GOOD + WET + "waves: {engine: lammps, amplitude: 1.0e-4, n: [1]}\n", [],
      "with waves.engine: lammps: LAMMPS's waves have no bridges", None),
     ("a wet packing file read dry", "packing: {file: '{file}'}\n", [],
@@ -371,6 +380,11 @@ CASES = [
      "volume: 1.0e-3}}\n", [], "the packing was made with the bridges", _wet()),
     ("a bridge beyond its rupture distance", "packing: {file: '{file}'}\n" + WET, [],
      "bridge(s) span a gap at or beyond the rupture distance", _wet(_far_bridge)),
+    ("LIGGGHTS's bridges beyond the rupture distance of the scene's law", LIGGGHTS_WET + "model: {rho: [1.0], "
+     "lever: contact, cohesion: {law: soulie, surface_tension: 0.005, liquid_content: 0.001}}\n", [],
+     "bridge(s) span a gap at or beyond the rupture distance", _liggghts_wet),
+    ("LIGGGHTS's wet packing read dry", LIGGGHTS_WET + "model: {lever: contact}\n", [],
+     "a wet packing's bridges are pairs apart too: LIGGGHTS lists them; read it with model.cohesion", _liggghts_wet),
     ("negative dashpot rate", GOOD + "model: {damping: {gamma_n: -0.3}}\n", [],
      "model.damping.gamma_n = -0.3: must be in [0.0", None),
     ("an undamped spectrum method with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\n"

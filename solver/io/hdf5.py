@@ -39,7 +39,7 @@ from . import contact_files, dem_formats
 from .atomic import atomic_write
 from ..contact_law import ContactModel
 from ..packing import bridges as bridging
-from ..packing import mechanics, stressed
+from ..packing import geometry, mechanics, stressed
 from ..packing.configuration import Packing
 from ..packing.jammed import from_arrays
 
@@ -230,19 +230,23 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
     positions, diameters = (raw.positions - raw.box_lo) / unit, raw.diameters / unit
     box = (raw.box_hi - raw.box_lo) / unit
-    stored = None
+    stored = gap = None
     if contacts is not None:
         _check_box(box, diameters, path, "box")
         _check_distinct(positions, diameters, box, path)
-        stored = _stored_forces(contacts, raw, positions, diameters, box, model.law, friction, unit, contacts_format)
+        stored, gap = _stored_forces(contacts, raw, positions, diameters, box, model, friction, unit,
+                                     contacts_format)
         info.update(contacts=contacts)
-    return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, model, stored)
+    return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, model, stored,
+                   gap)
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
-                   box: np.ndarray, law: str, friction: float | None, unit: float, fmt: str):
+                   box: np.ndarray, model: ContactModel, friction: float | None, unit: float, fmt: str):
     """The contact file ``path`` (format ``fmt``) of the packing ``raw`` as rotsound's stored
-    tangential forces."""
+    tangential forces and, under ``model.cohesion``, the bridged pairs apart (LIGGGHTS's
+    pair/gran/local lists every bridged pair, touching or not; None when dry)."""
+    law = model.law
     found = contact_files.read(path, fmt)
     at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
     missing = np.flatnonzero(raw.ids[at] != found.ids)
@@ -258,7 +262,16 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
         if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
             raise InputError(f"contact file {path}: a tangential force has a z component, but the packing is 2D")
         force = force[:, :2]
-    return stressed.build(at, force, positions, diameters, box, law, friction, f"contact file {path}")
+    gap = None
+    if model.cohesion is not None:  # the listed pairs apart are bridged (checks: bridges.build)
+        _, _, overlap = geometry.pair_geometry(positions, diameters, box, np.sort(at, axis=1))
+        apart = overlap <= 0.0
+        gap = bridging.build(at[apart], positions, diameters, box, model.cohesion, f"contact file {path}")
+        # LIGGGHTS's tangential part of a pull along the centre line is round-off (measured 2e-17 on
+        # bridges and contacts of a packing without a tangential spring): no stored force
+        noise = np.linalg.norm(force, axis=1) <= stressed.NORMAL_PART_FLOOR
+        force = np.where(noise[:, None], 0.0, force)
+    return stressed.build(at, force, positions, diameters, box, law, friction, f"contact file {path}"), gap
 
 
 def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,
@@ -282,9 +295,12 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
                          f"one contact file per packing file, in the same order")
     for index, path in enumerate(paths):
         kind = fmt or dem_formats.detect_format(path)
-        if kind != "rotsound" and model.cohesion is not None:
+        if kind != "rotsound" and model.cohesion is not None and (contacts is None or
+                                                                   contacts_format != "liggghts-local"):
             raise InputError(f"packing file {path}: a {kind} file gives no bridged pairs apart, which model.cohesion "
-                             f"needs (docs/capillary_bridges.md); give a wet packing in rotsound's HDF5 format")
+                             f"needs (docs/capillary_bridges.md); give LIGGGHTS's contact file with it "
+                             f"(packing.contacts, contacts_format: liggghts-local), or a wet packing in rotsound's "
+                             f"HDF5 format")
         if kind != "rotsound":
             packings.append(_from_dem(path, kind, check_equilibrium, model, contacts[index] if contacts else None,
                                       friction, contacts_format))

@@ -99,7 +99,7 @@ def check_cohesion(cohesion, where: str) -> None:
 def check_wet(model, packing, waves) -> None:
     """Refuse capillary bridges (``model.cohesion``) where rotsound cannot take them yet: packings
     made by LAMMPS (its engine has no bridges; rotsound's FIRE makes wet packings), a contact
-    file (it gives no bridged pairs), ``packing.relax`` (a dry re-minimisation) and LAMMPS's
+    file other than LIGGGHTS's (it gives no bridged pairs), ``packing.relax`` (a dry re-minimisation) and LAMMPS's
     waves.  (The sliding branch needs the packings' mu, which only those give.)  Not collective."""
     if model.cohesion is None:
         return
@@ -107,10 +107,10 @@ def check_wet(model, packing, waves) -> None:
     if packing.file is None and packing.engine == "lammps":
         raise InputError(f"{said} with packing.engine: lammps: LAMMPS's packing engine has no bridges; rotsound's "
                          f"FIRE (packing.engine: fire) makes wet packings")
-    if packing.contacts is not None:
-        raise InputError(f"{said} with packing.contacts: a contact file gives no bridged pairs apart, which a wet "
-                         f"packing needs (docs/capillary_bridges.md); give a wet packing file (rotsound's HDF5, with "
-                         f"its 'bridges' dataset)")
+    if packing.contacts is not None and packing.contacts_format != "liggghts-local":
+        raise InputError(f"{said} with packing.contacts_format: {packing.contacts_format}: that contact file gives "
+                         f"no bridged pairs apart, which a wet packing needs (docs/capillary_bridges.md); LIGGGHTS's "
+                         f"(liggghts-local) lists them, and rotsound's HDF5 files hold them")
     if packing.relax:
         raise InputError(f"{said} with packing.relax: the relaxation is dry (frictionless FIRE without bridges); "
                          f"give the wet packing at rest")

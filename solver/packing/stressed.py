@@ -104,7 +104,8 @@ def build(pairs: np.ndarray, force: np.ndarray, positions: np.ndarray, diameters
         raise InputError(f"{where}: {apart.size} listed pair(s) carry a force but do not touch in the packing "
                          f"(first: particles {pairs[k].tolist()}, 0-based, at overlap {overlap[k]:.3e} d0 <= 0); a "
                          f"stored force needs a contact: the contact file and the packing file must be written at the "
-                         f"same step")
+                         f"same step (a wet packing's bridges are pairs apart too: LIGGGHTS lists them; read it with "
+                         f"model.cohesion)")
     along = np.einsum("cd,cd->c", force, normal)
     size = np.linalg.norm(force, axis=1)
     tilted = np.flatnonzero(np.abs(along) > NORMAL_PART_TOL * size + NORMAL_PART_FLOOR)

@@ -100,3 +100,45 @@ def test_bridges_are_checked_against_their_packing(small_packing):
                            (np.concatenate((listed[:1], listed[:1])), "listed more than once")):
         with pytest.raises(InputError, match=message):
             bridges.build(pairs, packing.positions, packing.diameters, packing.box, COHESION, "test")
+
+
+LIGGGHTS_WET = Cohesion("soulie", surface_tension=0.005, contact_angle=0.0, liquid_content=0.05)
+
+
+def test_liggghts_wet_packing_is_at_rest_with_the_pull_and_its_response_is_minus_d_x(comm):
+    """LIGGGHTS's own wet packing (tests/data/dem/liggghts_3d_wet.*, cohesion easo/capillary/viscous,
+    no tangential spring), read with its contact file, whose pairs apart are its bridges: at rest
+    under rotsound's Soulie pull (not without it), and LIGGGHTS's forces one step after moving every
+    sphere are -D x of rotsound's wet matrix to the moves' second order (measured 2.3e-8 of the
+    largest force); the dry matrix misses by 5e-2."""
+    import re
+
+    from conftest import REPO
+
+    from solver.io import hdf5
+    from solver.packing import mechanics
+
+    data = REPO / "tests" / "data" / "dem"
+    files = {"contacts": str(data / "liggghts_3d_wet.contacts"), "contacts_format": "liggghts-local"}
+    p = hdf5.read_packings(str(data / "liggghts_3d_wet.data"), model=ContactModel(lever="contact",
+                                                                                  cohesion=LIGGGHTS_WET), **files)[0]
+    assert len(p.bridges) == 24 and p.info["n_bridges"] > p.info["n_contacts"], p.info
+    assert mechanics.net_force(p) < 1e-10, mechanics.net_force(p)
+    dry = dataclasses.replace(p, model=ContactModel(lever="contact"), bridges=None)
+    assert mechanics.net_force(dry) > 1e-2, "the pull changes nothing"
+    with pytest.raises(InputError, match="read it with model.cohesion"):
+        hdf5.read_packings(str(data / "liggghts_3d_wet.data"), model=ContactModel(lever="contact"), **files)
+    text = (data / "liggghts_3d_wet.response").read_text()
+    frames = [np.loadtxt(chunk.strip().splitlines()[:p.n]) for chunk in re.split(r"ITEM: ATOMS[^\n]*\n", text)[1:]]
+    assert len(frames) == 3 and np.array_equal(frames[0][:, 0], np.arange(1, p.n + 1))
+    dt, active = 1e-4, ~p.rattler  # the script's step; d0 = 1 (the mean diameter), kn = 1
+    moves = frames[0][active, 1:4] * dt
+    forces = 0.5 * (frames[1][active, 4:7] - frames[2][active, 4:7])
+    errors = {}
+    for name, model in (("wet", ContactModel(lever="contact", cohesion=LIGGGHTS_WET)),
+                        ("dry", ContactModel(lever="contact"))):
+        dm = dynmat.assemble(p, model, comm)
+        dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
+        dm.destroy()
+        errors[name] = np.abs(forces + (dense @ moves.ravel()).reshape(moves.shape)).max() / np.abs(forces).max()
+    assert errors["wet"] < 1e-6 and errors["dry"] > 1e-2, errors
