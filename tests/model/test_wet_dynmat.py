@@ -105,12 +105,14 @@ def test_bridges_are_checked_against_their_packing(small_packing):
 LIGGGHTS_WET = Cohesion("soulie", surface_tension=0.005, contact_angle=0.0, liquid_content=0.05)
 
 
-def test_liggghts_wet_packing_is_at_rest_with_the_pull_and_its_response_is_minus_d_x(comm):
-    """LIGGGHTS's own wet packing (tests/data/dem/liggghts_3d_wet.*, cohesion easo/capillary/viscous,
-    no tangential spring), read with its contact file, whose pairs apart are its bridges: at rest
-    under rotsound's Soulie pull (not without it), and LIGGGHTS's forces one step after moving every
-    sphere are -D x of rotsound's wet matrix to the moves' second order (measured 2.3e-8 of the
-    largest force); the dry matrix misses by 5e-2."""
+@pytest.mark.parametrize("dim, bridges_apart", [(2, 6), (3, 24)])
+def test_liggghts_wet_packing_is_at_rest_with_the_pull_and_its_response_is_minus_d_x(comm, dim, bridges_apart):
+    """LIGGGHTS's own wet packings (tests/data/dem/liggghts_{2d,3d}_wet.*, cohesion
+    easo/capillary/viscous, no tangential spring), read with their contact files, whose pairs apart
+    are their bridges: at rest under rotsound's Soulie pull (not without it), and LIGGGHTS's forces
+    one step after moving every particle are -D x of rotsound's wet matrix to the moves' second
+    order (measured 1.4e-8 of the largest force in 2D, 2.3e-8 in 3D); the dry matrix misses by 1.2e-2
+    and 4.9e-2."""
     import re
 
     from conftest import REPO
@@ -119,21 +121,22 @@ def test_liggghts_wet_packing_is_at_rest_with_the_pull_and_its_response_is_minus
     from solver.packing import mechanics
 
     data = REPO / "tests" / "data" / "dem"
-    files = {"contacts": str(data / "liggghts_3d_wet.contacts"), "contacts_format": "liggghts-local"}
-    p = hdf5.read_packings(str(data / "liggghts_3d_wet.data"), model=ContactModel(lever="contact",
-                                                                                  cohesion=LIGGGHTS_WET), **files)[0]
-    assert len(p.bridges) == 24 and p.info["n_bridges"] > p.info["n_contacts"], p.info
+    stem = f"liggghts_{dim}d_wet"
+    files = {"contacts": str(data / f"{stem}.contacts"), "contacts_format": "liggghts-local"}
+    p = hdf5.read_packings(str(data / f"{stem}.data"), model=ContactModel(lever="contact", cohesion=LIGGGHTS_WET),
+                           **files)[0]
+    assert p.dim == dim and len(p.bridges) == bridges_apart and p.info["n_bridges"] > p.info["n_contacts"], p.info
     assert mechanics.net_force(p) < 1e-10, mechanics.net_force(p)
     dry = dataclasses.replace(p, model=ContactModel(lever="contact"), bridges=None)
     assert mechanics.net_force(dry) > 1e-2, "the pull changes nothing"
     with pytest.raises(InputError, match="read it with model.cohesion"):
-        hdf5.read_packings(str(data / "liggghts_3d_wet.data"), model=ContactModel(lever="contact"), **files)
-    text = (data / "liggghts_3d_wet.response").read_text()
+        hdf5.read_packings(str(data / f"{stem}.data"), model=ContactModel(lever="contact"), **files)
+    text = (data / f"{stem}.response").read_text()
     frames = [np.loadtxt(chunk.strip().splitlines()[:p.n]) for chunk in re.split(r"ITEM: ATOMS[^\n]*\n", text)[1:]]
     assert len(frames) == 3 and np.array_equal(frames[0][:, 0], np.arange(1, p.n + 1))
-    dt, active = 1e-4, ~p.rattler  # the script's step; d0 = 1 (the mean diameter), kn = 1
-    moves = frames[0][active, 1:4] * dt
-    forces = 0.5 * (frames[1][active, 4:7] - frames[2][active, 4:7])
+    d0, dt, active = p.info["length_unit"], 1e-4, ~p.rattler  # the script's step; kn = 1
+    moves = frames[0][active, 1:1 + dim] * dt / d0
+    forces = 0.5 * (frames[1][active, 4:4 + dim] - frames[2][active, 4:4 + dim]) / d0
     errors = {}
     for name, model in (("wet", ContactModel(lever="contact", cohesion=LIGGGHTS_WET)),
                         ("dry", ContactModel(lever="contact"))):
@@ -141,4 +144,4 @@ def test_liggghts_wet_packing_is_at_rest_with_the_pull_and_its_response_is_minus
         dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
         dm.destroy()
         errors[name] = np.abs(forces + (dense @ moves.ravel()).reshape(moves.shape)).max() / np.abs(forces).max()
-    assert errors["wet"] < 1e-6 and errors["dry"] > 1e-2, errors
+    assert errors["wet"] < 1e-6 and errors["dry"] > 5e-3, errors
