@@ -134,6 +134,16 @@ def central_gradient(energy, w: np.ndarray, h: float) -> np.ndarray:
     return grad
 
 
+def split_generalised(w: np.ndarray, dim: int):
+    """(du, theta_i, theta_j) from generalised displacements w (C, 2m) = (u_i, theta_i, u_j, theta_j)
+    of pairs in ``dim`` dimensions: du (C, D); theta (C,) in 2D, (C, 3) in 3D."""
+    m = w.shape[1] // 2
+    theta_i, theta_j = w[:, dim:m], w[:, m + dim:]
+    if dim == 2:
+        theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
+    return w[:, :dim] - w[:, m:m + dim], theta_i, theta_j
+
+
 def assert_all(condition: bool, message: str = "") -> None:
     """Assert on every rank that ``condition`` holds on every rank."""
     verdicts = COMM.allgather(bool(condition))

@@ -5,7 +5,7 @@ the pair energy (docs/capillary_bridges.md)."""
 
 import numpy as np
 import pytest
-from conftest import assert_close, central_gradient, central_hessian
+from conftest import assert_close, central_gradient, central_hessian, split_generalised as split
 
 from solver import capillary, contact_law
 from solver.capillary import Cohesion
@@ -92,14 +92,6 @@ def bridged_pairs(dim, law, seed=0, count=16):
     geometry = {"separation": normal * (contact - overlap)[:, None], "contact": contact,
                 "normal": normal, "radius_i": r_i, "radius_j": r_j}
     return geometry, overlap
-
-
-def split(w, dim):
-    m = w.shape[1] // 2
-    theta_i, theta_j = w[:, dim:m], w[:, m + dim:]
-    if dim == 2:
-        theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
-    return w[:, :dim] - w[:, m:m + dim], theta_i, theta_j
 
 
 CASES = [(2, "harmonic", LAWS[0], {"rho": 0.5, "rho_roll": 0.3}), (2, "hertz", LAWS[1], {"rho": 0.5}),

@@ -3,7 +3,7 @@ central differences of its own energy, with Taylor-convergence checks, and the F
 
 import numpy as np
 import pytest
-from conftest import assert_close, central_gradient, central_hessian
+from conftest import assert_close, central_gradient, central_hessian, split_generalised as split
 
 from solver import contact_law
 from solver.contact_law import ContactModel
@@ -183,15 +183,6 @@ def random_contacts_nd(dim, count=16, seed=0):
     geometry = {"separation": normal * (contact - overlap)[:, None], "contact": contact,
                 "normal": normal, "radius_i": radii[0], "radius_j": radii[1]}
     return geometry, overlap
-
-
-def split(w, dim):
-    """(du, theta_i, theta_j) from generalised displacements w (C, 2m) = (u_i, theta_i, u_j, theta_j)."""
-    m = w.shape[1] // 2
-    theta_i, theta_j = w[:, dim:m], w[:, m + dim:]
-    if dim == 2:
-        theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
-    return w[:, :dim] - w[:, m:m + dim], theta_i, theta_j
 
 
 def energy_nd(geometry, springs, w):

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import assert_close, central_hessian
+from conftest import assert_close, central_hessian, split_generalised
 
 from solver import contact_law
 from solver.capillary import Cohesion
@@ -50,11 +50,9 @@ def total_energy_hessian(packing, model, pairs, h=1e-5):
     m = dim + (1 if dim == 2 else 3)
 
     def energy(w):
-        theta_i, theta_j = w[:, dim:m], w[:, m + dim:]
-        if dim == 2:
-            theta_i, theta_j = theta_i[:, 0], theta_j[:, 0]
+        du, theta_i, theta_j = split_generalised(w, dim)
         return contact_law.pair_energy(normal * distance[:, None], radius[i] + radius[j], normal, radius[i], radius[j],
-                                       model, du=w[:, :dim] - w[:, m:m + dim], theta_i=theta_i, theta_j=theta_j)
+                                       model, du=du, theta_i=theta_i, theta_j=theta_j)
 
     local = central_hessian(energy, len(pairs), 2 * m, h)
     dof = dynmat.dof_per_particle(dim, model)
