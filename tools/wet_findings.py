@@ -111,24 +111,27 @@ def figures(rows: list[dict], folder: str) -> list[str]:
     fig.tight_layout()
     written.append(_save(fig, folder, "wet_pressure.png"))
 
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharey=True)
     at = [r for r in rows if r["wet"] and abs(r["phi"] - 0.86) < 1e-9]
-    for ax, key, fixed, xlabel, log in ((axes[0], "volume", ("angle", "tension"), "bridge volume V (d0³)", True),
-                                        (axes[1], "angle", ("volume", "tension"), "contact angle θ (rad)", False),
-                                        (axes[2], "tension", ("volume", "angle"), "surface tension γ (kn)", True)):
-        defaults = {"volume": 1e-3, "angle": 0.0, "tension": 0.002}
-        series = sorted((r for r in at if all(r[name] == defaults[name] for name in fixed)), key=lambda r: r[key])
+    dry = next((r for r in rows if not r["wet"] and abs(r["phi"] - 0.86) < 1e-9), None)
+    defaults = {"volume": 1e-3, "angle": 0.0, "tension": 0.002}
+    for ax, key, xlabel, log in ((axes[0], "volume", "bridge volume V (d0³)", True),
+                                 (axes[1], "angle", "contact angle θ (rad)", False),
+                                 (axes[2], "tension", "surface tension γ (kn)", True)):
+        series = sorted((r for r in at if all(r[name] == defaults[name] for name in defaults if name != key)),
+                        key=lambda r: r[key])
         x = [r[key] for r in series]
-        ax.plot(x, [r["omega_RT"] for r in series], "s-", label="ω_r")
-        ax.plot(x, [r["omega_c"] for r in series], "s--", label="ω_c")
-        ax.plot(x, [10 * r["c_TR"] for r in series], "s:", label="10 c_T")
-        dry = next((r for r in rows if not r["wet"] and abs(r["phi"] - 0.86) < 1e-9), None)
-        if dry is not None:
-            for value, style in ((dry["omega_RT"], "-"), (dry["omega_c"], "--"), (10 * dry["c_TR"], ":")):
-                ax.axhline(value, color="0.5", lw=0.8, ls=style)
-        ax.set(xlabel=xlabel, ylabel="(1/t0; d0/t0)", xscale="log" if log else "linear")
+        for name, label, style in (("omega_RT", "ω_r", "s-"), ("omega_c", "ω_c", "s--"), ("c_L", "c_L", "o-"),
+                                   ("c_TR", "c_T", "o--")):
+            if dry is not None:  # change against the dry packing of the same phi, in %
+                ax.plot(x, [100 * (r[name] / dry[name] - 1) for r in series], style, label=label)
+        ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set(xlabel=xlabel, xscale="log" if log else "linear")
         ax.legend(fontsize=7)
-    axes[0].set_title("φ = 0.86, wet (grey: dry)")
+    axes[0].set_ylabel("wet against dry, φ = 0.86 (%)")
+    axes[0].set_title("the bridges' volume")
+    axes[1].set_title("contact angle")
+    axes[2].set_title("surface tension")
     fig.tight_layout()
     written.append(_save(fig, folder, "wet_bridges.png"))
     return written
