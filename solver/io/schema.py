@@ -160,7 +160,8 @@ class CohesionSpec:
                                       _range(0.0, 1e3, True), float)
 
     def cohesion(self) -> Cohesion:
-        """The bridges' law (``capillary.Cohesion``); ``model.rules.check_cohesion`` has checked it."""
+        """The bridges' law (``capillary.Cohesion``, which refuses what it cannot build: ValueError;
+        ``model.rules.check_cohesion`` turns that into the scene's InputError)."""
         return Cohesion(self.law, self.surface_tension, self.contact_angle, self.volume or 0.0,
                         self.liquid_content or 0.0)
 

@@ -247,7 +247,7 @@ def _gap_bridges(packing: Packing, model: ContactModel, order: np.ndarray, disk_
     start, stop = disk_range
     owned = np.zeros(packing.n, dtype=bool)
     owned[order[start:stop]] = True
-    pairs = packing.bridges[bridges.touching_any(packing.bridges, owned, ~packing.rattler)]
+    pairs = packing.bridges[bridges.rank_share(packing.bridges, owned, ~packing.rattler)]
     normal, distance, overlap = geometry.pair_geometry(packing.positions, packing.diameters, packing.box, pairs)
     radius = 0.5 * packing.diameters
     blocks = contact_law.pair_blocks(normal, distance, overlap, radius[pairs[:, 0]], radius[pairs[:, 1]], model,

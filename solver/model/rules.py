@@ -81,8 +81,6 @@ def check_cohesion(cohesion, where: str) -> None:
     """Refuse a ``model.cohesion`` section (``where``: its key path prefix) whose bridges cannot be
     built: no surface tension, or not exactly one of volume and liquid_content (``capillary.Cohesion``
     says what is allowed).  Not collective."""
-    from ..capillary import Cohesion
-
     if cohesion.surface_tension is None:
         raise InputError(f"{where}surface_tension is required: the liquid's surface tension in units of kn (> 0)")
     if (cohesion.volume is None) == (cohesion.liquid_content is None):
@@ -90,8 +88,7 @@ def check_cohesion(cohesion, where: str) -> None:
                          f"d0^3, or the liquid each particle carries as a fraction of its volume); got "
                          f"{'both' if cohesion.volume is not None else 'neither'}")
     try:
-        Cohesion(cohesion.law, cohesion.surface_tension, cohesion.contact_angle, cohesion.volume or 0.0,
-                 cohesion.liquid_content or 0.0)
+        cohesion.cohesion()
     except ValueError as exc:
         raise InputError(f"{where.rstrip('.')}: {exc}") from None
 

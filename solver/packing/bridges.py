@@ -47,7 +47,7 @@ def build(pairs: np.ndarray, positions: np.ndarray, diameters: np.ndarray, box, 
     return pairs[gap > 0]
 
 
-def touching_any(pairs: np.ndarray, owned: np.ndarray, active: np.ndarray) -> np.ndarray:
+def rank_share(pairs: np.ndarray, owned: np.ndarray, active: np.ndarray) -> np.ndarray:
     """(B,) bool: the bridges between two ``active`` particles with an end in ``owned`` (both (N,)
     bool): a rank's share, as ``geometry.find_contacts_touching`` takes it."""
     i, j = pairs[:, 0], pairs[:, 1]

@@ -145,8 +145,7 @@ def contact_forces(found: geometry.Contacts, diameters: np.ndarray, law: str,
     return force if tangential is None else force + tangential.on(found.i, found.j)
 
 
-def wet_pairs(positions: np.ndarray, box, bridges: np.ndarray | None, active: np.ndarray | None = None
-              ) -> np.ndarray:
+def wet_pairs(bridges: np.ndarray | None, active: np.ndarray | None = None) -> np.ndarray:
     """The bridged pairs across a gap (B, 2) between ``active`` particles (all when None); (0, 2)
     for a dry packing (``bridges`` None)."""
     if bridges is None:
@@ -190,9 +189,9 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
     counted = tangential is None  # the count rule: dry unstressed, and wet
     weighed = tangential is not None or cohesion is not None  # the force rule: stressed, and wet
     first, second = found.i, found.j
-    weight = np.linalg.norm(contact_forces(found, diameters, law, tangential, cohesion), axis=1)
+    weight = np.linalg.norm(contact_forces(found, diameters, law, tangential, cohesion), axis=1) if weighed else None
     if cohesion is not None:
-        gap = wet_pairs(positions, box, bridges)
+        gap = wet_pairs(bridges)
         pull = np.linalg.norm(bridging.pull_forces(positions, diameters, box, gap, cohesion), axis=1)
         first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
         weight = np.concatenate((weight, pull))
@@ -232,7 +231,7 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
     n_active = int(active.sum())
     wet = {}
     if cohesion is not None:
-        gap = wet_pairs(positions, box, bridges)
+        gap = wet_pairs(bridges)
         _, gap_distance, gap_overlap = geometry.pair_geometry(positions, diameters, box, gap)
         first, second = np.concatenate((found.i, gap[:, 0])), np.concatenate((found.j, gap[:, 1]))
         xi = np.concatenate((found.overlap, gap_overlap))
@@ -274,7 +273,7 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     torque = np.zeros((packing.n, rot))
     first, second = found.i, found.j
     if cohesion is not None:  # the bridges across a gap pull along their centre lines: no torque
-        gap = wet_pairs(packing.positions, packing.box, packing.bridges, active)
+        gap = wet_pairs(packing.bridges, active)
         f = np.concatenate((f, bridging.pull_forces(packing.positions, packing.diameters, packing.box, gap, cohesion)))
         first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
     for axis in range(packing.dim):

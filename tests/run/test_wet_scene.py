@@ -1,6 +1,6 @@
 """A wet scene (model.cohesion) through the pipeline on 1 and 2 ranks: the packing rotsound's FIRE
 makes with the bridges, its units resumed, its results file read back by packing.file (the same
-counts), by the notebook API (the bridges), by the plots and by tools/wet_findings.py."""
+counts), by the notebook API (the bridges), by the plots, the export and tools/wet_findings.py."""
 
 import os
 
@@ -40,6 +40,10 @@ def test_wet_scene_runs_resumes_and_reads_back(comm, shared_tmp):
 
         # the re-read scene's file (its packing with the bridges; a vDOS, no waves: fewer figures)
         assert any(path.endswith("_forces.png") for path in plots.plot_results(str(reread.output)))
+        from solver.io import export
+
+        written, _ = export.export(str(reread.output), "extxyz", str(shared_tmp / "wet.xyz"))
+        assert int(open(written[0]).readline()) == 64, written
         row = wet_findings.scene(str(scene.output))
         assert row["wet"] and row["bridges"] == made.info["n_bridges"] and row["phi"] == made.phi, row
         assert "| wet |" in wet_findings.table([row]).replace(row["name"], "wet")
