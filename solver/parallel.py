@@ -87,9 +87,12 @@ class Groups:
     """The ranks of ``comm`` in groups of ``size`` consecutive ranks (default: one group of all),
     each group with its own sub-communicator ``local``, and independent tasks dealt to them.
 
-    Task t of a list goes to group t % count (round-robin): the caller fixes the list's order
-    without regard to the grouping, so a task's result depends on the grouping only through the
-    size of the communicator it is solved on.  A ``local`` of several groups is named
+    Tasks are dealt in a snake: task t of a list goes to group t % count on even laps of
+    ``count`` tasks and to group count - 1 - t % count on odd ones (0, 1, 1, 0, 0, 1, ... for two
+    groups).  The caller orders the list by decreasing expected cost without regard to the
+    grouping, so that each lap's most costly task goes to the group whose share is the lightest
+    so far, and a task's result depends on the grouping only through the size of the
+    communicator it is solved on.  A ``local`` of several groups is named
     ``group <g>/<count>`` (MPI's communicator name, read back by :func:`label`).  Collective on
     ``comm`` (making and freeing; use it as a context manager).
     """
@@ -112,12 +115,13 @@ class Groups:
             self.local.Free()
 
     def owner(self, task: int) -> int:
-        """The group that solves task number ``task``. Not collective."""
-        return task % self.count
+        """The group that solves task number ``task`` (the snake deal). Not collective."""
+        lap, place = divmod(task, self.count)
+        return place if lap % 2 == 0 else self.count - 1 - place
 
     def mine(self, tasks: Sequence[Any]) -> list[Any]:
         """The tasks of this rank's group, in their order. Not collective."""
-        return list(tasks[self.index::self.count])
+        return [task for t, task in enumerate(tasks) if self.owner(t) == self.index]
 
     def wait(self, poll: float = 0.01) -> None:
         """Barrier on ``comm`` that sleeps instead of spinning while the other groups finish their

@@ -125,8 +125,11 @@ def _relaxed(p: Packing, index: int, scene: Scene) -> Packing:
 def _solve_in_groups(scene: Scene, packings, keys, store: UnitStore, groups: parallel.Groups) -> dict:
     """Every matrix, spectrum and waves unit of the scene, on every rank. Collective on ``groups.comm``.
 
-    The tasks -- each (rho, packing), rho-major, an order that does not depend on the grouping --
-    are dealt round-robin to the groups (``groups.mine``).  Each group loads or computes its
+    The tasks -- each (rho, packing), rho-major from the largest rho down, an order that does not
+    depend on the grouping -- are dealt to the groups in a snake (``groups.mine``): a task's cost
+    grows with rho (omega_max sets the Lanczos steps of its waves and the inertias of its counts),
+    so each group gets a costly and a cheap one in turn (measured in BENCHMARKS "paper programme":
+    round-robin left one group of the waves scene idle for about 5 min).  Each group loads or computes its
     tasks' units on its own communicator, through its own handle to the units folder, and checks
     for SIGTERM on that communicator between units; ``groups.comm`` is not used until every group
     is done.  Then an error of any group is raised on every rank (before an interruption, should
@@ -135,7 +138,9 @@ def _solve_in_groups(scene: Scene, packings, keys, store: UnitStore, groups: par
     several ranks may be one rank's alone, with the others of its group stuck in a collective:
     it is not caught here, and the command line aborts every rank (as without groups).
     """
-    tasks = [(r_index, p_index) for r_index in range(len(scene.model.rho)) for p_index in range(len(packings))]
+    rho = scene.model.rho
+    tasks = [(r_index, p_index) for r_index in sorted(range(len(rho)), key=lambda r: -rho[r])
+             for p_index in range(len(packings))]
     local = store.on(groups.local)
     agreed = BaseException if groups.size == 1 else (InputError, NumericalFailure, Interrupted)
     units: dict[str, tuple[dict, dict]] = {}

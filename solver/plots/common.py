@@ -10,6 +10,11 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")  # files only, no display needed
+DPI = 150
+"""Resolution of the PNG files.  Figures are made at it too, so that the layout pass and the PNG
+share matplotlib's cache of laid-out text, which is keyed by dpi (measured: `rotsound report` of a
+128-disk scene with waves, 8 figures, 10.5 s -> 9.0 s)."""
+matplotlib.rcParams["figure.dpi"] = DPI
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
@@ -24,7 +29,7 @@ def save(fig, stem: str) -> list[str]:
     paths = [f"{stem}.png", f"{stem}.pdf"]
     try:
         for path in paths:
-            fig.savefig(path, dpi=150)
+            fig.savefig(path, dpi=DPI)
     except OSError as exc:
         raise InputError(f"figure {path}: cannot write ({exc})") from None
     finally:

@@ -8,8 +8,8 @@ one sparse factorisation per bin edge, exact integers, no Krylov iterations (PHY
 Cost [decision]: the pattern of A - sigma I never changes, so each factorising group keeps one
 factorisation object (``slicing.ShiftedInertia``) whose symbolic analysis (ordering, elimination
 tree) is done once and refactorises numerically only at every further shift.  Bin edges are
-independent: they are dealt round-robin to groups of ``factor_ranks`` consecutive ranks
-(``parallel.Groups``), each group holding its own copy of A spread over its ranks
+independent: they are dealt (``parallel.Groups``' snake) to groups of ``factor_ranks``
+consecutive ranks, each group holding its own copy of A spread over its ranks
 (``MatCreateRedundantMatrix``) and factorising it in parallel with MUMPS on its sub-communicator.
 ``factor_ranks`` = 1 gives every rank a sequential factor of its own: no
 communication inside a factorisation, the fastest while one whole factor fits in a rank's memory
@@ -126,7 +126,7 @@ def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.
                 error = exc
             parallel.agree(comm, error)
             try:
-                for index in range(groups.index, len(shifts), groups.count):
+                for index in groups.mine(range(len(shifts))):
                     mine[index] = known[index] if index in known else counter.count_below(float(shifts[index]))
             except BaseException as exc:  # noqa: BLE001 - raised on every rank below
                 error = exc

@@ -109,12 +109,16 @@ def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitu
                 v = Y.getDenseArray()
                 if beta:
                     v -= beta[-1] * q_prev
-                dots = mpi.allreduce(np.concatenate([np.einsum("iw,iw->w", q, v), np.einsum("iw,iw->w", b_re, q),
-                                                     np.einsum("iw,iw->w", b_im, q)]), op=MPI.SUM)
+                local = np.concatenate([np.einsum("iw,iw->w", q, v), np.einsum("iw,iw->w", b_re, q),
+                                        np.einsum("iw,iw->w", b_im, q)])
+                dots = np.empty_like(local)
+                mpi.Allreduce(local, dots, op=MPI.SUM)  # buffers, not pickles: a step's fixed cost
                 alpha.append(dots[:count])
                 w.append(dots[count:2 * count] - 1j * dots[2 * count:])
                 v -= alpha[-1] * q
-                nrm = np.sqrt(mpi.allreduce(np.einsum("iw,iw->w", v, v), op=MPI.SUM))
+                nrm = np.einsum("iw,iw->w", v, v)
+                mpi.Allreduce(MPI.IN_PLACE, nrm, op=MPI.SUM)
+                np.sqrt(nrm, out=nrm)
                 closed = (nrm < floor) & (length < 0)
                 length[closed] = len(alpha)
                 if np.all(length >= 0):

@@ -181,25 +181,41 @@ def rank_tolerance(key, ref, got, fit_change):
     raise AssertionError(f"{key}: no stated rank-count tolerance")
 
 
+@pytest.fixture(scope="session")
+def rank_runs(tmp_path_factory):
+    """``run(name, ranks, *words)``: RANK_SCENE run once per (ranks, words) in the session by
+    ``rotsound run`` on that many ranks; returns (stdout, the output files' stem).  The rank-count
+    and grouping tests compare against the same runs (each costs 5-15 s of process start and
+    work), so they share them."""
+    done = {}
+
+    def run(ranks, *words):
+        if (ranks, words) not in done:
+            stem = tmp_path_factory.mktemp("rank_scene") / f"r{ranks}"
+            scene = write(stem.parent, RANK_SCENE.format(out=stem), "scene.yaml")
+            proc = run_cli(["run", scene, *words], ranks, timeout=300)
+            assert proc.returncode == 0, proc.stderr
+            done[ranks, words] = proc.stdout, stem
+        return done[ranks, words]
+    return run
+
+
 @pytest.mark.spawns_ranks
-def test_results_do_not_depend_on_rank_count(tmp_path):
+def test_results_do_not_depend_on_rank_count(rank_runs):
     """The same scene on 1, 2 and 3 ranks (3 oversubscribed; 3 sub-intervals per slicing window):
     every dataset and attribute agrees to the tolerance rank_tolerance states for it."""
-    scene = write(tmp_path, RANK_SCENE.format(out=tmp_path / "r1"), "r1.yaml")
-    assert run_cli(["run", scene], 1, timeout=300).returncode == 0
-    refs = {doc: contents(tmp_path / f"r1_{doc}.h5") for doc in "ab"}
-    fit_change = {key: value for doc in "ab" for key, value in fit_sensitivity(tmp_path / f"r1_{doc}.h5").items()}
+    _, stem = rank_runs(1)
+    refs = {doc: contents(f"{stem}_{doc}.h5") for doc in "ab"}
+    fit_change = {key: value for doc in "ab" for key, value in fit_sensitivity(f"{stem}_{doc}.h5").items()}
     a = refs["a"]
     for key in ("analysis/rho0.2_RT@k_c", "analysis/rho2_TR@power_law_p", "analysis/lattice@a_r",
                 "analysis/lattice@l", "analysis/lattice@a_t", "analysis/lattice@a_t_edge"):
         assert np.isfinite(a[key]), key  # the scene exercises every fitted quantity
     assert a["vdos/r00@omega_c_std"] > 0 and "spectra/r00_p0000/density" in refs["b"]
     for ranks in (2, 3):
-        scene = write(tmp_path, RANK_SCENE.format(out=tmp_path / f"r{ranks}"), f"r{ranks}.yaml")
-        proc = run_cli(["run", scene], ranks, timeout=300)
-        assert proc.returncode == 0, proc.stderr
+        _, stem = rank_runs(ranks)
         for doc, ref in refs.items():
-            assert_within_rank_tolerance(contents(tmp_path / f"r{ranks}_{doc}.h5"), ref, fit_change, (ranks, doc))
+            assert_within_rank_tolerance(contents(f"{stem}_{doc}.h5"), ref, fit_change, (ranks, doc))
 
 
 def assert_within_rank_tolerance(got, ref, fit_change, what):

@@ -8,7 +8,7 @@ import re
 
 import pytest
 from conftest import COMM, assert_all, run_cli, scene_of
-from test_cli import RANK_SCENE, assert_within_rank_tolerance, contents, fit_sensitivity, write
+from test_cli import assert_within_rank_tolerance, contents, fit_sensitivity, rank_runs  # noqa: F401 (a fixture)
 
 from solver import parallel, pipeline
 from solver.errors import InputError, Interrupted
@@ -21,9 +21,10 @@ def small(path):
                     spectrum={"energies": True}, waves={"n": [1, 2], "method": "spectral", "t_end": 20})
 
 
-def test_groups_split_consecutive_ranks_and_deal_tasks_round_robin():
-    """Groups of 1 on any rank count: group g is rank g, task t goes to group t % count, and
-    share() gives every rank every task's result, taken from its owner, in task order."""
+def test_groups_split_consecutive_ranks_and_deal_tasks_in_a_snake():
+    """Groups of 1 on any rank count: group g is rank g, task t goes to group t % count on even
+    laps of count tasks and to count - 1 - t % count on odd ones, and share() gives every rank
+    every task's result, taken from its owner, in task order."""
     tasks = list(range(7))
     with parallel.Groups(COMM) as one:
         assert_all(one.count == 1 and one.local is COMM and one.mine(tasks) == tasks, "one group of all ranks")
@@ -31,12 +32,15 @@ def test_groups_split_consecutive_ranks_and_deal_tasks_round_robin():
     with parallel.Groups(COMM, 1) as groups:
         assert_all(groups.count == COMM.size and groups.local.size == 1 and groups.index == COMM.rank,
                    f"rank {COMM.rank}: group {groups.index} of {groups.count}")
-        assert_all(groups.mine(tasks) == tasks[COMM.rank::COMM.size], f"rank {COMM.rank}: {groups.mine(tasks)}")
+        snake = [t for t in tasks if (t % COMM.size if t // COMM.size % 2 == 0 else COMM.size - 1 - t % COMM.size) == COMM.rank]
+        assert_all(groups.mine(tasks) == snake, f"rank {COMM.rank}: {groups.mine(tasks)}")
+        if COMM.size == 2:
+            assert_all([groups.owner(t) for t in tasks] == [0, 1, 1, 0, 0, 1, 1], "0, 1, 1, 0, ... for two groups")
         label = "" if COMM.size == 1 else f"[group {COMM.rank + 1}/{COMM.size}] "
         assert_all(parallel.label(groups.local) == label, repr(parallel.label(groups.local)))
         shared = groups.share({f"t{t}": (t, COMM.rank) for t in groups.mine(tasks)},
                               {f"t{t}": groups.owner(t) for t in tasks})
-        assert_all(list(shared.items()) == [(f"t{t}", (t, t % COMM.size)) for t in tasks], str(shared))
+        assert_all(list(shared.items()) == [(f"t{t}", (t, groups.owner(t))) for t in tasks], str(shared))
     for bad in (0, COMM.size + 1):
         with pytest.raises(ValueError, match="does not divide"):
             parallel.Groups(COMM, bad)
@@ -53,7 +57,7 @@ def _matrix_lines(log):
 def test_groups_of_one_rank_equal_one_group_of_all(shared_tmp, capsys):
     """In-process on every rank: groups of 1 against one group of all ranks.  Every dataset and
     attribute agrees to the rank-count tolerances; each rank solved (and printed, prefixed with
-    its group) exactly its round-robin share; the unit summary, printed once, counts every
+    its group) exactly its share of the snake deal, from the largest rho down; the unit summary, printed once, counts every
     group's units (before the counts were gathered it would count rank 0's group only)."""
     ref = shared_tmp / "all.h5"
     pipeline.run(small(ref), COMM, [])
@@ -61,8 +65,9 @@ def test_groups_of_one_rank_equal_one_group_of_all(shared_tmp, capsys):
     got = shared_tmp / "ones.h5"
     pipeline.run(small(got), COMM, [], group_size=1)
     log = capsys.readouterr().out
-    tasks = [(rho, p) for rho in (0.5, 1.0) for p in (0, 1)]
-    mine = {(f"[group {COMM.rank + 1}/{COMM.size}] ", rho, p) for rho, p in tasks[COMM.rank::COMM.size]}
+    tasks = [(rho, p) for rho in (1.0, 0.5) for p in (0, 1)]  # dealt 0, 1, 1, 0 on 2 groups
+    with parallel.Groups(COMM, 1) as groups:
+        mine = {(f"[group {COMM.rank + 1}/{COMM.size}] ", rho, p) for rho, p in groups.mine(tasks)}
     assert_all(_matrix_lines(log) == mine, f"rank {COMM.rank}: {sorted(_matrix_lines(log))}")
     summary = [line for line in log.splitlines() if line.startswith("units:")]
     expected = ["units: matrices 4 computed; packings 2 computed; spectra 4 computed; spectrum_windows 8 computed; "
@@ -102,8 +107,9 @@ def test_error_in_one_group_raises_on_every_rank(shared_tmp, monkeypatch, failur
     assert_all(type(caught) is type(failure) and "injected in the last group" in str(caught),
                f"rank {COMM.rank} raised {caught!r}")
     kept = sorted(p.name for p in (shared_tmp / (out.name + ".units")).glob("matrices__*.h5"))
-    assert_all(kept == (["matrices__r00_p0000.h5"] if first_group_stopped else
-                        ["matrices__r00_p0000.h5", "matrices__r01_p0000.h5"]), str(kept))
+    # group 1's tasks in the snake deal, from the largest rho down: (rho 1, packing 0), then (rho 0.5, packing 1)
+    assert_all(kept == (["matrices__r01_p0000.h5"] if first_group_stopped else
+                        ["matrices__r00_p0001.h5", "matrices__r01_p0000.h5"]), str(kept))
     assert_all(not out.exists(), "no results file")
 
 
@@ -112,7 +118,7 @@ def test_error_in_one_group_raises_on_every_rank(shared_tmp, monkeypatch, failur
 @pytest.mark.timeout(240)
 def test_sigterm_in_one_group_stops_every_rank_and_resumes_with_another_group_size(shared_tmp, monkeypatch,
                                                                                     capsys):
-    """Groups of 1 on 2 ranks: group 2 (rank 1) gets SIGTERM during its first task, (rho 0.5,
+    """Groups of 1 on 2 ranks: group 2 (rank 1) gets SIGTERM during its first task, (rho 1,
     packing 1); group 1 never does and finishes both its tasks.  Every rank raises Interrupted
     once the groups are done; the rerun as one group of 2 resumes the 3 finished tasks, computes
     the last, and equals an uninterrupted one-group run to the rank-count tolerances."""
@@ -147,23 +153,20 @@ def test_sigterm_in_one_group_stops_every_rank_and_resumes_with_another_group_si
 
 @pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own mpirun
-def test_cli_groups_on_2_and_4_ranks_equal_one_group(tmp_path):
+def test_cli_groups_on_2_and_4_ranks_equal_one_group(rank_runs):
     """`rotsound run --group-size G` of the rank-count scene (slicing, spectral waves and the
     analysis; KPM and Verlet waves): 2 ranks in groups of 1 and 4 ranks (oversubscribed) in
-    groups of 2 against 2 ranks in one group, every dataset and attribute to the rank-count
-    tolerances; the group size is recorded; progress lines carry their group."""
-    runs = {}
-    for name, ranks, words in (("one", 2, []), ("ones", 2, ["--group-size", "1"]), ("twos", 4, ["--group-size", "2"])):
-        scene = write(tmp_path, RANK_SCENE.format(out=tmp_path / name), f"{name}.yaml")
-        proc = run_cli(["run", scene, *words], ranks, timeout=300)
-        assert proc.returncode == 0, proc.stderr
-        runs[name] = proc.stdout
-    assert "[group" not in runs["one"] and "[group 2/2] matrix rho = 0.2, packing 1" in runs["ones"], runs["ones"]
-    assert "2 groups of 2 ranks share the 4 (rho, packing) tasks" in runs["twos"], runs["twos"]
+    groups of 2 against 2 ranks in one group (the rank-count test's run, shared), every dataset
+    and attribute to the rank-count tolerances; the group size is recorded; progress lines carry
+    their group."""
+    runs = {"one": rank_runs(2), "ones": rank_runs(2, "--group-size", "1"), "twos": rank_runs(4, "--group-size", "2")}
+    logs = {name: log for name, (log, _) in runs.items()}
+    assert "[group" not in logs["one"] and "[group 2/2] matrix rho = 0.2, packing 0" in logs["ones"], logs["ones"]
+    assert "2 groups of 2 ranks share the 4 (rho, packing) tasks" in logs["twos"], logs["twos"]
     for doc in "ab":
-        ref = contents(tmp_path / f"one_{doc}.h5")
-        fit_change = fit_sensitivity(tmp_path / f"one_{doc}.h5")
+        ref = contents(f"{runs['one'][1]}_{doc}.h5")
+        fit_change = fit_sensitivity(f"{runs['one'][1]}_{doc}.h5")
         for name, size in (("ones", 1), ("twos", 2)):
-            got = contents(tmp_path / f"{name}_{doc}.h5")
+            got = contents(f"{runs[name][1]}_{doc}.h5")
             assert got["@group_size"] == size and ref["@group_size"] == 2, (got["@group_size"], ref["@group_size"])
             assert_within_rank_tolerance(got, ref, fit_change, (name, doc))
