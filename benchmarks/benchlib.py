@@ -44,9 +44,10 @@ def mpirun(n: int) -> list[str]:
     return cmd
 
 
-def run_json(cmd: list[str], timeout: float = 7200) -> dict:
-    """Run a case in a fresh process; it prints one JSON line last."""
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=REPO)
+def run_json(cmd: list[str], timeout: float = 7200, env: dict | None = None) -> dict:
+    """Run a case in a fresh process (environment ``env``, default this one's); it prints one
+    JSON line last."""
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=REPO, env=env)
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stdout}\n{proc.stderr}")
     return json.loads(proc.stdout.strip().splitlines()[-1])

@@ -57,7 +57,8 @@ def _versions() -> str:
         import slepc4py
 
         lines += [f"PETSc {petsc4py.__version__} (petsc4py at {petsc4py.get_config()['PETSC_DIR']})",
-                  f"SLEPc {slepc4py.__version__}"]
+                  f"SLEPc {slepc4py.__version__}",
+                  f"MUMPS: {'Debian PT-Scotch build (SCOTCH ordering)' if petscenv.mumps_build() == 'ptscotch' else 'Debian build'}"]
     except ImportError as exc:
         lines.append(f"PETSc/SLEPc: not found ({exc})")
     return "\n".join(lines)

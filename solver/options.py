@@ -183,9 +183,12 @@ def _which_name(eps) -> str:
 
 def pc_settings(pc) -> dict:
     """Type of a PETSc PC and, for a factorisation, the package that factorises and (MUMPS, once
-    factorised) ICNTL 13 and 24, and the block low-rank settings ICNTL 35 (0: off) and CNTL 7 (the
-    dropping parameter), read back from the object. Not collective."""
+    factorised) its build (``petscenv.mumps_build``), ICNTL 13 and 24, the ordering it used
+    (INFOG 7: 3 SCOTCH, 4 PORD, 2 AMF, 0 AMD, 6 QAMD), and the block low-rank settings ICNTL 35
+    (0: off) and CNTL 7 (the dropping parameter), read back from the object. Not collective."""
     from petsc4py import PETSc
+
+    from . import petscenv
 
     out = {"pc_type": pc.getType()}
     if out["pc_type"] in ("cholesky", "lu"):
@@ -194,6 +197,7 @@ def pc_settings(pc) -> dict:
             try:  # the factor matrix exists once the PC is set up
                 factor = pc.getFactorMatrix()
                 out["mumps_icntl"] = {"13": factor.getMumpsIcntl(13), "24": factor.getMumpsIcntl(24)}
+                out["mumps_build"], out["mumps_ordering_infog7"] = petscenv.mumps_build(), factor.getMumpsInfog(7)
                 out["mumps_blr"] = {"icntl_35": factor.getMumpsIcntl(35), "cntl_7": factor.getMumpsCntl(7)}
             except PETSc.Error:  # not set up yet: no ICNTL to report
                 pass

@@ -105,8 +105,8 @@ def group_copy(A, groups):
 def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.ndarray, dict]:
     """(number of eigenvalues of A below each of ``shifts`` (S,) int64, factorisation settings).
 
-    Collective on ``comm`` (mpi4py; A's communicator).  Shift i is counted by group i % G of the G
-    groups of ``factor_ranks`` consecutive ranks (a divisor of ``comm.size``, or "auto":
+    Collective on ``comm`` (mpi4py; A's communicator).  The shifts are dealt (a snake:
+    ``parallel.Groups``) to the G groups of ``factor_ranks`` consecutive ranks (a divisor of ``comm.size``, or "auto":
     :func:`auto_factor_ranks`), on the group's copy of A with a reused :class:`ShiftedInertia`;
     every rank gets every count, and an error on any rank is raised on all.  The settings add
     ``factor_ranks`` and ``factor_groups`` (and with auto, its estimate and budget, GiB).

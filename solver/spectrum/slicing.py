@@ -68,7 +68,10 @@ class Spectrum:
 def _mumps_defaults(pc) -> None:
     """ICNTL(13) = 1 (the root node is not factorised by ScaLAPACK, so parallel inertias are
     right) and ICNTL(24) = 1 (null pivots detected instead of failing) on a PC that factorises
-    with MUMPS; a no-op for another package.  Called after setFromOptions: the factor matrix reads
+    with MUMPS; a no-op for another package.  The ordering is MUMPS's automatic choice (ICNTL 7 =
+    7): with the PT-Scotch build (``petscenv.mumps_build``) it takes SCOTCH's nested dissection
+    for the larger matrices (measured: 12,273 DOF and up) and AMF for small ones, PORD and AMF with
+    Debian's build (BENCHMARKS "orderings").  Called after setFromOptions: the factor matrix reads
     its own options (``-<prefix>mat_mumps_icntl_*``) when it is factorised, so those still win.
     Collective."""
     if pc.getType() in ("cholesky", "lu") and pc.getFactorSolverType() == "mumps":

@@ -35,6 +35,8 @@ def test_counts_equal_dense_eigenvalue_histogram(comm, small_packing, rho):
     assert_all(datasets["edges"][-1] > np.sqrt(lam.max()), "the last edge must lie above every mode")
     assert_close(attrs["omega_max"], np.sqrt(lam.max()), rtol=1e-8, what="omega_max (Lanczos tol 1e-8)")
     assert_all(settings["inertia"]["factor_package"] == "mumps", str(settings))
+    # tools/setup.sh installs Debian's PT-Scotch MUMPS and petscenv loads it
+    assert_all(settings["inertia"]["mumps_build"] == "ptscotch", str(settings))
 
 
 def test_reused_factorisation_counts_like_fresh_ones(comm, small_packing):
@@ -149,6 +151,54 @@ def test_four_ranks_count_alike_in_every_layout():
     out = json.loads(done.stdout.strip().splitlines()[-1])
     for ranks, counts in out["counts"].items():
         assert counts == out["dense"], (ranks, counts, out["dense"])
+
+
+BUILD = """
+import json, numpy as np
+from solver import petscenv
+PETSc = petscenv.init([])
+from solver.contact_law import ContactModel
+from solver.model import dynmat
+from solver.packing import jammed
+from solver.references import dense_eigenvalues
+from solver.model import operators
+from solver.spectrum import counting
+p = jammed.generate(128, 0.7, np.random.SeedSequence([5, 0]), dim=3)
+dm = dynmat.assemble(p, ContactModel(0.5, rho_roll=0.3, rho_twist=0.2), PETSc.COMM_WORLD)
+datasets, _, settings = counting.solve(dm, bin_width=0.2, zero_tol=1e-4)
+lam = dense_eigenvalues(dm)
+big = dynmat.assemble(jammed.generate(4096, 0.9, np.random.SeedSequence([5, 0])), ContactModel(1.0), PETSc.COMM_WORLD)
+counts, large = counting.counts_below(operators.scaled_operator(big), np.array([0.5, 2.0, 8.0]), PETSc.COMM_WORLD.tompi4py())
+print(json.dumps({"counts": datasets["counts"].tolist(), "build": settings["inertia"]["mumps_build"],
+                  "dense": np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), datasets["edges"])[0].tolist(),
+                  "large_counts": [int(c) for c in counts], "large_ordering": large["mumps_ordering_infog7"]}))
+"""
+
+
+@pytest.mark.serial_only  # starts processes of its own
+def test_both_mumps_builds_count_like_dense():
+    """Debian's PT-Scotch build of MUMPS (the default) and Debian's own build (ROTSOUND_MUMPS=debian)
+    count the same integers as the dense histogram (128 spheres with rolling and twisting), and the
+    same at three shifts of 4096 disks (12,288 DOF), which MUMPS orders with SCOTCH (INFOG 7 = 3)
+    in the first and PORD (4) in the second; another ROTSOUND_MUMPS is one clear error."""
+    import json
+    import subprocess
+    import sys
+
+    runs = {}
+    for build in ("ptscotch", "debian"):
+        done = subprocess.run([sys.executable, "-c", BUILD], capture_output=True, text=True, timeout=180,
+                              env={**child_env(), "ROTSOUND_MUMPS": build})
+        assert done.returncode == 0, done.stderr[-3000:]
+        runs[build] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert (runs["ptscotch"]["build"], runs["ptscotch"]["large_ordering"]) == ("ptscotch", 3), runs["ptscotch"]
+    assert (runs["debian"]["build"], runs["debian"]["large_ordering"]) == ("debian", 4), runs["debian"]
+    assert runs["ptscotch"]["counts"] == runs["debian"]["counts"] == runs["debian"]["dense"], runs
+    assert runs["ptscotch"]["large_counts"] == runs["debian"]["large_counts"], runs
+    assert len(set(runs["debian"]["large_counts"])) == 3, runs  # the shifts tell the counts apart
+    bad = subprocess.run([sys.executable, "-m", "solver", "--version"], capture_output=True, text=True, timeout=60,
+                         env={**child_env(), "ROTSOUND_MUMPS": "scotch"})
+    assert bad.returncode != 0 and "ROTSOUND_MUMPS = 'scotch': allowed are 'ptscotch'" in bad.stderr, bad
 
 
 def test_a_unit_counted_with_one_layout_is_reused_with_another(shared_tmp, monkeypatch, small_packing):

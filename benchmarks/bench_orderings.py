@@ -1,0 +1,94 @@
+"""Fill-reducing orderings for the exact 3D vDOS (issue 48 point 2): one MUMPS Cholesky of
+A - sigma I of the spheres matrix per ordering, with Debian's MUMPS (PORD, AMD, AMF, QAMD) and
+Debian's PT-Scotch build of the same MUMPS 5.5.1 (package libmumps-ptscotch-5.5), whose SCOTCH
+nested dissection (ICNTL 7 = 3) the default build lacks.
+
+    python -m benchmarks.bench_orderings [N ...] [--disks] [--cases BUILD:ORDERING ...]
+    (defaults: N = 4096, cases debian:4 debian:2 debian:0 debian:6 ptscotch:3)
+
+Packing: bench_spheres.load_spheres(N) (phi = 0.7), or with --disks benchlib.load_packing(N)
+(phi = 0.9: the paper's counting at N = 2048), rho = 1.  Each case runs alone in a fresh
+process on one rank with one BLAS thread (the layout of ``--group-size 1`` counting: a factor per
+rank); the PT-Scotch build is put in place of Debian's by LD_PRELOAD (the same MUMPS version and
+structure, so PETSc's interface calls it unchanged).  Per case: the first count (symbolic analysis
+and numeric factorisation, seconds) at sigma = 1, a second count at sigma = 4 (numeric only, as
+every further bin edge of counting), MUMPS's factor entries (INFOG 29), flops of the elimination
+(RINFOG 3), MB used (INFOG 22), the ordering used (INFOG 7), the peak RSS, and both counts: equal
+in every row, or the ordering changed an exact count.  Writes benchmarks/records/orderings.json
+after every case.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+from benchmarks.bench_spheres import load_spheres
+from benchmarks.benchlib import PY, load_packing, peak_rss_gib, run_json, save
+
+BENCH = {"order": 131, "args": ["4096"]}
+ME = ["-m", __spec__.name]
+PTSCOTCH = [f"/usr/lib/x86_64-linux-gnu/lib{name}_ptscotch-5.5.so" for name in ("mumps_common", "pord", "dmumps")]
+"""Debian's PT-Scotch build of MUMPS (libmumps-ptscotch-5.5), preloaded in this order."""
+SHIFTS = (1.0, 4.0)
+
+
+def case(n: int, ordering: int, dim: int) -> None:
+    """Two counts of the spheres (``dim`` 3) or disks (2) matrix with ICNTL 7 = ``ordering``;
+    prints one JSON line."""
+    from solver import petscenv
+
+    PETSc = petscenv.init(["-inertia_mat_mumps_icntl_7", str(ordering)])
+    from solver.contact_law import ContactModel
+    from solver.model import dynmat, operators
+    from solver.spectrum import slicing
+
+    dm = dynmat.assemble(load_spheres(n) if dim == 3 else load_packing(n), ContactModel(1.0), PETSc.COMM_SELF)
+    A = operators.scaled_operator(dm)
+    counter = slicing.ShiftedInertia(A)
+    row = {}
+    try:
+        for name, sigma in zip(("first", "refactor"), SHIFTS):
+            t = time.perf_counter()
+            row[f"count_below_{sigma:g}"] = counter.count_below(sigma)
+            row[f"{name}_s"] = time.perf_counter() - t
+        factor = counter.pc.getFactorMatrix()
+        row.update({"ordering_used_infog7": factor.getMumpsInfog(7), "entries_infog29": factor.getMumpsInfog(29),
+                    "flops_rinfog3": factor.getMumpsRinfog(3), "mb_infog22": factor.getMumpsInfog(22)})
+        factor.destroy()
+    finally:
+        counter.destroy()
+    print(json.dumps({**row, "dof": dm.size, "rss_gib": peak_rss_gib()}))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("n", type=int, nargs="*", default=[4096])
+    parser.add_argument("--cases", nargs="+", default=["debian:4", "debian:2", "debian:0", "debian:6", "ptscotch:3"])
+    parser.add_argument("--disks", action="store_true")
+    parser.add_argument("--case", nargs=3, type=int, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.case:
+        case(*args.case)
+        return
+    command = "python -m benchmarks.bench_orderings " + " ".join(sys.argv[1:])
+    table = []
+    dim = 2 if args.disks else 3
+    for n in args.n:
+        (load_spheres if dim == 3 else load_packing)(n)  # made once, before any timing
+        for spec in args.cases:
+            build, ordering = spec.split(":")
+            env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+            if build == "ptscotch":
+                env["LD_PRELOAD"] = " ".join(PTSCOTCH)
+            out = run_json([PY, *ME, "--case", str(n), ordering, str(dim)], timeout=4 * 3600, env=env)
+            table.append({"dim": dim, "N": n, "build": build, "ordering_icntl_7": int(ordering),
+                          **{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in out.items()}})
+            save("orderings", command, table, merge_by=("dim", "N", "build", "ordering_icntl_7"))
+
+
+if __name__ == "__main__":
+    main()
