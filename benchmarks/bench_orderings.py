@@ -9,8 +9,8 @@ nested dissection (ICNTL 7 = 3) the default build lacks.
 Packing: bench_spheres.load_spheres(N) (phi = 0.7), or with --disks benchlib.load_packing(N)
 (phi = 0.9: the paper's counting at N = 2048), rho = 1.  Each case runs alone in a fresh
 process on one rank with one BLAS thread (the layout of ``--group-size 1`` counting: a factor per
-rank); the PT-Scotch build is put in place of Debian's by LD_PRELOAD (the same MUMPS version and
-structure, so PETSc's interface calls it unchanged).  Per case: the first count (symbolic analysis
+rank), with the build chosen by ROTSOUND_MUMPS (``petscenv.mumps_build``; column build_loaded says
+which one the case loaded).  Per case: the first count (symbolic analysis
 and numeric factorisation, seconds) at sigma = 1, a second count at sigma = 4 (numeric only, as
 every further bin edge of counting), MUMPS's factor entries (INFOG 29), flops of the elimination
 (RINFOG 3), MB used (INFOG 22), the ordering used (INFOG 7), the peak RSS, and both counts: equal
@@ -31,8 +31,6 @@ from benchmarks.benchlib import PY, load_packing, peak_rss_gib, run_json, save
 
 BENCH = {"order": 131, "args": ["4096"]}
 ME = ["-m", __spec__.name]
-PTSCOTCH = [f"/usr/lib/x86_64-linux-gnu/lib{name}_ptscotch-5.5.so" for name in ("mumps_common", "pord", "dmumps")]
-"""Debian's PT-Scotch build of MUMPS (libmumps-ptscotch-5.5), preloaded in this order."""
 SHIFTS = (1.0, 4.0)
 
 
@@ -56,7 +54,8 @@ def case(n: int, ordering: int, dim: int) -> None:
             row[f"count_below_{sigma:g}"] = counter.count_below(sigma)
             row[f"{name}_s"] = time.perf_counter() - t
         factor = counter.pc.getFactorMatrix()
-        row.update({"ordering_used_infog7": factor.getMumpsInfog(7), "entries_infog29": factor.getMumpsInfog(29),
+        row.update({"build_loaded": petscenv.mumps_build(), "ordering_used_infog7": factor.getMumpsInfog(7),
+                    "entries_infog29": factor.getMumpsInfog(29),
                     "flops_rinfog3": factor.getMumpsRinfog(3), "mb_infog22": factor.getMumpsInfog(22)})
         factor.destroy()
     finally:
@@ -81,9 +80,7 @@ def main() -> None:
         (load_spheres if dim == 3 else load_packing)(n)  # made once, before any timing
         for spec in args.cases:
             build, ordering = spec.split(":")
-            env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-            if build == "ptscotch":
-                env["LD_PRELOAD"] = " ".join(PTSCOTCH)
+            env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "ROTSOUND_MUMPS": build}
             out = run_json([PY, *ME, "--case", str(n), ordering, str(dim)], timeout=4 * 3600, env=env)
             table.append({"dim": dim, "N": n, "build": build, "ordering_icntl_7": int(ordering),
                           **{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in out.items()}})

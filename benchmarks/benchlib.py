@@ -82,7 +82,10 @@ def save(name: str, command: str, table: list[dict], notes: str = "", merge_by: 
         kept = [row for row in old["table"] if tuple(str(row.get(k)) for k in merge_by) not in new]
         if kept:
             table = kept + table
-            command, date = f"{old['command']}; then {command}", f"{old['date']}; {date}"
+            if old["command"].split("; then ")[-1] == command:  # the same run, saving after another case
+                command, date = old["command"], old["date"]
+            else:
+                command, date = f"{old['command']}; then {command}", f"{old['date']}; {date}"
     record = {"name": name, "command": command, "machine": here, "date": date, "table": table, "notes": notes}
     path.write_text(json.dumps(record, indent=1))
     print(json.dumps(record, indent=1))
