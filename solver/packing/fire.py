@@ -45,12 +45,14 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
     ``forces(x)`` returns (F (N, d), energy).  Semi-implicit Euler steps; on uphill motion
     (P = F.v <= 0) the step is halved, velocities zeroed and x moved back by dt v / 2.
     """
+    from .fire_steps import kick, largest_squared_force, mix_and_move, move  # numba: imported when used
+
     x = np.array(x0, dtype=float)
     v = np.zeros_like(x)
     dt, alpha, positive = params.dt_start, params.alpha_start, 0
     f, energy = forces(x)
     for step in range(max_steps + 1):
-        max_force = float(np.sqrt(np.max(np.sum(f * f, axis=1))))
+        max_force = float(np.sqrt(largest_squared_force(f)))
         if max_force < force_tol:
             return FireResult(x, step, max_force, energy, True)
         if step == max_steps:
@@ -67,10 +69,11 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
             alpha = params.alpha_start
             x -= 0.5 * dt * v
             v[:] = 0.0
-        v += dt * f
+        kick(v, f, dt)
         f_norm = np.sqrt(np.vdot(f, f))
         if f_norm > 0.0:
-            v = (1.0 - alpha) * v + alpha * (np.sqrt(np.vdot(v, v)) / f_norm) * f
-        x += dt * v
+            mix_and_move(x, v, f, 1.0 - alpha, alpha * (np.sqrt(np.vdot(v, v)) / f_norm), dt)
+        else:
+            move(x, v, dt)
         f, energy = forces(x)
     return FireResult(x, max_steps, max_force, energy, False)
