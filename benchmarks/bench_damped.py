@@ -2,7 +2,7 @@
 spectrum slicing of the same matrix.
 
     python -m benchmarks.bench_damped [--ns 256 512 1024] [--gamma-t 0.15 0.9] [--dense-max 1024]
-                                   [--window-n 32768] [--band 0.2 0.26]
+                                   [--window-n 32768] [--band 0.2 0.26] [--nev K]
 For each N, a 2D jammed packing (rotsound's FIRE, phi = 0.86), D at rho = 0.5, LAMMPS-convention
 dashpots gamma_n = 0.3 and gamma_t (0.15 puts the rates on a thin band, C close to 0.15 D; 0.9
 spreads them and makes overdamped modes).  In one process, on the same matrix: slicing (every
@@ -11,7 +11,8 @@ undamped omega, the issue's reference time), pep windows and, up to --dense-max,
 largest backward error, trace errors, and the largest relative difference of lambda between the
 two.  Then, at --window-n (gamma_t = 0.15), the damped modes of one frequency band only
 (``spectrum.window``, the large-N path) against the undamped slicing of the same band, with their
-energies (K/Q) both.  One core (one BLAS thread), as a scene's rank runs it.
+energies (K/Q) both.  One core (one BLAS thread), as a scene's rank runs it.  ``--nev K``: K
+eigenvalues of T per shift (``-pep_eps_nev``; default the code's NEV): wider and fewer disks.
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ def main() -> None:
     parser.add_argument("--dense-max", type=int, default=1024, help="largest N solved dense too")
     parser.add_argument("--window-n", type=int, nargs="*", default=[32768], help="N of the one-band runs")
     parser.add_argument("--band", type=float, nargs=2, default=[0.2, 0.26], help="their band of omega (1/t0)")
+    parser.add_argument("--nev", type=int, help="eigenvalues per shift (-pep_eps_nev; default the code's)")
     args = parser.parse_args()
 
     from mpi4py import MPI
@@ -50,7 +52,10 @@ def main() -> None:
     from solver.packing import jammed
     from solver.spectrum import pep, slicing
 
-    PETSc = petscenv.init([])
+    from solver.spectrum.quadratic_windows import NEV
+
+    PETSc = petscenv.init([] if args.nev is None else ["-pep_eps_nev", str(args.nev)])
+    nev = NEV if args.nev is None else args.nev
     table = []
     for gamma_t, n in ((g, n) for g in args.gamma_t for n in args.ns):
         p = jammed.generate(n, 0.86, np.random.SeedSequence([3, 0]), comm=MPI.COMM_SELF)
@@ -64,7 +69,7 @@ def main() -> None:
         w = pep.solve(dm, 1e-4, solver="windows")
         windows = time.perf_counter() - t0
         windows_mib = _peak_mib() - before
-        row = {"gamma_t": gamma_t, "N": n, "DOF": dm.size, "2n": 2 * dm.size, "slicing s (undamped)": f"{undamped:.1f}",
+        row = {"gamma_t": gamma_t, "N": n, "nev": nev, "DOF": dm.size, "2n": 2 * dm.size, "slicing s (undamped)": f"{undamped:.1f}",
                "windows s": f"{windows:.1f}", "windows / slicing": f"{windows / undamped:.1f}",
                "windows": w.checks["windows"], "shifts": w.checks["shifts"],
                "max backward error": f"{w.checks['max_residual']:.1e}",
@@ -95,7 +100,7 @@ def main() -> None:
         t0 = time.perf_counter()
         w = pep.solve(dm, 1e-4, vectors=True, solver="windows", window=band)
         windows = time.perf_counter() - t0
-        row = {"gamma_t": 0.15, "N": n, "DOF": dm.size, "2n": 2 * dm.size, "band": f"[{band[0]:g}, {band[1]:g})",
+        row = {"gamma_t": 0.15, "N": n, "nev": nev, "DOF": dm.size, "2n": 2 * dm.size, "band": f"[{band[0]:g}, {band[1]:g})",
                "modes (undamped / damped)": f"{len(s.omega)} / {len(w.lam)}",
                "slicing s (undamped)": f"{undamped:.1f}", "windows s": f"{windows:.1f}",
                "windows / slicing": f"{windows / undamped:.1f}", "windows": w.checks["windows"],
@@ -113,8 +118,9 @@ def main() -> None:
              f"slicing time. Rows with a band: that band only, with K/Q (vectors) on both sides.")
     command = " ".join(["python -m benchmarks.bench_damped", "--ns", *map(str, args.ns), "--gamma-t",
                         *map(str, args.gamma_t), "--dense-max", str(args.dense_max), "--window-n",
-                        *map(str, args.window_n), "--band", *map(str, args.band)])
-    save("damped", command, table, notes, merge_by=("gamma_t", "N", "band"))
+                        *map(str, args.window_n), "--band", *map(str, args.band),
+                        *([] if args.nev is None else ["--nev", str(args.nev)])])
+    save("damped", command, table, notes, merge_by=("gamma_t", "N", "band", "nev"))
 
 
 if __name__ == "__main__":

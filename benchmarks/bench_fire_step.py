@@ -1,0 +1,104 @@
+"""FIRE's cost per disk-step (issue 48 point 3: a 10^6-disk packing): the compiled vector updates
+(``packing.fire_steps``) against the numpy expressions they replaced, in the same run, from the
+same start, and where a step's time goes.
+
+    python -m benchmarks.bench_fire_step [N ...] [--steps S]   (defaults: N = 262144, S = 400)
+
+The start of ``jammed.generate`` (phi = 0.9, seed [1, 0], bidisperse disks), FIRE for S steps
+(the force tolerance unreachable, so every step is taken) with each version of the updates, one
+core, one BLAS thread; the two end positions must be equal bit for bit.  Per version: seconds per
+step, ns per disk-step, and the force engine's share (the pair forces and the neighbour list,
+timed inside the same run).  Writes benchmarks/records/fire_step.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from benchmarks.benchlib import save
+from solver.packing import fire, jammed, mechanics
+
+BENCH = {"order": 25, "args": ["131072", "--steps", "200"]}
+
+
+def numpy_minimize(x0, forces, force_tol, max_steps, params=fire.FireParameters()):
+    """FIRE as it was before the compiled updates: the same algorithm with numpy expressions."""
+    x = np.array(x0, dtype=float)
+    v = np.zeros_like(x)
+    dt, alpha, positive = params.dt_start, params.alpha_start, 0
+    f, energy = forces(x)
+    for step in range(max_steps + 1):
+        max_force = float(np.sqrt(np.max(np.sum(f * f, axis=1))))
+        if max_force < force_tol or step == max_steps:
+            return x, step
+        power = float(np.vdot(f, v))
+        if power > 0.0:
+            positive += 1
+            if positive > params.n_min:
+                dt = min(dt * params.f_inc, params.dt_max)
+                alpha *= params.f_alpha
+        else:
+            positive = 0
+            dt *= params.f_dec
+            alpha = params.alpha_start
+            x -= 0.5 * dt * v
+            v[:] = 0.0
+        v += dt * f
+        f_norm = np.sqrt(np.vdot(f, f))
+        if f_norm > 0.0:
+            v = (1.0 - alpha) * v + alpha * (np.sqrt(np.vdot(v, v)) / f_norm) * f
+        x += dt * v
+        f, energy = forces(x)
+    return x, max_steps
+
+
+class Timed:
+    """A force engine that adds up the time spent in it."""
+
+    def __init__(self, engine):
+        self.engine, self.seconds = engine, 0.0
+
+    def __call__(self, x):
+        t = time.perf_counter()
+        try:
+            return self.engine(x)
+        finally:
+            self.seconds += time.perf_counter() - t
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("n", type=int, nargs="*", default=[262144])
+    parser.add_argument("--steps", type=int, default=400)
+    args = parser.parse_args()
+    table = []
+    for n in args.n:
+        rng = np.random.default_rng(np.random.SeedSequence([1, 0]))
+        diameters = rng.permutation(jammed.bidisperse_diameters(n))
+        box = np.full(2, jammed.box_length_for(diameters, 0.9, 2))
+        start = rng.uniform(0.0, box[0], size=(n, 2))
+        start = start[jammed.spatial_order(start, box)]
+        ends = {}
+        for name, run in (("numpy updates (before)", lambda s, e: numpy_minimize(s, e, 0.0, args.steps)[0]),
+                          ("compiled updates", lambda s, e: fire.minimize(s, e, 0.0, args.steps).x)):
+            engine = Timed(mechanics.FrictionlessForces(diameters, box))
+            engine(start)  # the first list and numba's first call, outside the timing
+            engine.seconds = 0.0
+            t = time.perf_counter()
+            ends[name] = run(start, engine)
+            seconds = time.perf_counter() - t
+            table.append({"N": n, "code": name, "steps": args.steps, "s_per_step": seconds / args.steps,
+                          "ns_per_disk_step": 1e9 * seconds / args.steps / n,
+                          "force_engine_share": engine.seconds / seconds})
+        table[-1]["bit_for_bit"] = table[-2]["bit_for_bit"] = bool(np.array_equal(*ends.values()))
+        table[-1]["speedup"] = table[-2]["s_per_step"] / table[-1]["s_per_step"]
+    table = [{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in row.items()} for row in table]
+    save("fire_step", "python -m benchmarks.bench_fire_step " + " ".join(sys.argv[1:]), table)
+
+
+if __name__ == "__main__":
+    main()
