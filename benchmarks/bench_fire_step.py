@@ -20,40 +20,43 @@ import time
 import numpy as np
 
 from benchmarks.benchlib import save
-from solver.packing import fire, jammed, mechanics
+from solver.packing import fire, fire_steps, jammed, mechanics
 
 BENCH = {"order": 25, "args": ["131072", "--steps", "200"]}
 
 
-def numpy_minimize(x0, forces, force_tol, max_steps, params=fire.FireParameters()):
-    """FIRE as it was before the compiled updates: the same algorithm with numpy expressions."""
-    x = np.array(x0, dtype=float)
-    v = np.zeros_like(x)
-    dt, alpha, positive = params.dt_start, params.alpha_start, 0
-    f, energy = forces(x)
-    for step in range(max_steps + 1):
-        max_force = float(np.sqrt(np.max(np.sum(f * f, axis=1))))
-        if max_force < force_tol or step == max_steps:
-            return x, step
-        power = float(np.vdot(f, v))
-        if power > 0.0:
-            positive += 1
-            if positive > params.n_min:
-                dt = min(dt * params.f_inc, params.dt_max)
-                alpha *= params.f_alpha
-        else:
-            positive = 0
-            dt *= params.f_dec
-            alpha = params.alpha_start
-            x -= 0.5 * dt * v
-            v[:] = 0.0
+class NumpySteps:
+    """The numpy expressions ``packing.fire_steps`` replaced (named in its docstrings), put in its
+    place while ``fire.minimize`` runs: the same algorithm, the previous updates."""
+
+    @staticmethod
+    def largest_squared_force(f):
+        return np.max(np.sum(f * f, axis=1))
+
+    @staticmethod
+    def kick(v, f, dt):
         v += dt * f
-        f_norm = np.sqrt(np.vdot(f, f))
-        if f_norm > 0.0:
-            v = (1.0 - alpha) * v + alpha * (np.sqrt(np.vdot(v, v)) / f_norm) * f
+
+    @staticmethod
+    def mix_and_move(x, v, f, keep, push, dt):
+        v[:] = keep * v + push * f
         x += dt * v
-        f, energy = forces(x)
-    return x, max_steps
+
+    @staticmethod
+    def move(x, v, dt):
+        x += dt * v
+
+
+def numpy_minimize(x0, forces, steps):
+    """``fire.minimize`` with :class:`NumpySteps` for the compiled updates; end positions."""
+    saved = {name: getattr(fire_steps, name) for name in ("largest_squared_force", "kick", "mix_and_move", "move")}
+    try:
+        for name in saved:
+            setattr(fire_steps, name, getattr(NumpySteps, name))
+        return fire.minimize(x0, forces, 0.0, steps).x
+    finally:
+        for name, function in saved.items():
+            setattr(fire_steps, name, function)
 
 
 class Timed:
@@ -83,7 +86,7 @@ def main() -> None:
         start = rng.uniform(0.0, box[0], size=(n, 2))
         start = start[jammed.spatial_order(start, box)]
         ends = {}
-        for name, run in (("numpy updates (before)", lambda s, e: numpy_minimize(s, e, 0.0, args.steps)[0]),
+        for name, run in (("numpy updates (before)", lambda s, e: numpy_minimize(s, e, args.steps)),
                           ("compiled updates", lambda s, e: fire.minimize(s, e, 0.0, args.steps).x)):
             engine = Timed(mechanics.FrictionlessForces(diameters, box))
             engine(start)  # the first list and numba's first call, outside the timing
