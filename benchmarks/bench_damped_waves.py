@@ -1,7 +1,7 @@
 """Damped standing waves (issue 29 item 7): TS against SLEPc MFN at equal error, time against error,
 and both against the undamped spectral wave of the same packing.
 
-    python -m benchmarks.bench_damped_waves [--n 2048 32768] [--t-end 50 300]
+    python -m benchmarks.bench_damped_waves [--n 2048 32768] [--t-end 50 300] [--cuts F ...] [--cuts-only]
 For each N (with its t_end): one L wave (k = 2 pi 4 / L, samples every 0.5) on a 2D jammed packing
 of N disks (rotsound's FIRE, phi = 0.86), rho = 0.5, LAMMPS-convention dashpots gamma_n = 0.3,
 gamma_t = 0.15.  Reference: the damped spectral path (waves.method spectral with dashpots: the
@@ -12,12 +12,18 @@ several dt below its damped step limit: wall time and the largest error of z(t) 
 max |z|.  The first row of each N is the same wave without dashpots by the
 spectral path (Lanczos, tol 1e-8), the issue's yardstick (a damped dispersion point at N = 32768
 at most 3x the undamped spectral wave); every row's time is also given as a ratio to it.
+``--cuts F ...``: the series at tol 1e-8 again with each block's terms cut to the fraction F of
+what the rigorous bound plans (``chebyshev.plan``), and the error then reached: what stopping
+the series a posteriori (on the terms' own size) could save at most (``--cuts-only``: those rows
+and the reference only, without the MFN and TS rows).
 One process, one core.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 import os
 import time
 
@@ -35,6 +41,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--n", type=int, nargs="+", default=[2048, 32768])
     parser.add_argument("--t-end", type=float, nargs="+", default=[50.0, 300.0], help="one per --n")
+    parser.add_argument("--cuts", type=float, nargs="*", default=[], help="fractions of the planned terms")
+    parser.add_argument("--cuts-only", action="store_true", help="no MFN and TS rows")
     args = parser.parse_args()
     if len(args.t_end) != len(args.n):
         parser.error("give one --t-end per --n")
@@ -86,6 +94,20 @@ def main() -> None:
             s, seconds = damped(tol)
             row("spectral (Chebyshev-Bessel)", f"tol {tol:g}", seconds,
                 f"{np.abs(s.z - reference.z).max() / scale:.1e} (bound {s.error_estimate:.0e}; {s.steps} products)")
+        notes.append(f"N = {n}: {dm.size} DOF, RK4's damped step limit {limit:.3f} (2.6156 / max(omega_max, c_max))")
+        planned = chebyshev.plan
+        for cut in args.cuts:
+            chebyshev.plan = lambda *key, cut=cut: dataclasses.replace(planned(*key),
+                                                                      terms=math.ceil(cut * planned(*key).terms))
+            try:
+                s, seconds = damped(1e-8)
+            finally:
+                chebyshev.plan = planned
+            row(f"spectral (Chebyshev-Bessel), terms cut to {cut:g} of the plan", "tol 1e-08", seconds,
+                f"{np.abs(s.z - reference.z).max() / scale:.1e} ({s.steps} products)")
+        if args.cuts_only:
+            dm.destroy()
+            continue
         t0 = time.perf_counter()
         s = exponential.exponential_all(dm, p.positions, [("L", 0, k)], amplitude=1e-3, times=times, tol=1e-8,
                                         rate=rate)[0]
@@ -100,7 +122,6 @@ def main() -> None:
                                                                 sample_every=int(round(SAMPLE / dt))))
             row("TS rk (RK4)", f"dt {dt:g}", time.perf_counter() - t0,
                 f"{np.abs(s.z_fixed - reference.z).max() / scale:.1e}")
-        notes.append(f"N = {n}: {dm.size} DOF, RK4's damped step limit {limit:.3f} (2.6156 / max(omega_max, c_max))")
         dm.destroy()
     notes = (f"One L wave per N (2D, phi = 0.86), rho = 0.5, gamma_n = 0.3, gamma_t = 0.15, k = 2 pi 4 / L, samples "
              f"every {SAMPLE:g}; reference: the damped spectral path (Chebyshev-Bessel series) at tol 1e-11, which "
@@ -109,7 +130,9 @@ def main() -> None:
              f"dashpots by the spectral path (Lanczos to 1e-8); the issue's target is a damped point at N = 32768 "
              f"within 3x of it. {'; '.join(notes)}. One process, one core.")
     save("damped_waves", "python -m benchmarks.bench_damped_waves " + " ".join(
-        ["--n", *map(str, args.n), "--t-end", *(f"{t:g}" for t in args.t_end)]), table, notes)
+        ["--n", *map(str, args.n), "--t-end", *(f"{t:g}" for t in args.t_end),
+         *(["--cuts", *(f"{c:g}" for c in args.cuts)] if args.cuts else []), *(["--cuts-only"] if args.cuts_only else [])]),
+        table, notes, merge_by=("N", "method", "dt or tol"))
 
 
 if __name__ == "__main__":

@@ -64,3 +64,19 @@ def net_forces(x: np.ndarray, i: np.ndarray, j: np.ndarray, shift: np.ndarray, c
             on_j[b, 2] += scale * s2
     out -= on_j
     return energy
+
+
+@numba.njit(cache=True, boundscheck=False)
+def largest_squared_move(x: np.ndarray, reference: np.ndarray) -> float:
+    """max_n |x_n - reference_n|^2 over (N, D) arrays, the Verlet list's check of every FIRE step:
+    ``np.einsum("nd,nd->n", step, step).max()`` with step = x - reference (components summed in
+    order), in one pass without the (N, D) and (N,) temporaries."""
+    largest = 0.0
+    for n in range(x.shape[0]):
+        d0 = x[n, 0] - reference[n, 0]
+        squared = d0 * d0
+        for d in range(1, x.shape[1]):
+            dd = x[n, d] - reference[n, d]
+            squared += dd * dd
+        largest = max(largest, squared)
+    return largest

@@ -75,6 +75,16 @@ def test_the_count_adds_up_to_2n(comm):
     assert_all(np.all(result.lam.real <= 1e-12), "a root with Re lambda > 0 (C and D are positive semi-definite)")
 
 
+@pytest.mark.serial_only  # arrays only, no communicator
+@pytest.mark.parametrize("found, advice", [(5, "raise -pep_eps_nev"), (7, "keep -pep_eps_nev at its default")])
+def test_a_wrong_count_of_the_windows_is_refused_with_advice_that_fits_it(found, advice):
+    """quadratic_windows._check: a count other than 2n stops the windows, a lost mode asking for
+    more eigenvalues per shift, a doubled one for the default (measured: 400 doubles one)."""
+    lam = np.full(found, -0.1 + 1.0j)
+    with pytest.raises(RuntimeError, match=f"{found} eigenvalues accepted for a problem with 6 .*{advice}"):
+        quadratic_windows._check(lam, 6, {"trace": lam.sum()})
+
+
 def _exact_case(comm, kind: str, solver: str):
     """(result, undamped omega by slicing, coefficient) for C = beta D or C = gamma M."""
     from petsc4py import PETSc
