@@ -97,8 +97,12 @@ def main() -> None:
         notes.append(f"N = {n}: {dm.size} DOF, RK4's damped step limit {limit:.3f} (2.6156 / max(omega_max, c_max))")
         planned = chebyshev.plan
         for cut in args.cuts:
-            chebyshev.plan = lambda *key, cut=cut: dataclasses.replace(planned(*key),
-                                                                      terms=math.ceil(cut * planned(*key).terms))
+
+            def cut_plan(*key, cut=cut):
+                full = planned(*key)
+                return dataclasses.replace(full, terms=math.ceil(cut * full.terms))
+
+            chebyshev.plan = cut_plan
             try:
                 s, seconds = damped(1e-8)
             finally:

@@ -78,6 +78,9 @@ def main() -> None:
         n, ordering, dim, cntl1 = args.case
         case(int(n), int(ordering), int(dim), cntl1)
         return
+    for spec in args.cases:
+        if len(spec.split(":")) not in (2, 3):
+            parser.error(f"--cases {spec}: BUILD:ORDERING or BUILD:ORDERING:CNTL1")
     command = "python -m benchmarks.bench_orderings " + " ".join(sys.argv[1:])
     table = []
     dim = 2 if args.disks else 3
@@ -86,7 +89,7 @@ def main() -> None:
         for spec in args.cases:
             build, ordering, *cntl1 = spec.split(":")
             env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "ROTSOUND_MUMPS": build}
-            out = run_json([PY, *ME, "--case", str(n), ordering, str(dim), "".join(cntl1)], timeout=4 * 3600, env=env)
+            out = run_json([PY, *ME, "--case", str(n), ordering, str(dim), cntl1[0] if cntl1 else ""], timeout=4 * 3600, env=env)
             table.append({"dim": dim, "N": n, "build": build, "ordering_icntl_7": int(ordering),
                           **({"cntl1_asked": float(cntl1[0])} if cntl1 else {}),
                           **{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in out.items()}})

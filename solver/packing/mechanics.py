@@ -55,8 +55,9 @@ class FrictionlessForces:
     through its listed image only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
     particle's forces are summed in a fixed order; the pass over them is compiled
     (``pair_forces.net_forces``), and so is each step's check of the largest move
-    (``pair_forces.largest_squared_move``).  Measured at N = 32768 in 3D: a refresh of 1 % of the particles
-    30 ms against 150 ms for a rebuild; at N = 8192 the refreshes cut the packing's time by a fifth.
+    (``pair_forces.largest_squared_move``).  Measured at N = 32768 in 3D: a refresh of 1 % of the
+    particles 30 ms against 150 ms for a rebuild; at N = 8192 the refreshes cut the packing's time
+    by a fifth.
     """
 
     REACH = 1.25  # reach of a partial refresh, in skins (see above)
