@@ -1,4 +1,4 @@
-# rotsound: `make demo`, `make test`, `make bench` each run tools/setup.sh first
+# rotsound: `make demo`, `make test`, `make bench` each run scripts/tools/setup.sh first
 # (installs what is missing, quietly; idempotent).
 PY      := .venv/bin/python
 RANKS   ?= 2
@@ -13,7 +13,7 @@ PYTEST  := -m pytest --color=no -q
 
 .PHONY: setup demo test test-serial test-mpi docs bench dem-data clean
 setup:
-	@bash tools/setup.sh
+	@bash scripts/tools/setup.sh
 
 demo: setup
 	$(MPIRUN) $(PY) -m solver run $(SCENE)
@@ -41,13 +41,13 @@ docs: setup
 	@$(PY) -m sphinx -W --keep-going -q -b html docs docs/_build/html
 
 bench: setup
-	$(PY) -m benchmarks.bench_all
+	$(PY) -m scripts.benchmarks.bench_all
 
 # Remake the DEM packings in tests/data/dem/ with LAMMPS, LIGGGHTS and YADE themselves (see its
 # README.md). Not part of `make test`: the tests read the committed files.
 DEM := cd tests/data/dem &&
 dem-data:
-	@bash tools/setup_dem.sh
+	@bash scripts/tools/setup_dem.sh
 	$(DEM) lmp -in lammps_2d.in -log none -screen none
 	$(DEM) lmp -in lammps_3d.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_friction.in -log none -screen none

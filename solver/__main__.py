@@ -207,7 +207,7 @@ def _render(args) -> None:
     try:
         from .io import render
     except ImportError as exc:
-        raise InputError(f"render needs VTK's Python module (Debian's python3-vtk9, which tools/setup.sh "
+        raise InputError(f"render needs VTK's Python module (Debian's python3-vtk9, which scripts/tools/setup.sh "
                          f"installs): {exc}") from None
     render.draw(args.vtp, args.output, args.color, args.arrows, args.arrow_length, args.view, args.size, args.title)
     print(f"wrote {args.output}")

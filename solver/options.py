@@ -292,7 +292,7 @@ def restore(before: dict[str, Any]) -> None:
     """Put PETSc's options database back as ``before`` (a :func:`snapshot`): the options that
     ``solver.__main__.main`` run in-process put there (a scene's ``petsc:`` block, a command line's
     words) must not reach what runs after it in the same process (the next bad-input row of the
-    tests and of tools/render_bad_inputs.py).  Not collective (each process has its database)."""
+    tests and of scripts/tools/render_bad_inputs.py).  Not collective (each process has its database)."""
     from petsc4py import PETSc
 
     database = PETSc.Options()

@@ -25,7 +25,7 @@ def _version_key(path: str) -> tuple[int, ...]:
 
 
 MUMPS_PTSCOTCH = [f"/usr/lib/x86_64-linux-gnu/lib{name}_ptscotch-5.5.so" for name in ("mumps_common", "pord", "dmumps")]
-"""Debian's PT-Scotch build of MUMPS (package libmumps-ptscotch-5.5, installed by tools/setup.sh):
+"""Debian's PT-Scotch build of MUMPS (package libmumps-ptscotch-5.5, installed by scripts/tools/setup.sh):
 the MUMPS 5.5.1 that Debian's PETSc links, built with SCOTCH's nested dissection (ICNTL 7 = 3),
 which Debian's default build lacks (its orderings: PORD, AMD, AMF, QAMD)."""
 _MUMPS_BUILD: list[str] = []  # the build this process loaded, once decided
@@ -78,7 +78,7 @@ def ensure_importable() -> None:
                 sys.path.append(site)
                 break
         else:
-            raise ImportError(f"{module} not found: run 'make test' or tools/setup.sh "
+            raise ImportError(f"{module} not found: run 'make test' or scripts/tools/setup.sh "
                               f"(installs Debian's python3-{module})")
 
 

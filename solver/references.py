@@ -156,7 +156,7 @@ def first_order_flow(dm, start: np.ndarray, sample: float, count: int, offset: f
 
 def l_wave_start(p, k: float, amplitude: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
     """(r0 (N', D), v0 (N', 3)): the benchmarks' L wave on the non-rattlers of the 2D packing
-    ``p`` (benchmarks/bench_waves.py, bench_spectral.py): v_x = ``amplitude`` sin(k x), its plain
+    ``p`` (scripts/benchmarks/bench_waves.py, bench_spectral.py): v_x = ``amplitude`` sin(k x), its plain
     mean removed (the uniform translation), v_y = w_z = 0.  Not collective."""
     r0 = p.positions[~p.rattler]
     v0 = np.zeros((len(r0), 3))

@@ -208,7 +208,7 @@ def run_stopped_after_windows(monkeypatch, scene, windows: int = 2, solver=None,
 @pytest.fixture(scope="session")
 def lammps_present():
     """Skip when LAMMPS's Python module or library is missing (the same verdict on every rank);
-    in CI (CI=true, where tools/setup.sh installs LAMMPS) a missing LAMMPS fails instead."""
+    in CI (CI=true, where scripts/tools/setup.sh installs LAMMPS) a missing LAMMPS fails instead."""
     from solver.errors import InputError
     from solver.packing import lammps_engine
 
@@ -222,7 +222,7 @@ def missing(what: str, why) -> None:
     """Skip the test for want of ``what``; fail it instead in CI (CI=true), where the setup
     installs everything the tests use, so that a broken install cannot pass as skipped tests."""
     if os.environ.get("CI") == "true":
-        pytest.fail(f"{what} is missing in CI, where tools/setup.sh installs it ({why})")
+        pytest.fail(f"{what} is missing in CI, where scripts/tools/setup.sh installs it ({why})")
     pytest.skip(f"{what} is not installed ({why})")
 
 
@@ -231,10 +231,10 @@ OVITO_PYTHON = REPO / ".venv-ovito" / "bin" / "python"
 
 def ovito_read(files: list[str], render: str | None = None) -> dict:
     """What OVITO itself reads in ``files`` (and, with ``render``, draws into that PNG):
-    tests/io/ovito_check.py's report, run by OVITO's own Python in the venv tools/setup.sh makes
+    tests/io/ovito_check.py's report, run by OVITO's own Python in the venv scripts/tools/setup.sh makes
     for it.  Skips (fails in CI) where that venv is missing."""
     if not os.access(OVITO_PYTHON, os.X_OK):
-        missing("OVITO's Python module", f"no {OVITO_PYTHON}: tools/setup.sh makes that venv")
+        missing("OVITO's Python module", f"no {OVITO_PYTHON}: scripts/tools/setup.sh makes that venv")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # OVITO's venv sees nothing of ours
     words = ["--render", str(render)] if render else []
     done = subprocess.run([str(OVITO_PYTHON), str(REPO / "tests" / "io" / "ovito_check.py"), *words, *map(str, files)],

@@ -6,7 +6,7 @@ OVITO's own reading and rendering of the exports is checked in tests/io/test_exp
 draws the manual's pictures of exports (docs/exports.md).
 
 VTK renders through OpenGL and needs an X server: run under ``xvfb-run`` (Debian's ``xvfb``,
-installed by ``tools/setup.sh``)::
+installed by ``scripts/tools/setup.sh``)::
 
     rotsound export results/localisation.h5 --format vtp --rho 0 --mode 1 --frames 1 --output results/localisation_mode.vtp
     xvfb-run -a rotsound render results/localisation_mode.vtp --color share --arrows displacement \

@@ -93,7 +93,7 @@ class PackingSpec:
     max_steps: int = _f(2_000_000, "FIRE step limit per configuration", _range(1), int)
     engine: str = _f("fire", "minimiser of generated packings: fire (rotsound's, one configuration per rank) or "
                              "lammps (LAMMPS's FIRE on all ranks, one configuration after another: the same start "
-                             "and criterion, a different but equally valid minimum; needs tools/setup_dem.sh)",
+                             "and criterion, a different but equally valid minimum; needs scripts/tools/setup_dem.sh)",
                      _one_of(("fire", "lammps")), str)
     contacts: str | list[str] | None = _f(None, "with `file`: the contact file(s), one per packing file, holding "
                                                 "every contact's stored tangential force (a LAMMPS 'dump local' of "

@@ -44,9 +44,9 @@ the same start, the same energy, the same stopping criterion met (checked with r
 force evaluation), reached by a FIRE quench of that start; which of the many nearby minima a
 quench falls into depends on these details of the minimiser, not on the physics, and the
 packings' statistics (z, pressure, rattlers) are those of one ensemble
-(benchmarks/bench_engines.py tabulates both engines on the same starts).
+(scripts/benchmarks/bench_engines.py tabulates both engines on the same starts).
 
-LAMMPS is Debian's (``python3-lammps``, library in ``liblammps-dev``; tools/setup_dem.sh installs
+LAMMPS is Debian's (``python3-lammps``, library in ``liblammps-dev``; scripts/tools/setup_dem.sh installs
 them).  It is built without exceptions, so a LAMMPS error ends the process: everything is checked
 here before LAMMPS sees it.  Quiet (``-screen none -log none``) unless ``screen=True``.
 """
@@ -60,7 +60,7 @@ from ..errors import InputError
 from . import fire
 from . import geometry
 
-INSTALL = "run tools/setup_dem.sh (Debian packages lammps, python3-lammps and liblammps-dev)"
+INSTALL = "run scripts/tools/setup_dem.sh (Debian packages lammps, python3-lammps and liblammps-dev)"
 KN = 1.0  # normal stiffness, units kn = 1
 FRICTIONAL_STYLES = {"harmonic": "gran/hooke/history", "hertz": "gran/hertz/history"}
 SKIN = 0.3  # LAMMPS's neighbour skin, in d0 (rotsound's FIRE list skin)
@@ -93,7 +93,7 @@ PAIR_STYLES = {"harmonic": "gran/hooke", "hertz": "gran/hertz/history"}  # per c
 def create_particles(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray):
     """LAMMPS units lj, the periodic box (D,) from the origin (2D: z in [-0.5, 0.5]), and the
     particles: ids 1..N in input order, ``atom_style sphere`` with radius d/2 and mass 1.
-    Returns the ids this rank owns (None if none).  Collective (also for crosschecks/crosscheck_lammps.py)."""
+    Returns the ids this rank owns (None if none).  Collective (also for scripts/crosschecks/crosscheck_lammps.py)."""
     n, dim = positions.shape
     sides = " ".join(f"0 {float(side)!r}" for side in box) + (" -0.5 0.5" if dim == 2 else "")
     lmp.commands_string(f"""

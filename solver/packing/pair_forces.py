@@ -9,7 +9,7 @@ vectorised, is the same formula.
 Compiled, because a step of FIRE is one pass over ~6 pairs per sphere (~200,000 at N = 32768 in
 3D) and numpy's version of that pass is a chain of temporaries and gathers: measured at
 N = 32768 (mid-FIRE list), 3.2 ms against 10 ms for sparse products in 3D and 1.3 ms against
-4.6 ms in 2D (benchmarks/bench_packing.py and bench_packing3d.py give the whole-FIRE numbers).  The
+4.6 ms in 2D (scripts/benchmarks/bench_packing.py and bench_packing3d.py give the whole-FIRE numbers).  The
 loop has no branch on the overlap (a zero force is added instead: branch mispredictions cost a
 third) and the same floating-point operations, in the same order, as the sparse products it
 replaces (the separation x_i - x_j + shift, |s|^2 summed x then y then z, and each particle's

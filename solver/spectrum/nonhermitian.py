@@ -8,7 +8,7 @@ A = M^-1/2 D M^-1/2 (similar to M^-1 D), all of them,
            backward stable) on rank 0, broadcast to every rank; up to MAX_DOF, time ~ n^3;
   windows  by SLEPc shift-and-invert windows marched along the real axis, checked complete by
            the count and the trace moments (``shifted_windows``); sparse, any size;
-  auto     dense up to AUTO_DENSE_DOF, windows above (benchmarks/bench_nonhermitian.py: the
+  auto     dense up to AUTO_DENSE_DOF, windows above (scripts/benchmarks/bench_nonhermitian.py: the
            windows overtake dense near there).
 
 Classification of the eigenvalues (``zero_tol`` as the other methods: omega below it is zero):
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 MAX_DOF = 20000   # a dense n x n complex eigensolve: 20000 DOF take ~1 h and 6 GiB
-AUTO_DENSE_DOF = 3000  # benchmarks/bench_nonhermitian.py, one core each: they cross near 2900 DOF (dense 1.08x windows)
+AUTO_DENSE_DOF = 3000  # scripts/benchmarks/bench_nonhermitian.py, one core each: they cross near 2900 DOF (dense 1.08x windows)
 IMAG_TOL = 1e-9   # relative to max |lambda|: LAPACK's round-off is ~1e-15 of it
 
 

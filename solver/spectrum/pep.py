@@ -11,7 +11,7 @@ Methods [decision] (``spectrum.solver``):
            up to MAX_DOF (L is 2n x 2n), time ~ (2n)^3;
   windows  windows in mu = lambda^2 by SLEPc (``quadratic_windows``), checked complete by the
            count and the trace moments; sparse, any size; symmetric D only;
-  auto     dense up to AUTO_DENSE_DOF, windows above (benchmarks/bench_damped.py).
+  auto     dense up to AUTO_DENSE_DOF, windows above (scripts/benchmarks/bench_damped.py).
 
 What is kept (``lam``): every eigenvalue with Im lambda > 0 once (the other of its pair is its
 conjugate), every real one (both of an overdamped pair), sorted by Im then Re; the zeros
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 MAX_DOF = 8000          # L is 16000 x 16000: a dense complex eigensolve of ~1 h and 8 GiB with vectors
-AUTO_DENSE_DOF = 4000   # benchmarks/bench_damped.py: dense 205 s, windows 265 s at 3033 DOF; ~DOF^3.3 and ^2.1 cross near 3800
+AUTO_DENSE_DOF = 4000   # scripts/benchmarks/bench_damped.py: dense 205 s, windows 265 s at 3033 DOF; ~DOF^3.3 and ^2.1 cross near 3800
 IMAG_TOL = 1e-10        # |Im lambda| below this times max |lambda| is real (LAPACK's round-off ~1e-15)
 
 

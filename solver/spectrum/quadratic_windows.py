@@ -390,7 +390,7 @@ def solve(dm, *, zero_tol: float, tol: float = 1e-12, window: tuple[float, float
     trace moments: checks say so).  ``progress`` and ``checkpoint`` as ``shifted_windows.solve``.
     ``checks["shifts"]``: the complex shifts factorised and solved by this call (:func:`_solve_disk`;
     none for the columns read back from ``checkpoint``), the cost a benchmark reports
-    (benchmarks/bench_damped.py).  RuntimeError (every rank) when a check fails."""
+    (scripts/benchmarks/bench_damped.py).  RuntimeError (every rank) when a check fails."""
     from petsc4py import PETSc
 
     comm = dm.D.getComm()

@@ -192,7 +192,7 @@ def place_cuts(A, known: dict, targets: np.ndarray, slack: float, scale: float) 
     inside it but CLUSTER_MARGIN x ``scale`` below or above it, whichever count is nearer the
     target, so the cluster stays whole in one piece.
     Collective; every rank makes the same choices, since inertias are global.  Public, so that a
-    benchmark cuts its windows as :func:`solve` does (benchmarks/bench_ciss.py).
+    benchmark cuts its windows as :func:`solve` does (scripts/benchmarks/bench_ciss.py).
     """
     width, margin = CLUSTER_WIDTH * scale, CLUSTER_MARGIN * scale
     while True:
@@ -263,7 +263,7 @@ def configure_window(eps, A, edges, tol, prefix: str = SLICING_PREFIX):
     prefix ``prefix`` (``spectrum_``; the diffusivity's windows: ``transport_``): defaults in code,
     then setFromOptions (options win). Collective.  Public, so
     that a benchmark times the very solver each window of :func:`solve` runs
-    (benchmarks/bench_ciss.py: Krylov-Schur against CISS).
+    (scripts/benchmarks/bench_ciss.py: Krylov-Schur against CISS).
 
     SLEPc factorises in an internal child EPS that copies only the ST type from ``eps``: the
     KSP/PC of ``eps``'s own ST are never used (setting MUMPS there left PETSc's Cholesky in

@@ -33,7 +33,7 @@ sample, z every sample):
   is what sliding, the dashpots and opened stretched tangential springs took (under hertz
   k_t follows the overlap, so |f_t|^2 / (2 k_t) is not a potential and E also moves by that).
 
-LAMMPS is Debian's (tools/setup_dem.sh); it runs on the communicator given (mpi4py), under the
+LAMMPS is Debian's (scripts/tools/setup_dem.sh); it runs on the communicator given (mpi4py), under the
 scene's own ``mpirun``.  A LAMMPS error ends the process: everything is checked before it runs.
 Units: d0 = m = kn = 1.
 """

@@ -22,7 +22,7 @@ def spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: float, 
 
 
 BATCH = 4
-"""Waves run side by side at most.  Measured (benchmarks/bench_lanczos_batch.py, N = 131072, 2 ranks,
+"""Waves run side by side at most.  Measured (scripts/benchmarks/bench_lanczos_batch.py, N = 131072, 2 ranks,
 24 waves): 5.14 s per wave one at a time with MatMult (the code before), 3.12 in chunks of 1,
 2.09 in chunks of 4, 2.41 of 12, 2.59 of 24, 2.84 of 48: past a few columns the per-step work on
 the (nloc, W) blocks outgrows what the shared reads of A save.  Memory: five (nloc, BATCH) blocks."""

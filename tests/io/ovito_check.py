@@ -1,5 +1,5 @@
 """What OVITO itself makes of exported files: run by the export tests with OVITO's own Python
-module, in the venv of its own that ``tools/setup.sh`` makes (``.venv-ovito``: OVITO needs
+module, in the venv of its own that ``scripts/tools/setup.sh`` makes (``.venv-ovito``: OVITO needs
 numpy >= 2, which the project's venv must not get).  Imports nothing of rotsound or its tests.
 
     .venv-ovito/bin/python tests/io/ovito_check.py [--render PNG] FILE [FILE ...]

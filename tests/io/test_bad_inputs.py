@@ -12,11 +12,11 @@ import pytest
 from conftest import COMM, REPO, assert_all, run_cli
 
 from solver import __main__ as cli, options
-from tools.bad_inputs import CASES, materialise
+from scripts.tools.bad_inputs import CASES, materialise
 
 
 def test_docs_table_is_the_catalogue():
-    """The manual's bad-input table (docs/bad_inputs.md, rendered by tools/render_bad_inputs.py)
+    """The manual's bad-input table (docs/bad_inputs.md, rendered by scripts/tools/render_bad_inputs.py)
     holds exactly the catalogue's rows, in order, each showing a message that contains the row's
     expected fragment: a row added, renamed or reworded without re-rendering fails here."""
     text = (REPO / "docs" / "bad_inputs.md").read_text()

@@ -2,7 +2,7 @@
 LAMMPS dump, VTK for VTP) and the dump by LAMMPS itself; the fields against the results file
 and an independent contact count; the animation's frames (frame 0 the largest displacement); bad
 requests refused; no PETSc or MPI imported on the way.  Then OVITO itself (``ovito_check.py`` in
-the venv ``tools/setup.sh`` makes for it): every format's particle count, Radius, a Particle
+the venv ``scripts/tools/setup.sh`` makes for it): every format's particle count, Radius, a Particle
 Type of the two sizes, displacement and rotation as vector properties, and a rendered picture in
 which each particle has its type's colour.  Serial: export is a one-process tool."""
 

@@ -149,10 +149,10 @@ def test_lammps_fire_that_does_not_converge_raises_on_every_rank(lammps_present)
 
 def test_missing_lammps_is_one_input_error_naming_the_installer(monkeypatch):
     """Without LAMMPS's Python module: InputError on every rank naming packing.engine and
-    tools/setup_dem.sh (runs whether or not LAMMPS is installed)."""
+    scripts/tools/setup_dem.sh (runs whether or not LAMMPS is installed)."""
     monkeypatch.setitem(sys.modules, "lammps", None)  # import lammps now raises ImportError
     x, d, box = recipe_start(16, 0.9, 2, seed=0)
-    with pytest.raises(InputError, match=r"packing\.engine: lammps .*tools/setup_dem\.sh"):
+    with pytest.raises(InputError, match=r"packing\.engine: lammps .*scripts/tools/setup_dem\.sh"):
         lammps_engine.minimize(x, d, box, 1e-6, 10, COMM)
 
 

@@ -1,12 +1,12 @@
-"""benchmarks/bench_all.py finds every benchmark and cross-check by its ``BENCH`` declaration, and
+"""scripts/benchmarks/bench_all.py finds every benchmark and cross-check by its ``BENCH`` declaration, and
 BENCHMARKS.md is what their records and readings render to: a record or a reading changed, added
-or removed without ``python -m benchmarks.bench_all --render-only`` fails here (the file names the
+or removed without ``python -m scripts.benchmarks.bench_all --render-only`` fails here (the file names the
 machine it was rendered on; that line is left out)."""
 
 import pytest
 from conftest import REPO
 
-from benchmarks import bench_all
+from scripts.benchmarks import bench_all
 
 pytestmark = pytest.mark.serial_only  # reads files; nothing parallel
 

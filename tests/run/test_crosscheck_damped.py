@@ -1,4 +1,4 @@
-"""Damped standing waves integrated by LAMMPS itself (crosschecks/crosscheck_damped.py: ``gran/hooke/history``
+"""Damped standing waves integrated by LAMMPS itself (scripts/crosschecks/crosscheck_damped.py: ``gran/hooke/history``
 with gamma_n and gamma_t, dampflag 1) converge to rotsound's exact damped C(k, t), exp(tJ) of
 J = [[0, I], [-M^-1 D, -M^-1 C]], and miss the undamped one by far (issue 29, item 6; the script
 measures every mode and law, BENCHMARKS.md "crosscheck_damped").  LAMMPS runs on the test's
@@ -7,7 +7,7 @@ communicator (one LAMMPS on both ranks under mpirun -n 2)."""
 import numpy as np
 from conftest import assert_all, jammed_packing
 
-from crosschecks import harness  # the LAMMPS runner
+from scripts.crosschecks import harness  # the LAMMPS runner
 from solver.contact_law import ContactModel
 from solver.model import damping, dynmat
 from solver.references import first_order_flow

@@ -1,8 +1,8 @@
-"""Standing waves integrated by LAMMPS itself (crosschecks/crosscheck_lammps.py: ``fix nve/sphere``,
+"""Standing waves integrated by LAMMPS itself (scripts/crosschecks/crosscheck_lammps.py: ``fix nve/sphere``,
 ``gran/hooke/history`` or ``gran/hertz/history``, kt = kn, no damping) give rotsound's exact
 C(k, t) to within velocity Verlet's time-step error, in 2D and 3D (issue 19, item 5; the
-cross-check measures every mode and law with dt halvings, crosschecks/crosscheck_lammps.md; the LAMMPS
-runner is crosschecks/harness.py).
+cross-check measures every mode and law with dt halvings, scripts/crosschecks/crosscheck_lammps.md; the LAMMPS
+runner is scripts/crosschecks/harness.py).
 
 LAMMPS runs on the test's communicator (COMM_WORLD: one LAMMPS on both ranks under mpirun -n 2,
 its samples gathered to every rank), so the same test checks a distributed LAMMPS run.  Skipped,
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import assert_all, assert_close
 
-from crosschecks import harness  # the LAMMPS runner
+from scripts.crosschecks import harness  # the LAMMPS runner
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.packing import jammed

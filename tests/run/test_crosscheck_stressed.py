@@ -1,5 +1,5 @@
 """A stressed frictional packing made by LAMMPS, and standing waves about it integrated by LAMMPS
-itself (crosschecks/crosscheck_stressed.py), against rotsound's stressed matrix: LAMMPS's C(k, t)
+itself (scripts/crosschecks/crosscheck_stressed.py), against rotsound's stressed matrix: LAMMPS's C(k, t)
 converges to the exact C of the stressed D at its time-step order, and misses the unstressed D's
 by far more; rotsound's own integrators on the stressed D agree with the exact solution.  The
 full table (2D and 3D, both laws, every mode) is in BENCHMARKS.md, "crosscheck"."""
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import assert_all, assert_close
 
-from crosschecks import crosscheck_stressed, harness
+from scripts.crosschecks import crosscheck_stressed, harness
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.references import first_order_flow

@@ -1,9 +1,9 @@
-"""tools/frictional_scaling.py's plateau onset omega*, on vDOS whose onset is known."""
+"""scripts/tools/frictional_scaling.py's plateau onset omega*, on vDOS whose onset is known."""
 
 import numpy as np
 import pytest
 
-from tools import frictional_scaling
+from scripts.tools import frictional_scaling
 
 pytestmark = pytest.mark.serial_only  # plain numpy
 

@@ -1,11 +1,11 @@
-"""tools/frictional_table.py's cells, on a results file whose answers are known."""
+"""scripts/tools/frictional_table.py's cells, on a results file whose answers are known."""
 
 import h5py
 import numpy as np
 import pytest
 import yaml
 
-from tools import frictional_table
+from scripts.tools import frictional_table
 
 pytestmark = pytest.mark.serial_only  # h5py and numpy only
 

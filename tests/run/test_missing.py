@@ -1,5 +1,5 @@
 """A missing dependency of the tests (LAMMPS) skips its tests on a developer's machine and fails
-them in CI, where tools/setup.sh installs it (conftest.missing)."""
+them in CI, where scripts/tools/setup.sh installs it (conftest.missing)."""
 
 import pytest
 from conftest import missing

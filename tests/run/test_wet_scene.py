@@ -1,6 +1,6 @@
 """A wet scene (model.cohesion) through the pipeline on 1 and 2 ranks: the packing rotsound's FIRE
 makes with the bridges, its units resumed, its results file read back by packing.file (the same
-counts), by the notebook API (the bridges), by the plots, the export and tools/wet_findings.py."""
+counts), by the notebook API (the bridges), by the plots, the export and scripts/tools/wet_findings.py."""
 
 import os
 
@@ -36,7 +36,7 @@ def test_wet_scene_runs_resumes_and_reads_back(comm, shared_tmp):
     if COMM.size == 1:  # the readers are serial: once, in the 1-rank pass
         from solver import plots
 
-        from tools import wet_findings
+        from scripts.tools import wet_findings
 
         # the re-read scene's file (its packing with the bridges; a vDOS, no waves: fewer figures)
         assert any(path.endswith("_forces.png") for path in plots.plot_results(str(reread.output)))

@@ -35,7 +35,7 @@ def test_counts_equal_dense_eigenvalue_histogram(comm, small_packing, rho):
     assert_all(datasets["edges"][-1] > np.sqrt(lam.max()), "the last edge must lie above every mode")
     assert_close(attrs["omega_max"], np.sqrt(lam.max()), rtol=1e-8, what="omega_max (Lanczos tol 1e-8)")
     assert_all(settings["inertia"]["factor_package"] == "mumps", str(settings))
-    # tools/setup.sh installs Debian's PT-Scotch MUMPS and petscenv loads it
+    # scripts/tools/setup.sh installs Debian's PT-Scotch MUMPS and petscenv loads it
     assert_all(settings["inertia"]["mumps_build"] == "ptscotch", str(settings))
 
 

@@ -1,4 +1,4 @@
-"""tools/diffusivity_findings.py, which writes up docs/diffusion.md: its crossover rule on a d(omega)
+"""scripts/tools/diffusivity_findings.py, which writes up docs/diffusion.md: its crossover rule on a d(omega)
 of known shape, its prediction of d from the waves' attenuation against the closed form of one
 branch, and its reading of a real scene's results file (per-mode participation and rotational
 shares paired with the modes' d).  Serial: it reads files."""
@@ -9,7 +9,7 @@ from conftest import COMM, assert_all, assert_close, scene_of
 
 from solver import pipeline
 from solver.io import results
-from tools import diffusivity_findings as findings
+from scripts.tools import diffusivity_findings as findings
 
 pytestmark = pytest.mark.serial_only
 

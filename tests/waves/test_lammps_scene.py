@@ -121,7 +121,7 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
 
         written = plots.plot_results(swept.output)
         assert any(path.endswith("_sweep_TR_rho1.png") for path in written), written
-        from tools import finite_amplitude_findings as findings
+        from scripts.tools import finite_amplitude_findings as findings
 
         found = findings.case(swept.output, findings.linear_fits([swept.output, alone.output]))
         table = findings.rows([found])  # A* against the single-amplitude scene's fits: between 1e-5 and 1e-2
