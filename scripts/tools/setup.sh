@@ -13,6 +13,7 @@ cd "$(dirname "$0")/../.."
 PKGS=(python3-petsc4py python3-slepc4py python3-mpi4py python3-h5py-mpi python3-scipy
       python3-matplotlib python3-yaml python3-numba python3-pytest python3-pytest-timeout
       python3-pytest-xdist openmpi-bin  # the serial tests on both cores (make test)
+      python3-colorama  # not rotsound's: numba colours its messages with it; the tests check no escape code leaks
       libmumps-ptscotch-5.5  # MUMPS with SCOTCH's ordering, loaded in place of the default build (solver/petscenv.py)
       python3-venv lammps python3-lammps liblammps-dev  # LAMMPS: packing.engine, its tests
       python3-ase python3-vtk9  # `rotsound export`: extended XYZ (ASE), VTK XML PolyData (VTK)
