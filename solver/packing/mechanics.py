@@ -172,7 +172,7 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
 
     Unstressed (``tangential`` None): particles with fewer than D + 1 contacts among
     non-rattlers.
-    Wet (``cohesion``) [choice]: a particle with fewer than D + 1 links (contacts and bridged
+    Wet (``cohesion``, with or without ``tangential``) [choice]: a particle with fewer than D + 1 links (contacts and bridged
     pairs across a gap, ``bridges``) among non-rattlers that together carry less than
     EQUILIBRIUM_TOL (sum of |(f_n - F) n + f_t|).  A bridge holds what no contact does, and a
     particle on two links in tension is held (their geometric terms stiffen it across), so the
@@ -186,7 +186,7 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
     """
     found = geometry.find_contacts(positions, diameters, box)
     rattler = np.zeros(diameters.size, dtype=bool)
-    counted = tangential is None  # the count rule: dry unstressed, and wet
+    counted = tangential is None or cohesion is not None  # the count rule: dry unstressed, and wet (stored forces or not)
     weighed = tangential is not None or cohesion is not None  # the force rule: stressed, and wet
     first, second = found.i, found.j
     weight = np.linalg.norm(contact_forces(found, diameters, law, tangential, cohesion), axis=1) if weighed else None
