@@ -15,19 +15,35 @@ name OVITO's reader of that format takes it for:
                compressed nor appended data nor a FieldData block: arrays are inline base64,
                uncompressed, and the mode's numbers stay out.  ``type`` is ``shapetype`` here
                (Aspherix's name, read by OVITO as Particle Type; ``type`` would be a "Material Type").
-  lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``,
-               ``ITEM: ATOMS id type x y z ...``), written here (no maintained writer exists outside
-               LAMMPS): one file, one timestep per frame.  OVITO's dump reader makes vectors and
-               integers only of the columns of its standard properties (it reads any other column
+               The types' names are ``type_name``, a string array on the vertex cells (one per
+               particle), which ParaView shows; OVITO's reader skips cell data (a string point array
+               would stop it) and names VTP types only by Aspherix's shape files, so OVITO's two
+               types stay unnamed.  A wet packing's bridges apart (``Packing.bridges``) are a
+               contact network as Aspherix writes one, ``<stem>.bridges.vtp`` (``_<frame>`` before
+               .vtp over frames): a line per bridge from the centre of i to that of j's periodic image
+               nearest to i, cell arrays ``id1`` and ``id2`` (1-based particle ids) and ``gap`` (the
+               packing's, d0); and ``<stem>.vtm``, a VTK multiblock file naming both files, which
+               ParaView and OVITO open as one (OVITO: particles and a Lines object of
+               particle-particle contacts).  No bridge files for a dry packing or one whose every
+               bridge is a contact.
+  lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``, in 2D ``pp pp
+               ff``, open in z as the extxyz's pbc, ``ITEM: ATOMS id type element x y z ...``, the
+               ``element`` column the types' names, as LAMMPS's ``dump_modify element`` writes them,
+               which OVITO takes as its Particle Type names), written here (no maintained writer
+               exists outside LAMMPS): one file, one timestep per frame.  OVITO's dump reader makes
+               vectors and integers only of the columns of its standard properties (it reads any other column
                as a float scalar), so ``displacement`` is ``displacementx displacementy
                displacementz`` (OVITO: Displacement), ``contacts`` is ``coordination``
                (Coordination, an integer) and ``rotation`` is the unit quaternion of the rotation
                vector theta, ``rotationx rotationy rotationz rotationw`` = (n sin(|theta|/2),
                cos(|theta|/2)), n = theta / |theta| (OVITO: Rotation; it has no property for a
                rotation vector); ``rattler`` is a float to OVITO.
+The bridges go into the vtp alone: extended XYZ has no standard for pairs, and a dump holds atoms
+only (LAMMPS writes pairs to a separate ``dump local``, which OVITO reads only through its Load
+trajectory modifier).
 
-Per-particle fields: ``type`` (1 small, 2 large), ``radius`` and ``diameter`` (d0), ``rattler``
-(0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n| over them
+Per-particle fields: ``type`` (1 small, 2 large: ``TYPE_NAMES``), ``radius`` and ``diameter``
+(d0), ``rattler`` (0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n| over them
 under the scene's ``model.law``, kn d0) and, for a stressed packing, ``force_tangential`` (the
 sum of the stored |f_t|); with a mode also ``displacement`` and ``rotation`` (3-vectors: d0 and
 rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share`` (the particle's part of the mode's
@@ -56,7 +72,7 @@ from . import hdf5, results
 from .atomic import atomic_write
 
 FORMATS = ("extxyz", "vtp", "lammps-dump")
-TYPE_NAMES = ("small", "large")  # the names of types 1 and 2 in extxyz
+TYPE_NAMES = ("small", "large")  # the names of types 1 and 2 (smaller and larger than the mean diameter)
 
 
 def particle_fields(packing) -> dict[str, np.ndarray]:
@@ -168,6 +184,7 @@ def _add_arrays(attributes, arrays: dict) -> None:
 
 
 def _write_polydata(data, target: str) -> None:
+    """Write ``data`` to ``target`` by VTK's XML writer, as OVITO's reader takes it."""
     from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
     writer = vtkXMLPolyDataWriter()
@@ -192,6 +209,19 @@ def _bundle(target: str, blocks: dict[str, str]) -> None:
                   '  </vtkMultiBlockDataSet>\n</VTKFile>\n')
 
 
+def _network(positions: np.ndarray, bridges: dict):
+    """The bridges (:func:`bridges_of`) between particles at ``positions`` (N, 3) as Aspherix's
+    contact network: two points per line, the centre of i and that of j's image nearest to i."""
+    pairs, box = bridges["pairs"], bridges["box"]
+    ends = positions[pairs[:, 1]] - positions[pairs[:, 0]]
+    ends[:, :len(box)] = geometry.minimum_image(ends[:, :len(box)], box)
+    ends += positions[pairs[:, 0]]
+    network = _polydata(np.stack((positions[pairs[:, 0]], ends), axis=1).reshape(-1, 3), "lines",
+                        np.arange(2 * len(pairs)).reshape(-1, 2))
+    _add_arrays(network.GetCellData(), {"id1": pairs[:, 0] + 1, "id2": pairs[:, 1] + 1, "gap": bridges["gap"]})
+    return network
+
+
 def _vtp(path: str, frames, bridges: dict | None) -> list[str]:
     """The vtp files of ``frames`` (the module docstring); with ``bridges`` ({"pairs": (B, 2), "gap":
     (B,), "box": (D,) the periodic sides}, B > 0) also each frame's bridges and its .vtm bundle."""
@@ -199,9 +229,9 @@ def _vtp(path: str, frames, bridges: dict | None) -> list[str]:
     paths = [path] if len(frames) == 1 else [f"{stem}_{f:04d}.vtp" for f in range(len(frames))]
     lines, bundles = [], []
     for f, (target, (positions, fields)) in enumerate(zip(paths, frames)):
-        n = len(positions)
-        cloud = _polydata(positions, "verts", np.arange(n)[:, None])  # one vertex cell per particle: OVITO
-        _add_arrays(cloud.GetPointData(), {("shapetype" if name == "type" else name): value  # finds particles so
+        # one vertex cell per particle: OVITO recognises particles by them
+        cloud = _polydata(positions, "verts", np.arange(len(positions))[:, None])
+        _add_arrays(cloud.GetPointData(), {("shapetype" if name == "type" else name): value
                                            for name, value in fields.items()})
         # the types' names on the vertex cells: ParaView shows them; OVITO skips cell data (a string
         # point array would stop its reader)
@@ -209,17 +239,8 @@ def _vtp(path: str, frames, bridges: dict | None) -> list[str]:
         _write_polydata(cloud, target)
         if bridges is None:
             continue
-        pairs, box = bridges["pairs"], bridges["box"]
-        ends = positions[pairs[:, 1]] - positions[pairs[:, 0]]
-        ends[:, :len(box)] = geometry.minimum_image(ends[:, :len(box)], box)
-        ends += positions[pairs[:, 0]]
-        # Aspherix's contact network: two points per line, the centres of i and of j's image nearest to i
-        network = _polydata(np.stack((positions[pairs[:, 0]], ends), axis=1).reshape(-1, 3), "lines",
-                            np.arange(2 * len(pairs)).reshape(-1, 2))
-        _add_arrays(network.GetCellData(), {"id1": pairs[:, 0] + 1, "id2": pairs[:, 1] + 1, "gap": bridges["gap"]})
-        suffix = "" if len(frames) == 1 else f"_{f:04d}"
-        lines.append(f"{stem}.bridges{suffix}.vtp")
-        _write_polydata(network, lines[-1])
+        lines.append(f"{stem}.bridges{'' if len(frames) == 1 else f'_{f:04d}'}.vtp")
+        _write_polydata(_network(positions, bridges), lines[-1])
         bundles.append(f"{target[:-4]}.vtm")
         _bundle(bundles[-1], {"particles": target, "bridges": lines[-1]})
     return paths + lines + bundles

@@ -1,10 +1,13 @@
-"""``rotsound export``: every format read back by its own library (ASE for extended XYZ and the
-LAMMPS dump, VTK for VTP) and the dump by LAMMPS itself; the fields against the results file
-and an independent contact count; the animation's frames (frame 0 the largest displacement); bad
-requests refused; no PETSc or MPI imported on the way.  Then OVITO itself (``ovito_check.py`` in
-the venv ``scripts/tools/setup.sh`` makes for it): every format's particle count, Radius, a Particle
-Type of the two sizes, displacement and rotation as vector properties, and a rendered picture in
-which each particle has its type's colour.  Serial: export is a one-process tool."""
+"""``rotsound export``: every format read back by its own library (ASE for extended XYZ, VTK for
+VTP and its multiblock bundle) and the dump by LAMMPS itself and as text (ASE's dump reader takes
+the element column for chemical symbols); the fields against the results file and an independent
+contact count; the types' names; a wet packing's bridges; the animation's frames (frame 0 the
+largest displacement); bad requests refused; no PETSc or MPI imported on the way.  Then OVITO
+itself (``ovito_check.py`` in the venv ``scripts/tools/setup.sh`` makes for it): every format's
+particle count, Radius, a Particle Type of the two sizes (named in extxyz and the dump), a 2D
+cell open in z, displacement and rotation as vector properties, the bridges as lines, and a
+rendered picture in which each particle has its type's colour.  Serial: export is a one-process
+tool."""
 
 import math
 import subprocess
@@ -119,7 +122,8 @@ def _read_vtp(path):
 
     cloud = _read_polydata(path)
     assert cloud.GetNumberOfVerts() == cloud.GetNumberOfPoints()  # one vertex cell per particle
-    return vtk_to_numpy(cloud.GetPoints().GetData()), _vtk_arrays(cloud.GetPointData()), _vtk_arrays(cloud.GetCellData())
+    points = vtk_to_numpy(cloud.GetPoints().GetData())
+    return points, _vtk_arrays(cloud.GetPointData()), _vtk_arrays(cloud.GetCellData())
 
 
 def test_vtp_series_read_back_by_vtk(mode_file, tmp_path):
