@@ -426,7 +426,8 @@ def test_a_wet_packings_bridges_are_lines_beside_the_particles(wet_file, tmp_pat
 
 def test_a_wet_modes_frames_each_have_their_bridges(wet_file, tmp_path):
     """Over frames, each frame's bridges (named apart from the particle series, which OVITO and
-    ParaView find by its number) follow that frame's particles; a dry export writes none (above)."""
+    ParaView find by its number) follow that frame's particles, and OVITO opens the frames' .vtm
+    files as one series; a dry export writes none (test_vtp_series_read_back_by_vtk)."""
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
     pairs, _, p = _bridges_expected(wet_file)
@@ -441,3 +442,9 @@ def test_a_wet_modes_frames_each_have_their_bridges(wet_file, tmp_path):
         np.testing.assert_allclose(shift, np.round(shift), rtol=0, atol=1e-12)
     moved = [_read_vtp(path)[0] for path in written[:2]]
     assert np.abs(moved[0] - moved[1]).max() > 0.1  # the frames differ
+    series = str(tmp_path / "w_*.vtm")  # OVITO: the bundles as one series, frame 0's bridges where its file has them
+    seen = ovito_read([series])["files"][series]
+    assert (seen["frames"], seen["count"]) == (2, 64)
+    first = vtk_to_numpy(_read_polydata(written[2]).GetPoints().GetData())
+    np.testing.assert_allclose(seen["lines"]["particle-particle-contacts"]["values"]["Position"], first, rtol=0,
+                               atol=1e-12)
