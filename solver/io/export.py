@@ -31,25 +31,25 @@ name OVITO's reader of that format takes it for:
                ``element`` column the types' names, as LAMMPS's ``dump_modify element`` writes them,
                which OVITO takes as its Particle Type names), written here (no maintained writer
                exists outside LAMMPS): one file, one timestep per frame.  OVITO's dump reader makes
-               vectors and integers only of the columns of its standard properties (it reads any other column
-               as a float scalar), so ``displacement`` is ``displacementx displacementy
-               displacementz`` (OVITO: Displacement), ``contacts`` is ``coordination``
-               (Coordination, an integer) and ``rotation`` is the unit quaternion of the rotation
-               vector theta, ``rotationx rotationy rotationz rotationw`` = (n sin(|theta|/2),
-               cos(|theta|/2)), n = theta / |theta| (OVITO: Rotation; it has no property for a
-               rotation vector); ``rattler`` is a float to OVITO.
+               vectors and integers only of the columns of its standard properties (it reads any
+               other column as a float scalar), so ``displacement`` is ``displacementx
+               displacementy displacementz`` (OVITO: Displacement), ``contacts`` is
+               ``coordination`` (Coordination, an integer) and ``rotation`` is the unit quaternion
+               of the rotation vector theta, ``rotationx rotationy rotationz rotationw`` = (n
+               sin(|theta|/2), cos(|theta|/2)), n = theta / |theta| (OVITO: Rotation; it has no
+               property for a rotation vector); ``rattler`` is a float to OVITO.
 The bridges go into the vtp alone: extended XYZ has no standard for pairs, and a dump holds atoms
 only (LAMMPS writes pairs to a separate ``dump local``, which OVITO reads only through its Load
 trajectory modifier).
 
 Per-particle fields: ``type`` (1 small, 2 large: ``TYPE_NAMES``), ``radius`` and ``diameter``
-(d0), ``rattler`` (0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n| over them
-under the scene's ``model.law``, kn d0) and, for a stressed packing, ``force_tangential`` (the
-sum of the stored |f_t|); with a mode also ``displacement`` and ``rotation`` (3-vectors: d0 and
-rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share`` (the particle's part of the mode's
-kinetic energy, sums to 1) and ``rotational_share`` (the part of that in its rotations; 0 where the
-share is 0).  2D packings get z = 0 and a box of height 1 in z.  A mode is animated over ``frames``
-phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that the largest
+(d0), ``rattler`` (0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of
+|f_n| over them under the scene's ``model.law``, kn d0) and, for a stressed packing,
+``force_tangential`` (the sum of the stored |f_t|); with a mode also ``displacement`` and
+``rotation`` (3-vectors: d0 and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share``
+(the particle's part of the mode's kinetic energy, sums to 1) and ``rotational_share`` (the part
+of that in its rotations; 0 where the share is 0).  2D packings get z = 0 and a box of height 1 in
+z.  A mode is animated over ``frames`` phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that the largest
 displacement is ``amplitude`` d0, so that frame 0 (the only one when ``frames`` is 1) shows the
 largest displacement and ``frames`` frames make one whole period; rotation vectors are scaled the
 same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
@@ -160,7 +160,10 @@ def _polydata(positions: np.ndarray, cells: str, connectivity: np.ndarray):
     array = vtkCellArray()
     array.SetData(numpy_support.numpy_to_vtkIdTypeArray(np.arange(0, k * count + 1, k, dtype=np.int64), deep=True),
                   numpy_support.numpy_to_vtkIdTypeArray(connectivity.astype(np.int64).ravel(), deep=True))
-    data.SetVerts(array) if cells == "verts" else data.SetLines(array)
+    if cells == "verts":
+        data.SetVerts(array)
+    else:
+        data.SetLines(array)
     return data
 
 
