@@ -42,20 +42,20 @@ The bridges go into the vtp alone: extended XYZ has no standard for pairs, and a
 only (LAMMPS writes pairs to a separate ``dump local``, which OVITO reads only through its Load
 trajectory modifier).
 
-Per-particle fields: ``type`` (1 small, 2 large: ``TYPE_NAMES``), ``radius`` and ``diameter``
-(d0), ``rattler`` (0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of
-|f_n| over them under the scene's ``model.law``, kn d0) and, for a stressed packing,
-``force_tangential`` (the sum of the stored |f_t|); with a mode also ``displacement`` and
-``rotation`` (3-vectors: d0 and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share``
-(the particle's part of the mode's kinetic energy, sums to 1) and ``rotational_share`` (the part
-of that in its rotations; 0 where the share is 0).  2D packings get z = 0 and a box of height 1 in
-z.  A mode is animated over ``frames`` phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that the largest
-displacement is ``amplitude`` d0, so that frame 0 (the only one when ``frames`` is 1) shows the
-largest displacement and ``frames`` frames make one whole period; rotation vectors are scaled the
-same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
-phi, go into the extxyz comment line (``Atoms.info``) and into :func:`describe` (the command prints
-it); the VTP files and the dump carry the per-particle fields only, the dump's TIMESTEP being the
-frame index.
+Per-particle fields: ``type`` (1 small, 2 large: ``TYPE_NAMES``), ``radius`` and ``diameter`` (d0),
+``rattler`` (0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n|
+over them under the scene's ``model.law``, kn d0) and, for a stressed packing, ``force_tangential``
+(the sum of the stored |f_t|); with a mode also ``displacement`` and ``rotation`` (3-vectors: d0
+and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share`` (the particle's part of the
+mode's kinetic energy, sums to 1) and ``rotational_share`` (the part of that in its rotations; 0
+where the share is 0).  2D packings get z = 0 and a box of height 1 in z.  A mode is animated over
+``frames`` phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that
+the largest displacement is ``amplitude`` d0, so that frame 0 (the only one when ``frames`` is 1)
+shows the largest displacement and ``frames`` frames make one whole period; rotation vectors are
+scaled the same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing
+index and phi, go into the extxyz comment line (``Atoms.info``) and into :func:`describe` (the
+command prints it); the VTP files and the dump carry the per-particle fields only, the dump's
+TIMESTEP being the frame index.
 
 No PETSc, no MPI; not collective.  Units: d0, rad, 1/t0.
 """
