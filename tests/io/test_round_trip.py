@@ -119,9 +119,9 @@ def _points(path: str) -> np.ndarray:
     head = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS"))
     columns = lines[head].split()[2:]
     n = int(lines[3])
-    rows = np.array([line.split() for line in lines[head + 1:head + 1 + n]], dtype=float)
-    rows = rows[np.argsort(rows[:, columns.index("id")])]
-    return rows[:, [columns.index(c) for c in ("x", "y", "z")]]
+    rows = np.array([line.split() for line in lines[head + 1:head + 1 + n]])  # str: the element column is a name
+    rows = rows[:, [columns.index(c) for c in ("id", "x", "y", "z")]].astype(float)
+    return rows[np.argsort(rows[:, 0]), 1:]
 
 
 @pytest.mark.parametrize("fmt", export.FORMATS)
