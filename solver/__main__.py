@@ -114,7 +114,8 @@ def _parser() -> argparse.ArgumentParser:
                                            "(animated), as a file OVITO and ParaView open")
     export.add_argument("results", help="results .h5 file")
     export.add_argument("--format", required=True, choices=None, metavar="{extxyz,vtp,lammps-dump}",
-                        help="extxyz (ASE), vtp (VTK XML PolyData by VTK; one file per frame) or lammps-dump")
+                        help="extxyz (ASE), vtp (VTK XML PolyData by VTK; one file per frame; a wet packing's "
+                             "bridges also as NAME.bridges.vtp lines, both named by NAME.vtm) or lammps-dump")
     export.add_argument("--output", required=True,
                         help="file to write (vtp: NAME.vtp; with several frames NAME_0000.vtp, NAME_0001.vtp, ...)")
     export.add_argument("--packing", type=int, default=0, help="configuration index (default 0)")

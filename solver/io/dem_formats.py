@@ -18,8 +18,9 @@ Formats (tests/data/dem/README.md shows real files of each, made by the programs
   LAMMPS gives the atom (it uses the sphere's volume in 2D too, unless ``set density/disc``
   was used, in which case write_data's density is still mass / (pi d^3 / 6)).
 * ``lammps-dump`` -- a text ``dump custom`` / ``write_dump``: ``ITEM: TIMESTEP``, ``ITEM:
-  NUMBER OF ATOMS``, ``ITEM: BOX BOUNDS pp pp pp`` with three ``lo hi`` lines, ``ITEM: ATOMS``
-  and its column names.  Needs ``id``, ``diameter`` or ``radius`` (LIGGGHTS scripts usually
+  NUMBER OF ATOMS``, ``ITEM: BOX BOUNDS pp pp pp`` (``pp pp ff`` for disks, all at z = 0, as
+  rotsound's 2D export writes) with three ``lo hi`` lines, ``ITEM: ATOMS`` and its column names;
+  columns not read may hold words (``dump_modify element``).  Needs ``id``, ``diameter`` or ``radius`` (LIGGGHTS scripts usually
   dump radius), and ``x y z`` (or unwrapped ``xu yu zu``, or scaled ``xs ys zs``, converted to
   lo + s (hi - lo)); takes ``mass`` when present, else ``density`` (LIGGGHTS), else masses are
   None.  Any number of frames; one is read.
@@ -119,12 +120,14 @@ def after_comments(text: str) -> tuple[list[str], int]:
     return text[len(head):].rstrip().splitlines(), head.count("\n") + 1
 
 
-def number_table(path, lines: list[str], first: int, where: str, expect: str, kind: str = "packing file") -> np.ndarray:
-    """(len(lines), C) float64 table of ``lines``, which start at line ``first`` (from 1) of the
-    file; InputError naming the first bad line on blank lines, ragged rows, non-numeric or
-    non-finite values.  ``where`` names the block, ``expect`` says what its rows hold."""
+def number_table(path, lines: list[str], first: int, where: str, expect: str, kind: str = "packing file",
+                 usecols: list[int] | None = None) -> np.ndarray:
+    """(len(lines), C) float64 table of ``lines`` (of their columns ``usecols`` only, when given:
+    the others may hold words), which start at line ``first`` (from 1) of the file; InputError
+    naming the first bad line on blank lines, ragged rows, non-numeric or non-finite values.
+    ``where`` names the block, ``expect`` says what its rows hold."""
     try:
-        table = np.loadtxt(lines, dtype=np.float64, comments="#", ndmin=2)
+        table = np.loadtxt(lines, dtype=np.float64, comments="#", ndmin=2, usecols=usecols)
     except ValueError:
         table = None
     if table is None or table.shape[0] != len(lines):
@@ -306,9 +309,9 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
     if flags[:3] == ["xy", "xz", "yz"] or "abc" in flags:
         _fail(path, f"{where}: the box is triclinic ('ITEM: {box}'); rotsound's periodic boxes are orthogonal, "
                     f"so only 'ITEM: BOX BOUNDS pp pp pp' boxes are read")
-    if any(f != "pp" for f in flags):
+    if any(f != "pp" for f in flags[:2]) or len(flags) != 3:
         _fail(path, f"{where}: the box is not periodic in every direction ('ITEM: {box}'); rotsound's packings "
-                    f"are periodic, so the boundary flags must be 'pp pp pp'")
+                    f"are periodic, so the boundary flags must be 'pp pp pp' ('pp pp ff' for disks, all at z = 0)")
     try:
         values = np.array(items[box], dtype=np.float64)
     except ValueError:
@@ -332,17 +335,24 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
         _fail(path, f"{where}: the ATOMS columns ({' '.join(names) or 'none'}) lack {', '.join(missing)}; "
                     f"a packing dump needs id, diameter or radius, and x y z (or xu yu zu, or xs ys zs)")
     first = text[:starts[frame]].count("\n") + chunk[:len(chunk) - len(rows)].count("\n") + 1
-    table = number_table(path, lines[:natoms], first, f"{where}'s atom lines",
-                     f"the {len(names)} columns {' '.join(names)}")
-    if table.shape[1] != len(names):
-        _fail(path, f"{where}: atom lines have {table.shape[1]} columns but 'ITEM: ATOMS' names {len(names)} "
+    width = len(lines[0].split()) if natoms else len(names)
+    if width != len(names):
+        _fail(path, f"{where}: atom lines have {width} columns but 'ITEM: ATOMS' names {len(names)} "
                     f"({' '.join(names)}); each line must hold one value per name")
-    col = {n: table[:, i] for i, n in enumerate(names)}
+    # only the columns read are numbers: others may hold words (an 'element' column, dump_modify element)
+    read = [n for n in names if n in ("id", size, *position, "mass", "density")]
+    table = number_table(path, lines[:natoms], first, f"{where}'s atom lines",
+                         f"the {len(names)} columns {' '.join(names)}", usecols=[names.index(n) for n in read])
+    col = {n: table[:, i] for i, n in enumerate(read)}
     ids = _ids(path, col["id"], f"{where}'s atom lines")
     diameters = col[size] * (2.0 if size == "radius" else 1.0)
     positions = np.column_stack([col[c] for c in position])
     if position[0].startswith("xs"):
         positions = lo + positions * (hi - lo)
+    if flags[2] != "pp" and not np.all(positions[:, 2] == 0.0):
+        _fail(path, f"{where}: the box is not periodic in z ('ITEM: {box}') but the particles are not all at z = 0; "
+                    f"rotsound's packings are periodic, so the boundary flags must be 'pp pp pp' "
+                    f"('pp pp ff' for disks, all at z = 0)")
     if "mass" in col:
         masses = col["mass"].copy()
     elif "density" in col:

@@ -293,8 +293,10 @@ DAMAGED = [
      r"atom lines have 6 columns but 'ITEM: ATOMS' names 7"),
     ("dump: negative radius", "lammps_3d.dump", _set_atom_value(9, 2, "-0.4"), None,
      r"frame 0's atom lines: 1 particle\(s\) have a non-positive diameter \(first: id 1, diameter -0.8\)"),
-    ("dump: not periodic", "liggghts_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp pp fm"), None,
-     r"the box is not periodic in every direction \('ITEM: BOX BOUNDS pp pp fm'\)"),
+    ("dump: not periodic", "liggghts_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp fm pp"), None,
+     r"the box is not periodic in every direction \('ITEM: BOX BOUNDS pp fm pp'\)"),
+    ("dump: 3D spheres in a box not periodic in z", "lammps_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp pp ff"),
+     None, r"the box is not periodic in z \('ITEM: BOX BOUNDS pp pp ff'\) but the particles are not all at z = 0"),
     ("dump: atom count not a number", "lammps_2d.dump", _replace("ATOMS\n128", "ATOMS\n12a"), None,
      r"'ITEM: NUMBER OF ATOMS' must be followed by one positive whole number"),
     ("yade: unknown #format", "yade_3d.txt", _replace("#format x_y_z_r", "#format x_y_z_r_vel"), None,
@@ -353,3 +355,18 @@ def test_a_yade_export_without_its_cell_has_no_box(tmp_path):
     path.write_text("\n".join([lines[0]] + lines[3:]))  # as export.text writes: no comment
     p = dem_formats.read(path)
     assert p.box_lo is None and p.box_hi is None and p.positions.shape == (128, 3)
+
+
+def test_a_2d_dump_not_periodic_in_z_and_a_word_column_read_as_the_plain_dump(tmp_path):
+    """A 2D dump as rotsound's export writes it ('pp pp ff', disks at z = 0) and with a column of
+    words (LAMMPS's dump_modify element) reads as the committed plain dump does."""
+    text = (DATA / "lammps_2d.dump").read_text().replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp pp ff")
+    head, atoms = text.split("ITEM: ATOMS id type diameter mass x y z\n")
+    rows = [line.split() for line in atoms.strip().split("\n")]
+    named = "\n".join(" ".join([w[0], w[1], "large" if w[1] == "2" else "small", *w[2:]]) for w in rows)
+    path = tmp_path / "named.dump"
+    path.write_text(head + "ITEM: ATOMS id type element diameter mass x y z\n" + named + "\n")
+    plain, named_read = dem_formats.read_lammps_dump(DATA / "lammps_2d.dump"), dem_formats.read_lammps_dump(path)
+    assert named_read.positions.shape == (128, 2)
+    for field in ("positions", "diameters", "masses", "box_lo", "box_hi", "ids"):
+        assert np.array_equal(getattr(named_read, field), getattr(plain, field)), field

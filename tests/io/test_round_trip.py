@@ -21,7 +21,7 @@ from conftest import COMM, REPO, assert_close, ovito_read, scene_of
 
 from solver import pipeline, plots, report
 from solver.contact_law import ContactModel
-from solver.io import export, hdf5, results
+from solver.io import dem_formats, export, hdf5, results
 
 pytestmark = pytest.mark.serial_only
 
@@ -139,6 +139,12 @@ def test_export_reads_every_kind(written, tmp_path, kind, fmt):
     # atol: extended XYZ (ASE) writes 8 decimals, a rounding of at most 5e-9 d0; the others keep 1e-9 of the box
     atol = 5e-9 + 1e-12 if fmt == "extxyz" else 1e-9 * stored["box"].max()
     assert_close(points[:, :dim], folded, rtol=0, atol=atol, what=f"{kind} {fmt} positions")
+    if fmt == "lammps-dump":  # and by rotsound's own reader of packing.file (2D: 'pp pp ff', an element column)
+        raw = dem_formats.read_lammps_dump(out[0])
+        assert raw.positions.shape == stored["positions"].shape
+        assert_close(raw.positions, folded, rtol=0, atol=atol, what=f"{kind} dump read back: positions")
+        assert_close(raw.diameters, stored["diameters"], rtol=1e-15, atol=0, what=f"{kind} dump read back: diameters")
+        assert_close(raw.box_hi - raw.box_lo, stored["box"], rtol=1e-15, atol=0, what=f"{kind} dump read back: box")
     if kind == "modes":
         written_frames, what = export.export(str(written[kind]), fmt, str(tmp_path / f"m{suffix}"), mode=0,
                                              frames=4)
