@@ -60,7 +60,7 @@ class Recursion:
         self.destroy()
 
     def destroy(self) -> None:
-        """Free the PETSc Mats. Not collective (PETSc destroys collectively; every rank calls it)."""
+        """Free the PETSc Mats (idempotent). Collective."""
         self.X.destroy()
         if self.Y is not None:
             self.Y.destroy()
