@@ -329,3 +329,29 @@ def with_random_stored_forces(p, seed, ratio=0.5, zero=False):
     stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.box,
                             "harmonic", None, "test")
     return dataclasses.replace(p, tangential=stored)
+
+
+class FailingProducts:
+    """A PETSc Mat stand-in for the deterministic-destruction tests: delegates to ``mat``, records
+    every operand and product of its ``matMult`` in ``seen``, and raises RuntimeError at product
+    number ``fail_at`` (on every rank alike).  After the error, every Mat in ``seen`` should have
+    been destroyed (``handle == 0``) by the code under test, not left to the garbage collector."""
+
+    def __init__(self, mat, fail_at: int):
+        self.mat, self.fail_at, self.seen, self.calls = mat, fail_at, [], 0
+
+    def __getattr__(self, name):
+        return getattr(self.mat, name)
+
+    def matMult(self, *operands):
+        self.calls += 1
+        self.seen += [m for m in operands if m is not None]
+        if self.calls == self.fail_at:
+            raise RuntimeError("injected failure")
+        product = self.mat.matMult(*operands)
+        self.seen.append(product)
+        return product
+
+    def live(self) -> int:
+        """How many recorded Mats other than ``mat`` itself are still alive."""
+        return sum(1 for m in {id(m): m for m in self.seen}.values() if m.handle != 0 and m is not self.mat)

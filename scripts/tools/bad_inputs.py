@@ -366,6 +366,8 @@ CASES = [
      "got neither", None),
     ("unknown bridge law", GOOD + "model: {cohesion: {law: rabinovich, surface_tension: 0.01, volume: 1.0e-3}}\n", [],
      "model.cohesion.law = 'rabinovich': must be one of willett, soulie", None),
+    ("a box too small for the bridges", "packing: {n: 16, phi: 0.86}\nmodel: {cohesion: {surface_tension: 0.002, "
+     "volume: 1.0}}\n", [], "a wet packing's box side L = 3.875 d0 must exceed 2 (d + s_c) = 4.333 d0", None),
     ("bridges on LAMMPS's packing engine", "packing: {n: 64, phi: 0.9, engine: lammps}\n" + WET, [],
      "model.cohesion (capillary bridges) with packing.engine: lammps", None),
     ("bridges with a contact file", "packing: {file: '{file}', contacts: '{file}.contacts'}\n" + WET, [],

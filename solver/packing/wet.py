@@ -10,8 +10,28 @@ from __future__ import annotations
 import numpy as np
 
 from .. import capillary
+from ..errors import InputError
 from . import geometry
 from .mechanics import FrictionlessForces
+
+
+def check_box(diameters: np.ndarray, box, cohesion: capillary.Cohesion) -> None:
+    """InputError unless every side of ``box`` (D,) exceeds 2 (d + s_c) for every pair of the
+    ``diameters``' sizes, d = R_i + R_j the pair's contact distance and s_c its bridge's rupture
+    distance under ``cohesion`` (d0): a bridge must reach its partner through one periodic image
+    only (minimum image on unwrapped positions).  Not collective."""
+    radius = np.unique(0.5 * np.asarray(diameters, dtype=float))
+    r_i, r_j = np.meshgrid(radius, radius)
+    rupture = capillary.rupture_distance(r_i, r_j, cohesion)
+    k = int(np.argmax(r_i + r_j + rupture))
+    contact, s_c, side = float((r_i + r_j).flat[k]), float(rupture.flat[k]), float(np.min(box))
+    if not side > 2.0 * (contact + s_c):
+        raise InputError(f"a wet packing's box side L = {side:.4g} d0 must exceed 2 (d + s_c) = "
+                         f"{2.0 * (contact + s_c):.4g} d0, with d = {contact:.4g} d0 the largest contact distance and "
+                         f"s_c = {s_c:.4g} d0 its bridge's rupture distance under model.cohesion (law "
+                         f"{cohesion.law}): a bridge would reach its partner through two periodic images; choose a "
+                         f"larger packing.n, a smaller packing.phi or less liquid (model.cohesion.volume or "
+                         f"liquid_content)")
 
 
 class WetForces:
@@ -21,10 +41,12 @@ class WetForces:
     bridged pairs are kept as sorted keys i N + j (i < j); each call adds the pairs its contact
     list finds touching and drops those apart by s_c or more, then adds their pull (the whole pass
     vectorised over the bridges).  The box must exceed twice the largest contact distance plus
-    s_c, so that a bridge spans one periodic image (minimum image on unwrapped positions).
+    s_c, so that a bridge spans one periodic image (minimum image on unwrapped positions):
+    InputError otherwise (:func:`check_box`), before any force is computed.
     """
 
     def __init__(self, diameters: np.ndarray, box, cohesion: capillary.Cohesion, law: str = "harmonic"):
+        check_box(diameters, box, cohesion)
         self.dry = FrictionlessForces(diameters, box, law=law)
         self.box, self.cohesion, self.radius = box, cohesion, 0.5 * diameters
         self.keys = np.zeros(0, dtype=np.int64)

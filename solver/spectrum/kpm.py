@@ -1,6 +1,8 @@
 """Stochastic vDOS by the kernel polynomial method (KPM): no factorisation, no eigenvectors.
 
-Moments mu_n = tr T_n(B) / n_modes of B = (A - c I) / h, A = M^-1/2 D M^-1/2, estimated with R
+Moments mu_n = tr T_n(B) / n_modes of B = (A - c I) / h, A = M^-1/2 D M^-1/2 (c, h map
+[-0.01, 1.01] lambda_max onto [-1, 1]: ``chebyshev.kpm_scale``; the recursion is
+``chebyshev.Recursion``'s), estimated with R
 Rademacher probe vectors from which the exact zero modes of ``dm.rigid_modes()`` (the uniform
 translations; and the uniform spins when there are rotations but no tangential springs) are
 projected out, so the density counts exactly the non-zero modes.  One MatMatMult per two
@@ -17,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import modes
+from . import chebyshev, modes
 from .. import profiling
 from ..model.operators import largest_omega
 
@@ -75,16 +77,12 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel:
     dim..dof-1 of every particle), so the moments weigh mode q by |P e_q|^2 (its translational or
     rotational share, PHYSICS.md section 3); the two channels add up to the unrestricted moments
     in expectation.  Memory per rank: five (nloc, probes) blocks (probes: :func:`probe_rows`).
-    One MatMatMult per step whose symbolic product is made once and reused.
+    One MatMatMult per step (``chebyshev.Recursion`` on D with s = M^-1/2; c, h of
+    ``chebyshev.kpm_scale``).
     """
-    from petsc4py import PETSc
-
-    comm = dm.D.getComm()
-    mpi = comm.tompi4py()
-    lo, hi = -0.01 * lam_max, 1.01 * lam_max
-    c, h = 0.5 * (hi + lo), 0.5 * (hi - lo)
+    mpi = dm.D.getComm().tompi4py()
+    c, h = chebyshev.kpm_scale(lam_max)
     nloc, n = dm.D.getLocalSize()[0], dm.size
-    s = (1.0 / np.sqrt(dm.M.getArray()))[:, None]
     start = dm.D.getOwnershipRange()[0]
     z = np.asfortranarray(probe_rows(seed, start, start + nloc, probes))
     if channel is not None:
@@ -92,44 +90,18 @@ def moments(dm, lam_max: float, n_moments: int, probes: int, seed: int, channel:
         z[rotation if channel == "translation" else ~rotation] = 0.0
     project_rigid(dm, z)
     n_modes = n - len(dm.rigid_modes())
-    X = PETSc.Mat().createDense(((nloc, n), (PETSc.DECIDE, probes)), array=np.zeros((nloc, probes), order="F"),
-                                comm=comm)
-    X.assemble()
-    x = X.getDenseArray()
-    Y = None
-
-    def apply_b(v: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """out = B v = (s * D (s * v) - c v) / h, in place."""
-        nonlocal Y
-        np.multiply(s, v, out=x)
-        Y = dm.D.matMult(X) if Y is None else dm.D.matMult(X, Y)  # symbolic once, numeric after
-        np.multiply(s, Y.getDenseArray(), out=out)
-        out -= c * v
-        out /= h
-        return out
-
     half = (n_moments + 1) // 2
-    t_prev, t_curr = z, apply_b(z, np.empty_like(z, order="F"))
-    local = [_dot(z, z), _dot(t_curr, z)]
-    pairs = []  # (<T_n, T_n>, <T_n+1, T_n>) for n = 1..half-1
-    spare = np.empty_like(z, order="F")
-    for _ in range(1, half):
-        t_next = apply_b(t_curr, spare)
-        t_next *= 2.0
-        t_next -= t_prev
-        pairs.append((_dot(t_curr, t_curr), _dot(t_next, t_curr)))
-        t_prev, t_curr, spare = t_curr, t_next, t_prev
-    sums = mpi.allreduce(np.array(local + [x_ for p in pairs for x_ in p]))
-    X.destroy()
-    if Y is not None:
-        Y.destroy()
-    mu0, mu1 = sums[0], sums[1]
-    mu = np.zeros(2 * half)
-    mu[0], mu[1] = mu0, mu1
-    for i, n_ in enumerate(range(1, half)):
-        tt, tn = sums[2 + 2 * i], sums[3 + 2 * i]
-        mu[2 * n_] = 2 * tt - mu0
-        mu[2 * n_ + 1] = 2 * tn - mu1
+    local = []  # (<T_n, T_n>, <T_n+1, T_n>) for n = 0..half-1
+    with chebyshev.Recursion(dm.D, c, h, probes, 1.0 / np.sqrt(dm.M.getArray())) as recursion:
+        previous = None
+        for t in recursion.terms(z, half + 1, overwrite=True):  # T_n-1 is intact beside T_n
+            if previous is not None:
+                local += [_dot(previous, previous), _dot(t, previous)]
+            previous = t
+    sums = mpi.allreduce(np.array(local))
+    mu = np.empty(2 * half)
+    mu[0::2] = 2 * sums[0::2] - sums[0]  # mu_2n = 2 <T_n, T_n> - mu_0 (n = 0: mu_0 itself)
+    mu[1::2] = 2 * sums[1::2] - sums[1]  # mu_2n+1 = 2 <T_n+1, T_n> - mu_1
     return mu[:n_moments] / (probes * n_modes), c, h
 
 
@@ -177,7 +149,7 @@ def energies(dm, edges: np.ndarray, lam_max: float, n_moments: int, probes: int,
 
 def auto_moments(lam_max: float, bin_width: float, omega_ref: float = 1.0) -> int:
     """Moments so that Jackson's omega smearing at omega_ref is about half a bin."""
-    h = 0.51 * lam_max
+    h = chebyshev.kpm_scale(lam_max)[1]
     return int(np.ceil(2 * np.pi * h / (2 * omega_ref * bin_width)))
 
 

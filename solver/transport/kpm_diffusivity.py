@@ -20,8 +20,8 @@ The count of modes C_b = Tr 1_b(A) gives the vDOS, and d_b = S_b / C_b is the me
 bin's modes (d0^2/t0).
 
 Estimator.  F_b is replaced by its Jackson-damped Chebyshev expansion in B = (A - c) / h,
-F_b^K = sum_k g_k c_kb T_k(B) (K moments; c, h as ``spectrum.kpm``: [lo, hi] = [-0.01, 1.01]
-lambda_max), and the traces by Rademacher probes r (``kpm.probe_rows``: rank-layout free) with the
+F_b^K = sum_k g_k c_kb T_k(B) (K moments; c, h the vDOS's, ``chebyshev.kpm_scale``: [lo, hi] =
+[-0.01, 1.01] lambda_max; the recursion ``chebyshev.Recursion``), and the traces by Rademacher probes r (``kpm.probe_rows``: rank-layout free) with the
 rigid modes projected out (``kpm.project_rigid``, the projector P):
 
     S_b ~ pi / (4 D Delta_b) mean_r sum_a < F_b^K P X^a r , X^a F_b^K r >,
@@ -71,18 +71,11 @@ import numpy as np
 
 from .. import profiling
 from ..model.operators import largest_omega
-from ..spectrum import kpm
+from ..spectrum import chebyshev, kpm
 from .allen_feldman import position_operators
 
 # Gauss-Legendre nodes per bin for the filter coefficients: ceil(NODES_PER_RADIAN K dtheta) + NODES_MIN
 NODES_PER_RADIAN, NODES_MIN = 1.0, 48
-
-
-def chebyshev_scale(lam_max: float) -> tuple[float, float]:
-    """(c, h): B = (A - c) / h maps [-0.01, 1.01] ``lam_max`` onto [-1, 1] (as ``kpm.moments``).
-    Not collective."""
-    lo, hi = -0.01 * lam_max, 1.01 * lam_max
-    return 0.5 * (hi + lo), 0.5 * (hi - lo)
 
 
 def filter_coefficients(edges: np.ndarray, c: float, h: float, n_moments: int) -> np.ndarray:
@@ -118,77 +111,18 @@ def smearing(edges: np.ndarray, h: float, n_moments: int) -> np.ndarray:
     return np.sqrt(centre**2 + math.pi * h / n_moments) - centre
 
 
-def _dense(comm, local: np.ndarray):
-    """A PETSc dense Mat on ``comm`` sharing ``local`` (nloc, k), Fortran order. Collective."""
-    from petsc4py import PETSc
-
-    n = comm.tompi4py().allreduce(local.shape[0])
-    mat = PETSc.Mat().createDense(((local.shape[0], n), (PETSc.DECIDE, local.shape[1])), array=local, comm=comm)
-    mat.assemble()
-    return mat
-
-
-class _Chebyshev:
-    """T_k(B) v for a block v (nloc, p), B = (s D s - c) / h, s = M^-1/2 (``kpm.moments``'s
-    product: one MatMatMult per step, its symbolic product made once).  Collective."""
-
-    def __init__(self, dm, c: float, h: float, columns: int):
-        self.D, self.c, self.h = dm.D, c, h
-        self.s = (1.0 / np.sqrt(dm.M.getArray()))[:, None]
-        self.X = _dense(dm.D.getComm(), np.zeros((dm.D.getLocalSize()[0], columns), order="F"))
-        self.x = self.X.getDenseArray()
-        self.Y = None
-
-    def apply(self, v: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """out = B v, in place."""
-        np.multiply(self.s, v, out=self.x)
-        self.Y = self.D.matMult(self.X) if self.Y is None else self.D.matMult(self.X, self.Y)
-        np.multiply(self.s, self.Y.getDenseArray(), out=out)
-        out -= self.c * v
-        out /= self.h
-        return out
-
-    def run(self, v: np.ndarray, n_moments: int, consume) -> None:
-        """Call ``consume(k, T_k(B) v)`` for k = 0 .. n_moments - 1 (the array is reused after)."""
-        t_prev = np.array(v, order="F")
-        consume(0, t_prev)
-        if n_moments == 1:
-            return
-        t_curr = self.apply(t_prev, np.empty_like(t_prev, order="F"))
-        consume(1, t_curr)
-        spare = np.empty_like(t_prev, order="F")
-        for k in range(2, n_moments):
-            t_next = self.apply(t_curr, spare)
-            t_next *= 2.0
-            t_next -= t_prev
-            consume(k, t_next)
-            t_prev, t_curr, spare = t_curr, t_next, t_prev
-
-    def destroy(self) -> None:
-        self.X.destroy()
-        if self.Y is not None:
-            self.Y.destroy()
-
-
-class _Chunks:
-    """Collect T_k v (nloc, p) into a (nloc p, chunk) buffer and hand every full chunk
-    (k0, buffer[:, :j]) to ``flush``; ``close`` flushes the rest."""
-
-    def __init__(self, rows: int, chunk: int, flush):
-        self.buffer = np.empty((rows, chunk), order="F")
-        self.flush, self.k0, self.j = flush, 0, 0
-
-    def __call__(self, k: int, t: np.ndarray) -> None:
-        self.buffer[:, self.j] = t.ravel(order="F")
-        self.j += 1
-        if self.j == self.buffer.shape[1]:
-            self.close()
-
-    def close(self) -> None:
-        if self.j:
-            self.flush(self.k0, self.buffer[:, :self.j])
-            self.k0 += self.j
-            self.j = 0
+def _times(Xa, D, z: np.ndarray) -> np.ndarray:
+    """Xa z (nloc, p) as a new Fortran-ordered array, for a block z (nloc, p) on D's layout; the
+    PETSc Mats freed here, also when an exception passes. Collective."""
+    block = chebyshev.dense_block(D, z)
+    try:
+        product = Xa.matMult(block)
+        try:
+            return np.array(product.getDenseArray(readonly=True), order="F")
+        finally:
+            product.destroy()
+    finally:
+        block.destroy()
 
 
 @profiling.logged("rsAFKPMProbes")
@@ -207,44 +141,38 @@ def probe_block(dm, X: list, z: np.ndarray, coef: np.ndarray, c: float, h: float
     mpi = dm.D.getComm().tompi4py()
     n_moments, bins = coef.shape
     nloc, p = z.shape
-    cheb = _Chebyshev(dm, c, h, p)
     phi = np.zeros((nloc * p, bins), order="F")  # column b: phi_b of every probe, (nloc, p) in F order
     mu = np.zeros((n_moments, p)) if counts else None
+    local_s = np.zeros((p, bins))
 
     def accumulate(k0: int, block: np.ndarray) -> None:
         dgemm(1.0, block, coef[k0:k0 + block.shape[1]], beta=1.0, c=phi, overwrite_c=True)
         if counts:  # z_r^T T_k z_r for the chunk's k
             mu[k0:k0 + block.shape[1]] = np.einsum("ipk,ip->kp", block.reshape(nloc, p, -1, order="F"), z)
 
-    local_s = np.zeros((p, bins))
-    try:
-        chunks = _Chunks(nloc * p, min(chunk, n_moments), accumulate)
-        cheb.run(z, n_moments, chunks)
-        chunks.close()
-        columns = _dense(dm.D.getComm(), phi.reshape(nloc, p * bins, order="F"))  # column p' + p b
-        for Xa in X:
-            image = Xa.matMult(columns)
-            za = image.getDenseArray(readonly=True).reshape(nloc, p, bins, order="F")
-            probe = _dense(dm.D.getComm(), z)
-            product = Xa.matMult(probe)  # P X^a z: the zero modes out of the m sum too
-            xz = np.array(product.getDenseArray(readonly=True), order="F")
-            product.destroy()
-            probe.destroy()
-            kpm.project_rigid(dm, xz)
+    def dot_with(za: np.ndarray):
+        """The flush adding sum_k coef[k, b] <T_k P X^a z_r, za[:, r, b]> to local_s[r, b]."""
+        def dot(k0: int, block: np.ndarray) -> None:
+            tk = block.reshape(nloc, p, -1, order="F")
+            ck = coef[k0:k0 + block.shape[1]]
+            for r in range(p):
+                local_s[r] += np.einsum("kb,kb->b", ck, tk[:, r, :].T @ za[:, r, :])
+        return dot
 
-            def dot(k0: int, block: np.ndarray, za=za) -> None:
-                tk = block.reshape(nloc, p, -1, order="F")
-                ck = coef[k0:k0 + block.shape[1]]
-                for r in range(p):
-                    local_s[r] += np.einsum("kb,kb->b", ck, tk[:, r, :].T @ za[:, r, :])
-
-            chunks = _Chunks(nloc * p, min(chunk, n_moments), dot)
-            cheb.run(xz, n_moments, chunks)
-            chunks.close()
-            image.destroy()
-        columns.destroy()
-    finally:
-        cheb.destroy()
+    with chebyshev.Recursion(dm.D, c, h, p, 1.0 / np.sqrt(dm.M.getArray())) as recursion:
+        recursion.chunked(z, n_moments, chunk, accumulate)
+        columns = chebyshev.dense_block(dm.D, phi.reshape(nloc, p * bins, order="F"))  # column p' + p b
+        try:
+            for Xa in X:
+                xz = kpm.project_rigid(dm, _times(Xa, dm.D, z))  # P X^a z: the zero modes out of the m sum too
+                image = Xa.matMult(columns)
+                try:
+                    za = image.getDenseArray(readonly=True).reshape(nloc, p, bins, order="F")
+                    recursion.chunked(xz, n_moments, chunk, dot_with(za))
+                finally:
+                    image.destroy()
+        finally:
+            columns.destroy()
     mpi.Allreduce(MPI.IN_PLACE, local_s, op=MPI.SUM)
     if counts:
         mpi.Allreduce(MPI.IN_PLACE, mu, op=MPI.SUM)
@@ -282,7 +210,7 @@ def binned_diffusivity(dm, positions: np.ndarray, box: np.ndarray, edges: np.nda
     if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0) or edges[0] < 0:
         raise ValueError("edges must be an ascending array of at least two omega >= 0")
     omega_max = largest_omega(dm)
-    c, h = chebyshev_scale(omega_max**2)
+    c, h = chebyshev.kpm_scale(omega_max**2)
     n_moments = int(moments or auto_moments(omega_max**2, edges))
     coef = filter_coefficients(edges, c, h, n_moments)
     bins = edges.size - 1

@@ -86,6 +86,7 @@ import numpy as np
 from .. import profiling
 from ..model.operators import largest_omega, scaled_operator
 from ..packing.geometry import minimum_image
+from ..spectrum import chebyshev, kpm
 
 MARGIN = 1e-3
 """omega_max comes from Lanczos to 1e-8 (a lower bound): the interval's top is (1 + MARGIN) omega_max."""
@@ -115,7 +116,7 @@ def family_values(name: str, lam: np.ndarray, t: np.ndarray) -> np.ndarray:
     raise ValueError(f"unknown family {name!r}")
 
 
-def band_filters(band: tuple[float, float]) -> tuple[float, float]:
+def band_centre_sigma(band: tuple[float, float]) -> tuple[float, float]:
     """(omega_0, sigma) in 1/t0 of the Gaussian band filter for ``band`` = (lo, hi), 0 <= lo < hi:
     centre (lo + hi)/2, sigma = (hi - lo)/4.  ValueError otherwise.  Not collective."""
     lo, hi = (float(x) for x in band)
@@ -135,7 +136,7 @@ def band_weight(omega: np.ndarray, band: tuple[float, float]) -> np.ndarray:
     """(M,): the energy a unit random start puts, on average, in a mode of frequency ``omega``
     (1/t0) per unit of its weight on the start region, 1/2 (omega^2 F_A^2 + F_B^2) (both phases):
     the spectral weight of the packet, for averaging route 1's d_n over it.  Not collective."""
-    omega0, sigma = band_filters(band)
+    omega0, sigma = band_centre_sigma(band)
     f = filter_values(np.asarray(omega, dtype=float) ** 2, omega0, sigma)
     return 0.5 * (omega**2 * f[:, 0] ** 2 + f[:, 1] ** 2)
 
@@ -170,66 +171,38 @@ def chebyshev_coefficients(func, lam_top: float, tol: float, start: int = 256) -
 def chebyshev_apply(A, vectors: np.ndarray, coef: list, lam_top: float, comm) -> list:
     """[(nloc, F_r)] for r = 0 .. R-1: sum_k T_k(B) v_r c_r[k] with B = 2 A / lam_top - 1, v_r the
     column r of ``vectors`` (nloc, R; this rank's rows of A's layout) and ``coef`` [(K_r, F_r)].
-    One MatMatMult of A with the (nloc, R) block per term (symbolic product made once); the
-    vectors are multiplied by their coefficients in chunks of :data:`CHUNK` terms (one dgemm per
-    column and chunk).  Collective on ``comm``, A's communicator."""
-    from petsc4py import PETSc
-
+    One recursion (``chebyshev.Recursion`` on A, the interval [0, lam_top]) on the (nloc, R) block,
+    one MatMatMult per term; the vectors are multiplied by their coefficients in chunks of
+    :data:`CHUNK` terms (one dgemm per column and chunk).  Collective on ``comm``, A's communicator."""
     nloc, columns = vectors.shape
-    n = A.getSize()[0]
-    terms = max(c.shape[0] for c in coef)
     out = [np.zeros((nloc, c.shape[1])) for c in coef]
-    X = PETSc.Mat().createDense(((nloc, n), (PETSc.DECIDE, columns)),
-                                array=np.zeros((nloc, columns), order="F"), comm=comm)
-    X.assemble()
-    x = X.getDenseArray()
-    Y = None
-    buffer = np.empty((columns, nloc, CHUNK))  # T_k(B) v_r for the terms of the current chunk
-    h = 0.5 * lam_top
-    try:
-        prev = np.asfortranarray(vectors, dtype=float)
-        curr = None
-        for k in range(terms):
-            if k == 0:
-                nxt = prev
-            else:
-                x[...] = prev if k == 1 else curr
-                Y = A.matMult(X) if Y is None else A.matMult(X, Y)
-                y = Y.getDenseArray(readonly=True)
-                if k == 1:
-                    nxt = (y - h * prev) / h
-                    curr = nxt
-                else:
-                    nxt = 2.0 * (y - h * curr) / h - prev
-                    prev, curr = curr, nxt
-            buffer[:, :, k % CHUNK] = nxt.T
-            if k % CHUNK == CHUNK - 1 or k == terms - 1:
-                first = k - k % CHUNK
-                for r, c in enumerate(coef):  # R start vectors: a handful, not particles
-                    stop = min(k + 1, c.shape[0])
-                    if stop > first:
-                        out[r] += buffer[r, :, :stop - first] @ c[first:stop]
-    finally:
-        X.destroy()
-        if Y is not None:
-            Y.destroy()
+
+    def add(k0: int, block: np.ndarray) -> None:
+        terms = block.reshape(nloc, columns, -1, order="F")  # T_k(B) v_r for the chunk's k
+        for r, c in enumerate(coef):  # R start vectors: a handful, not particles
+            stop = min(k0 + block.shape[1], c.shape[0])
+            if stop > k0:
+                out[r] += terms[:, r, :stop - k0] @ c[k0:stop]
+
+    centre, half_width = chebyshev.interval_scale(0.0, lam_top)
+    with chebyshev.Recursion(A, centre, half_width, columns) as recursion:
+        recursion.chunked(np.asfortranarray(vectors, dtype=float), max(c.shape[0] for c in coef), CHUNK, add)
     return out
 
 
-def _rows(A, dof: int) -> tuple[int, int]:
+def _particle_range(A, dof: int) -> tuple[int, int]:
     """This rank's matrix particles [start, stop) from A's row ownership. Not collective."""
     start, stop = A.getOwnershipRange()
     return start // dof, stop // dof
 
 
-def start_vector(dm, positions: np.ndarray, box: np.ndarray, centre, radius: float, seed: int, probe: int,
-                 comm) -> tuple[np.ndarray, int]:
+def start_vector(dm, positions: np.ndarray, box: np.ndarray, centre, radius: float, seed: int, probe: int
+                 ) -> tuple[np.ndarray, int]:
     """(s (nloc,), count): this rank's rows (A's layout) of the random start of probe ``probe``
     (module docstring: normal numbers of SeedSequence([seed, 45, probe]) drawn over every particle
     and DOF in the packing's order, kept on the non-rattlers within ``radius`` d0 of ``centre``
-    (minimum image), the rigid zero modes projected out) and how many particles carry it.
-    Collective on ``comm``; rank-free."""
-    mpi = comm.tompi4py()
+    (minimum image), the rigid zero modes projected out by ``kpm.project_rigid``) and how many
+    particles carry it.  Collective on the matrix's communicator; rank-free."""
     positions = np.asarray(positions, dtype=float)
     box = np.asarray(box, dtype=float)
     rng = np.random.default_rng(np.random.SeedSequence([seed, 45, probe]))
@@ -238,12 +211,7 @@ def start_vector(dm, positions: np.ndarray, box: np.ndarray, centre, radius: flo
     every[~(inside & dm.active)] = 0.0
     start, stop = dm.D.getOwnershipRange()
     s = every[dm.order[start // dm.dof:stop // dm.dof]].ravel()
-    root = np.sqrt(dm.M.getArray())
-    for slot, _ in dm.rigid_modes():  # zero mode e: M^1/2 in one slot of every particle
-        e = np.zeros_like(s)
-        e[slot::dm.dof] = root[slot::dm.dof]
-        dots = mpi.allreduce(np.array([e @ s, e @ e]))
-        s -= e * (dots[0] / dots[1])
+    kpm.project_rigid(dm, s[:, None])
     return s, int(np.count_nonzero(inside & dm.active))
 
 
@@ -257,10 +225,10 @@ def band_starts(A, dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[fl
     spectrum in [0, ``lam_top``].  ValueError (every rank) for an empty region or a band without
     energy.  Collective on ``comm``."""
     mpi = comm.tompi4py()
-    omega0, sigma = band_filters(band)
+    omega0, sigma = band_centre_sigma(band)
     raw, count = [], 0
     for probe in range(probes):  # a handful of probes
-        s, count = start_vector(dm, positions, box, centre, radius, seed, probe, comm)
+        s, count = start_vector(dm, positions, box, centre, radius, seed, probe)
         raw.append(s)
     if count == 0:
         raise ValueError(f"no particle lies within radius {radius} of centre {centre!r}")
@@ -404,13 +372,13 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
         raise ValueError(f"probes must be a positive integer, not {probes!r}")
     if not dm.symmetric:
         raise ValueError("the spreading packet needs a symmetric dynamical matrix (not a stressed packing's)")
-    omega0, sigma = band_filters(band)
+    omega0, sigma = band_centre_sigma(band)
     positions = np.asarray(positions, dtype=float)
     box = np.asarray(box, dtype=float)
     lam_top = (largest_omega(dm) * (1.0 + MARGIN)) ** 2
     A = scaled_operator(dm)
     try:
-        pstart, pstop = _rows(A, dm.dof)
+        pstart, pstop = _particle_range(A, dm.dof)
         mine = positions[dm.order[pstart:pstop]]
         starts, count, filter_terms = band_starts(A, dm, positions, box, band=band, centre=centre, radius=radius,
                                                   seed=seed, probes=probes, lam_top=lam_top, comm=comm, tol=tol)

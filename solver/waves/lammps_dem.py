@@ -56,6 +56,11 @@ CALLBACK = "rotsound_lammps_sample"  # the name of LAMMPS's python function that
 TORQUE_CALLBACK = "rotsound_lammps_hold_torques"  # ... and of the one that holds a stressed packing's torques
 RECORD_EVERY = 10  # waves.contacts_every's default: a record costs more than ten steps (BENCHMARKS "lammps_waves")
 LIMIT_SLACK = 1e-9  # relative: |f_t| this close to mu |f_n| is at the Coulomb limit (LAMMPS rescales to it exactly)
+HISTORY_STEP = 1e6  # t0: the one step that loads the contact history (:func:`_load_history`)
+HISTORY_TOL = 1e-9  # relative to the largest stored force: how close LAMMPS's loaded tangential forces must come
+REST_FACTOR = 10.0  # the rest check's allowance over force_tol [choice]: LAMMPS re-evaluates a packing made to
+# force_tol in another order and decomposition (2.9e-10 on a packing LAMMPS itself stopped below 1e-10, 2 ranks);
+# what the check is for, a lost history or a moved particle, leaves forces of the stored forces' size (1e-3)
 
 
 @dataclass(frozen=True)
@@ -122,13 +127,14 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
 
     ``positions`` (N, D), ``diameters`` (N,): the packing, in the periodic ``box`` (D,) from the
     origin; ``active`` (N,) bool: the particles that move (the matrix's, N' of them; ``start``
-    lists them in packing order); the others, the rattlers, stay in
-    LAMMPS's box but touch nothing (``neigh_modify exclude``) and do not move; ``model`` the contact model
+    lists them in packing order, dof = D, or D + rotations: 2D w_z, 3D w_x, w_y, w_z; without
+    rotations the particles start without spin); the others, the rattlers, stay in LAMMPS's box
+    but touch nothing (``neigh_modify exclude``) and do not move; ``model`` the contact model
     (``ContactModel``: law, rho, dashpots; :func:`unsupported` must be None); ``friction`` the
-    Coulomb coefficient mu (0 < mu <= ``MAX_FRICTION``); ``dof`` = D, or D + rotations (2D: w_z;
-    3D: w_x, w_y, w_z).  ``steps`` of ``dt``, sampled every ``every`` steps.  ``channel`` =
-    (c, b): the sampled Fourier component is z(t) = sum_i v_i,c(t) b_i, b (N',) complex over the
-    moving particles in packing order (exp(-i k r_i,a(0)) for z_fixed).
+    Coulomb coefficient mu (0 < mu <= ``MAX_FRICTION``).  ``steps`` of ``dt``, sampled every
+    ``every`` steps.  ``channel`` = (c, b): the sampled Fourier component is
+    z(t) = sum_i v_i,c(t) b_i, b (N',) complex over the moving particles in packing order
+    (exp(-i k r_i,a(0)) for z_fixed).
 
     ``tangential``: the packing's stored tangential forces (``stressed.TangentialForces``), put
     into LAMMPS's contact history first (:func:`_load_history`); None: unstressed springs.
@@ -140,48 +146,24 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
 
     Returns (z (S,) complex, S = steps // every + 1 with t = 0 first; :class:`Contacts` of
     every ``record_every``-th sample, (S - 1) // record_every + 1 of them from t = 0), the same
-    on every rank.  Each sample is reduced where LAMMPS holds the atoms, one allreduce of a
-    few numbers: nothing per particle or contact is gathered.  Collective on ``comm`` (mpi4py).
+    on every rank.  Each sample is reduced where LAMMPS holds the atoms: one allreduce of a few
+    numbers.  Before the wave, once, every rank gathers the whole packing's forces and torques at
+    rest (:func:`_check_rest`, :func:`_hold`, :func:`_hold_torques`) and the start's contacts
+    (:class:`_Sampler`; with ``tangential`` LAMMPS's tangential forces too, :func:`_compare_history`).
+    Collective on ``comm`` (mpi4py).
     """
     n, dim = positions.shape
     active = np.asarray(active, dtype=bool)
-    dof = start.shape[1]
-    if active.shape != (n,) or start.shape[0] != active.sum() or dof not in (dim, dim + (1 if dim == 2 else 3)):
-        raise ValueError(f"start of shape {start.shape} for {active.sum()} of {n} particles moving in {dim}D")
-    if not (0 < friction <= MAX_FRICTION and 0 < every <= steps and dt > 0 and record_every >= 1):
-        raise ValueError(f"friction {friction} in (0, {MAX_FRICTION:g}], every {every} in [1, steps = {steps}], "
-                         f"dt {dt} > 0, record_every {record_every} >= 1")
-    why = unsupported(model)
-    if why is not None:
-        raise ValueError(why)
+    _check_arguments(n, dim, active, start, model, friction, dt, steps, every, record_every)
     positions = geometry.wrap(np.asarray(positions, dtype=float), box)
     lmp = lammps_engine.open_lammps(comm, False, KEY)
     try:
-        lammps_engine.create_particles(lmp, positions, diameters, box)
-        lmp.commands_string(f"""
-            pair_style {PAIR_STYLES[model.law]} {lammps_engine.KN!r} {float(model.rho)!r} {float(model.gamma_n)!r} {float(model.gamma_t)!r} {float(friction)!r} {int(model.gamma_t > 0)}
-            pair_coeff * *
-            neighbor {lammps_engine.SKIN!r} bin
-            neigh_modify every 1 delay 0 check yes
-            timestep {float(dt)!r}
-            compute pairs all property/local patom1 patom2 cutoff radius
-            compute forces all pair/local dist force p1 p2 p3 p4 cutoff radius
-        """)
+        _create_packing(lmp, positions, diameters, box, model, friction, dt)
         if tangential is not None:
             _load_history(lmp, positions, diameters, box, model, tangential, dt, comm)
         lmp.command("run 0")
         _check_rest(lmp, n, rest_tol)
-        rattlers = " ".join(str(i + 1) for i in np.flatnonzero(~active))
-        lmp.commands_string(f"""
-            {f'group rattlers id {rattlers}' if rattlers else 'group rattlers empty'}
-            group moving subtract all rattlers
-            {'neigh_modify exclude group rattlers all' if rattlers else ''}
-            fix move moving nve/sphere{' disc' if dim == 2 else ''}
-            {'fix plane all enforce2d' if dim == 2 else ''}
-            fix hold moving external pf/array 1
-        """)
-        held = np.zeros((n, dim))
-        held[active] = _hold(lmp, n, active)
+        held = _start_moving(lmp, active, dim)
         if tangential is not None:
             _hold_torques(lmp, n, active)
         component, phase = channel
@@ -189,7 +171,7 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
         weights[active] = phase
         sampler = _Sampler(lmp, positions, diameters, box, model, friction, held, component, weights, comm,
                            record_every)
-        whole = np.zeros((n, dof))
+        whole = np.zeros((n, start.shape[1]))
         whole[active] = start
         set_velocities(lmp, whole, dim)
         sampler.sample()
@@ -200,6 +182,57 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
         for name in (CALLBACK, TORQUE_CALLBACK):
             sys.modules["__main__"].__dict__.pop(name, None)
     return np.array(sampler.z), sampler.contacts()
+
+
+def _check_arguments(n: int, dim: int, active: np.ndarray, start: np.ndarray, model, friction: float, dt: float,
+                     steps: int, every: int, record_every: int) -> None:
+    """ValueError unless :func:`run`'s arguments fit together (shapes, ranges, a model LAMMPS's
+    gran/*/history can run), before LAMMPS starts.  Not collective (the same on every rank)."""
+    dof = start.shape[1]
+    if active.shape != (n,) or start.shape[0] != active.sum() or dof not in (dim, dim + (1 if dim == 2 else 3)):
+        raise ValueError(f"start of shape {start.shape} for {active.sum()} of {n} particles moving in {dim}D")
+    if not (0 < friction <= MAX_FRICTION and 0 < every <= steps and dt > 0 and record_every >= 1):
+        raise ValueError(f"friction {friction} in (0, {MAX_FRICTION:g}], every {every} in [1, steps = {steps}], "
+                         f"dt {dt} > 0, record_every {record_every} >= 1")
+    why = unsupported(model)
+    if why is not None:
+        raise ValueError(why)
+
+
+def _create_packing(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, model, friction: float,
+                    dt: float) -> None:
+    """The packing's particles in LAMMPS with the model's pair style (kn, rho, dashpots, mu), its
+    neighbour lists, time step ``dt`` and the two per-contact computes every record reads
+    (:func:`_local_contacts`).  Collective."""
+    lammps_engine.create_particles(lmp, positions, diameters, box)
+    lmp.commands_string(f"""
+        pair_style {PAIR_STYLES[model.law]} {lammps_engine.KN!r} {float(model.rho)!r} {float(model.gamma_n)!r} {float(model.gamma_t)!r} {float(friction)!r} {int(model.gamma_t > 0)}
+        pair_coeff * *
+        neighbor {lammps_engine.SKIN!r} bin
+        neigh_modify every 1 delay 0 check yes
+        timestep {float(dt)!r}
+        compute pairs all property/local patom1 patom2 cutoff radius
+        compute forces all pair/local dist force p1 p2 p3 p4 cutoff radius
+    """)
+
+
+def _start_moving(lmp, active: np.ndarray, dim: int) -> np.ndarray:
+    """Let the rattlers go (a group excluded from the neighbour lists) and give the moving
+    particles their integrator (``nve/sphere``; 2D: ``disc`` and ``enforce2d``) and the hold
+    force (:func:`_hold`); returns the hold force (N, D), zero on the rattlers.  Collective."""
+    n = active.size
+    rattlers = " ".join(str(i + 1) for i in np.flatnonzero(~active))
+    lmp.commands_string(f"""
+        {f'group rattlers id {rattlers}' if rattlers else 'group rattlers empty'}
+        group moving subtract all rattlers
+        {'neigh_modify exclude group rattlers all' if rattlers else ''}
+        fix move moving nve/sphere{' disc' if dim == 2 else ''}
+        {'fix plane all enforce2d' if dim == 2 else ''}
+        fix hold moving external pf/array 1
+    """)
+    held = np.zeros((n, dim))
+    held[active] = _hold(lmp, n, active)
+    return held
 
 
 def _sample_in_the_run(lmp, sampler, every: int) -> None:
@@ -218,10 +251,6 @@ def _sample_in_the_run(lmp, sampler, every: int) -> None:
         python {CALLBACK} input 1 SELF format p exists
         fix sampler all python/invoke {int(every)} end_of_step {CALLBACK}
     """)
-
-
-HISTORY_STEP = 1e6  # t0: the one step that loads the contact history (:func:`_load_history`)
-HISTORY_TOL = 1e-9  # relative to the largest stored force: how close LAMMPS's loaded tangential forces must come
 
 
 def history_velocities(positions, diameters, box, model, tangential) -> np.ndarray:
@@ -333,11 +362,6 @@ def _compare_history(lmp, tangential, dim: int, comm) -> None:
                          f"stored ones by {worst:.3e} (largest stored {scale:.3e}, allowed {HISTORY_TOL:g} of it)")
 
 
-REST_FACTOR = 10.0  # the rest check's allowance over force_tol [choice]: LAMMPS re-evaluates a packing made to
-# force_tol in another order and decomposition (2.9e-10 on a packing LAMMPS itself stopped below 1e-10, 2 ranks);
-# what the check is for, a lost history or a moved particle, leaves forces of the stored forces' size (1e-3)
-
-
 def _check_rest(lmp, n: int, rest_tol: float) -> None:
     """InputError on every rank when LAMMPS's largest force or torque component on the packing
     at rest is not below ``REST_FACTOR`` ``rest_tol``.  Collective (gather_atoms)."""
@@ -430,7 +454,9 @@ def _local_contacts(lmp) -> tuple[np.ndarray, np.ndarray]:
 class _Sampler:
     """z(t) every sample and the contact series of one run (:class:`Contacts`) every
     ``record_every``-th, each reduced on the rank that holds the atoms and contacts (one
-    allreduce of z's two parts a sample; a record: one of sums and one of maxima).  A record
+    allreduce of z's two parts a sample; a record: one of sums and one of maxima).  The start's
+    contacts (a key and the overlap of each, 2 C numbers) are gathered onto every rank once, at
+    construction, to tell later which have opened and which formed.  A record
     costs LAMMPS's ``compute pair/local`` and numpy over every contact (about 4 ms at N = 8192 on
     two ranks, more than ten steps: BENCHMARKS "lammps_waves"); z costs 0.1-0.2 ms.  Collective."""
 

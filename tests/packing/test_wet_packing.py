@@ -11,6 +11,7 @@ from conftest import assert_close, central_gradient
 
 from solver.capillary import Cohesion, rupture_distance
 from solver.contact_law import ContactModel
+from solver.errors import InputError
 from solver.model import dynmat
 from solver.packing import jammed, mechanics, wet
 
@@ -81,3 +82,31 @@ def test_bridges_hold_a_packing_below_dry_jamming(comm, dim, phi, gamma):
     values = np.linalg.eigvalsh(dynmat.gather_csr(dynmat.assemble(p, ContactModel(cohesion=cohesion), comm).D).toarray())
     zero = np.abs(values) < 1e-9 * values.max()
     assert zero.sum() == dim and values.min() > -1e-9 * values.max(), f"lowest eigenvalues {values[:dim + 2]}"
+
+
+def test_a_box_too_small_for_the_bridges_is_refused_before_fire():
+    """16 disks at phi 0.86 (L = 3.88) with bridges of volume 1 (s_c = 1 d0 at theta = 0) would
+    reach through two periodic images (2 (d_L + s_c) = 4.33): InputError naming the box side, the
+    contact distance, s_c and the keys to change, before FIRE (it used to run FIRE regardless)."""
+    cohesion = Cohesion("willett", surface_tension=0.002, volume=1.0)
+    side = jammed.box_length_for(jammed.bidisperse_diameters(16), 0.86, 2)
+    s_c = float(rupture_distance(np.array([0.5 * jammed.D_LARGE]), np.array([0.5 * jammed.D_LARGE]), cohesion)[0])
+    with pytest.raises(InputError) as caught:
+        jammed.generate(16, 0.86, np.random.SeedSequence(5), cohesion=cohesion)
+    message = str(caught.value)
+    for fragment in (f"box side L = {side:.4g} d0", f"2 (d + s_c) = {2 * (jammed.D_LARGE + s_c):.4g} d0",
+                     f"d = {jammed.D_LARGE:.4g} d0", f"s_c = {s_c:.4g} d0", "packing.n", "packing.phi",
+                     "model.cohesion.volume"):
+        assert fragment in message, f"{fragment!r} not in {message!r}"
+
+
+def test_the_box_condition_holds_at_its_edge():
+    """A box side just above 2 (d + s_c) of the largest pair is accepted, just below refused; the
+    largest pair is the one of the largest reach d + s_c (here the two large disks)."""
+    cohesion = Cohesion("soulie", surface_tension=0.05, liquid_content=0.05)
+    diameters = np.array([jammed.D_SMALL, jammed.D_LARGE, jammed.D_SMALL])
+    radius = 0.5 * jammed.D_LARGE
+    edge = 2.0 * (jammed.D_LARGE + float(rupture_distance(np.array([radius]), np.array([radius]), cohesion)[0]))
+    wet.WetForces(diameters, np.full(2, edge * (1 + 1e-9)), cohesion)
+    with pytest.raises(InputError, match="must exceed 2"):
+        wet.WetForces(diameters, np.array([edge * (1 + 1e-9), edge * (1 - 1e-9)]), cohesion)

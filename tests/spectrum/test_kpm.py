@@ -1,10 +1,12 @@
 """Stochastic vDOS (KPM): moments against a dense evaluation with the same probes, accuracy, ranks."""
 
+import copy
+
 import numpy as np
 import pytest
 import scipy.linalg as sl
 from scipy.stats import binned_statistic
-from conftest import assert_all, assert_close, jammed_packing
+from conftest import FailingProducts, assert_all, assert_close, jammed_packing
 
 from solver.contact_law import ContactModel
 from solver.model import dynmat, operators
@@ -124,3 +126,15 @@ def test_kpm_energies_against_exact_bin_averages(comm, packing256, rho):
     error = np.sum(np.abs(g - exact) * np.diff(edges))
     assert_all(error < 0.05, f"vDOS L1 error {error}")
     dm.destroy()
+
+
+def test_kpm_moments_free_their_mats_when_an_exception_passes(comm, packing256):
+    """kpm.moments with an error in the third product of its recursion leaves no Mat alive (it
+    used to keep the block and the product until the garbage collector found them)."""
+    dm = dynmat.assemble(packing256, ContactModel(1.0), comm)
+    proxy = copy.copy(dm)
+    proxy.D = FailingProducts(dm.D, fail_at=3)
+    with pytest.raises(RuntimeError, match="injected"):
+        kpm.moments(proxy, 20.0, 20, 3, 1)
+    dm.destroy()
+    assert len(proxy.D.seen) >= 2 and proxy.D.live() == 0, f"{proxy.D.live()} Mats left alive"

@@ -11,13 +11,14 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close, jammed_packing
+from conftest import FailingProducts, assert_all, assert_close, jammed_packing
 from diffusivity_cases import case  # noqa: F401 (a fixture)
 
 from solver import references
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.model.operators import largest_omega
+from solver.spectrum import chebyshev, kpm
 from solver.transport import allen_feldman as af
 from solver.transport import kpm_diffusivity as kd
 
@@ -139,7 +140,7 @@ def test_resolution_more_moments_approach_the_sharp_bins(comm):
         dm.destroy()
     assert_all(all(b < a for a, b in zip(errors, errors[1:])) and errors[-1] <= errors[0] / 4,
                f"filtered-to-sharp errors at K = 50, 100, 200, 400: {errors}")
-    c, h = kd.chebyshev_scale(lam_max)
+    c, h = chebyshev.kpm_scale(lam_max)
     lam = lam[lam > 1e-8]
     coef = kd.filter_coefficients(edges, c, h, 200)
     f = np.cos(np.outer(np.arccos((lam - c) / h), np.arange(200))) @ coef * np.sqrt(lam)[:, None]
@@ -186,6 +187,29 @@ def test_agrees_with_route_one_where_smooth(comm):
     resolution = np.abs(filtered["d"] - sharp["d"])[smooth]
     assert_close(datasets["d"][smooth], route1[smooth], rtol=0.25,
                  atol=SIGMAS * datasets["d_err"][smooth] + resolution, what="KPM against route 1")
+
+
+@pytest.mark.parametrize("fail_at", [1, 2])
+def test_probe_block_frees_its_mats_when_an_exception_passes(comm, fail_at):
+    """An error in the first or the second product with the first position operator (P X^a z, or
+    X^a of the bins' vectors) leaves none of probe_block's Mats alive: the bins' vectors, the
+    probes' block and both products (they used to wait for the garbage collector)."""
+    p = jammed_packing(32, 0.9, 7)
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    X = af.position_operators(dm, p.positions, p.box, comm)
+    try:
+        c, h = chebyshev.kpm_scale(largest_omega(dm) ** 2)
+        coef = kd.filter_coefficients(_edges(dm), c, h, 10)
+        start, stop = dm.D.getOwnershipRange()
+        z = kpm.project_rigid(dm, np.asfortranarray(kpm.probe_rows(1, start, stop, 2)))
+        failing = FailingProducts(X[0], fail_at)
+        with pytest.raises(RuntimeError, match="injected"):
+            kd.probe_block(dm, [failing] + X[1:], z, coef, c, h)
+    finally:
+        for Xa in X:
+            Xa.destroy()
+        dm.destroy()
+    assert len(failing.seen) >= fail_at and failing.live() == 0, f"{failing.live()} Mats left alive"
 
 
 def test_rejects_bad_arguments(comm):

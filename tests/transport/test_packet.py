@@ -176,7 +176,7 @@ def test_phase_b_is_phase_a_a_quarter_period_on(comm):
     raise ValueError."""
     w = np.linspace(1e-3, 6.0, 2000)
     for band in ((0.0, 1.0), (2.0, 3.0)):
-        omega0, sigma = packet.band_filters(band)
+        omega0, sigma = packet.band_centre_sigma(band)
         f = packet.filter_values(w**2, omega0, sigma)
         near = np.abs(w - omega0) < 2 * sigma
         rel = np.abs(f[near, 1] - w[near] * f[near, 0]) / (w[near] * f[near, 0])
@@ -184,7 +184,7 @@ def test_phase_b_is_phase_a_a_quarter_period_on(comm):
                    f"band {band}: mismatch {rel.max():.3g}")
     for bad in ((1.0, 1.0), (-0.5, 1.0), (2.0, 1.0), (0.0, math.inf)):
         with pytest.raises(ValueError, match="band"):
-            packet.band_filters(bad)
+            packet.band_centre_sigma(bad)
 
 
 def test_bad_inputs(comm, case):
