@@ -443,6 +443,8 @@ CASES = [
      "transport.block = 200 is a key of method 'exact'", None),
     ("a kpm key with the exact diffusivity", GOOD + "transport: {eta: 0.1, probes: 64}\n", [],
      "transport.probes = 64 is a key of method 'kpm'", None),
+    ("a kpm key at its default with the exact diffusivity", GOOD + "transport: {eta: 0.1, probes: 16}\n", [],
+     "transport.probes = 16 is a key of method 'kpm'; transport.method is 'exact': drop it", None),
     ("one probe for the kpm diffusivity", GOOD + "transport: {method: kpm, probes: 1}\n", [],
      "transport.probes = 1: must be in [2", None),
     ("exact diffusivity beyond its scratch", "packing: {n: 100000, phi: 0.9}\ntransport: {eta: 0.01}\n", [],
