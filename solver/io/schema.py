@@ -266,6 +266,16 @@ class ModelSpec:
         """Whether a dashpot is on."""
         return any(gamma > 0.0 for gamma in self.dashpots)
 
+    @property
+    def dashpot_keys(self) -> str:
+        """The keys that turn a dashpot on, as the scene wrote them, for messages: "model.damping",
+        "model.restitution" or both joined by "and"; "" when none is on."""
+        keys = [key for key, gammas in (("model.restitution", self.dashpots[:1] if self.restitution is not None else ()),
+                                        ("model.damping", () if self.damping is None else
+                                         (self.damping.gamma_n, self.damping.gamma_t)))
+                if any(gamma > 0.0 for gamma in gammas)]
+        return " and ".join(keys)
+
 
 def _window(v):
     if len(v) != 2 or not 0.0 <= v[0] < v[1] or not all(math.isfinite(x) for x in v):

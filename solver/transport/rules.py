@@ -55,21 +55,21 @@ def bin_width(spec, spectrum) -> float:
     return spectrum.bin_width if spectrum is not None else DEFAULT_BIN_WIDTH
 
 
-def check_scene(spec, spectrum, damped: bool) -> None:
+def check_scene(spec, spectrum, dashpots: str) -> None:
     """Refuse a transport section ``spec`` whose d(omega) bins differ from the vDOS's
-    (``spectrum``: the spectrum section, None: none) or on a scene with dashpots (``damped``).
-    Not collective."""
+    (``spectrum``: the spectrum section, None: none) or on a scene with dashpots (``dashpots``: the
+    keys that turn them on, ``ModelSpec.dashpot_keys``; "": none).  Not collective."""
     if spec is None:
         return
     if spectrum is not None and spec.bin_width is not None and spec.bin_width != spectrum.bin_width:
         raise InputError(f"transport.bin_width = {spec.bin_width} differs from spectrum.bin_width = "
                          f"{spectrum.bin_width}: d(omega) is kept on the vDOS's bins; drop transport.bin_width "
                          f"(or give both the same)")
-    if damped:
-        raise InputError("transport with model.damping: the Allen-Feldman diffusivity is that of the undamped "
-                         "modes of a conserved harmonic energy; with dashpots the energy decays and the modes are "
-                         "damped; drop model.damping from this scene for the diffusivity of the same packing "
-                         "(the dashpots' attenuation is measured by waves and spectrum.method pep)")
+    if dashpots:
+        raise InputError(f"transport with {dashpots}: the Allen-Feldman diffusivity is that of the undamped "
+                         f"modes of a conserved harmonic energy; with dashpots the energy decays and the modes are "
+                         f"damped; drop {dashpots} from this scene for the diffusivity of the same packing "
+                         f"(the dashpots' attenuation is measured by waves and spectrum.method pep)")
 
 
 def check_stressed(spec, why: str) -> None:
