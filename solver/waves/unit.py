@@ -188,12 +188,15 @@ def _energy_words(dm, energy: np.ndarray, drift: np.ndarray, t_end: float) -> st
 
 def _loss_words(energy: np.ndarray, gain: str) -> str:
     """The share of E(0) gone by the last sample of each run (``energy`` (W, S) of W runs) as the
-    log says it: "lost a to b %" where E fell, and where it rose "gained up to c % in n runs"
+    log says it: "lost a to b %" (or "lost a %") where E fell, and where it rose "gained up to c % in n runs"
     followed by ``gain``, a clause saying what made it (the energy's takers cannot give).  Not
     collective."""
     lost = 100.0 * (1.0 - energy[..., -1] / energy[..., 0])
     fell, rose = lost[lost >= 0.0], -lost[lost < 0.0]
-    words = [f"lost {fell.min():.3g} to {fell.max():.3g} %"] if fell.size else []
+    words = []
+    if fell.size:
+        low, high = f"{fell.min():.3g}", f"{fell.max():.3g}"
+        words.append(f"lost {high} %" if low == high else f"lost {low} to {high} %")
     if rose.size:
         words.append(f"gained up to {rose.max():.3g} % in {counted(rose.size, 'run')} ({gain})")
     return ", ".join(words)

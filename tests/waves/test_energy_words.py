@@ -22,6 +22,7 @@ def test_a_rise_of_energy_is_a_gain_not_a_negative_loss():
                     "gained up to 0.00884 % in 1 run (the scheme's error: dashpots only take energy)"), said
     assert "-" not in unit._loss_words(energy[2:], "why"), unit._loss_words(energy[2:], "why")
     assert unit._loss_words(energy[:2], "why") == "lost 0.1 to 1.6 %"
+    assert unit._loss_words(energy[[0, 0]], "why") == "lost 0.1 %"
 
 
 def test_counts_in_their_number():
