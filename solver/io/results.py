@@ -74,7 +74,7 @@ class ModeShapes(NamedTuple):
     """``modes/r<i>_p<j>``: the modes of one (rho, packing) kept whole near target frequencies
     (the scene's ``modes`` section; ``spectrum.shapes``), M modes, N particles."""
 
-    rho: float                      #: the rotational inertia factor rho of the modes
+    rho: float                      #: the stiffness ratio rho = kt/kn of the modes' matrix
     packing: int                    #: index of its configuration (``packings/<i>``)
     target: np.ndarray              #: (M,) 1/t0, the target each mode was found for
     omega: np.ndarray               #: (M,) 1/t0, the modes' frequencies
@@ -90,7 +90,7 @@ class WaveSnapshot(NamedTuple):
     """The whole velocity field of one standing wave at chosen times (``waves.snapshots``): the
     first run of a (rho, mode) at the smallest k, on its packing."""
 
-    rho: float                      #: the rotational inertia factor rho
+    rho: float                      #: the stiffness ratio rho = kt/kn
     mode: str                       #: the wave's polarisation (L, TR, ...: ``waves.modes``)
     packing: int                    #: index of its configuration (``packings/<i>``)
     k: float                        #: 1/d0, the wave number

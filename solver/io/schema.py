@@ -270,11 +270,10 @@ class ModelSpec:
     def dashpot_keys(self) -> str:
         """The keys that turn a dashpot on, as the scene wrote them, for messages: "model.damping",
         "model.restitution" or both joined by "and"; "" when none is on."""
-        keys = [key for key, gammas in (("model.restitution", self.dashpots[:1] if self.restitution is not None else ()),
-                                        ("model.damping", () if self.damping is None else
-                                         (self.damping.gamma_n, self.damping.gamma_t)))
-                if any(gamma > 0.0 for gamma in gammas)]
-        return " and ".join(keys)
+        by_restitution = self.restitution is not None and restitution_damping(self.restitution) > 0.0
+        by_damping = self.damping is not None and max(self.damping.gamma_n, self.damping.gamma_t) > 0.0
+        return " and ".join(key for key, on in (("model.restitution", by_restitution), ("model.damping", by_damping))
+                            if on)
 
 
 def _window(v):
