@@ -20,8 +20,8 @@ METHODS = ("exact", "kpm")
 kpm, d(omega) per bin from Chebyshev moments with random probes (``kpm_diffusivity``)."""
 DEFAULT_BIN_WIDTH = 0.05
 """Bins of d(omega) (1/t0) without a spectrum section: the spectrum's default bin width."""
-_ONLY = {"exact": ("tol", "block", "max_scratch_gib"), "kpm": ("probes", "moments")}
-"""Keys of each method: written with another method, they would do nothing."""
+METHOD_KEYS = {"exact": ("tol", "block", "max_scratch_gib"), "kpm": ("probes", "moments")}
+"""Keys of each method: written with another method, they would do nothing (refused: :func:`check_given`)."""
 
 
 def check_section(spec, where: str) -> None:
@@ -40,7 +40,7 @@ def check_section(spec, where: str) -> None:
 def check_given(spec, given, where: str) -> None:
     """Refuse a transport section ``spec`` whose scene wrote (``given``: the section's keys in the
     scene, null values left out) a key of the other method, even at its default.  Not collective."""
-    for method, keys in _ONLY.items():
+    for method, keys in METHOD_KEYS.items():
         written = [key for key in keys if method != spec.method and key in given]
         if written:
             raise InputError(f"{where}{written[0]} = {getattr(spec, written[0])!r} is a key of method {method!r}; "
