@@ -12,7 +12,7 @@ sys.path[:0] = [str(HERE / "_ext"), str(HERE.parent)]
 
 project = "rotsound"
 author = "the rotsound developers"
-extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "rotsound_manual"]
+extensions = ["myst_parser", "sphinx.ext.autodoc", "rotsound_manual"]
 source_suffix = {".md": "markdown"}
 myst_enable_extensions = ["dollarmath", "colon_fence"]
 myst_heading_anchors = 3

@@ -35,9 +35,10 @@ def main(path: str) -> None:
             print(f"dispersion rho = {rho:g} {mode}: k d0 = {k[0]:.3f}..{k[-1]:.3f}, "
                   f"omega = {omega[0]:.4f}..{omega[-1]:.4f}/t0, gamma(k_min) = {gamma[0]:.2e}/t0")
         for (rho, mode), sweep in sorted(results.sweeps(f).items()):  # Sweep: amplitude (A,), omega (A, K), ...
+            star = results.crossover(sweep).omega[0]  # Crossover(omega, gamma): A* per k, against the smallest A
             print(f"amplitude sweep rho = {rho:g} {mode}: A = {sweep.amplitude[0]:.1e}..{sweep.amplitude[-1]:.1e}, "
-                  f"omega(k_min) {sweep.omega[0, 0]:.4f} -> {sweep.omega[-1, 0]:.4f}/t0, up to "
-                  f"{int(sweep.sliding[-1].max())} contacts sliding at the largest")
+                  f"omega(k_min) {sweep.omega[0, 0]:.4f} -> {sweep.omega[-1, 0]:.4f}/t0, A* of omega {star:.1e} "
+                  f"(nan: not reached), contacts sliding at once at the largest A: {int(sweep.sliding[-1].max())}")
         for shapes in results.mode_shapes(f):  # ModeShapes: omega (M,), displacement (M, N, D), rotation, ...
             m = int(np.argmin(shapes.participation))
             u = np.linalg.norm(shapes.displacement[m], axis=1)

@@ -10,6 +10,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from .wording import counted
+
 
 def _portable(error: BaseException | None) -> BaseException | None:
     """``error``, or a RuntimeError naming its type and message if it cannot be pickled and
@@ -100,7 +102,7 @@ class Groups:
     def __init__(self, comm, size: int | None = None):
         size = comm.size if size is None else size
         if size < 1 or comm.size % size:
-            raise ValueError(f"group size {size} does not divide {comm.size} ranks")
+            raise ValueError(f"group size {size} does not divide {counted(comm.size, 'rank')}")
         self.comm, self.size, self.count = comm, size, comm.size // size
         self.index = comm.rank // size
         self.local = comm if self.count == 1 else comm.Split(self.index, comm.rank)

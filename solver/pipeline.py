@@ -42,6 +42,7 @@ from . import profiling
 from .io import unit_keys
 from .io.unit_keys import Unit, task_units
 from .io.unit_store import UnitStore, WindowCheckpoint, cache_folder, packing_from_unit, packing_unit
+from .wording import counted
 
 _TERMINATE = [False]
 
@@ -377,7 +378,7 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
                 say(comm, f"waves rho = {rho:g}: {', '.join(skipped)} skipped (no rotational stiffness)")
     with parallel.Groups(comm, group_size) as groups:
         if groups.count > 1:
-            say(comm, f"{groups.count} groups of {groups.size} rank{'s' if groups.size > 1 else ''} share "
+            say(comm, f"{groups.count} groups of {counted(groups.size, 'rank')} share "
                       f"the {len(scene.model.rho) * len(packings)} (rho, packing) tasks")
         units = _solve_in_groups(scene, packings, keys, store, groups)
     if scene.spectrum is not None:
@@ -396,7 +397,7 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
             derived = parallel.owner_compute(comm, [0], lambda _: dispersion.analyse(units, scene.analysis))[0]
         units.update(derived)
         lattice = derived.get("analysis/lattice", ({}, {}))[1]
-        say(comm, f"analysis: {len(derived)} groups in {time.perf_counter() - t:.1f} s"
+        say(comm, f"analysis: {counted(len(derived), 'group')} in {time.perf_counter() - t:.1f} s"
                   + (f"; lattice model a_r = {lattice['a_r']:.3f} +- {lattice['a_r_err']:.3f}/t0, "
                      f"l = {lattice['l']:.3f} +- {lattice['l_err']:.3f} d0, a_t = {lattice['a_t']:.3f}/t0"
                      if lattice else ""))
@@ -430,6 +431,6 @@ def _write(scene: Scene, asked: Scene, comm, petsc_argv, store: UnitStore, packi
     except OSError as exc:
         raise InputError(f"output = {scene.output}: cannot write the results file ({exc}); the "
                          f"finished units are kept in {store.folder}: run again to resume") from exc
-    say(comm, f"wrote {scene.output} ({len(packings)} packings, {len(units)} result groups) "
+    say(comm, f"wrote {scene.output} ({counted(len(packings), 'packing')}, {counted(len(units), 'result group')}) "
               f"in {time.perf_counter() - t0:.1f} s")
     return {"packings": packings, "units": units}

@@ -437,6 +437,12 @@ CASES = [
      [], "d(omega) is kept on the vDOS's bins", None),
     ("diffusivity with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\ntransport: {eta: 0.1}\n", [],
      "transport with model.damping: the Allen-Feldman diffusivity is that of the undamped modes", None),
+    ("diffusivity with a coefficient of restitution", GOOD + "model: {restitution: 0.8}\ntransport: {eta: 0.1}\n", [],
+     "transport with model.restitution: the Allen-Feldman diffusivity is that of the undamped modes of a conserved "
+     "harmonic energy; with dashpots the energy decays and the modes are damped; drop model.restitution from this "
+     "scene", None),
+    ("diffusivity with restitution and tangential dashpots", GOOD + "model: {restitution: 0.8, damping: {gamma_t: 0.1}}\n"
+     "transport: {eta: 0.1}\n", [], "drop model.restitution and model.damping from this scene", None),
     ("diffusivity of a stressed packing", "packing: {file: '{file}', contacts: '{file}.contacts'}\n"
      "transport: {eta: 0.1}\n", [], "no conserved harmonic energy and no orthogonal modes", _stressed()),
     ("eta with the kpm diffusivity", GOOD + "transport: {method: kpm, eta: 0.1}\n", [],
@@ -445,6 +451,8 @@ CASES = [
      "transport.block = 200 is a key of method 'exact'", None),
     ("a kpm key with the exact diffusivity", GOOD + "transport: {eta: 0.1, probes: 64}\n", [],
      "transport.probes = 64 is a key of method 'kpm'", None),
+    ("a kpm key at its default with the exact diffusivity", GOOD + "transport: {eta: 0.1, probes: 16}\n", [],
+     "transport.probes = 16 is a key of method 'kpm'; transport.method is 'exact': drop it", None),
     ("one probe for the kpm diffusivity", GOOD + "transport: {method: kpm, probes: 1}\n", [],
      "transport.probes = 1: must be in [2", None),
     ("exact diffusivity beyond its scratch", "packing: {n: 100000, phi: 0.9}\ntransport: {eta: 0.01}\n", [],
@@ -469,7 +477,10 @@ CASES = [
      "waves: {engine: lammps, integrator: rk, n: [1]}\n", [], "waves.integrator = 'rk' with waves.engine: lammps",
      None),
     ("the LAMMPS engine without a Coulomb coefficient", GOOD + "waves: {engine: lammps, n: [1]}\n", [],
-     "waves.engine: lammps needs packing.friction, the Coulomb coefficient mu > 0", None),
+     "waves.engine: lammps needs packing.friction, the Coulomb coefficient mu > 0 of the contacts LAMMPS moves "
+     "(packing.friction: missing or null)", None),
+    ("the LAMMPS engine with a Coulomb coefficient of 0", "packing: {n: 64, phi: 0.9, friction: 0}\n"
+     "waves: {engine: lammps, n: [1]}\n", [], "mu > 0 of the contacts LAMMPS moves (packing.friction: 0)", None),
     ("the LAMMPS engine with rolling springs", "packing: {n: 64, phi: 0.7, dim: 3, friction: 0.3}\n"
      "model: {rho_roll: 0.1}\nwaves: {engine: lammps, n: [1]}\n", [],
      "rolling and twisting springs (rho_roll = 0.1, rho_twist = 0) need LAMMPS's pair granular", None),
@@ -489,7 +500,7 @@ CASES = [
     ("relax without a file", "packing: {n: 64, phi: 0.9, relax: true}\n", [],
      "packing.relax = true re-minimises the packings of packing.file", None),
     ("count larger than the file holds", "packing: {file: '{file}', count: 3}\n", [],
-     "the file(s) hold only 1 configurations", _valid),
+     "packing.count = 3: the file(s) hold only 1 configuration", _valid),
     # --- command line
     ("no scene given", None, ["run"], "the following arguments are required: scene", None),
     ("scene file missing", None, ["run", "missing.yaml"], "scene file missing.yaml: not found", None),

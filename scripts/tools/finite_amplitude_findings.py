@@ -97,16 +97,10 @@ def rows(cases: list[dict]) -> list[dict]:
     return out
 
 
-def stars(c: dict, mode: str) -> tuple[np.ndarray, np.ndarray]:
-    """Measured A* (K,) of omega and of gamma for one sweep: against the linear fits of the same
-    packing when the file has them, else against the smallest amplitude."""
-    s = c["sweeps"][mode]
-    lin = c["linear"][mode] if c["linear"] and mode in c["linear"] else None
-    if lin is None:
-        return (thresholds.crossover(s.amplitude, s.omega, s.omega_err),
-                thresholds.crossover(s.amplitude, s.gamma, s.gamma_err))
-    return tuple(thresholds.crossover(s.amplitude, getattr(s, name), getattr(s, f"{name}_err"), reference=lin[name],
-                                      reference_error=lin[f"{name}_err"]) for name in ("omega", "gamma"))
+def stars(c: dict, mode: str) -> results.Crossover:
+    """Measured A* (K,) of omega and of gamma for one sweep (``results.crossover``): against the
+    linear fits of the same packing when the files have them, else against the smallest amplitude."""
+    return results.crossover(c["sweeps"][mode], c["linear"][mode] if c["linear"] and mode in c["linear"] else None)
 
 
 def reference_omega(c: dict, mode: str) -> float:
@@ -217,7 +211,7 @@ def figures(cases: list[dict], folder: str = DOCS) -> list[str]:
                 if s is None:
                     continue
                 x, color = c[key], colors[c["label"]]
-                star = stars(c, mode)[0][0]
+                star = stars(c, mode).omega[0]
                 ax.loglog([x], [star if star > 0 else s.amplitude[0]], "*" if star > 0 else "x", ms=12, color=color,
                           label=c["label"])
                 for name, marker in (("A* predicted (affine)", "o"), ("first slides (affine)", "v"),

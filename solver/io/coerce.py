@@ -131,5 +131,5 @@ def build(cls, raw, where: str = ""):
                 raise InputError(f"{key} = {raw[name]!r}: {problem}")
         values[name] = value
     obj = cls(**values)
-    scene_rules.check(obj, where)
+    scene_rules.check(obj, where, frozenset(str(key) for key, value in raw.items() if value is not None))
     return obj

@@ -53,6 +53,8 @@ import numpy as np
 
 from solver.errors import InputError
 
+from ..wording import counted
+
 FORMATS = ("rotsound", "lammps-data", "lammps-dump", "yade")
 SPHERE_COLUMNS = "id type diameter density x y z (and optionally the image flags ix iy iz)"
 YADE_FORMATS = {  # textExt '#format' name -> (number of columns or None for 'at least 4', id column)
@@ -153,7 +155,7 @@ def _first_bad_row(lines: list[str]) -> tuple[int, str]:
         if bad is not None:
             return row, f"'{bad}' is not a number"
         if len(words) != width:
-            return row, f"has {len(words)} values where the other lines have {width}"
+            return row, f"has {counted(len(words), 'value')} where the other lines have {width}"
     return 0, "is not a table of numbers"
 
 

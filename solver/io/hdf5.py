@@ -42,6 +42,7 @@ from ..packing import bridges as bridging
 from ..packing import geometry, mechanics, stressed
 from ..packing.configuration import Packing
 from ..packing.jammed import from_arrays
+from ..wording import counted
 
 FORMAT_VERSION = 1
 
@@ -326,7 +327,7 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
                          f"give the files of one dimension per scene")
     if count is not None:
         if count > len(packings):
-            raise InputError(f"packing.count = {count}: the file(s) hold only {len(packings)} configurations")
+            raise InputError(f"packing.count = {count}: the file(s) hold only {counted(len(packings), 'configuration')}")
         packings = packings[:count]
     return packings
 

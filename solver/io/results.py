@@ -28,11 +28,11 @@ from .hdf5 import FORMAT_VERSION
 class Vdos(NamedTuple):
     """``vdos/r<i>``: g(omega) of one rho, every configuration pooled."""
 
-    edges: np.ndarray       # (B+1,) 1/t0
-    density: np.ndarray     # (B,) unit area
-    omega_c: float          # mean largest eigenfrequency
-    omega_c_std: float
-    configurations: int
+    edges: np.ndarray       #: (B+1,) 1/t0, the bins' edges
+    density: np.ndarray     #: (B,) t0, g(omega) on the bins, of unit area
+    omega_c: float          #: 1/t0, the mean over the configurations of the largest eigenfrequency
+    omega_c_std: float      #: 1/t0, its standard deviation over the configurations
+    configurations: int     #: how many configurations were pooled
 
 
 class Diffusivity(NamedTuple):
@@ -40,92 +40,104 @@ class Diffusivity(NamedTuple):
     (``diffusivity/r<i>_p<j>`` of method exact, every configuration pooled, ascending omega) and on
     the vDOS's bins (``diffusivity_binned/r<i>``)."""
 
-    method: str             # exact or kpm
-    omega: np.ndarray       # (M,) 1/t0, every non-zero mode of every configuration, ascending (kpm: empty)
-    d: np.ndarray           # (M,) d0^2/t0, the mode's diffusivity (kpm: empty)
-    edges: np.ndarray       # (B+1,) 1/t0, the vDOS's bins
-    d_binned: np.ndarray    # (B,) d0^2/t0, the mean d of each bin's modes, NaN where none
-    d_std: np.ndarray       # (B,) exact: their spread (kpm: NaN)
-    d_err: np.ndarray       # (B,) kpm: the standard error of d_binned over the probes (exact: NaN)
-    count: np.ndarray       # (B,) modes in each bin (kpm: estimated)
-    eta: float              # 1/t0, exact's Lorentzian half-width (kpm: NaN)
-    configurations: int
+    method: str             #: ``exact`` or ``kpm`` (``transport.method``)
+    omega: np.ndarray       #: (M,) 1/t0, every non-zero mode of every configuration, ascending (kpm: empty)
+    d: np.ndarray           #: (M,) d0^2/t0, each mode's diffusivity (kpm: empty)
+    edges: np.ndarray       #: (B+1,) 1/t0, the vDOS's bins
+    d_binned: np.ndarray    #: (B,) d0^2/t0, the mean d of each bin's modes, NaN where none
+    d_std: np.ndarray       #: (B,) d0^2/t0, exact: their spread (kpm: NaN)
+    d_err: np.ndarray       #: (B,) d0^2/t0, kpm: the standard error of d_binned over the probes (exact: NaN)
+    count: np.ndarray       #: (B,) modes in each bin (kpm: estimated)
+    eta: float              #: 1/t0, exact's Lorentzian half-width (kpm: NaN)
+    configurations: int     #: how many configurations were pooled
 
 
 class BinnedEnergies(NamedTuple):
     """KPM spectra of one rho: per-configuration bin averages, cut to the shortest grid."""
 
-    edges: np.ndarray       # (B+1,)
-    density: np.ndarray     # (C, B)
-    K: np.ndarray           # (C, B), NaN in near-empty bins
-    Q: np.ndarray           # (C, B)
+    edges: np.ndarray       #: (B+1,) 1/t0, the bins' edges
+    density: np.ndarray     #: (C, B) t0, each configuration's density of states on the bins
+    K: np.ndarray           #: (C, B) bin average of the modes' translational kinetic energy K, NaN in near-empty bins
+    Q: np.ndarray           #: (C, B) bin average of their rotational kinetic energy Q, NaN in near-empty bins
 
 
 class DampedModes(NamedTuple):
     """Damped modes of one rho (``spectra/`` groups of method pep), every configuration pooled."""
 
-    lam: np.ndarray         # (M,) complex 1/t0: -sigma + i omega_d, Im >= 0 (module pep)
-    K: np.ndarray | None    # (M,) per mode, with spectrum.energies
-    Q: np.ndarray | None
-    dof: int                # of the first configuration
+    lam: np.ndarray         #: (M,) complex 1/t0: -sigma + i omega_d, Im >= 0 (module pep)
+    K: np.ndarray | None    #: (M,) each mode's translational kinetic energy K, with spectrum.energies (else None)
+    Q: np.ndarray | None    #: (M,) each mode's rotational kinetic energy Q, with spectrum.energies (else None)
+    dof: int                #: degrees of freedom of the first configuration
 
 
 class ModeShapes(NamedTuple):
     """``modes/r<i>_p<j>``: the modes of one (rho, packing) kept whole near target frequencies
     (the scene's ``modes`` section; ``spectrum.shapes``), M modes, N particles."""
 
-    rho: float
-    packing: int                    # index of its configuration (``packings/<i>``)
-    target: np.ndarray              # (M,) 1/t0, the target each mode was found for
-    omega: np.ndarray               # (M,) 1/t0
-    displacement: np.ndarray        # (M, N, D) d0: u = M^-1/2 e, |e| = 1; zero on rattlers
-    rotation: np.ndarray | None     # (M, N, R) rad (R = 1 in 2D, 3 in 3D); None without rotations
-    share: np.ndarray               # (M, N, 2): each particle's part of |e|^2 = 1, and its rotations' part
-    K: np.ndarray                   # (M,) per mode, as spectra's
-    Q: np.ndarray                   # (M,)
-    participation: np.ndarray       # (M,)
+    rho: float                      #: the stiffness ratio rho = kt/kn of the modes' matrix
+    packing: int                    #: index of its configuration (``packings/<i>``)
+    target: np.ndarray              #: (M,) 1/t0, the target each mode was found for
+    omega: np.ndarray               #: (M,) 1/t0, the modes' frequencies
+    displacement: np.ndarray        #: (M, N, D) d0: u = M^-1/2 e, abs(e) = 1; zero on rattlers
+    rotation: np.ndarray | None     #: (M, N, R) rad (R = 1 in 2D, 3 in 3D); None without rotations
+    share: np.ndarray               #: (M, N, 2): each particle's part of abs(e)^2 = 1, and its rotations' part
+    K: np.ndarray                   #: (M,) each mode's translational kinetic energy K, as spectra's
+    Q: np.ndarray                   #: (M,) each mode's rotational kinetic energy Q, as spectra's
+    participation: np.ndarray       #: (M,) participation ratio, as spectra's
 
 
 class WaveSnapshot(NamedTuple):
     """The whole velocity field of one standing wave at chosen times (``waves.snapshots``): the
     first run of a (rho, mode) at the smallest k, on its packing."""
 
-    rho: float
-    mode: str
-    packing: int
-    k: float                        # 1/d0
-    run: str                        # the run's label, e.g. "v_x, k || x"
-    t: np.ndarray                   # (T,) t0
-    velocity: np.ndarray            # (T, N, D) d0/t0, zero on rattlers
-    spin: np.ndarray | None         # (T, N, R) 1/t0; None without rotations
+    rho: float                      #: the stiffness ratio rho = kt/kn
+    mode: str                       #: the wave's polarisation (L, TR, ...: ``waves.modes``)
+    packing: int                    #: index of its configuration (``packings/<i>``)
+    k: float                        #: 1/d0, the wave number
+    run: str                        #: the run's label, e.g. "v_x, k || x"
+    t: np.ndarray                   #: (T,) t0, the snapshots' times
+    velocity: np.ndarray            #: (T, N, D) d0/t0, zero on rattlers
+    spin: np.ndarray | None         #: (T, N, R) 1/t0; None without rotations
 
 
 class Sweep(NamedTuple):
     """An amplitude sweep of one (rho, mode) (``waves.engine: lammps`` with a list of
-    amplitudes), in ascending amplitude: the fits per amplitude and k, and what the contacts did."""
+    amplitudes), in ascending amplitude: the fits per amplitude and k, and what the contacts did.
+    Its crossover amplitude A*: :func:`crossover`."""
 
-    amplitude: np.ndarray   # (A,) d0/t0 (1/t0 for RT and R)
-    k: np.ndarray           # (K,) 1/d0
-    omega: np.ndarray       # (A, K) damped-cosine frequency (1/t0), NaN where the fit failed
-    gamma: np.ndarray       # (A, K) its decay rate (1/t0)
-    omega_err: np.ndarray   # (A, K) 1-sigma
-    gamma_err: np.ndarray   # (A, K)
-    sliding: np.ndarray     # (A, K) most contacts at the Coulomb limit at once, over runs, configurations, t
-    opened: np.ndarray      # (A, K) most of the start's contacts open at once
-    formed: np.ndarray      # (A, K) most new contacts at once
-    energy_change: np.ndarray  # (A, K) largest |E - E(0)| / E(0) of the wave's energy (the share sliding took),
-    #                            mean over runs and configurations
-    coulomb: np.ndarray     # (A, K) largest |f_t| / (mu |f_n|) over contacts, runs, configurations, t (1: sliding)
-    opening: np.ndarray     # (A, K) largest (xi_0 - xi) / xi_0 over the start's contacts (1: one opened)
+    amplitude: np.ndarray   #: (A,) d0/t0 (1/t0 for RT and R), ascending
+    k: np.ndarray           #: (K,) 1/d0
+    omega: np.ndarray       #: (A, K) 1/t0, the damped cosine's frequency, NaN where the fit failed
+    gamma: np.ndarray       #: (A, K) 1/t0, its decay rate
+    omega_err: np.ndarray   #: (A, K) 1/t0, omega's 1-sigma error
+    gamma_err: np.ndarray   #: (A, K) 1/t0, gamma's 1-sigma error
+    sliding: np.ndarray     #: (A, K) most contacts at the Coulomb limit at once, over runs, configurations, t
+    opened: np.ndarray      #: (A, K) most of the start's contacts open at once
+    formed: np.ndarray      #: (A, K) most new contacts at once
+    #: (A, K) largest abs(E - E(0)) / E(0) of the wave's energy (the share sliding took), mean over
+    #: runs and configurations
+    energy_change: np.ndarray
+    coulomb: np.ndarray     #: (A, K) largest abs(f_t) / (mu abs(f_n)) over contacts, runs, configurations, t (1: sliding)
+    opening: np.ndarray     #: (A, K) largest (xi_0 - xi) / xi_0 over the start's contacts (1: one opened)
+
+
+class Crossover(NamedTuple):
+    """The crossover amplitude A* of an amplitude sweep, per k (:func:`crossover`): the smallest
+    amplitude at which the wave stops being linear.  In the sweep's amplitude unit (d0/t0; 1/t0 for
+    RT and R); 0 where the sweep's smallest amplitude already departs from the linear reference
+    (A* is below the sweep), NaN where no amplitude of the sweep departs."""
+
+    omega: np.ndarray       #: (K,) A* of the frequency omega
+    gamma: np.ndarray       #: (K,) A* of the decay rate gamma
 
 
 class Waves(NamedTuple):
     """Sampled Fourier components of one (rho, mode), the runs of every configuration pooled."""
 
-    k: np.ndarray           # (K,) of the first configuration
-    t: np.ndarray           # (S,) t0, evenly spaced
-    z: np.ndarray           # (R, K, S) complex: R = the runs of the mode (2 in 2D; 3 or 6 in 3D) x configurations
-    omega_max: float        # largest matrix frequency over the configurations (1/t0)
+    k: np.ndarray           #: (K,) 1/d0, of the first configuration
+    t: np.ndarray           #: (S,) t0, evenly spaced
+    z: np.ndarray           #: (R, K, S) complex: R = the runs of the mode (2 in 2D; 3 or 6 in 3D) x configurations
+    omega_max: float        #: 1/t0, the largest matrix frequency over the configurations
 
 
 def open_results(path: str) -> h5py.File:
@@ -364,6 +376,26 @@ def sweeps(f) -> dict[tuple[float, str], Sweep]:
                                  most("contacts_sliding"), most("contacts_opened"), most("contacts_formed"), lost,
                                  most("contacts_coulomb"), most("contacts_opening"))
     return out
+
+
+def crossover(sweep: Sweep, linear: dict | None = None, tol: float = 0.01) -> Crossover:
+    """The measured crossover amplitude A* of one sweep (``sweeps(f)[(rho, mode)]``), per k: the
+    smallest amplitude at which omega (and gamma) departs from its linear value by ``tol`` (1 %)
+    and by more than twice the two fits' combined 1-sigma error, interpolated log-linearly between
+    the two amplitudes that straddle it (``analysis.thresholds.crossover``).  The linear value is
+    ``linear``'s when given: the fits of linear waves of the same packing, mode and k
+    (``fits(g)[(rho, mode)]`` of that run's file); else the sweep's smallest amplitude's (a
+    departure there is then not seen: NaN, not 0).  Not collective."""
+    from ..analysis.thresholds import crossover as measured
+
+    def star(name):
+        value, error = getattr(sweep, name), getattr(sweep, f"{name}_err")
+        if linear is None:
+            return measured(sweep.amplitude, value, error, tol)
+        return measured(sweep.amplitude, value, error, tol, reference=linear[name],
+                        reference_error=linear[f"{name}_err"])
+
+    return Crossover(star("omega"), star("gamma"))
 
 
 def sweep_friction(f) -> float | None:

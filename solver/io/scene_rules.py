@@ -27,18 +27,23 @@ SECTION_RULES = {PackingSpec: packing_rules.check_section, ModelSpec: model_rule
                  SpectrumSpec: spectrum_plan.check_section, ModesSpec: spectrum_plan.check_modes,
                  TransportSpec: transport_rules.check_section, WavesSpec: waves_rules.check_section}
 """Section class -> its rule across its own keys, ``rule(section, where)``."""
+GIVEN_RULES = {TransportSpec: transport_rules.check_given}
+"""Section class -> its rule on which keys the scene wrote, ``rule(section, given, where)``."""
 
 
-def check(obj, where: str) -> None:
-    """Refuse a section (``where``: its key path prefix) or a whole :class:`Scene` that ``coerce.build``
-    has just built; a scene's ``spectrum.method: auto`` is checked as the scene alone resolves it
-    and kept (its packings may decide it: :func:`check_packings`).  Not collective."""
+def check(obj, where: str, given: frozenset = frozenset()) -> None:
+    """Refuse a section (``where``: its key path prefix; ``given``: the keys the scene wrote in it,
+    null values left out) or a whole :class:`Scene` that ``coerce.build`` has just built; a scene's
+    ``spectrum.method: auto`` is checked as the scene alone resolves it and kept (its packings may
+    decide it: :func:`check_packings`).  Not collective."""
     if isinstance(obj, Scene):
         resolve(obj, packing_rules.stored_forces_source(obj.packing))
         return
     rule = SECTION_RULES.get(type(obj))
     if rule is not None:
         rule(obj, where)
+    if type(obj) in GIVEN_RULES:
+        GIVEN_RULES[type(obj)](obj, given, where)
 
 
 def resolve(scene: Scene, which: str | None) -> tuple[Scene, str | None]:
@@ -69,7 +74,7 @@ def check_scene(scene: Scene) -> None:
     check_stressed(scene, packing_rules.stored_forces_source(scene.packing))
     spectrum_plan.check_damping(scene.spectrum, scene.modes, scene.model.damped)
     waves_rules.check_damping(scene.waves, scene.model.damped)
-    transport_rules.check_scene(scene.transport, scene.spectrum, scene.model.damped)
+    transport_rules.check_scene(scene.transport, scene.spectrum, scene.model.dashpot_keys)
     if not scene.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {scene.output!r}: must end in .h5 or .hdf5")
 

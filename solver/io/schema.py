@@ -27,7 +27,7 @@ from ..packing.jammed import MIN_N
 from ..packing.rules import stored_forces_source
 from ..spectrum import nonhermitian, pep
 from ..spectrum import plan as spectrum_plan
-from ..transport.rules import METHODS as TRANSPORT_METHODS
+from ..transport.rules import METHOD_KEYS as TRANSPORT_METHOD_KEYS, METHODS as TRANSPORT_METHODS
 from ..waves import schedule
 
 
@@ -265,6 +265,15 @@ class ModelSpec:
     def damped(self) -> bool:
         """Whether a dashpot is on."""
         return any(gamma > 0.0 for gamma in self.dashpots)
+
+    @property
+    def dashpot_keys(self) -> str:
+        """The keys that turn a dashpot on, as the scene wrote them, for messages: "model.damping",
+        "model.restitution" or both joined by "and"; "" when none is on."""
+        by_restitution = self.restitution is not None and restitution_damping(self.restitution) > 0.0
+        by_damping = self.damping is not None and max(self.damping.gamma_n, self.damping.gamma_t) > 0.0
+        return " and ".join(key for key, on in (("model.restitution", by_restitution), ("model.damping", by_damping))
+                            if on)
 
 
 def _window(v):
@@ -526,8 +535,15 @@ class Scene:
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
     def to_yaml(self) -> str:
-        """The validated scene with all defaults filled in, as YAML."""
-        return yaml.safe_dump(dataclasses.asdict(self), sort_keys=False)
+        """The validated scene with all defaults filled in, as YAML, less the keys of the transport
+        method not in use (they do nothing, and a scene that writes them is refused): it reads back
+        as the same scene."""
+        data = dataclasses.asdict(self)
+        if self.transport is not None:
+            for method, keys in TRANSPORT_METHOD_KEYS.items():
+                for key in keys if method != self.transport.method else ():
+                    del data["transport"][key]
+        return yaml.safe_dump(data, sort_keys=False)
 
 
 def _explicit(section) -> dict:

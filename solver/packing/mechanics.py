@@ -24,6 +24,7 @@ from scipy.spatial import cKDTree
 
 from .. import capillary, contact_law
 from ..errors import InputError
+from ..wording import counted
 from . import bridges as bridging
 from . import geometry
 
@@ -358,7 +359,7 @@ def jamming_failure(packing: Packing) -> str | None:
         rule = f"{dim}N' - {dim - 1}"
     links = stats.get("n_bridges", stats["n_contacts"])  # wet: contacts and bridges across a gap
     if links < needed:
-        return (f"only {n_active} of {packing.n} {name} are not rattlers and they share "
-                f"{links} contacts{' and bridges' if 'n_bridges' in stats else ''}, fewer than the {rule} = {needed} "
-                f"of a rigid packing (pressure {stats['pressure']:.1e})")
+        shared = counted(links, "link") + " (contacts and bridges)" if "n_bridges" in stats else counted(links, "contact")
+        return (f"only {n_active} of {packing.n} {name} are not rattlers and they share {shared}, fewer than the "
+                f"{rule} = {needed} of a rigid packing (pressure {stats['pressure']:.1e})")
     return None

@@ -1,5 +1,5 @@
-"""The scene's rules on its ``transport`` section: its own keys (eta given, keys of another
-method), what the rest of the scene must give (a symmetric, undamped matrix; the bins of the
+"""The scene's rules on its ``transport`` section: its own keys (eta given; keys of another
+method written), what the rest of the scene must give (a symmetric, undamped matrix; the bins of the
 vDOS) and what the packings must fit (the exact route's scratch vectors).
 
 Each rule takes the transport section (``io.schema.TransportSpec``; None: the scene has none, and
@@ -20,14 +20,13 @@ METHODS = ("exact", "kpm")
 kpm, d(omega) per bin from Chebyshev moments with random probes (``kpm_diffusivity``)."""
 DEFAULT_BIN_WIDTH = 0.05
 """Bins of d(omega) (1/t0) without a spectrum section: the spectrum's default bin width."""
-_ONLY = {"exact": {"tol": 1e-12, "block": 1000, "max_scratch_gib": 64.0}, "kpm": {"probes": 16, "moments": 0}}
-"""Keys of each method and their defaults: given with another method, they would do nothing."""
+METHOD_KEYS = {"exact": ("tol", "block", "max_scratch_gib"), "kpm": ("probes", "moments")}
+"""Keys of each method: written with another method, they would do nothing (refused: :func:`check_given`)."""
 
 
 def check_section(spec, where: str) -> None:
-    """Refuse a transport section ``spec`` of method exact without eta, of method kpm with one
-    (kpm broadens the sum by the bin: docs/diffusivity_trace.md), or with keys of another method.
-    Not collective."""
+    """Refuse a transport section ``spec`` of method exact without eta, or of method kpm with one
+    (kpm broadens the sum by the bin: docs/diffusivity_trace.md).  Not collective."""
     if spec.method == "exact" and spec.eta is None:
         raise InputError(f"{where}eta is missing: give the Lorentzian half-width (1/t0) that broadens the "
                          f"Allen-Feldman sum, a few mean level spacings, e.g. {where}eta: 0.05 "
@@ -36,10 +35,15 @@ def check_section(spec, where: str) -> None:
         raise InputError(f"{where}eta = {spec.eta!r}: method 'kpm' broadens the Allen-Feldman sum by the bin "
                          f"(a box of width {where}bin_width), not by a Lorentzian: drop {where}eta and choose the "
                          f"bins (docs/diffusivity_trace.md)")
-    for method, keys in _ONLY.items():
-        given = [key for key, default in keys.items() if method != spec.method and getattr(spec, key) != default]
-        if given:
-            raise InputError(f"{where}{given[0]} = {getattr(spec, given[0])!r} is a key of method {method!r}; "
+
+
+def check_given(spec, given, where: str) -> None:
+    """Refuse a transport section ``spec`` whose scene wrote (``given``: the section's keys in the
+    scene, null values left out) a key of the other method, even at its default.  Not collective."""
+    for method, keys in METHOD_KEYS.items():
+        written = [key for key in keys if method != spec.method and key in given]
+        if written:
+            raise InputError(f"{where}{written[0]} = {getattr(spec, written[0])!r} is a key of method {method!r}; "
                              f"{where}method is {spec.method!r}: drop it")
 
 
@@ -51,21 +55,21 @@ def bin_width(spec, spectrum) -> float:
     return spectrum.bin_width if spectrum is not None else DEFAULT_BIN_WIDTH
 
 
-def check_scene(spec, spectrum, damped: bool) -> None:
+def check_scene(spec, spectrum, dashpots: str) -> None:
     """Refuse a transport section ``spec`` whose d(omega) bins differ from the vDOS's
-    (``spectrum``: the spectrum section, None: none) or on a scene with dashpots (``damped``).
-    Not collective."""
+    (``spectrum``: the spectrum section, None: none) or on a scene with dashpots (``dashpots``: the
+    keys that turn them on, ``ModelSpec.dashpot_keys``; "": none).  Not collective."""
     if spec is None:
         return
     if spectrum is not None and spec.bin_width is not None and spec.bin_width != spectrum.bin_width:
         raise InputError(f"transport.bin_width = {spec.bin_width} differs from spectrum.bin_width = "
                          f"{spectrum.bin_width}: d(omega) is kept on the vDOS's bins; drop transport.bin_width "
                          f"(or give both the same)")
-    if damped:
-        raise InputError("transport with model.damping: the Allen-Feldman diffusivity is that of the undamped "
-                         "modes of a conserved harmonic energy; with dashpots the energy decays and the modes are "
-                         "damped; drop model.damping from this scene for the diffusivity of the same packing "
-                         "(the dashpots' attenuation is measured by waves and spectrum.method pep)")
+    if dashpots:
+        raise InputError(f"transport with {dashpots}: the Allen-Feldman diffusivity is that of the undamped "
+                         f"modes of a conserved harmonic energy; with dashpots the energy decays and the modes are "
+                         f"damped; drop {dashpots} from this scene for the diffusivity of the same packing "
+                         f"(the dashpots' attenuation is measured by waves and spectrum.method pep)")
 
 
 def check_stressed(spec, why: str) -> None:

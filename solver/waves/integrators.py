@@ -29,6 +29,7 @@ from .. import profiling
 from ..errors import NumericalFailure
 from ..model.operators import first_order_matrix
 from ..options import ts_settings
+from ..wording import counted
 from . import excitation
 from .excitation import start_velocity
 from .sampling import FourierSampler, Recorder, WaveSeries
@@ -157,7 +158,7 @@ def integrate_block(dm, positions, waves_: list[tuple[str, int, float]], *, ampl
         ts.destroy()  # also destroys the context's dense blocks
         X.destroy()
     if recorder.blown:
-        raise _blown(recorder, f"block of {runs} waves", schedule)
+        raise _blown(recorder, f"block of {counted(runs, 'wave')}", schedule)
     return recorder.series(taken, used)
 
 

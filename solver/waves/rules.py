@@ -90,9 +90,10 @@ def check_engine(spec, packing, model) -> None:
         raise InputError(f"waves.{key} = {value!r} with waves.engine: lammps: LAMMPS integrates the waves with its "
                          f"own velocity Verlet, and waves.{key} chooses rotsound's linear path: give one of the two")
     if not packing.friction:
+        given = "missing or null" if packing.friction is None else f"{packing.friction:g}"
         raise InputError(f"waves.engine: lammps needs packing.friction, the Coulomb coefficient mu > 0 of the contacts "
-                         f"LAMMPS moves (got {packing.friction}); without tangential springs (model.rho: 0) it does "
-                         f"not act")
+                         f"LAMMPS moves (packing.friction: {given}); without tangential springs (model.rho: 0) it "
+                         f"does not act")
     for rho in model.rho:
         why = lammps_dem.unsupported(model.contact(rho))
         if why is not None:

@@ -21,6 +21,7 @@ from ..model import dynmat
 from . import chebyshev, excitation, exponential, integrators, lammps_dem, spectral
 from .sampling import WaveSeries
 from .schedule import Schedule
+from ..wording import counted
 
 
 def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, axes: list[int],
@@ -152,12 +153,14 @@ def _lammps(dem: lammps_dem.Setting, dm, positions, spec, waves, schedule: Sched
                 "contacts_every": dem.record_every, "friction": dem.friction,
                 "pair_style": lammps_dem.PAIR_STYLES[dm.model.law]}
     energy = np.array([r.energy for r in flat])
-    lost = 100.0 * (1.0 - energy[:, -1] / energy[:, 0])
+    gain = "velocity Verlet's O(dt^2) error" + (", and the Mindlin springs' stiffness following the overlap"
+                                               if dm.model.law == "hertz" else "") + \
+        ": sliding, dashpots and opened contacts only take energy"
     sliding = max(int(r.contacts["contacts_sliding"].max()) for r in flat)
     opened = max(int(r.contacts["contacts_opened"].max()) for r in flat)
     summary = (f"LAMMPS, {schedule.steps} steps each (dt = {schedule.dt:g}, mu = {dem.friction:g}), "
-               f"up to {sliding} contacts sliding and {opened} opened at once, energy lost by t = "
-               f"{flat[0].contacts['contacts_t'][-1]:g}: {lost.min():.3g} to {lost.max():.3g} %")
+               f"up to {counted(sliding, 'contact')} sliding and {opened} opened at once, energy by t = "
+               f"{flat[0].contacts['contacts_t'][-1]:g}: {_loss_words(energy, gain)}")
     return flat, False, {"lammps": settings}, summary
 
 
@@ -170,17 +173,33 @@ estimates, solver settings, summary for the log)."""
 def _energy_words(dm, energy: np.ndarray, drift: np.ndarray, t_end: float) -> str:
     """What the log says of the energy E = (v^T M v + u^T D u)/2 of time-stepped runs (``energy``
     (W, S) of W runs, ``drift`` (W,) its max |E - E(0)|/E(0)): its drift where it is conserved; with dashpots
-    on a symmetric matrix the share of E(0) gone by ``t_end`` (E never grows there: the dashpots'
-    work, plus the scheme's error, which is not separated); on a non-symmetric matrix (stored
+    on a symmetric matrix the share of E(0) gone by ``t_end`` (the dashpots' work, plus the
+    scheme's error, which is not separated; a rise, which dashpots cannot give, is said as the
+    scheme's error: :func:`_loss_words`); on a non-symmetric matrix (stored
     forces) E is not conserved, and only its largest change is said."""
     if not dm.symmetric:
         why = "dashpots and a non-symmetric matrix" if dm.C is not None else "the matrix is not symmetric"
         return f"largest change of E {drift.max():.1e} of E(0) (not conserved: {why})"
     if dm.C is not None:
-        lost = 100.0 * (1.0 - energy[..., -1] / energy[..., 0])
-        return (f"energy taken by the dashpots (and the scheme's error) by t = {t_end:g}: {lost.min():.3g} to "
-                f"{lost.max():.3g} %")
+        words = _loss_words(energy, "the scheme's error: dashpots only take energy")
+        return f"energy taken by the dashpots (and the scheme's error) by t = {t_end:g}: {words}"
     return f"max energy drift {drift.max():.1e}"
+
+
+def _loss_words(energy: np.ndarray, gain: str) -> str:
+    """The share of E(0) gone by the last sample of each run (``energy`` (W, S) of W runs) as the
+    log says it: "lost a to b %" (or "lost a %") where E fell, and where it rose "gained up to c % in n runs"
+    followed by ``gain``, a clause saying what made it (the energy's takers cannot give).  Not
+    collective."""
+    lost = 100.0 * (1.0 - energy[..., -1] / energy[..., 0])
+    fell, rose = lost[lost >= 0.0], -lost[lost < 0.0]
+    words = []
+    if fell.size:
+        low, high = f"{fell.min():.3g}", f"{fell.max():.3g}"
+        words.append(f"lost {high} %" if low == high else f"lost {low} to {high} %")
+    if rose.size:
+        words.append(f"gained up to {rose.max():.3g} % in {counted(rose.size, 'run')} ({gain})")
+    return ", ".join(words)
 
 
 def _snapshots(dm, positions, spec, mode: str, run: int, k: float, schedule: Schedule) -> dict:

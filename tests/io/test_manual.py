@@ -27,3 +27,16 @@ def test_scenes_page_holds_the_schema_reference():
     for key, default, _ in rows:
         assert f"| `{key}` | `{default}` |" in built, key
     assert built.index("| `output` |") < built.index("| `cache` |")  # in the schema's order
+
+
+def test_raw_markup_is_found_in_a_written_page():
+    """What an autodoc directive parsed as Markdown wrote into docs/results.md's page (before
+    ```{eval-rst}): each line is found, a rendered page's are not, nor markup quoted as inline code."""
+    raw = ("<p>.. py:module:: solver.io.results</p>\n<p><code>x</code> is read.</p>\n"
+           "<p><span>:func:</span><code class=\"docutils\">open_results</code> is the one door</p>\n"
+           "<div><pre><span></span>  Alias for field number 2\n</pre></div>\n")
+    assert [number for number, _ in rotsound_manual.raw_markup(raw)] == [1, 3, 4]
+    rendered = ("<dt class=\"sig\"><span class=\"pre\">solver.io.results.open_results</span></dt>\n"
+                "<dd><p>(B+1,) 1/t0, the bins&#8217; edges; see <a href=\"#\">open_results()</a></p></dd>\n"
+                "<p>a page quoting <code class=\"docutils\"><span>:func:</span></code> in backticks</p>\n")
+    assert rotsound_manual.raw_markup(rendered) == []
