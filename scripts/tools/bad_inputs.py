@@ -391,6 +391,10 @@ CASES = [
      "model.damping.gamma_n = -0.3: must be in [0.0", None),
     ("an undamped spectrum method with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\n"
      "spectrum: {method: slicing}\n", [], "spectrum.method = 'slicing' with model.damping: it solves the undamped", None),
+    ("an undamped spectrum method with a coefficient of restitution", GOOD + "model: {restitution: 0.8}\n"
+     "spectrum: {method: slicing}\n", [], "spectrum.method = 'slicing' with model.restitution: it solves the undamped "
+     "problem; the damped modes (lambda^2 M + lambda C + D) x = 0 need spectrum.method: pep (or auto); the undamped "
+     "vDOS of the same packing: drop model.restitution from this scene", None),
     ("damped modes without dashpots", GOOD + "spectrum: {method: pep}\n", [],
      "spectrum.method = 'pep': the damped modes need dashpots", None),
     ("damped windows on a stressed packing", "packing: {file: '{file}', contacts: '{file}.contacts'}\n"
@@ -423,6 +427,12 @@ CASES = [
      "waves: {n: [1], method: spectral, snapshots: [1.0]}\n", [], "waves.snapshots with model.damping", None),
     ("mode shapes with dashpots", GOOD + "model: {damping: {gamma_n: 0.3}}\nmodes: {omega: [1.0]}\n", [],
      "modes with model.damping: modes keeps the undamped eigenvectors of D", None),
+    ("mode shapes with a coefficient of restitution", GOOD + "model: {restitution: 0.8}\nmodes: {omega: [1.0]}\n", [],
+     "modes with model.restitution: modes keeps the undamped eigenvectors of D", None),
+    ("wave snapshots with a coefficient of restitution", GOOD + "model: {restitution: 0.8}\n"
+     "waves: {n: [1], method: spectral, snapshots: [1.0]}\n", [],
+     "waves.snapshots with model.restitution: the snapshots come from the undamped Lanczos path; drop waves.snapshots, "
+     "or model.restitution to see the undamped wave", None),
     ("mode shapes of a stressed packing", "packing: {file: '{file}', contacts: '{file}.contacts'}\n"
      "modes: {omega: [1.0]}\n", [], "so the dynamical matrix is not symmetric and its modes are not the", _stressed()),
     ("diffusivity without eta", GOOD + "transport: {}\n", [], "transport.eta is missing: give the Lorentzian half-width",

@@ -72,8 +72,8 @@ def check_scene(scene: Scene) -> None:
     packing_rules.check_friction(scene.packing, scene.waves)
     waves_rules.check_engine(scene.waves, scene.packing, scene.model)
     check_stressed(scene, packing_rules.stored_forces_source(scene.packing))
-    spectrum_plan.check_damping(scene.spectrum, scene.modes, scene.model.damped)
-    waves_rules.check_damping(scene.waves, scene.model.damped)
+    spectrum_plan.check_damping(scene.spectrum, scene.modes, scene.model.dashpot_keys)
+    waves_rules.check_damping(scene.waves, scene.model.dashpot_keys)
     transport_rules.check_scene(scene.transport, scene.spectrum, scene.model.dashpot_keys)
     if not scene.output.endswith((".h5", ".hdf5")):
         raise InputError(f"output = {scene.output!r}: must end in .h5 or .hdf5")

@@ -91,19 +91,20 @@ def check_stressed(spec, modes, why: str) -> None:
                          f"orthogonal eigenvectors that modes keeps; drop the modes section for this packing")
 
 
-def check_damping(spec, modes, damped: bool) -> None:
-    """With contact dashpots (``damped``), refuse a spectrum method but pep (the others solve the
-    undamped problem) and mode shapes (undamped eigenvectors); without, refuse pep (no damped
+def check_damping(spec, modes, dashpots: str) -> None:
+    """With contact dashpots (``dashpots``: the keys that turn them on as the scene wrote them,
+    ``ModelSpec.dashpot_keys``; "" for none), refuse a spectrum method but pep (the others solve
+    the undamped problem) and mode shapes (undamped eigenvectors); without, refuse pep (no damped
     modes to find).  Not collective."""
-    if damped and spec is not None and spec.method != "pep":
-        raise InputError(f"spectrum.method = {spec.method!r} with model.damping: it solves the undamped "
+    if dashpots and spec is not None and spec.method != "pep":
+        raise InputError(f"spectrum.method = {spec.method!r} with {dashpots}: it solves the undamped "
                          f"problem; the damped modes (lambda^2 M + lambda C + D) x = 0 need spectrum.method: pep "
-                         f"(or auto); the undamped vDOS of the same packing: drop model.damping from this scene")
-    if damped and modes is not None:
-        raise InputError("modes with model.damping: modes keeps the undamped eigenvectors of D, not the damped "
-                         "modes of (lambda^2 M + lambda C + D) x = 0; drop model.damping from this scene to see "
-                         "the undamped modes of the same packing")
-    if not damped and spec is not None and spec.method == "pep":
+                         f"(or auto); the undamped vDOS of the same packing: drop {dashpots} from this scene")
+    if dashpots and modes is not None:
+        raise InputError(f"modes with {dashpots}: modes keeps the undamped eigenvectors of D, not the damped "
+                         f"modes of (lambda^2 M + lambda C + D) x = 0; drop {dashpots} from this scene to see "
+                         f"the undamped modes of the same packing")
+    if not dashpots and spec is not None and spec.method == "pep":
         raise InputError("spectrum.method = 'pep': the damped modes need dashpots: give model.damping (gamma_n, "
                          "gamma_t) or model.restitution; without them every mode is undamped: use method slicing")
 

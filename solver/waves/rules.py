@@ -52,17 +52,18 @@ def check_stressed(spec, why: str) -> None:
                          f"orthogonal eigendecomposition: use waves.method: exponential (exact) or ts")
 
 
-def check_damping(spec, damped: bool) -> None:
-    """Refuse, with contact dashpots (``damped``), what cannot take them: snapshots (undamped
+def check_damping(spec, dashpots: str) -> None:
+    """Refuse, with contact dashpots (``dashpots``: the keys that turn them on as the scene wrote
+    them, ``ModelSpec.dashpot_keys``; "" for none), what cannot take them: snapshots (undamped
     Lanczos path), a second-order integrator (``SECOND_ORDER``: no velocity-dependent force).
     Not collective."""
-    if spec is None or not damped:
+    if spec is None or not dashpots:
         return
     if spec.snapshots is not None:
-        raise InputError("waves.snapshots with model.damping: the snapshots come from the undamped Lanczos path; drop "
-                         "waves.snapshots, or model.damping to see the undamped wave")
+        raise InputError(f"waves.snapshots with {dashpots}: the snapshots come from the undamped Lanczos path; drop "
+                         f"waves.snapshots, or {dashpots} to see the undamped wave")
     if spec.method == "ts" and spec.integrator in SECOND_ORDER:
-        raise InputError(f"waves.integrator = {spec.integrator!r} with model.damping: it integrates "
+        raise InputError(f"waves.integrator = {spec.integrator!r} with {dashpots}: it integrates "
                          f"M u'' = -D u and has no velocity-dependent force; use waves.method: spectral or "
                          f"exponential (exact), or waves.integrator: rk (or theta, cn, beuler) on the first-order system")
 

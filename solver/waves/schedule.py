@@ -36,7 +36,7 @@ INTEGRATORS = ("verlet", "alpha2", "rk", "theta", "cn", "beuler", "ssp")
 """waves.integrator values of a scene (``-waves_ts_type`` takes any PETSc TS type; python is verlet)."""
 SECOND_ORDER = ("verlet", "alpha2")
 """waves.integrator values that integrate M u'' = -D u without a velocity-dependent force (no
-dashpots: ``plan`` and the scene's rule ``rules.check_damping`` refuse them with ``model.damping``)."""
+dashpots: ``plan`` and the scene's rule ``rules.check_damping`` refuse them with ``model.damping`` or ``model.restitution``)."""
 MIN_SAMPLES = 4
 """Fewest samples of a run (t_end / (dt * sample_every)): the waves' scene rule and :func:`check_schedule`
 refuse fewer."""
@@ -205,7 +205,7 @@ def check_schedule(schedule: Schedule, omega_max: float, rho: float, damping_max
     src = schedule.sources
     if damping_max > 0.0 and schedule.integrator in SECOND_ORDER:
         raise InputError(f"{src['integrator']}: {schedule.integrator} has no velocity-dependent force, but the "
-                         f"model has dashpots (model.damping); use waves.method: exponential, or a first-order "
+                         f"model has dashpots (model.damping or model.restitution); use waves.method: exponential, or a first-order "
                          f"integrator (rk, theta, cn, beuler)")
     if schedule.adapt != "none":
         raise InputError(f"{src['integrator']}: the TS adapts its step (TSAdapt {schedule.adapt}), but the "
