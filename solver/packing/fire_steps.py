@@ -14,14 +14,17 @@ import numpy as np
 
 @numba.njit(cache=True, boundscheck=False)
 def largest_squared_force(f: np.ndarray) -> float:
-    """max_i |f_i|^2: ``np.max(np.sum(f * f, axis=1))`` (components summed left to right)."""
-    largest = 0.0
+    """max_i |f_i|^2: ``np.max(np.sum(f * f, axis=1))`` (components summed left to right), NaN if
+    any component is NaN, as numpy's (the compiled ``max`` drops a NaN: FIRE read NaN forces as
+    converged, issue 58)."""
+    largest, nan = 0.0, False
     for n in range(f.shape[0]):
         squared = f[n, 0] * f[n, 0]
         for d in range(1, f.shape[1]):
             squared += f[n, d] * f[n, d]
         largest = max(largest, squared)
-    return largest
+        nan |= squared != squared
+    return np.nan if nan else largest
 
 
 @numba.njit(cache=True, boundscheck=False)
