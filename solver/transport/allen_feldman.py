@@ -309,7 +309,7 @@ def allen_feldman(dm, positions: np.ndarray, box: np.ndarray, eta: float, comm, 
     """(omega (M,) ascending in 1/t0, d (M,) in d0^2/t0) of every mode of ``dm`` with omega >
     ``zero_tol``: :func:`position_operators` of ``positions`` (N, D, packing order) in ``box``,
     :func:`sliced_modes` (windows of ~``block`` modes, EPS tolerance ``tol``, vectors in
-    ``scratch`` or in memory; the scratch files are removed at the end), :func:`diffusivity` at
+    ``scratch`` or in memory; the scratch files are removed at the end, also on an error), :func:`diffusivity` at
     half-width ``eta``.  ``report``, a dict, receives ``windows`` (their count) and ``settings``
     (what their EPS used).  Symmetric matrices only (ValueError for a stressed packing's).
     Collective on ``comm``, the matrix's communicator."""

@@ -29,7 +29,7 @@ def solve(spec, dm, positions: np.ndarray, box: np.ndarray, rho: float, p_index:
     whose particles sit at ``positions`` (N, D) in ``box`` (D,)) by ``spec.method`` (``METHODS``;
     ``seed``: the scene's, kpm's probes draw from ``seed + p_index``; ``scratch``: the folder of
     exact's eigenvectors or None, removed however the unit ends, and its parent if left empty
-    (:func:`remove_scratch`); ``spectrum``: the scene's spectrum section or None, for kpm's
+    (:func:`_remove_scratch`); ``spectrum``: the scene's spectrum section or None, for kpm's
     bins).  Collective on ``comm`` (mpi4py), the matrix's communicator."""
     t = time.perf_counter()
     try:
@@ -37,14 +37,14 @@ def solve(spec, dm, positions: np.ndarray, box: np.ndarray, rho: float, p_index:
                                                      spectrum=spectrum)
     finally:
         if scratch is not None:
-            remove_scratch(scratch, comm)
+            _remove_scratch(scratch, comm)
     seconds = parallel.global_max(comm, time.perf_counter() - t)
     attrs = {"rho": rho, "packing": p_index, "method": spec.method, **attrs, "dof": dm.size, "dim": dm.dim,
              "n_disks": int(dm.active.sum()), "seconds": seconds}
     return datasets, attrs, f"diffusivity rho = {rho:g}, packing {p_index}: {said}, {seconds:.1f} s"
 
 
-def remove_scratch(folder, comm) -> None:
+def _remove_scratch(folder, comm) -> None:
     """Remove the scratch folder ``folder`` whole, with whatever it holds (a run on another rank
     count leaves files that no rank of this one removes), once every rank of ``comm`` (mpi4py) is
     done with it; then its parent (the units folder's ``transport_scratch/``) if that is left
