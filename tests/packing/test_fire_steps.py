@@ -88,3 +88,21 @@ def test_fire_does_not_report_nan_forces_as_converged():
 
     result = fire.minimize(np.zeros((16, 2)), forces, force_tol=1e-12, max_steps=3)
     assert not result.converged and result.steps == 3 and np.isnan(result.max_force)
+
+
+def test_fire_through_the_verlet_list_does_not_converge_on_a_nan_position():
+    """A packing at its minimum, its Verlet list built, then one disk at NaN: the forces of that
+    disk's listed pairs are NaN and FIRE does not converge (it reported convergence at step 0 from
+    the others' forces, all below the tolerance chosen here)."""
+    from conftest import jammed_packing
+
+    from solver.packing import fire, mechanics
+
+    p = jammed_packing(32, 0.9, 7)
+    forces = mechanics.FrictionlessForces(p.diameters, p.box)
+    f, _ = forces(p.positions)  # the list, built on finite positions
+    tol = 2.0 * np.sqrt(np.max(np.sum(f * f, axis=1)))  # every finite force below it
+    x = p.positions.copy()
+    x[5] = np.nan
+    result = fire.minimize(x, forces, force_tol=tol, max_steps=3)
+    assert not result.converged and np.isnan(result.max_force)
