@@ -226,7 +226,7 @@ def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block:
                 path = scratch / f"af_window{w:04d}_rank{mpi.rank:04d}.npy"
                 modes.stored.append(str(path))  # before the write: a half-written file is removed too
                 parallel.on_every_rank(mpi, lambda: np.save(path, local))
-    except BaseException:  # up to 8 n M bytes of them (4.8 GB at N = 8192)
+    except BaseException:  # the windows written so far: up to 8 n M bytes over the ranks (4.8 GB at N = 8192)
         modes.remove_files()
         raise
     finally:
