@@ -36,6 +36,19 @@ def agree(comm, error: BaseException | None) -> None:
         raise error if first == comm.rank else errors[first]
 
 
+def on_every_rank(comm, work: Callable[[], Any]) -> Any:
+    """``work()`` on every rank (a rank's own file, say), its result returned; an error on any
+    rank raised on every rank, of any type as in :func:`owner_compute`, before anyone goes on to a
+    collective that the failed rank would miss.  Collective."""
+    result, error = None, None
+    try:
+        result = work()
+    except BaseException as exc:  # noqa: BLE001 - re-raised on all ranks below
+        error = exc
+    agree(comm, error)
+    return result
+
+
 def owner_compute(comm, tasks: Sequence[Any], func: Callable[[Any], Any]) -> list[Any]:
     """Run ``func(task)`` for each task on rank ``index % size``; everybody gets all results.
 

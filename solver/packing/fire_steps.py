@@ -14,14 +14,19 @@ import numpy as np
 
 @numba.njit(cache=True, boundscheck=False)
 def largest_squared_force(f: np.ndarray) -> float:
-    """max_i |f_i|^2: ``np.max(np.sum(f * f, axis=1))`` (components summed left to right)."""
-    largest = 0.0
+    """max_i |f_i|^2: ``np.max(np.sum(f * f, axis=1))`` (components summed left to right), NaN if
+    any component is NaN, as numpy's: the compiled ``max`` drops a NaN (FIRE read NaN forces as
+    converged, issue 58), so the squares are also summed, NaN exactly when one is (they are >= 0:
+    no inf - inf).  Measured at N = 10^6: 1.76 -> 1.90 ms in 2D, 2.62 -> 2.72 ms in 3D, against
+    ~80 ms for a whole FIRE step there."""
+    largest, total = 0.0, 0.0
     for n in range(f.shape[0]):
         squared = f[n, 0] * f[n, 0]
         for d in range(1, f.shape[1]):
             squared += f[n, d] * f[n, d]
         largest = max(largest, squared)
-    return largest
+        total += squared
+    return largest if total == total else np.nan
 
 
 @numba.njit(cache=True, boundscheck=False)

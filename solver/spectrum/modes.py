@@ -67,13 +67,16 @@ def energies(sums: np.ndarray, n_disks: int, dim: int) -> dict[str, np.ndarray]:
 def vdos(omegas: list[np.ndarray], bin_width: float) -> tuple[np.ndarray, np.ndarray]:
     """g(omega) of the pooled modes of several configurations, unit area.
 
-    Returns (edges (B+1,), density (B,)); bins [0, w), [w, 2w), ... up to the largest mode.
+    Returns (edges (B+1,), density (B,)); bins [0, w), [w, 2w), ... up to the largest mode; NaN
+    densities without modes (a window between the modes).
     """
     pooled = np.concatenate(omegas)
     top = max(float(pooled.max()), bin_width) if pooled.size else bin_width
     edges = np.arange(0.0, top + bin_width, bin_width)
     if edges[-1] <= top:
         edges = np.append(edges, edges[-1] + bin_width)
+    if not pooled.size:
+        return edges, np.full(edges.size - 1, np.nan)
     density, _ = np.histogram(pooled, bins=edges, density=True)
     return edges, density
 
@@ -89,8 +92,11 @@ def bin_average(omega: np.ndarray, values: np.ndarray, edges: np.ndarray) -> np.
 
 
 def cutoff(omegas: list[np.ndarray]) -> tuple[float, float]:
-    """omega_c: mean over configurations of the largest eigenfrequency, and its std."""
+    """omega_c: mean over configurations of the largest eigenfrequency, and its std (NaN and 0
+    without modes)."""
     tops = np.array([w.max() for w in omegas if w.size])
+    if not tops.size:
+        return float("nan"), 0.0
     return float(tops.mean()), float(tops.std(ddof=1)) if tops.size > 1 else 0.0
 
 

@@ -111,11 +111,20 @@ def _slicing(spec, dm, *, rho, p_index, comm, between, checkpoint, **_) -> tuple
              "inertia_count": result.inertia_count, "windows": result.windows, "seconds": seconds,
              "window": window_label(spec.window), "dof": dm.size, "n_disks": int(dm.active.sum()),
              "solver_settings": json.dumps(result.settings)}
-    return datasets, attrs, [
-        f"spectrum rho = {rho:g}, packing {p_index}: {result.omega.size} modes "
-        f"(+{result.n_zero_modes} zero modes, {result.n_negative} negative), omega in "
-        f"[{result.omega.min():.4f}, {result.omega.max():.4f}], max relative residual "
-        f"{result.max_residual:.1e}, {result.windows} windows, {seconds:.1f} s"] + _negative_words(result.n_negative)
+    besides = f"(+{result.n_zero_modes} zero modes, {result.n_negative} negative)"
+    if result.omega.size:
+        found = (f"{result.omega.size} modes {besides}, omega in [{result.omega.min():.4f}, "
+                 f"{result.omega.max():.4f}], max relative residual {result.max_residual:.1e}")
+    else:  # a window between the modes: a valid result, stored and resumed as any other
+        found = f"no modes {_where(spec.window)} {besides}"
+    return datasets, attrs, [f"spectrum rho = {rho:g}, packing {p_index}: {found}, {result.windows} windows, "
+                             f"{seconds:.1f} s"] + _negative_words(result.n_negative)
+
+
+def _where(window) -> str:
+    """Where a spectrum asked for its modes, for a log line: 'in the window omega in [lo, hi]' or
+    'above zero_tol' (the full spectrum)."""
+    return "above zero_tol" if window is None else f"in the window omega in [{window[0]:g}, {window[1]:g}]"
 
 
 def _window_checks(checks: dict) -> dict:
@@ -220,5 +229,6 @@ def vdos(spec, rho: float, spectra: list[tuple[dict, dict]]) -> tuple[dict, dict
     edges, density, omega_c, spread = modes.pooled_vdos(spectra, spec.bin_width)
     attrs = {"rho": rho, "omega_c": omega_c, "omega_c_std": spread, "configurations": len(spectra),
              "window": window_label(spec.window)}
-    return ({"edges": edges, "density": density}, attrs,
-            f"vDOS rho = {rho:g}: omega_c = {omega_c:.4f} +- {spread:.4f} over {len(spectra)} configurations")
+    said = (f"omega_c = {omega_c:.4f} +- {spread:.4f}" if np.isfinite(omega_c) else
+            f"no modes {_where(spec.window)} (density and omega_c NaN)")
+    return {"edges": edges, "density": density}, attrs, f"vDOS rho = {rho:g}: {said} over {len(spectra)} configurations"

@@ -50,7 +50,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import profiling
+from .. import parallel, profiling
 from ..options import eps_settings
 from ..model.operators import largest_omega, scaled_operator
 from ..packing.geometry import minimum_image
@@ -63,7 +63,7 @@ def position_operators(dm, positions: np.ndarray, box: np.ndarray, comm) -> list
     matrix particles i and j times the minimum-image (r_i - r_j)_a (d0; diagonal blocks are kept
     as explicit zeros).  ``positions`` (N, D) in d0 of every particle in the packing's order,
     ``box`` (D,) the periodic sides; the matrix's own particle order (``dm.order``) is applied
-    here.  Collective; the caller destroys the Mats."""
+    here.  Collective; the caller destroys the Mats (destroyed here if one fails)."""
     from petsc4py import PETSc
 
     A = scaled_operator(dm)
@@ -78,10 +78,15 @@ def position_operators(dm, positions: np.ndarray, box: np.ndarray, comm) -> list
     particles = np.asarray(positions, dtype=float)[dm.order]  # matrix particle -> position
     delta = minimum_image(particles[rows // dof] - particles[indices // dof], np.asarray(box, dtype=float))
     mats = []
-    for axis in range(dm.dim):
-        X = PETSc.Mat().createAIJ(size=sizes, bsize=dof, csr=(indptr, indices, values * delta[:, axis]), comm=comm)
-        X.assemble()
-        mats.append(X)
+    try:
+        for axis in range(dm.dim):
+            mats.append(PETSc.Mat().createAIJ(size=sizes, bsize=dof, csr=(indptr, indices, values * delta[:, axis]),
+                                              comm=comm))
+            mats[-1].assemble()
+    except BaseException:
+        for X in mats:
+            X.destroy()
+        raise
     return mats
 
 
@@ -105,14 +110,16 @@ class ModeBlocks:
         """Every mode's omega (M,), ascending."""
         return np.concatenate(self.omegas) if self.omegas else np.empty(0)
 
-    def vectors(self, w: int) -> np.ndarray:
-        """This rank's rows (nloc, b_w) of block ``w``, read from its scratch file if stored there.
-        Not collective."""
+    def vectors(self, w: int, comm) -> np.ndarray:
+        """This rank's rows (nloc, b_w) of block ``w``, read from its scratch file if stored there;
+        a read that fails on one rank raised on every rank of ``comm`` (mpi4py).  Collective."""
         item = self.stored[w]
-        return np.asfortranarray(item if isinstance(item, np.ndarray) else np.load(item))
+        if not isinstance(item, np.ndarray):
+            item = parallel.on_every_rank(comm, lambda: np.load(item))
+        return np.asfortranarray(item)
 
     def remove_files(self) -> None:
-        """Delete this rank's scratch files. Not collective."""
+        """Delete this rank's scratch files (those half written too). Not collective."""
         for item in self.stored:
             if not isinstance(item, np.ndarray):
                 pathlib.Path(item).unlink(missing_ok=True)
@@ -176,24 +183,26 @@ def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block:
     that -transport_eps_tol overrides) and its vectors written to ``scratch`` (a directory, rank 0's name used by all;
     one ``.npy`` per window and rank) or, with ``scratch`` None, kept in memory.  omega are
     Rayleigh quotients.  Collective; RuntimeError on every rank if a window's converged count
-    differs from its inertia count."""
+    differs from its inertia count; a folder or file that one rank cannot write raised on every
+    rank.  On an error this rank's files written so far are removed."""
     from petsc4py import PETSc
     from slepc4py import SLEPc
 
     mpi = comm.tompi4py()
     if scratch is not None:
         scratch = pathlib.Path(mpi.bcast(str(scratch), root=0))
-        scratch.mkdir(parents=True, exist_ok=True)
+        parallel.on_every_rank(mpi, lambda: _make_folder(scratch))
+    modes = ModeBlocks([], [])
     A = scaled_operator(dm)
-    vec, image = A.createVecRight(), A.createVecLeft()
-    omegas, stored, settings = [], [], {}
+    vec = image = None
     try:
+        vec, image = A.createVecRight(), A.createVecLeft()
         hi = largest_omega(dm) ** 2 * (1 + 1e-6)  # as slicing.solve: Lanczos top, Gershgorin if it misses modes
         if slicing.count_below(A, hi) < A.getSize()[0]:
             hi = A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9)
         zero = slicing.count_below(A, zero_tol**2)
         if zero == A.getSize()[0]:
-            return ModeBlocks([], [], settings)
+            return modes
         edges, counts, known = slicing.plan_windows(A, _clear_start(A, zero_tol**2, hi, zero), hi, block)
         for w in range(edges.size - 1):
             sub = slicing.split_window(A, known, float(edges[w]), float(edges[w + 1]), comm.getSize())
@@ -201,8 +210,8 @@ def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block:
             try:
                 slicing.configure_window(eps, A, sub, tol, PREFIX)
                 eps.solve()
-                if not settings:  # what the windows use, read back after setFromOptions; rank 0's
-                    settings = mpi.bcast(eps_settings(eps), root=0)
+                if not modes.settings:  # what the windows use, read back after setFromOptions; rank 0's
+                    modes.settings = mpi.bcast(eps_settings(eps), root=0)
                 expected = int(counts[w + 1] - counts[w])
                 if eps.getConverged() != expected:
                     raise RuntimeError(f"allen_feldman: window {w} converged {eps.getConverged()} modes, "
@@ -210,18 +219,30 @@ def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block:
                 lam, local = _window_vectors(A, eps, vec, image)
             finally:
                 eps.destroy()
-            omegas.append(np.sqrt(lam))
+            modes.omegas.append(np.sqrt(lam))
             if scratch is None:
-                stored.append(local)
+                modes.stored.append(local)
             else:
                 path = scratch / f"af_window{w:04d}_rank{mpi.rank:04d}.npy"
-                np.save(path, local)
-                stored.append(str(path))
+                modes.stored.append(str(path))  # before the write: a half-written file is removed too
+                parallel.on_every_rank(mpi, lambda: np.save(path, local))
+    except BaseException:  # the windows written so far: up to 8 n M bytes over the ranks (4.8 GB at N = 8192)
+        modes.remove_files()
+        raise
     finally:
-        vec.destroy()
-        image.destroy()
-        A.destroy()
-    return ModeBlocks(omegas, stored, settings)
+        for owned in (vec, image, A):
+            if owned is not None:
+                owned.destroy()
+    return modes
+
+
+def _make_folder(folder: pathlib.Path) -> None:
+    """``mkdir -p folder``, tried once more if a parent vanished meanwhile: the transport unit of
+    another group of ranks removes their shared parent when it is left empty.  Not collective."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileNotFoundError:
+        folder.mkdir(parents=True, exist_ok=True)
 
 
 def pair_weights(omega_n: np.ndarray, omega_m: np.ndarray, eta: float) -> np.ndarray:
@@ -238,25 +259,16 @@ def diffusivity(X: list, modes: ModeBlocks, eta: float, comm) -> np.ndarray:
     ``eta`` (1/t0), by pairs of blocks P <= Q (module docstring).  Collective on ``comm`` (the
     matrix's); the same array on every rank."""
     from mpi4py import MPI
-    from petsc4py import PETSc
 
     if not (math.isfinite(eta) and eta > 0):
         raise ValueError(f"eta must be finite and > 0, not {eta!r}")
     mpi = comm.tompi4py()
     sums = [np.zeros(w.size) for w in modes.omegas]
-    nloc, n = X[0].getLocalSize()[0], X[0].getSize()[0]
     for p in range(len(modes)):
-        v_p = modes.vectors(p)
-        dense = PETSc.Mat().createDense(((nloc, n), (None, v_p.shape[1])), array=v_p, comm=comm)
-        dense.assemble()
-        z_p = []
-        for Xa in X:  # Z^a_P = X^a V_P: the only sparse products
-            product = Xa.matMult(dense)
-            z_p.append(np.array(product.getDenseArray(readonly=True), order="F"))
-            product.destroy()
-        dense.destroy()
+        v_p = modes.vectors(p, mpi)
+        z_p = _products(X, v_p, comm)
         for q in range(p, len(modes)):
-            v_q = v_p if q == p else modes.vectors(q)
+            v_q = v_p if q == p else modes.vectors(q, mpi)
             block = np.stack([za.T @ v_q for za in z_p])  # -Y^a_PQ, this rank's rows' share
             mpi.Allreduce(MPI.IN_PLACE, block, op=MPI.SUM)
             weighted = np.einsum("anm,anm->nm", block, block) * pair_weights(modes.omegas[p], modes.omegas[q], eta)
@@ -271,13 +283,33 @@ def diffusivity(X: list, modes: ModeBlocks, eta: float, comm) -> np.ndarray:
     return math.pi / (4.0 * dim * omega**2) * (np.concatenate(sums) if sums else np.empty(0))
 
 
+def _products(X: list, v: np.ndarray, comm) -> list[np.ndarray]:
+    """This rank's rows (nloc, b) of Z^a = X^a V (a = 0 .. D-1; Fortran order) for this rank's rows
+    ``v`` (nloc, b) of V: the only sparse products.  Collective on ``comm`` (petsc4py)."""
+    from petsc4py import PETSc
+
+    dense = PETSc.Mat().createDense(((v.shape[0], X[0].getSize()[0]), (None, v.shape[1])), array=v, comm=comm)
+    try:
+        dense.assemble()
+        z = []
+        for Xa in X:
+            product = Xa.matMult(dense)
+            try:
+                z.append(np.array(product.getDenseArray(readonly=True), order="F"))
+            finally:
+                product.destroy()
+        return z
+    finally:
+        dense.destroy()
+
+
 def allen_feldman(dm, positions: np.ndarray, box: np.ndarray, eta: float, comm, *, zero_tol: float = 1e-4,
                   tol: float = 1e-12, block: int = 1000, scratch=None, report: dict | None = None
                   ) -> tuple[np.ndarray, np.ndarray]:
     """(omega (M,) ascending in 1/t0, d (M,) in d0^2/t0) of every mode of ``dm`` with omega >
     ``zero_tol``: :func:`position_operators` of ``positions`` (N, D, packing order) in ``box``,
     :func:`sliced_modes` (windows of ~``block`` modes, EPS tolerance ``tol``, vectors in
-    ``scratch`` or in memory; the scratch files are removed at the end), :func:`diffusivity` at
+    ``scratch`` or in memory; the scratch files are removed at the end, also on an error), :func:`diffusivity` at
     half-width ``eta``.  ``report``, a dict, receives ``windows`` (their count) and ``settings``
     (what their EPS used).  Symmetric matrices only (ValueError for a stressed packing's).
     Collective on ``comm``, the matrix's communicator."""

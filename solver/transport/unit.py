@@ -8,8 +8,10 @@ Units: omega and eta in 1/t0, d in d0^2/t0 (d0 = m = kn = 1).
 
 from __future__ import annotations
 
+import errno
 import json
 import pathlib
+import shutil
 import time
 
 import numpy as np
@@ -26,17 +28,41 @@ def solve(spec, dm, positions: np.ndarray, box: np.ndarray, rho: float, p_index:
     """(datasets, attrs, log line) of the diffusivity of ``dm`` (rho = kt/kn, packing ``p_index``,
     whose particles sit at ``positions`` (N, D) in ``box`` (D,)) by ``spec.method`` (``METHODS``;
     ``seed``: the scene's, kpm's probes draw from ``seed + p_index``; ``scratch``: the folder of
-    exact's eigenvectors; ``spectrum``: the scene's spectrum section or None, for kpm's bins).
-    Collective on ``comm`` (mpi4py), the matrix's communicator."""
+    exact's eigenvectors or None, removed however the unit ends, and its parent if left empty
+    (:func:`_remove_scratch`); ``spectrum``: the scene's spectrum section or None, for kpm's
+    bins).  Collective on ``comm`` (mpi4py), the matrix's communicator."""
     t = time.perf_counter()
-    datasets, attrs, said = METHODS[spec.method](spec, dm, positions, box, seed=seed + p_index, scratch=scratch,
-                                                 spectrum=spectrum)
-    seconds = parallel.global_max(comm, time.perf_counter() - t)  # also: every rank's scratch files are gone
-    if scratch is not None and comm.rank == 0 and pathlib.Path(scratch).is_dir():
-        pathlib.Path(scratch).rmdir()
+    try:
+        datasets, attrs, said = METHODS[spec.method](spec, dm, positions, box, seed=seed + p_index, scratch=scratch,
+                                                     spectrum=spectrum)
+    finally:
+        if scratch is not None:
+            _remove_scratch(scratch, comm)
+    seconds = parallel.global_max(comm, time.perf_counter() - t)
     attrs = {"rho": rho, "packing": p_index, "method": spec.method, **attrs, "dof": dm.size, "dim": dm.dim,
              "n_disks": int(dm.active.sum()), "seconds": seconds}
     return datasets, attrs, f"diffusivity rho = {rho:g}, packing {p_index}: {said}, {seconds:.1f} s"
+
+
+def _remove_scratch(folder, comm) -> None:
+    """Remove the scratch folder ``folder`` whole, with whatever it holds (a run on another rank
+    count leaves files that no rank of this one removes), once every rank of ``comm`` (mpi4py) is
+    done with it; then its parent (the units folder's ``transport_scratch/``) if that is left
+    empty: another group's unit may still use it.  Rank 0 removes; its error is raised on every
+    rank.  Collective."""
+    comm.Barrier()
+
+    def remove(_):
+        path = pathlib.Path(folder)
+        if path.is_dir():  # kpm makes none
+            shutil.rmtree(path)
+        try:
+            path.parent.rmdir()
+        except OSError as exc:  # not empty (another group's unit) or not there: left as it is
+            if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOENT):
+                raise
+
+    parallel.owner_compute(comm, [0], remove)
 
 
 def _exact(spec, dm, positions, box, *, scratch, **_) -> tuple[dict, dict, str]:

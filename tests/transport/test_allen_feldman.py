@@ -1,14 +1,16 @@
 """The Allen-Feldman diffusivity of every mode (solver/transport/allen_feldman.py) against the
 definition evaluated densely (solver/references.py), in 2D with rotations and in 3D with rolling
 and twisting springs; its position operators; the exact scaling of d with the packing's size; and
-the closed form of a crystal, whose d comes from its Bloch matrices.  Every test runs on 1 and 2
-ranks against the same rank-free references."""
+the closed form of a crystal, whose d comes from its Bloch matrices; a scratch file that one rank
+cannot write or read raises on every rank, and neither files nor PETSc objects are left behind.
+Every test runs on 1 and 2 ranks against the same rank-free references."""
 
 import math
+import pathlib
 
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close
+from conftest import COMM, assert_all, assert_close
 from diffusivity_cases import case  # noqa: F401 (a fixture)
 from lattices import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
 
@@ -181,3 +183,82 @@ def test_crystal_diffusivity_is_its_bloch_closed_form(comm):
     assert_all(starts.size < omega.size / 2, f"{starts.size} groups of {omega.size} modes: degenerate as expected")
     group, bloch_group = np.add.reduceat(d, starts), np.add.reduceat(bloch_d, starts)
     assert_close(group, bloch_group, rtol=1e-8, atol=1e-12 * bloch_group.max(), what="crystal d per frequency")
+
+
+def _scratch_files(folder) -> list:
+    """The ``.npy`` files (not folders) in ``folder``, on every rank: rank 0's listing."""
+    return COMM.bcast(sorted(path.name for path in folder.glob("*.npy") if path.is_file()), root=0)
+
+
+def test_a_write_failing_on_one_rank_raises_on_every_rank_and_leaves_no_files(comm, case, shared_tmp):
+    """The second window's file of the last rank cannot be written (a folder holds its name): every
+    rank raises (they ran into the next window's collectives and hung), and the first window's files
+    of every rank are removed (they were left, up to 5 GB at N = 8192)."""
+    name, p, dm = case
+    folder = shared_tmp / "af"
+    if COMM.rank == COMM.size - 1:
+        (folder / f"af_window0001_rank{COMM.rank:04d}.npy").mkdir(parents=True)
+    COMM.Barrier()
+    with pytest.raises(IsADirectoryError):
+        af.allen_feldman(dm, p.positions, p.box, ETA, comm, zero_tol=ZERO_TOL, block=40, scratch=folder)
+    assert_all(_scratch_files(folder) == [], f"{name}: left {_scratch_files(folder)}")
+
+
+def test_a_read_failing_on_one_rank_raises_on_every_rank(comm, case, shared_tmp):
+    """Blocks in scratch files, the last rank's second one gone: every rank raises (the others ran
+    into the block pair's Allreduce and hung)."""
+    name, p, dm = case
+    lam, vec = references.dense_eigen(dm)
+    held = af.ModeBlocks.from_arrays(np.sqrt(np.clip(lam, 0.0, None)), _matrix_rows(dm, vec), 40, zero_tol=ZERO_TOL)
+    paths = [str(shared_tmp / f"block{w}_rank{COMM.rank}.npy") for w in range(len(held))]
+    for path, local in zip(paths, held.stored):
+        np.save(path, local)
+    if COMM.rank == COMM.size - 1:
+        pathlib.Path(paths[1]).unlink()
+    X = af.position_operators(dm, p.positions, p.box, comm)
+    try:
+        with pytest.raises(FileNotFoundError):
+            af.diffusivity(X, af.ModeBlocks(held.omegas, paths), ETA, comm)
+    finally:
+        for Xa in X:
+            Xa.destroy()
+    assert_all(len(held) >= 3, f"{name}: {len(held)} blocks")
+
+
+class _Operator:
+    """An X^a that hands out its products and keeps what it was given and made (``seen``,
+    ``made``), or raises on its product (``fails``)."""
+
+    def __init__(self, mat, fails: bool):
+        self.mat, self.fails, self.seen, self.made = mat, fails, [], []
+
+    def getSize(self):
+        return self.mat.getSize()
+
+    def getLocalSize(self):
+        return self.mat.getLocalSize()
+
+    def matMult(self, dense):
+        self.seen.append(dense)
+        if self.fails:
+            raise RuntimeError("injected failure of a product")
+        self.made.append(self.mat.matMult(dense))
+        return self.made[-1]
+
+
+def test_petsc_objects_are_destroyed_when_a_product_fails(comm, case):
+    """The second axis's product fails: the dense block V_P and the first axis's product are
+    destroyed there and then (handle 0), not left to the garbage collector."""
+    name, p, dm = case
+    lam, vec = references.dense_eigen(dm)
+    modes = af.ModeBlocks.from_arrays(np.sqrt(np.clip(lam, 0.0, None)), _matrix_rows(dm, vec), 40, zero_tol=ZERO_TOL)
+    X = af.position_operators(dm, p.positions, p.box, comm)
+    try:
+        wrapped = [_Operator(Xa, fails=axis == 1) for axis, Xa in enumerate(X)]
+        with pytest.raises(RuntimeError, match="injected"):
+            af.diffusivity(wrapped, modes, ETA, comm)
+        handles = [mat.handle for mat in wrapped[0].seen + wrapped[0].made + wrapped[1].seen]
+    finally:
+        for Xa in X:
+            Xa.destroy()
+    assert_all(len(handles) == 3 and handles == [0, 0, 0], f"{name}: handles {handles}")

@@ -7,8 +7,10 @@ and 2 ranks."""
 
 import dataclasses
 import os
+import pathlib
 
 import numpy as np
+import pytest
 from conftest import COMM, assert_all, assert_close, jammed_packing, scene_of
 
 from solver import pipeline, references
@@ -65,6 +67,41 @@ def test_diffusivity_scene_is_the_definition_pooled_on_the_vdos_bins(comm, share
         written = plots.plot_results(scene.output)
         picture = str(shared_tmp / "transport_diffusivity.png")
         assert picture in written and os.path.getsize(picture) > 10_000, written
+
+
+def _scratch_scene(shared_tmp, name: str):
+    """(scene of 32 disks with the exact diffusivity in blocks of 40 modes, its unit's scratch
+    folder, the units folder's ``transport_scratch/``)."""
+    scene = scene_of(shared_tmp / f"{name}.h5", cache="off", seed=7, packing={"n": 32, "phi": 0.9},
+                     model={"rho": [0.5]}, transport={"eta": ETA, "block": 40})
+    parent = pathlib.Path(scene.output + ".units") / "transport_scratch"
+    return scene, parent / "r00_p0000", parent
+
+
+def test_a_stale_scratch_file_of_another_rank_count_goes_with_the_folder(comm, shared_tmp):
+    """A run killed on 8 ranks left rank 7's first window in the unit's scratch folder: the rerun
+    on 1 or 2 ranks removes it with the folder, and no ``transport_scratch/`` is left (rank 0
+    failed alone to remove the folder, and the other ranks hung)."""
+    scene, scratch, parent = _scratch_scene(shared_tmp, "stale")
+    if COMM.rank == 0:
+        scratch.mkdir(parents=True)
+        np.save(scratch / "af_window0000_rank0007.npy", np.zeros((4, 2)))
+    COMM.Barrier()
+    datasets, attrs = pipeline.run(scene, COMM, [])["units"]["diffusivity/r00_p0000"]
+    assert_all(datasets["d"].size + attrs["n_zero_modes"] == attrs["dof"], f"the unit is made: {attrs}")
+    assert_all(not parent.exists(), f"{parent} is left")
+
+
+def test_a_write_failing_on_one_rank_stops_every_rank_and_leaves_no_scratch(comm, shared_tmp):
+    """The last rank cannot write its first window (a folder holds the file's name): every rank
+    raises, and the unit's scratch folder is removed all the same."""
+    scene, scratch, parent = _scratch_scene(shared_tmp, "unwritable")
+    if COMM.rank == COMM.size - 1:
+        (scratch / f"af_window0000_rank{COMM.rank:04d}.npy").mkdir(parents=True)
+    COMM.Barrier()
+    with pytest.raises(IsADirectoryError):
+        pipeline.run(scene, COMM, [])
+    assert_all(not parent.exists(), f"{parent} is left")
 
 
 def test_spheres_with_rolling_and_twisting_pool_their_configurations(comm, shared_tmp):
