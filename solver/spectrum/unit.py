@@ -16,6 +16,7 @@ import time
 import numpy as np
 
 from .. import parallel
+from ..wording import counted
 from . import counting, kpm, modes, nonhermitian, pep, shapes, slicing
 from .plan import pep_bands, probe_seed
 
@@ -117,7 +118,7 @@ def _slicing(spec, dm, *, rho, p_index, comm, between, checkpoint, **_) -> tuple
                  f"{result.omega.max():.4f}], max relative residual {result.max_residual:.1e}")
     else:  # a window between the modes: a valid result, stored and resumed as any other
         found = f"no modes {_where(spec.window)} {besides}"
-    return datasets, attrs, [f"spectrum rho = {rho:g}, packing {p_index}: {found}, {result.windows} windows, "
+    return datasets, attrs, [f"spectrum rho = {rho:g}, packing {p_index}: {found}, {counted(result.windows, 'window')}, "
                              f"{seconds:.1f} s"] + _negative_words(result.n_negative)
 
 
@@ -153,7 +154,7 @@ def _nonhermitian(spec, dm, *, rho, p_index, comm, between, checkpoint, **_) -> 
              "max_growth": result.max_growth, "symmetric": int(dm.symmetric), "seconds": seconds, "window": "full",
              "dof": dm.size, "n_disks": int(dm.active.sum()), **_window_checks(checks)}
     unstable = result.n_complex + result.n_negative
-    how = (f"{checks['windows']} windows, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}"
+    how = (f"{counted(checks['windows'], 'window')}, trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}"
            if checks else "dense")
     return datasets, attrs, [
         f"spectrum rho = {rho:g}, packing {p_index}: {result.omega.size} stable modes "
@@ -181,7 +182,7 @@ def _pep(spec, dm, *, rho, p_index, comm, between, checkpoint, **_) -> tuple[dic
              "n_zero_modes": result.n_zero_modes, "n_overdamped": result.n_overdamped, "n_underdamped": underdamped,
              "seconds": seconds, "window": ";".join(window_label(b) for b in bands) if bands else "full",
              "dof": dm.size, "n_disks": int(dm.active.sum()), **_window_checks(checks)}
-    how = (f"{checks['windows']} windows, " + (
+    how = (f"{counted(checks['windows'], 'window')}, " + (
         "complete by their sigma bounds" if bands else
         f"trace errors {checks['trace_error']:.1e} / {checks['trace2_error']:.1e}") +
         f", backward error <= {checks['max_residual']:.1e}" if checks else "dense")
@@ -231,4 +232,4 @@ def vdos(spec, rho: float, spectra: list[tuple[dict, dict]]) -> tuple[dict, dict
              "window": window_label(spec.window)}
     said = (f"omega_c = {omega_c:.4f} +- {spread:.4f}" if np.isfinite(omega_c) else
             f"no modes {_where(spec.window)} (density and omega_c NaN)")
-    return {"edges": edges, "density": density}, attrs, f"vDOS rho = {rho:g}: {said} over {len(spectra)} configurations"
+    return {"edges": edges, "density": density}, attrs, f"vDOS rho = {rho:g}: {said} over {counted(len(spectra), 'configuration')}"

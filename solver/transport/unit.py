@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from .. import parallel
+from ..wording import counted
 from ..model.operators import largest_omega
 from ..spectrum import modes
 from . import allen_feldman, kpm_diffusivity
@@ -77,7 +78,7 @@ def _exact(spec, dm, positions, box, *, scratch, **_) -> tuple[dict, dict, str]:
     return {"omega": omega, "d": d}, attrs, (
         f"{omega.size} modes (+{attrs['n_zero_modes']} zero), eta = {spec.eta:g}, d from {d.min(initial=np.inf):.3g} "
         f"to {d.max(initial=0.0):.3g} d0^2/t0 (median {plateau:.3g} above the median omega), "
-        f"{report['windows']} windows")
+        f"{counted(report['windows'], 'window')}")
 
 
 def kpm_edges(omega_max: float, width: float) -> np.ndarray:
@@ -132,7 +133,7 @@ def binned(spec, spectrum, rho: float, units: list[tuple[dict, dict]], edges: np
     spread = np.sqrt(np.maximum(modes.bin_average(omega, d**2, edges) - mean**2, 0.0))
     top = omega > np.median(omega) if omega.size else np.zeros(0, bool)
     return ({"edges": edges, "d": mean, "d_std": spread, "count": count}, attrs,
-            f"d(omega) rho = {rho:g}: {omega.size} modes of {len(units)} configurations in {count.size} bins, "
+            f"d(omega) rho = {rho:g}: {counted(omega.size, 'mode')} of {counted(len(units), 'configuration')} in {counted(count.size, 'bin')}, "
             f"median d above the median omega {np.median(d[top]) if top.any() else float('nan'):.3g} d0^2/t0")
 
 
@@ -149,5 +150,5 @@ def _pooled_bins(units: list[tuple[dict, dict]], attrs: dict) -> tuple[dict, dic
         d = np.where(count >= len(units), total / count, np.nan)
         d_err = np.where(np.isfinite(d), np.sqrt(error) / count, np.nan)
     return ({"edges": edges, "d": d, "d_err": d_err, "count": count}, attrs,
-            f"d(omega) rho = {attrs['rho']:g}: {len(units)} configurations in {count.size} bins "
+            f"d(omega) rho = {attrs['rho']:g}: {counted(len(units), 'configuration')} in {counted(count.size, 'bin')} "
             f"({int(np.isfinite(d).sum())} with a d), median d_err / d {np.nanmedian(d_err / d):.2g}")
