@@ -43,7 +43,8 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
     """Minimise with unit masses until max_i |F_i| < ``force_tol``.
 
     ``forces(x)`` returns (F (N, d), energy).  Semi-implicit Euler steps; on uphill motion
-    (P = F.v <= 0) the step is halved, velocities zeroed and x moved back by dt v / 2.
+    (P = F.v <= 0) the step is halved, velocities zeroed and x moved back by dt v / 2.  Stops,
+    not converged, at the first force that is not finite (NaN or inf), ``max_force`` saying so.
     """
     from .fire_steps import kick, largest_squared_force, mix_and_move, move  # numba: imported when used
 
@@ -55,8 +56,8 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
         max_force = float(np.sqrt(largest_squared_force(f)))
         if max_force < force_tol:
             return FireResult(x, step, max_force, energy, True)
-        if step == max_steps:
-            break
+        if step == max_steps or not np.isfinite(max_force):  # a NaN or infinite force: no step can mend it
+            return FireResult(x, step, max_force, energy, False)
         power = float(np.vdot(f, v))
         if power > 0.0:
             positive += 1
@@ -76,4 +77,3 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
         else:
             move(x, v, dt)
         f, energy = forces(x)
-    return FireResult(x, max_steps, max_force, energy, False)

@@ -117,9 +117,12 @@ class FrictionlessForces:
         self.refreshes += 1
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, float]:
-        if self.reference is None:
+        moved = None if self.reference is None else self.largest_squared_move(x, self.reference)  # compiled: every step
+        if moved is None:
             self._rebuild(x)
-        elif self.largest_squared_move(x, self.reference) > (0.5 * self.skin) ** 2:  # compiled: every step
+        elif np.isnan(moved):  # a position is NaN: no list can be made, and no force is known
+            return np.full_like(x, np.nan), np.nan
+        elif moved > (0.5 * self.skin) ** 2:
             step = x - self.reference
             movers = np.einsum("nd,nd->n", step, step) > (0.25 * self.skin) ** 2
             if np.count_nonzero(movers | self.relisted) > x.shape[0] // 2:

@@ -86,8 +86,9 @@ def test_fire_does_not_report_nan_forces_as_converged():
         f[5, 0] = np.nan
         return f, 0.0
 
-    result = fire.minimize(np.zeros((16, 2)), forces, force_tol=1e-12, max_steps=3)
-    assert not result.converged and result.steps == 3 and np.isnan(result.max_force)
+    result = fire.minimize(np.zeros((16, 2)), forces, force_tol=1e-12, max_steps=1000)
+    assert not result.converged and np.isnan(result.max_force)
+    assert result.steps == 0  # stopped at the first NaN force: no step can mend it
 
 
 def test_fire_through_the_verlet_list_does_not_converge_on_a_nan_position():
@@ -106,3 +107,19 @@ def test_fire_through_the_verlet_list_does_not_converge_on_a_nan_position():
     x[5] = np.nan
     result = fire.minimize(x, forces, force_tol=tol, max_steps=3)
     assert not result.converged and np.isnan(result.max_force)
+
+
+def test_the_verlet_list_gives_nan_forces_for_a_nan_position_with_no_listed_pair():
+    """Two disks far apart (no pair within the list's reach), the list built, then one of them at
+    NaN: its force is unknown, so every force is NaN (the stale list gave zeros, FIRE converged)."""
+    from solver.packing import fire, mechanics
+
+    forces = mechanics.FrictionlessForces(np.ones(2), np.array([20.0, 20.0]))
+    x = np.array([[2.0, 2.0], [12.0, 12.0]])
+    f, energy = forces(x)
+    assert np.array_equal(f, np.zeros_like(x)) and energy == 0.0  # the construction: no pair
+    x[1] = np.nan
+    f, energy = forces(x)
+    assert np.isnan(f).all() and np.isnan(energy)
+    result = fire.minimize(x, forces, force_tol=1e-12, max_steps=1000)
+    assert not result.converged and np.isnan(result.max_force) and result.steps == 0
