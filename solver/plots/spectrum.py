@@ -12,7 +12,7 @@ import numpy as np
 
 from ..io import results
 from ..spectrum.modes import bin_average
-from .common import legend, log_ticks, plt, rho_label, save
+from .common import legend, log_ticks, plt, rho_label, save, series_colour
 
 
 def _centres(edges):
@@ -21,22 +21,23 @@ def _centres(edges):
 
 def plot_vdos(vdos: dict, stem: str, damped: bool = False) -> list[str]:
     """Fig. 1: g(omega) for every rho of ``vdos`` ({rho: results.Vdos}), rho = 0 dotted, omega_c
-    marked; ``damped``: the file's vDOS is that of the damped frequencies omega_d (spectrum.method
-    pep), and the title and axes say so."""
+    marked by an arrow down to just above the axis (the axis reaching past every omega_c); empty
+    bins left blank, not drawn as g = 0; ``damped``: the file's vDOS is that of the damped
+    frequencies omega_d (spectrum.method pep), and the title and axes say so."""
     if not vdos:
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    cmap = plt.get_cmap("viridis")
     for index, rho in enumerate(sorted(vdos)):
         v = vdos[rho]
-        style = {"ls": ":", "color": "k"} if rho == 0 else {"color": cmap(0.8 * index / max(1, len(vdos) - 1))}
-        ax.plot(_centres(v.edges), v.density, label=rho_label(rho), **style)
-        ax.annotate("", xy=(v.omega_c, 0), xytext=(v.omega_c, 0.08 * v.density.max()),
+        style = {"ls": ":", "color": "k"} if rho == 0 else {"color": series_colour(index, len(vdos))}
+        ax.plot(_centres(v.edges), np.where(v.density > 0, v.density, np.nan), label=rho_label(rho), **style)
+        ax.annotate("", xy=(v.omega_c, 0.03), xytext=(v.omega_c, 0.15), xycoords=("data", "axes fraction"),
                     arrowprops={"arrowstyle": "->", "color": style["color"], "lw": 0.8})
+    top = max(max(v.edges[-1], v.omega_c) for v in vdos.values())
     w = r"\omega_d" if damped else r"\omega"
     what = r"vDOS of the damped frequencies $\omega_d$" if damped else "vibrational density of states"
-    ax.set(xlabel=rf"${w}\,t_0$", ylabel=rf"$g({w})\,t_0$", xlim=(0, None), ylim=(0, None),
-           title=rf"{what} (arrows: $\omega_c$)")
+    ax.set(xlabel=rf"${w}\,t_0$", ylabel=rf"$g({w})\,t_0$", xlim=(0, 1.03 * top), ylim=(0, None),
+           title=rf"{what} (arrows: $\omega_c$; gaps: empty bins)")
     legend(ax, fontsize=8)
     fig.tight_layout()
     return save(fig, stem)
