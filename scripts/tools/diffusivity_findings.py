@@ -37,6 +37,7 @@ import numpy as np
 from scipy import stats
 
 from solver.io import results
+from solver.plots.common import series_colour
 from solver.spectrum.modes import rotation_components
 
 PLATEAU = (0.4, 0.8)  # percentiles of omega over which d_p is the median d_n
@@ -133,17 +134,16 @@ def _figures(rows: list[dict], table: dict | None, folder: str) -> list[str]:
     spheres = sorted((r for r in rows if r["dim"] == 3 and r["rho"] == 0), key=lambda r: r["dz"])
     if spheres:
         fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4.2))
-        cmap = plt.get_cmap("viridis")
         for i, r in enumerate(spheres):
             g = r["g"]
-            colour = cmap(0.85 * i / max(1, len(spheres) - 1))
+            colour = series_colour(i, len(spheres))
             centres = 0.5 * (g.edges[1:] + g.edges[:-1])
-            ax.plot(centres, g.d_binned, "-", color=colour, label=rf"$\Delta z$ = {r['dz']:.2f}, p = {r['pressure']:.1e}")
+            ax.plot(centres, g.d_binned, "-", color=colour, label=rf"$\Delta z$ = {r['dz']:.2f}, $p$ = {r['pressure']:.1e}")
             if np.isfinite(r["omega_star"]):
                 ax.axvline(r["omega_star"], color=colour, ls=":", lw=0.8)
         ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
-               title=f"frictionless spheres, N = {spheres[0]['N']}-{spheres[-1]['N']} (non-rattlers): "
-                     f"d($\\omega$) ($\\omega^*$ dotted)")
+               title=f"frictionless spheres, $N$ = {spheres[0]['N']}-{spheres[-1]['N']} (non-rattlers)\n"
+                     f"$d(\\omega)$, dotted: $\\omega^*$")
         ax.legend(fontsize=7)
         dz = np.array([r["dz"] for r in spheres])
         star = np.array([r["omega_star"] for r in spheres])

@@ -64,7 +64,8 @@ def plot_energies(vdos: dict, per_mode: dict, binned: dict, stem: str, rhos=None
                     curve = np.nansum(b.density * b[2 + index], axis=0) / b.density.sum(axis=0)
                 x = _centres(b.edges)
             ax.semilogy(x, curve, label=f"${key}$", **style)
-        ax.semilogy(_centres(edges), 5e-3 * vdos[rho].density, "k--", lw=0.8,
+        density = vdos[rho].density
+        ax.semilogy(_centres(edges), 5e-3 * np.where(density > 0, density, np.nan), "k--", lw=0.8,  # empty bins: gaps
                     label=r"$g(\omega)\,t_0 \times 5\cdot10^{-3}$")
         ax.set(xlabel=r"$\omega\,t_0$", ylabel=r"$K$, $Q$ ($m\,d_0^2/t_0^2$)", title=rho_label(rho))
         log_ticks(ax.yaxis)
