@@ -22,7 +22,7 @@ def _centres(edges):
 def plot_vdos(vdos: dict, stem: str, damped: bool = False) -> list[str]:
     """Fig. 1: g(omega) for every rho of ``vdos`` ({rho: results.Vdos}), rho = 0 dotted, omega_c
     marked by an arrow down to just above the axis (the axis reaching past every omega_c); empty
-    bins left blank, not drawn as g = 0; ``damped``: the file's vDOS is that of the damped
+    bins left blank, not drawn as g = 0 (a bin between two empty ones as a dot); ``damped``: the file's vDOS is that of the damped
     frequencies omega_d (spectrum.method pep), and the title and axes say so."""
     if not vdos:
         return []
@@ -30,7 +30,10 @@ def plot_vdos(vdos: dict, stem: str, damped: bool = False) -> list[str]:
     for index, rho in enumerate(sorted(vdos)):
         v = vdos[rho]
         style = {"ls": ":", "color": "k"} if rho == 0 else {"color": series_colour(index, len(vdos))}
-        ax.plot(_centres(v.edges), np.where(v.density > 0, v.density, np.nan), label=rho_label(rho), **style)
+        held = v.density > 0
+        ax.plot(_centres(v.edges), np.where(held, v.density, np.nan), label=rho_label(rho), **style)
+        alone = held & ~np.r_[False, held[:-1]] & ~np.r_[held[1:], False]  # no segment to show them
+        ax.plot(_centres(v.edges)[alone], v.density[alone], ".", ms=3, color=style["color"])
         ax.annotate("", xy=(v.omega_c, 0.03), xytext=(v.omega_c, 0.15), xycoords=("data", "axes fraction"),
                     arrowprops={"arrowstyle": "->", "color": style["color"], "lw": 0.8})
     top = max(max(v.edges[-1], v.omega_c) for v in vdos.values())
