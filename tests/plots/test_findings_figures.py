@@ -41,3 +41,22 @@ def test_finite_amplitude_figures_pass_the_checks(tmp_path):
         named = [t.get_text() for t in ax.get_legend().get_texts()]
         assert all(what in named for _, what in findings.MARKERS), named
     assert_figures(figures)
+
+
+def test_diffusivity_spheres_figure_passes_the_checks():
+    """scripts/tools/diffusivity_findings.py's spheres figure on six made-up d(omega) (the title
+    used to run off the left of its panel)."""
+    from scripts.tools import diffusivity_findings
+
+    edges = np.geomspace(0.02, 3.0, 40)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    rows = []
+    for i, dz in enumerate((0.64, 0.85, 0.91, 1.54, 2.34, 3.56)):
+        binned = 0.2 + 0.01 * dz / centres**2
+        nan = np.full(binned.size, np.nan)
+        g = results.Diffusivity("exact", centres, binned, edges, binned, nan, nan, np.ones(binned.size), 0.02, 1)
+        rows.append({"dim": 3, "rho": 0.0, "dz": dz, "pressure": 3e-3 * (1 + i), "N": 1005 + 3 * i, "g": g,
+                     "omega_star": 0.12 + 0.01 * i})
+    figures = diffusivity_findings.draw(rows, None)
+    assert list(figures) == ["diffusivity_spheres"]
+    assert_figures(figures)
