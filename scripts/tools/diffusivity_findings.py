@@ -37,6 +37,7 @@ import numpy as np
 from scipy import stats
 
 from solver.io import results
+from solver.plots.common import DPI, plt, series_colour
 from solver.spectrum.modes import rotation_components
 
 PLATEAU = (0.4, 0.8)  # percentiles of omega over which d_p is the median d_n
@@ -124,26 +125,33 @@ def predicted(table: dict, rho: float, omega: np.ndarray) -> np.ndarray:
 
 
 def _figures(rows: list[dict], table: dict | None, folder: str) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    """Write the figures (:func:`draw`) into ``folder`` as PNG; return their paths."""
     written = []
+    for name, fig in draw(rows, table).items():
+        written.append(f"{folder}/{name}.png")
+        fig.savefig(written[-1], dpi=DPI)
+        plt.close(fig)
+    return written
+
+
+def draw(rows: list[dict], table: dict | None) -> dict:
+    """The figures of ``rows`` (:func:`measure`) and the attenuation ``table``, {file name without
+    .png: figure}, open: d(omega) of the frictionless spheres and omega* against Delta z, d_n
+    coloured by the rotational share, d_n against the participation, d against attenuation."""
+    drawn = {}
     spheres = sorted((r for r in rows if r["dim"] == 3 and r["rho"] == 0), key=lambda r: r["dz"])
     if spheres:
         fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4.2))
-        cmap = plt.get_cmap("viridis")
         for i, r in enumerate(spheres):
             g = r["g"]
-            colour = cmap(0.85 * i / max(1, len(spheres) - 1))
+            colour = series_colour(i, len(spheres))
             centres = 0.5 * (g.edges[1:] + g.edges[:-1])
-            ax.plot(centres, g.d_binned, "-", color=colour, label=rf"$\Delta z$ = {r['dz']:.2f}, p = {r['pressure']:.1e}")
+            ax.plot(centres, g.d_binned, "-", color=colour, label=rf"$\Delta z$ = {r['dz']:.2f}, $p$ = {r['pressure']:.1e}")
             if np.isfinite(r["omega_star"]):
                 ax.axvline(r["omega_star"], color=colour, ls=":", lw=0.8)
         ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
-               title=f"frictionless spheres, N = {spheres[0]['N']}-{spheres[-1]['N']} (non-rattlers): "
-                     f"d($\\omega$) ($\\omega^*$ dotted)")
+               title=f"frictionless spheres, $N$ = {spheres[0]['N']}-{spheres[-1]['N']} (non-rattlers)\n"
+                     f"$d(\\omega)$, dotted: $\\omega^*$")
         ax.legend(fontsize=7)
         dz = np.array([r["dz"] for r in spheres])
         star = np.array([r["omega_star"] for r in spheres])
@@ -156,9 +164,7 @@ def _figures(rows: list[dict], table: dict | None, folder: str) -> list[str]:
         bx.set(xlabel=r"$\Delta z = z - 6$", ylabel=r"$\omega^*\,t_0$", title=r"crossover against $\Delta z$")
         bx.legend(fontsize=8)
         fig.tight_layout()
-        written.append(f"{folder}/diffusivity_spheres.png")
-        fig.savefig(written[-1], dpi=150)
-        plt.close(fig)
+        drawn["diffusivity_spheres"] = fig
     rotating = [r for r in rows if "w_R" in r]
     if rotating:
         fig, axes = plt.subplots(1, len(rotating), figsize=(4.2 * len(rotating), 4.0), squeeze=False, sharey=True)
@@ -168,9 +174,7 @@ def _figures(rows: list[dict], table: dict | None, folder: str) -> list[str]:
             ax.set(yscale="log", xlabel=r"$\omega\,t_0$", title=rf"{r['dim']}D, N = {r['N']}, $\rho$ = {r['rho']:.3g}")
         axes[0][0].set_ylabel(r"$d_n\;[d_0^2/t_0]$")
         fig.colorbar(dots, ax=axes[0].tolist(), label="rotational share of the mode")
-        written.append(f"{folder}/diffusivity_rotations.png")
-        fig.savefig(written[-1], dpi=150)
-        plt.close(fig)
+        drawn["diffusivity_rotations"] = fig
     localised = [r for r in rows if "P" in r]
     if localised:
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -180,9 +184,7 @@ def _figures(rows: list[dict], table: dict | None, folder: str) -> list[str]:
         ax.set(xlabel="participation ratio $P_n$", ylabel=r"$d_n\;[d_0^2/t_0]$", title="localised modes carry little")
         ax.legend(fontsize=7, markerscale=4)
         fig.tight_layout()
-        written.append(f"{folder}/diffusivity_localised.png")
-        fig.savefig(written[-1], dpi=150)
-        plt.close(fig)
+        drawn["diffusivity_localised"] = fig
     disks = {r["rho"]: r for r in rows if r["dim"] == 2 and abs(r["phi"] - 0.9) < 1e-6}
     if table and any(rho in disks for rho in (0.0, 1.0)):
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -199,10 +201,8 @@ def _figures(rows: list[dict], table: dict | None, folder: str) -> list[str]:
                title=r"diffusivity against attenuation, disks at $\phi$ = 0.9")
         ax.legend(fontsize=7)
         fig.tight_layout()
-        written.append(f"{folder}/diffusivity_attenuation.png")
-        fig.savefig(written[-1], dpi=150)
-        plt.close(fig)
-    return written
+        drawn["diffusivity_attenuation"] = fig
+    return drawn
 
 
 def main(argv=None) -> None:

@@ -47,8 +47,8 @@ def case(path: str, linear: list) -> dict:
         packing = hdf5.read_packings(path, count=1, check_equilibrium=False, model=results.contact_model(f))[0]
     reference = next((fits for x, fits in linear if x.shape == positions.shape and np.array_equal(x, positions)), None)
     slacks = thresholds.slacks(packing, 1.0, mu)
-    label = f"{packing.dim}D, mu = {mu:g}, p = {packing.info.get('pressure', np.nan):.1e}" + \
-        (", LAMMPS (stored f_t)" if packing.stressed else "")
+    label = rf"{packing.dim}D, $\mu$ = {mu:g}, $p$ = {packing.info.get('pressure', np.nan):.1e}" + \
+        (", LAMMPS (stored $f_t$)" if packing.stressed else "")
     return {"path": path, "label": label, "mu": mu, "dim": packing.dim, "stored": packing.stressed,
             "phi": first["phi"], "pressure": float(packing.info.get("pressure", np.nan)),
             "z": float(packing.info.get("z", np.nan)), "contacts": len(slacks.opening), "sweeps": sweeps,
@@ -153,6 +153,12 @@ def collapse(cases: list[dict], mode: str) -> dict[str, float]:
     return out
 
 
+MARKERS = (("*", r"measured $A^*$"), ("x", r"measured $A^*$ below the sweep (at its smallest $A$)"),
+           ("o", r"$A^*$ predicted (affine)"), ("v", "first contact slides (affine)"),
+           ("^", "first contact opens (affine)"))
+"""The symbols of the crossover figure and what each marks."""
+
+
 def figures(cases: list[dict], folder: str = DOCS) -> list[str]:
     """The four figures of the findings into ``folder``; returns the files written."""
     written = []
@@ -173,11 +179,11 @@ def figures(cases: list[dict], folder: str = DOCS) -> list[str]:
                 ax.loglog(guide, 3.0 * guide, "k-", lw=2, alpha=0.3, label=r"$\propto A$ (Mindlin-Deresiewicz)")
             ax.set(xlabel=r"$A$ ($d_0/t_0$)", ylabel=ylabel, title=f"{title}, {mode}")
             log_ticks(ax.xaxis)
-            legend(ax, fontsize=6)
+            legend(ax)
         fig.tight_layout()
         written += save(fig, os.path.join(folder, name))
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
     for c in cases:
         for mode, marker in (("L", "o"), ("TR", "s")):
             s = c["sweeps"].get(mode)
@@ -188,11 +194,13 @@ def figures(cases: list[dict], folder: str = DOCS) -> list[str]:
                 share = getattr(s, name)[:, 0] / c["contacts"]
                 keep = (soft > 0) & (share > 0)
                 ax.loglog(share[keep], soft[keep], marker + "-", ms=3, lw=0.6, color=colors[c["label"]],
-                          label=f"{c['label']}, {mode}")
+                          label=c["label"] if mode == "L" or "L" not in c["sweeps"] else None)
     for ax, name in zip(axes, ("opened", "sliding")):
+        for marker, mode in (("o", "L"), ("s", "TR")):  # the symbols (the colours: the packings)
+            ax.plot([], [], marker + "-", ms=3, lw=0.6, color="0.4", label=mode)
         ax.set(xlabel=f"most contacts {name} at once (share)", ylabel=r"$|\omega/\omega_0 - 1|$ (smallest $k$)",
                title=f"softening against the contacts {name}")
-        legend(ax, fontsize=5)
+        legend(ax)
     fig.tight_layout()
     written += save(fig, os.path.join(folder, "finite_amplitude_contacts"))
 
@@ -202,7 +210,7 @@ def figures(cases: list[dict], folder: str = DOCS) -> list[str]:
         if flat else None
     series = ((r"$\mu$", "mu", [c for c in flat if np.round(np.log10(c["pressure"]), 1) == common]),
               ("pressure ($k_n$)", "pressure", [c for c in cases if c["dim"] == 2 and c["mu"] == 0.3]))
-    fig, axes = plt.subplots(len(modes), 2, figsize=(11, 4.2 * len(modes)), squeeze=False)
+    fig, axes = plt.subplots(len(modes), 2, figsize=(16, 4.4 * len(modes)), squeeze=False)
     for row, mode in enumerate(modes):
         for col, (xlabel, key, chosen) in enumerate(series):
             ax = axes[row, col]
@@ -211,17 +219,20 @@ def figures(cases: list[dict], folder: str = DOCS) -> list[str]:
                 if s is None:
                     continue
                 x, color = c[key], colors[c["label"]]
-                star = stars(c, mode).omega[0]
-                ax.loglog([x], [star if star > 0 else s.amplitude[0]], "*" if star > 0 else "x", ms=12, color=color,
-                          label=c["label"])
+                star = stars(c, mode).omega[0]  # 0: below the sweep, drawn at its smallest A; NaN: never reached
+                if np.isfinite(star):
+                    ax.loglog([x], [star if star > 0 else s.amplitude[0]], "*" if star > 0 else "x", ms=12,
+                              color=color, label=c["label"])
                 for name, marker in (("A* predicted (affine)", "o"), ("first slides (affine)", "v"),
                                      ("first opens (affine)", "^")):
                     ax.loglog([x], [c["predicted"][mode].get(name, np.nan)], marker, ms=7, mfc="none", color=color)
+            for marker, what in MARKERS:  # what each symbol is, in every panel (the colours: the packings)
+                ax.plot([], [], marker, color="0.4", mfc="none" if marker in "ov^" else "0.4", label=what)
             ax.set(xlabel=xlabel, ylabel=r"$A$ ($d_0/t_0$)",
-                   title=f"{mode}, against {key}")
-            legend(ax, fontsize=6)
-    fig.suptitle("A* of omega: measured (*; x: below the sweep), predicted affinely (o); "
-                 "the first contact to slide (v) and to open (^), affinely", fontsize=9)
+                   title=f"{mode}, against " + (r"$\mu$" if key == "mu" else key))
+            legend(ax, fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    fig.suptitle(r"$A^*$ of $\omega$: measured and predicted affinely; the first contact to slide and to open",
+                 fontsize=10)
     fig.tight_layout()
     written += save(fig, os.path.join(folder, "finite_amplitude_crossover"))
     return written

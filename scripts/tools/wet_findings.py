@@ -21,6 +21,7 @@ import os
 import numpy as np
 
 from solver.io import results
+from solver.plots.common import DPI, legend, log_ticks, plt
 
 ROTATIONAL = 2.5
 """omega (1/t0) above which the vDOS at rho = 1 is the rotational band (the paper's Fig. 3c: the
@@ -71,79 +72,78 @@ def table(rows: list[dict]) -> str:
 
 
 def figures(rows: list[dict], folder: str) -> list[str]:
-    """Draw the three figures (module docstring) into ``folder``; return their paths."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    base = [r for r in rows if not r["wet"] or (r["volume"] == 1e-3 and r["angle"] == 0.0 and r["tension"] == 0.002)]
+    """Write the three figures (:func:`draw`) into ``folder`` as PNG; return their paths."""
     written = []
+    for name, fig in draw(rows).items():
+        written.append(os.path.join(folder, f"{name}.png"))
+        fig.savefig(written[-1], dpi=DPI)
+        plt.close(fig)
+    return written
+
+
+def draw(rows: list[dict]) -> dict:
+    """The three figures (module docstring), {file name without .png: figure}, open."""
+    base = [r for r in rows if not r["wet"] or (r["volume"] == 1e-3 and r["angle"] == 0.0 and r["tension"] == 0.002)]
+    drawn = {}
     fig, ax = plt.subplots(figsize=(6, 4))
     for r in base:
         if abs(r["phi"] - 0.86) < 1e-9 or (r["wet"] and r["phi"] == min(b["phi"] for b in base if b["wet"])):
             v = r["vdos"]
             centres = 0.5 * (v.edges[1:] + v.edges[:-1])
-            ax.plot(centres, v.density, label=f"{'wet' if r['wet'] else 'dry'}, φ = {r['phi']:.2f}, "
-                                              f"p = {r['pressure']:.1e}")
-    ax.axvline(ROTATIONAL, color="0.6", lw=0.8, ls=":")
-    ax.set(xlabel="ω t0", ylabel="vDOS", title="2048 disks, ρ = 1: dry and wet")
-    ax.legend(fontsize=8)
-    written.append(_save(fig, folder, "wet_vdos.png"))
+            ax.plot(centres, np.where(v.density > 0, v.density, np.nan),
+                    label=rf"{'wet' if r['wet'] else 'dry'}, $\phi$ = {r['phi']:.2f}, $p$ = {r['pressure']:.1e}")
+    ax.axvline(ROTATIONAL, color="0.6", lw=0.8, ls=":", label="rotational band above")
+    ax.set(xlabel=r"$\omega\,t_0$", ylabel=r"$g(\omega)\,t_0$", title=r"2048 disks, $\rho$ = 1: dry and wet")
+    legend(ax, fontsize=8)
+    fig.tight_layout()
+    drawn["wet_vdos"] = fig
 
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
     for wet, marker, colour in ((False, "o", "C0"), (True, "s", "C1")):
         series = sorted((r for r in base if r["wet"] == wet), key=lambda r: r["pressure"])
         p = [r["pressure"] for r in series]
         label = "wet" if wet else "dry"
-        axes[0].plot(p, [r["c_L"] for r in series], marker + "-", color=colour, label=f"c_L, {label}")
-        axes[0].plot(p, [r["c_TR"] for r in series], marker + "--", color=colour, label=f"c_T, {label}")
-        axes[1].plot(p, [r["omega_RT"] for r in series], marker + "-", color=colour, label=f"ω_r, {label}")
-        axes[1].plot(p, [r["omega_c"] for r in series], marker + "--", color=colour, label=f"ω_c, {label}")
-        axes[2].plot(p, [r["gamma_RT"] for r in series], marker + "-", color=colour, label=f"γ_r, {label}")
+        axes[0].plot(p, [r["c_L"] for r in series], marker + "-", color=colour, label=f"$c_L$, {label}")
+        axes[0].plot(p, [r["c_TR"] for r in series], marker + "--", color=colour, label=f"$c_T$, {label}")
+        axes[1].plot(p, [r["omega_RT"] for r in series], marker + "-", color=colour, label=rf"$\omega_r$, {label}")
+        axes[1].plot(p, [r["omega_c"] for r in series], marker + "--", color=colour, label=rf"$\omega_c$, {label}")
+        axes[2].plot(p, [r["gamma_RT"] for r in series], marker + "-", color=colour, label=rf"$\gamma_r$, {label}")
         for r in series:
-            axes[1].annotate(f"{r['phi']:.2f}", (r["pressure"], r["omega_RT"]), fontsize=6)
-    for ax, ylabel in zip(axes, ("speed (d0/t0)", "frequency (1/t0)", "γ_r (1/t0)")):
-        ax.set(xlabel="pressure p (kn)", ylabel=ylabel)
-        ax.legend(fontsize=7)
-    axes[0].set_title("sound speeds, smallest k")
-    axes[1].set_title("rotational band (labels: φ)")
+            axes[1].annotate(f"{r['phi']:.2f}", (r["pressure"], r["omega_RT"]), fontsize=7)
+    for ax, ylabel in zip(axes, (r"speed ($d_0/t_0$)", r"frequency ($1/t_0$)", r"$\gamma_r$ ($1/t_0$)")):
+        ax.set(xlabel=r"pressure $p$ ($k_n$)", ylabel=ylabel)
+        legend(ax)
+    axes[0].set_title(r"sound speeds, smallest $k$")
+    axes[1].set_title(r"rotational band (labels: $\phi$)")
     axes[2].set_title("damping of the RT wave")
     fig.tight_layout()
-    written.append(_save(fig, folder, "wet_pressure.png"))
+    drawn["wet_pressure"] = fig
 
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharey=True)
     at = [r for r in rows if r["wet"] and abs(r["phi"] - 0.86) < 1e-9]
     dry = next((r for r in rows if not r["wet"] and abs(r["phi"] - 0.86) < 1e-9), None)
     defaults = {"volume": 1e-3, "angle": 0.0, "tension": 0.002}
-    for ax, key, xlabel, log in ((axes[0], "volume", "bridge volume V (d0³)", True),
-                                 (axes[1], "angle", "contact angle θ (rad)", False),
-                                 (axes[2], "tension", "surface tension γ (kn)", True)):
+    for ax, key, xlabel, log in ((axes[0], "volume", r"bridge volume $V$ ($d_0^3$)", True),
+                                 (axes[1], "angle", r"contact angle $\theta$ (rad)", False),
+                                 (axes[2], "tension", r"surface tension $\gamma$ ($k_n$)", True)):
         series = sorted((r for r in at if all(r[name] == defaults[name] for name in defaults if name != key)),
                         key=lambda r: r[key])
         x = [r[key] for r in series]
-        for name, label, style in (("omega_RT", "ω_r", "s-"), ("omega_c", "ω_c", "s--"), ("c_L", "c_L", "o-"),
-                                   ("c_TR", "c_T", "o--")):
+        for name, label, style in (("omega_RT", r"$\omega_r$", "s-"), ("omega_c", r"$\omega_c$", "s--"),
+                                   ("c_L", "$c_L$", "o-"), ("c_TR", "$c_T$", "o--")):
             if dry is not None:  # change against the dry packing of the same phi, in %
                 ax.plot(x, [100 * (r[name] / dry[name] - 1) for r in series], style, label=label)
         ax.axhline(0.0, color="0.5", lw=0.8)
         ax.set(xlabel=xlabel, xscale="log" if log else "linear")
-        ax.legend(fontsize=7)
-    axes[0].set_ylabel("wet against dry, φ = 0.86 (%)")
+        log_ticks(ax.xaxis)
+        legend(ax)
+    axes[0].set_ylabel(r"wet against dry, $\phi$ = 0.86 (%)")
     axes[0].set_title("the bridges' volume")
     axes[1].set_title("contact angle")
     axes[2].set_title("surface tension")
     fig.tight_layout()
-    written.append(_save(fig, folder, "wet_bridges.png"))
-    return written
-
-
-def _save(fig, folder: str, name: str) -> str:
-    import matplotlib.pyplot as plt
-
-    path = os.path.join(folder, name)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    drawn["wet_bridges"] = fig
+    return drawn
 
 
 def main() -> None:

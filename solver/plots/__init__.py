@@ -1,5 +1,5 @@
-"""Figures from results files: which figures a results file gets (:func:`plot_results`, beside
-it), the reproduction report's (:func:`report_figures`) and the vDOS of several files overlaid
+"""Figures from results files: which figures a results file gets (:func:`draw_results`, in memory;
+:func:`plot_results` writes them beside it), the reproduction report's (:func:`report_figures`) and the vDOS of several files overlaid
 (:func:`plot_vdos_compare`).  The figures themselves are drawn by one module per stage, from the
 arrays ``io.results`` reads:
 
@@ -28,6 +28,7 @@ import numpy as np
 
 from ..analysis import thresholds
 from ..io import hdf5, results
+from . import common
 from .attenuation import plot_attenuation_regimes
 from .damped import plot_damped_modes, plot_damped_vdos
 from .modes import plot_mode_shapes, plot_wave_snapshots
@@ -38,48 +39,70 @@ from .sweeps import plot_sweeps, predictions
 from .waves import (plot_bands, plot_dispersion, plot_dispersion_rt, plot_spectra, plot_speeds_attenuation,
                     plot_transition, plot_vafs)
 
-__all__ = ["plot_results", "plot_vdos_compare", "report_figures"]
+__all__ = ["draw_results", "plot_results", "plot_vdos_compare", "report_figures"]
 
 
 def plot_results(path: str) -> list[str]:
-    """Write every figure the results file has data for, next to it; return the paths."""
+    """Write every figure the results file has data for (:func:`draw_results`) next to it, as PNG
+    and PDF; return the paths."""
+    figures = draw_results(path)
+    try:
+        return [written for stem, fig in figures.items() for written in common.save(fig, stem)]
+    finally:  # the rest, when one cannot be written
+        for fig in figures.values():
+            common.plt.close(fig)
+
+
+def draw_results(path: str) -> dict:
+    """Every figure the results file at ``path`` has data for, drawn and not written: {stem (the
+    path without .png/.pdf): matplotlib Figure}, open (``common.save`` writes and closes one)."""
+    with common.kept() as figures:
+        try:
+            _draw_results(path)
+        except BaseException:
+            for fig in figures.values():
+                common.plt.close(fig)
+            raise
+    return figures
+
+
+def _draw_results(path: str) -> None:
+    """Draw (``common.save``) every figure of the results file ``path``."""
     stem = os.path.splitext(path)[0]
-    written: list[str] = []
     with results.open_results(path) as f:
         first = results.first_packing(f)
         read = None
         if first is not None:
-            written += plot_packing(first, f"{stem}_packing")
+            plot_packing(first, f"{stem}_packing")
             read = hdf5.read_packings(path, count=1, check_equilibrium=False, model=results.contact_model(f))[0]
-            written += plot_force_network(read, f"{stem}_forces")
-        written += _sweeps(results.sweeps(f), results.sweep_friction(f), read, f"{stem}_sweep")
+            plot_force_network(read, f"{stem}_forces")
+        _sweeps(results.sweeps(f), results.sweep_friction(f), read, f"{stem}_sweep")
         vdos = results.vdos(f)
         damped = results.damped_modes(f)
-        written += plot_vdos(vdos, f"{stem}_vdos", damped=bool(damped))
-        written += plot_energies(vdos, results.mode_energies(f), results.binned_energies(f), f"{stem}_energies")
-        written += plot_diffusivity(results.diffusivity(f), f"{stem}_diffusivity")
+        plot_vdos(vdos, f"{stem}_vdos", damped=bool(damped))
+        plot_energies(vdos, results.mode_energies(f), results.binned_energies(f), f"{stem}_energies")
+        plot_diffusivity(results.diffusivity(f), f"{stem}_diffusivity")
         waves = results.waves(f)
-        written += plot_vafs(waves, f"{stem}_vaf")
-        written += plot_spectra(waves, f"{stem}_spectrum")
+        plot_vafs(waves, f"{stem}_vaf")
+        plot_spectra(waves, f"{stem}_spectrum")
         fits, lattice_fit = results.fits(f), results.lattice(f)
-        written += plot_dispersion(fits, f"{stem}_dispersion")
-        written += plot_dispersion_rt(fits, lattice_fit, f"{stem}_dispersion_rt")
-        written += plot_transition(fits, lattice_fit, waves, f"{stem}_transition")
-        written += plot_bands(lattice_fit, results.bands(f), f"{stem}_bands")
-        written += plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
+        plot_dispersion(fits, f"{stem}_dispersion")
+        plot_dispersion_rt(fits, lattice_fit, f"{stem}_dispersion_rt")
+        plot_transition(fits, lattice_fit, waves, f"{stem}_transition")
+        plot_bands(lattice_fit, results.bands(f), f"{stem}_bands")
+        plot_speeds_attenuation(fits, f"{stem}_speeds_attenuation")
         dim = first["positions"].shape[1] if first is not None else 2
-        written += plot_attenuation_regimes(fits, f"{stem}_attenuation", dim=dim)
+        plot_attenuation_regimes(fits, f"{stem}_attenuation", dim=dim)
         shapes = results.mode_shapes(f)
         per_mode_participation = results.participation(f)
         snapshots = results.wave_snapshots(f)
         pictured = {i: results.packing(f, i) for i in {g.packing for g in shapes} | {w.packing for w in snapshots}}
-    written += plot_participation(per_mode_participation, shapes, f"{stem}_participation")
-    written += plot_mode_shapes(pictured, shapes, stem)
-    written += plot_wave_snapshots(pictured, snapshots, stem)
+    plot_participation(per_mode_participation, shapes, f"{stem}_participation")
+    plot_mode_shapes(pictured, shapes, stem)
+    plot_wave_snapshots(pictured, snapshots, stem)
     if damped:
-        written += plot_damped_modes(damped, f"{stem}_damped_modes")
-        written += plot_damped_vdos(damped, float(np.diff(vdos[next(iter(vdos))].edges[:2])[0]), f"{stem}_damped_vdos")
-    return written
+        plot_damped_modes(damped, f"{stem}_damped_modes")
+        plot_damped_vdos(damped, float(np.diff(vdos[next(iter(vdos))].edges[:2])[0]), f"{stem}_damped_vdos")
 
 
 def _sweeps(sweeps: dict, friction: float | None, packing, stem: str) -> list[str]:

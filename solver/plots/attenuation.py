@@ -21,13 +21,14 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
     t_end >= 1), open where it does not (an upper bound of the early loss); the level gamma =
     1 / t_end dashed; guides ~ k^(d+1) (Rayleigh) and ~ k^2 (diffusive) from the first resolved
     point of the first curve; Ioffe-Regel k (omega = 2 pi gamma) as a star.  Right: the local exponent
-    d ln gamma / d ln k between neighbouring resolved points, with d + 1 and 2 marked."""
+    d ln gamma / d ln k between neighbouring resolved points, with d + 1 and 2 marked, on a range
+    holding them and every exponent."""
     acoustic = sorted((rho, mode) for rho, mode in fits if mode in ("L", "TR"))
     if not acoustic:
         return []
     rhos = sorted({rho for rho, _ in acoustic})
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.4))
-    resolved_k = []
+    resolved_k, exponents = [], [1.0, dim + 2.0]
     for rho, mode in acoustic:
         fit = fits[(rho, mode)]
         k, gamma, omega, t_end = fit["k"], fit["gamma"], fit["omega"], float(fit["t_end"])
@@ -46,6 +47,7 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
         if resolved.sum() >= 2:
             k_mid, p = attenuation.local_exponents(k[resolved], gamma[resolved])
             bx.semilogx(k_mid, p, marker + ls, color=color, ms=4, lw=0.8, label=label)
+            exponents += list(p[np.isfinite(p)])
             resolved_k.append((k[resolved], gamma[resolved]))
         ax.axhline(1.0 / t_end, color="0.6", ls="--", lw=0.6)
     for k_r, g_r in resolved_k[:1]:  # slopes from the first resolved point of one curve, over a factor 4 in k
@@ -55,14 +57,15 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
         ax.loglog(guide, g_r[0] * (guide / k_r[0])**2, "k--", lw=2, alpha=0.25, label=r"$\propto k^2$ (diffusive)")
     ax.set(xlabel=r"$k\,d_0$", ylabel=r"$\gamma\,t_0$",
            title=r"attenuation (open: $\gamma\,t_{end} < 1$, not resolved; $\star$: Ioffe-Regel)")
-    legend(ax, fontsize=6, ncol=2)
+    legend(ax, ncol=2)
     for level, text in ((dim + 1, f"$d + 1$ = {dim + 1}"), (2, "2")):
         bx.axhline(level, color="0.5", lw=0.6)
         bx.annotate(text, (0.01, level), xycoords=("axes fraction", "data"), fontsize=7, va="bottom")
+    margin = 0.05 * (max(exponents) - min(exponents))
     bx.set(xlabel=r"$k\,d_0$", ylabel=r"$d \ln\gamma\,/\,d \ln k$", title="local exponent (resolved points)",
-           ylim=(1, dim + 2))
+           ylim=(min(exponents) - margin, max(exponents) + margin))
     for axis in (ax.xaxis, ax.yaxis, bx.xaxis):
         log_ticks(axis)
-    legend(bx, fontsize=6)
+    legend(bx)
     fig.tight_layout()
     return save(fig, stem)

@@ -7,6 +7,8 @@ Never imports petsc4py or mpi4py.  Not collective.  Units: d0.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import matplotlib
 
 matplotlib.use("Agg")  # files only, no display needed
@@ -23,10 +25,33 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: 
 from ..errors import InputError  # noqa: E402
 
 
+LEGEND_PT = 7
+"""Font size (points) of a legend's text, the smallest a figure uses for one (tests/figures.py)."""
+
+_kept: dict | None = None
+"""{stem: figure} while :func:`kept` holds the figures instead of writing them, else None."""
+
+
+@contextmanager
+def kept():
+    """Within: :func:`save` writes nothing and keeps each figure open in the dict this yields,
+    {stem: figure}; the caller writes (``save``) or closes them.  The figures are those the files
+    would be: the same drawing code, only the last step differs."""
+    global _kept
+    outer, _kept = _kept, {}
+    try:
+        yield _kept
+    finally:
+        _kept = outer
+
+
 def save(fig, stem: str) -> list[str]:
-    """Write ``fig`` as PNG and PDF at ``stem`` and close it; return the two paths.  A folder that
-    cannot take them is bad input."""
+    """Write ``fig`` as PNG and PDF at ``stem`` and close it; return the two paths (inside
+    :func:`kept`: keep it there, write nothing).  A folder that cannot take them is bad input."""
     paths = [f"{stem}.png", f"{stem}.pdf"]
+    if _kept is not None:
+        _kept[stem] = fig
+        return paths
     try:
         for path in paths:
             fig.savefig(path, dpi=DPI)
@@ -35,6 +60,17 @@ def save(fig, stem: str) -> list[str]:
     finally:
         plt.close(fig)
     return paths
+
+
+SERIES_TOP = 0.6
+"""How far along viridis the last of a series of lines goes: beyond, its yellow-greens are too
+pale on white."""
+
+
+def series_colour(index: int, count: int):
+    """The colour of line ``index`` of ``count`` in a series (one per rho, per k, per packing):
+    viridis from dark blue to ``SERIES_TOP``."""
+    return plt.get_cmap("viridis")(SERIES_TOP * index / max(1, count - 1))
 
 
 def rho_label(rho: float) -> str:
@@ -51,9 +87,10 @@ def rho_list(rhos) -> str:
 
 
 def legend(ax, **style) -> None:
-    """``ax.legend(**style)`` when ``ax`` has labelled artists (else matplotlib logs a warning)."""
+    """``ax.legend(**style)`` when ``ax`` has labelled artists (else matplotlib logs a warning), its
+    text ``LEGEND_PT`` points unless ``style`` sets a larger size."""
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(**style)
+        ax.legend(**{"fontsize": LEGEND_PT, **style})
 
 
 def _log_label(value: float, _position=None) -> str:

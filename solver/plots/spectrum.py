@@ -12,7 +12,7 @@ import numpy as np
 
 from ..io import results
 from ..spectrum.modes import bin_average
-from .common import legend, log_ticks, plt, rho_label, save
+from .common import legend, log_ticks, plt, rho_label, save, series_colour
 
 
 def _centres(edges):
@@ -21,22 +21,26 @@ def _centres(edges):
 
 def plot_vdos(vdos: dict, stem: str, damped: bool = False) -> list[str]:
     """Fig. 1: g(omega) for every rho of ``vdos`` ({rho: results.Vdos}), rho = 0 dotted, omega_c
-    marked; ``damped``: the file's vDOS is that of the damped frequencies omega_d (spectrum.method
-    pep), and the title and axes say so."""
+    marked by an arrow down to just above the axis (the axis reaching past every omega_c); empty
+    bins left blank, not drawn as g = 0 (a bin between two empty ones as a dot); ``damped``: the file's vDOS is that of the damped
+    frequencies omega_d (spectrum.method pep), and the title and axes say so."""
     if not vdos:
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    cmap = plt.get_cmap("viridis")
     for index, rho in enumerate(sorted(vdos)):
         v = vdos[rho]
-        style = {"ls": ":", "color": "k"} if rho == 0 else {"color": cmap(0.8 * index / max(1, len(vdos) - 1))}
-        ax.plot(_centres(v.edges), v.density, label=rho_label(rho), **style)
-        ax.annotate("", xy=(v.omega_c, 0), xytext=(v.omega_c, 0.08 * v.density.max()),
+        style = {"ls": ":", "color": "k"} if rho == 0 else {"color": series_colour(index, len(vdos))}
+        held = v.density > 0
+        ax.plot(_centres(v.edges), np.where(held, v.density, np.nan), label=rho_label(rho), **style)
+        alone = held & ~np.r_[False, held[:-1]] & ~np.r_[held[1:], False]  # no segment to show them
+        ax.plot(_centres(v.edges)[alone], v.density[alone], ".", ms=3, color=style["color"])
+        ax.annotate("", xy=(v.omega_c, 0.03), xytext=(v.omega_c, 0.15), xycoords=("data", "axes fraction"),
                     arrowprops={"arrowstyle": "->", "color": style["color"], "lw": 0.8})
+    top = max(max(v.edges[-1], v.omega_c) for v in vdos.values())
     w = r"\omega_d" if damped else r"\omega"
     what = r"vDOS of the damped frequencies $\omega_d$" if damped else "vibrational density of states"
-    ax.set(xlabel=rf"${w}\,t_0$", ylabel=rf"$g({w})\,t_0$", xlim=(0, None), ylim=(0, None),
-           title=rf"{what} (arrows: $\omega_c$)")
+    ax.set(xlabel=rf"${w}\,t_0$", ylabel=rf"$g({w})\,t_0$", xlim=(0, 1.03 * top), ylim=(0, None),
+           title=rf"{what} (arrows: $\omega_c$; gaps: empty bins)")
     legend(ax, fontsize=8)
     fig.tight_layout()
     return save(fig, stem)
@@ -63,7 +67,8 @@ def plot_energies(vdos: dict, per_mode: dict, binned: dict, stem: str, rhos=None
                     curve = np.nansum(b.density * b[2 + index], axis=0) / b.density.sum(axis=0)
                 x = _centres(b.edges)
             ax.semilogy(x, curve, label=f"${key}$", **style)
-        ax.semilogy(_centres(edges), 5e-3 * vdos[rho].density, "k--", lw=0.8,
+        density = vdos[rho].density
+        ax.semilogy(_centres(edges), 5e-3 * np.where(density > 0, density, np.nan), "k--", lw=0.8,  # empty bins: gaps
                     label=r"$g(\omega)\,t_0 \times 5\cdot10^{-3}$")
         ax.set(xlabel=r"$\omega\,t_0$", ylabel=r"$K$, $Q$ ($m\,d_0^2/t_0^2$)", title=rho_label(rho))
         log_ticks(ax.yaxis)

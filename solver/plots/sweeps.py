@@ -13,7 +13,7 @@ import numpy as np
 
 from ..analysis import thresholds
 from ..waves import excitation
-from .common import legend, log_ticks, plt, rho_label, save
+from .common import legend, log_ticks, plt, rho_label, save, series_colour
 
 
 def predictions(sweep, slacks, mode: str, dim: int) -> dict[str, float]:
@@ -36,12 +36,13 @@ def plot_sweeps(sweeps: dict, stem: str, contacts: int | None = None, predicted:
     |gamma/gamma_0 - 1| against A, a line per k, the 1 % level and the measured A* of each; (b)
     Q^-1 = 2 gamma / omega; (c) the most contacts sliding and opened at once, as a share of the
     packing's ``contacts`` when given; the ``predicted`` {(rho, mode): {label: A}} thresholds as
-    vertical lines in (a) and (c).  Returns the files written."""
+    vertical lines in (a) and (c), named in the legend of each.  Returns the files written."""
     written = []
     for (rho, mode), sweep in sorted(sweeps.items()):
-        fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), sharex=True)
+        fig, axes = plt.subplots(1, 3, figsize=(15, 5), sharex=True)
         a = sweep.amplitude
-        colors = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, max(1, sweep.k.size)))
+        colors = [series_colour(kk, sweep.k.size) for kk in range(sweep.k.size)]
+        starred = False
         for kk, (k, color) in enumerate(zip(sweep.k, colors)):
             for value, error, style, name in ((sweep.omega, sweep.omega_err, "o-", r"\omega"),
                                               (sweep.gamma, sweep.gamma_err, "s--", r"\gamma")):
@@ -50,11 +51,14 @@ def plot_sweeps(sweeps: dict, stem: str, contacts: int | None = None, predicted:
                 axes[0].loglog(a[shown], departure[shown], style, ms=3, lw=0.8, color=color,
                                label=rf"${name}$, $k d_0$ = {k:.3f}")
                 star = thresholds.crossover(a, value[:, kk:kk + 1], error[:, kk:kk + 1])[0]
-                if np.isfinite(star):
-                    axes[0].plot([star], [0.01], "*", ms=9, color=color)
+                if np.isfinite(star) and star > 0:
+                    axes[0].plot([star], [0.01], "*", ms=9, color=color, mec="k", mew=0.4,
+                                 label=None if starred else r"measured $A^*$ (1 % and 2$\sigma$ out)")
+                    starred = True
             q_inverse = 2.0 * sweep.gamma[:, kk] / sweep.omega[:, kk]
-            axes[1].loglog(a, q_inverse, "o-", ms=3, lw=0.8, color=color, label=rf"$k d_0$ = {k:.3f}")
-        axes[0].axhline(0.01, color="k", lw=0.6, alpha=0.5)
+            shown = q_inverse > 0  # a failed fit's (NaN) or a negative one: not on log axes
+            axes[1].loglog(a[shown], q_inverse[shown], "o-", ms=3, lw=0.8, color=color, label=rf"$k d_0$ = {k:.3f}")
+        axes[0].axhline(0.01, color="k", lw=0.6, alpha=0.5, label="1 % level")
         share = 1.0 / contacts if contacts else 1.0
         for series, style, name in ((sweep.sliding, "o-", "sliding"), (sweep.opened, "s--", "opened")):
             most = series.max(axis=1) * share
@@ -63,16 +67,15 @@ def plot_sweeps(sweeps: dict, stem: str, contacts: int | None = None, predicted:
             if np.isfinite(value):
                 for ax in (axes[0], axes[2]):
                     ax.axvline(value, lw=0.8, ls=":" if "first" in label else "-", alpha=0.7,
-                               color="C3" if "open" in label else ("C2" if "slide" in label else "k"),
-                               label=label if ax is axes[2] else None)
-        axes[0].set(xlabel=r"$A$ ($d_0/t_0$)", ylabel="departure from the smallest A",
-                    title=f"{mode}, {rho_label(rho)}: softening and extra attenuation (* A*)")
+                               color="C3" if "open" in label else ("C2" if "slide" in label else "k"), label=label)
+        axes[0].set(xlabel=r"$A$ ($d_0/t_0$)", ylabel="departure from the smallest $A$",
+                    title=f"{mode}, {rho_label(rho)}: softening and extra attenuation")
         axes[1].set(xlabel=r"$A$ ($d_0/t_0$)", ylabel=r"$Q^{-1} = 2\gamma/\omega$", title="loss")
         axes[2].set(xlabel=r"$A$ ($d_0/t_0$)", ylabel="share of the contacts" if contacts else "contacts",
                     title="contacts at the Coulomb limit and opened")
         for ax in axes:
             log_ticks(ax.xaxis)
-            legend(ax, fontsize=5)
+            legend(ax)
         fig.tight_layout()
         written += save(fig, f"{stem}_{mode}_rho{rho:g}")
     return written

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..analysis import lattice
 from ..waves import correlations
-from .common import legend, log_ticks, plt, rho_label, save
+from .common import legend, log_ticks, plt, rho_label, save, series_colour
 
 MODES = ("L", "TR", "RT", "R")  # R: angular velocity along k, 3D only
 
@@ -107,17 +107,16 @@ def plot_dispersion_rt(fits: dict, lattice_fit: dict | None, stem: str) -> list[
     if not rt or lattice_fit is None:
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    cmap = plt.get_cmap("viridis")
     k_line = np.linspace(0, lattice_fit["k_max"], 200)
     for index, (rho, fit) in enumerate(rt):
-        color = cmap(0.9 * index / max(1, len(rt) - 1))
+        color = series_colour(index, len(rt))
         ax.plot(fit["k"], fit["omega"], "o", ms=3.5, mfc="none", color=color, label=rho_label(rho))
         ax.plot(k_line, lattice_curve(k_line, rho, lattice_fit)[1], "-", lw=0.9, color=color)
     ax.axvline(lattice_fit["kd0_max_used"], color="0.6", ls=":", lw=0.8)
     ax.set(xlabel=r"$k\,d_0$", ylabel=r"$\omega_r\,t_0$", title=rf"RT dispersion; lines: lattice model, $a_r$ = "
            rf"{lattice_fit['a_r']:.3f}$/t_0$, $l$ = {lattice_fit['l']:.3f} $d_0$ (fit left of the dotted line)")
     ax.title.set_fontsize(8)
-    legend(ax, fontsize=6, ncol=2)
+    legend(ax, ncol=2)
     fig.tight_layout()
     return save(fig, stem)
 
@@ -167,7 +166,8 @@ def plot_transition(fits: dict, lattice_fit: dict | None, waves: dict, stem: str
 def plot_bands(lattice_fit: dict | None, bands: dict | None, stem: str, omega_c: dict | None = None) -> list[str]:
     """Fig. 7: RT band limits against rho (data symbols; model lines omega_r(0), omega_r(k_max),
     omega_t(k_max) of ``analysis.lattice`` and the shaded band), omega_c (crosses; ``omega_c`` maps rho ->
-    value, else the bands' own), log-log inset.  ``bands``: ``results.bands``."""
+    value, else the bands' own); the same on log-log axes beside (an inset would hide curves).
+    ``bands``: ``results.bands``."""
     if lattice_fit is None or bands is None:
         return []
     b = bands
@@ -176,8 +176,7 @@ def plot_bands(lattice_fit: dict | None, bands: dict | None, stem: str, omega_c:
     r0 = lattice.omega_r_zero(rho_line, lattice_fit["a_r"])
     rk = lattice.omega_r_kmax(rho_line, lattice_fit["a_r"])
     tk = lattice.omega_t_kmax(rho_line, a_t)
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    inset = ax.inset_axes([0.62, 0.1, 0.35, 0.35])
+    fig, (ax, inset) = plt.subplots(1, 2, figsize=(10, 4.6), gridspec_kw={"width_ratios": [3, 2]})
     cross = omega_c if omega_c is not None else dict(zip(b["rho"], b["omega_c"]))
     for axis in (ax, inset):
         axis.fill_between(rho_line, np.minimum(r0, rk), np.maximum(r0, rk), color="0.9")
@@ -191,12 +190,11 @@ def plot_bands(lattice_fit: dict | None, bands: dict | None, stem: str, omega_c:
         rc = sorted((r, w) for r, w in cross.items() if r > 0 and np.isfinite(w))
         if rc:
             axis.plot(*zip(*rc), "x", color="k", label=r"$\omega_c$ (vDOS)")
-    inset.set(xscale="log", yscale="log")
-    inset.tick_params(labelsize=6)
+    inset.set(xscale="log", yscale="log", xlabel=r"$\rho$", ylabel=r"$\omega\,t_0$", title="the same, log-log")
     log_ticks(inset.xaxis)
     log_ticks(inset.yaxis)
     ax.set(xlabel=r"$\rho = k_t / k_n$", ylabel=r"$\omega\,t_0$", title="RT frequency band (shaded: model)")
-    legend(ax, fontsize=6, loc="upper left")
+    legend(ax, loc="upper left")
     fig.tight_layout()
     return save(fig, stem)
 
@@ -208,16 +206,16 @@ def plot_speeds_attenuation(fits: dict, stem: str) -> list[str]:
     if not modes:
         return []
     fig, axes = plt.subplots(2, len(modes), figsize=(5 * len(modes), 7), squeeze=False)
-    cmap = plt.get_cmap("viridis")
     rhos = sorted({rho for rho, mode in fits if mode in modes})
     for col, mode in enumerate(modes):
         for rho, fit in _of_mode(fits, mode):
-            color = "k" if rho == 0 else cmap(0.9 * rhos.index(rho) / max(1, len(rhos) - 1))
+            color = "k" if rho == 0 else series_colour(rhos.index(rho), len(rhos))
             k, gamma = fit["k"], fit["gamma"]
             axes[0, col].plot(k, fit["c"], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color, label=rho_label(rho))
             good = gamma > 0
+            p = float(fit["power_law_p"])
             axes[1, col].loglog(k[good], gamma[good], "o-" if rho else "o:", ms=2.5, lw=0.7, color=color,
-                                label=f"{rho_label(rho)}, $p$ = {fit['power_law_p']:.2f}")
+                                label=rho_label(rho) + (f", $p$ = {p:.2f}" if np.isfinite(p) else ", no power law"))
         k_guide = np.array([0.2, 1.0])
         axes[1, col].loglog(k_guide, 0.05 * k_guide**3, "k-", lw=2, alpha=0.4, label=r"$\propto k^3$")
         axes[0, col].set(xlabel=r"$k\,d_0$", ylabel=rf"$c_{mode.lower()[0]}$ ($d_0/t_0$)", title=f"phase speed, {mode}")
@@ -225,6 +223,6 @@ def plot_speeds_attenuation(fits: dict, stem: str) -> list[str]:
         log_ticks(axes[1, col].xaxis)
         log_ticks(axes[1, col].yaxis)
         for ax in axes[:, col]:
-            legend(ax, fontsize=5, ncol=2)
+            legend(ax, ncol=2)
     fig.tight_layout()
     return save(fig, stem)

@@ -35,11 +35,13 @@ def test_mode_shapes_scene_writes_reads_resumes_and_draws(comm, shared_tmp):
     unit = again["units"]["modes/r00_p0000"][0]
     assert_close(unit["displacement"], group.displacement, rtol=0.0, what="resumed unit = file")
     if COMM.rank == 0:
+        from figures import assert_figures
         from solver import plots
 
         written = plots.plot_results(scene.output)
-        pictures = [w for w in written if "_mode_" in os.path.basename(w) and w.endswith(".png")]
-        assert len(pictures) == 4 and all(os.path.getsize(w) > 10_000 for w in pictures), written
+        figures = plots.draw_results(scene.output)
+        assert sum("_mode_" in os.path.basename(stem) for stem in figures) == 4, sorted(figures)
+        assert_figures(figures, written)
 
 
 def test_mode_shapes_of_spheres_draw_their_section(comm, shared_tmp):
@@ -52,11 +54,15 @@ def test_mode_shapes_of_spheres_draw_their_section(comm, shared_tmp):
     if COMM.rank == 0:
         from solver import plots
 
+        from figures import assert_figures
+
         written = plots.plot_results(scene.output)
-        assert any("_mode_rho0.5_p0_0.png" in w for w in written), written
+        figures = plots.draw_results(scene.output)
+        assert any(stem.endswith("_mode_rho0.5_p0_0") for stem in figures), sorted(figures)
+        assert_figures(figures, written)
 
 
-def test_localised_modes_are_the_extremes_of_the_participation(comm, shared_tmp, monkeypatch):
+def test_localised_modes_are_the_extremes_of_the_participation(comm, shared_tmp):
     cache = str(shared_tmp / "cache")
     scene = scene_of(shared_tmp / "localised.h5", cache=cache, seed=7, packing={"n": 64, "phi": 0.9},
                      model={"rho": [0.5]}, spectrum={"energies": True}, modes={"localised": 2, "omega": [1.0]})
@@ -71,14 +77,14 @@ def test_localised_modes_are_the_extremes_of_the_participation(comm, shared_tmp,
     assert_close(group.participation[1:], participation[picked], rtol=1e-8, what="their participation")
     assert_close(group.target[1:], omega[picked], rtol=0.0, what="each found at its own omega")
     if COMM.rank == 0:  # the pictures (a colour bar beside each) and the log P axis readable
-        from figures import assert_readable, capture
+        from figures import assert_figures
         from solver import plots
 
-        figures = capture(monkeypatch)
         written = plots.plot_results(scene.output)
-        assert str(shared_tmp / "localised_participation.png") in written, written
-        assert sum("_mode_" in name for name in figures) == 5, sorted(figures)
-        assert_readable(figures)
+        figures = plots.draw_results(scene.output)
+        assert str(shared_tmp / "localised_participation") in figures, sorted(figures)
+        assert sum("_mode_" in os.path.basename(stem) for stem in figures) == 5, sorted(figures)
+        assert_figures(figures, written)
     # the spectrum from the cache, new modes: the modes unit takes the spectrum's datasets from the store
     again = scene_of(shared_tmp / "again.h5", cache=cache, seed=7, packing={"n": 64, "phi": 0.9},
                      model={"rho": [0.5]}, spectrum={"energies": True}, modes={"localised": 1})

@@ -2,8 +2,6 @@
 makes with the bridges, its units resumed, its results file read back by packing.file (the same
 counts), by the notebook API (the bridges), by the plots, the export and scripts/tools/wet_findings.py."""
 
-import os
-
 import numpy as np
 from conftest import COMM, assert_all, assert_close, scene_of
 
@@ -47,5 +45,8 @@ def test_wet_scene_runs_resumes_and_reads_back(comm, shared_tmp):
         row = wet_findings.scene(str(scene.output))
         assert row["wet"] and row["bridges"] == made.info["n_bridges"] and row["phi"] == made.phi, row
         assert "| wet |" in wet_findings.table([row]).replace(row["name"], "wet")
-        drawn = wet_findings.figures([row], str(shared_tmp))
-        assert len(drawn) == 3 and all(os.path.getsize(path) > 10_000 for path in drawn), drawn
+        from figures import assert_figures
+
+        written = wet_findings.figures([row], str(shared_tmp))
+        assert_figures({str(shared_tmp / name): fig for name, fig in wet_findings.draw([row]).items()}, written)
+        assert len(written) == 3, written

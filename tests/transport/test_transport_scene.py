@@ -6,7 +6,6 @@ configurations; a rerun loads the units, a new eta recomputes only them, the not
 and 2 ranks."""
 
 import dataclasses
-import os
 import pathlib
 
 import numpy as np
@@ -62,11 +61,13 @@ def test_diffusivity_scene_is_the_definition_pooled_on_the_vdos_bins(comm, share
     assert_close(redone.d, _dense(jammed_packing(64, 0.9, 7), ContactModel(0.5), comm, 2 * ETA)[1], rtol=1e-8,
                  atol=1e-12 * d.max(), what="a new eta recomputes the unit")
     if COMM.rank == 0:
+        from figures import assert_figures
         from solver import plots
 
         written = plots.plot_results(scene.output)
-        picture = str(shared_tmp / "transport_diffusivity.png")
-        assert picture in written and os.path.getsize(picture) > 10_000, written
+        figures = plots.draw_results(scene.output)
+        assert str(shared_tmp / "transport_diffusivity") in figures, sorted(figures)
+        assert_figures(figures, written)
 
 
 def _scratch_scene(shared_tmp, name: str):
@@ -165,6 +166,9 @@ def test_kpm_scene_pools_its_configurations_within_their_errors(comm, shared_tmp
     if COMM.rank == 0:  # rotsound plot reads a kpm file too (no per-mode d: the binned one with its errors)
         from solver import plots
 
+        from figures import assert_figures
+
         written = plots.plot_results(scene.output)
-        picture = str(shared_tmp / "kpm_diffusivity.png")
-        assert picture in written and os.path.getsize(picture) > 10_000, written
+        figures = plots.draw_results(scene.output)
+        assert str(shared_tmp / "kpm_diffusivity") in figures, sorted(figures)
+        assert_figures(figures, written)

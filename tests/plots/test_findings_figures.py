@@ -1,0 +1,62 @@
+"""The figure checks (tests/figures.py) on the docs figures of scripts/tools/finite_amplitude_findings.py,
+drawn from made-up sweeps standing in for configs/finite_amplitude.yaml's results (hours of LAMMPS
+runs, not on a test machine): symbols in mathtext ($\\mu$, not mu), legends of 7 pt, each marker
+explained in its own panel, no mark for a crossover never reached.  Serial."""
+
+import numpy as np
+import pytest
+from figures import assert_figures
+
+from scripts.tools import finite_amplitude_findings as findings
+from solver.io import results
+from solver.plots import common
+
+pytestmark = pytest.mark.serial_only
+
+
+def _case(mu: float, pressure: float, shift: float, stored: bool = False) -> dict:
+    amplitude = np.geomspace(1e-5, 3e-2, 8)
+    k = np.array([0.1, 0.2])
+    departure = shift * (amplitude[:, None] / 1e-3) ** np.array([1.0, 1.2])
+    omega, gamma = k * (1 - 0.5 * departure / (1 + departure)), 1e-3 * (1 + departure)
+    zeros = np.zeros_like(omega)
+    counts = np.round(300 * departure / (1 + departure))
+    sweep = results.Sweep(amplitude, k, omega, gamma, 1e-6 + zeros, 1e-7 + zeros, counts, counts / 3, zeros, zeros,
+                          zeros, zeros)
+    label = rf"2D, $\mu$ = {mu:g}, $p$ = {pressure:.1e}" + (", LAMMPS (stored $f_t$)" if stored else "")
+    predicted = {"first opens (affine)": 3e-6 * mu, "first slides (affine)": 1e-6 * mu, "A* predicted (affine)": 3e-4 * mu}
+    return {"label": label, "mu": mu, "dim": 2, "stored": stored, "pressure": pressure, "contacts": 600,
+            "sweeps": {"L": sweep, "TR": sweep}, "linear": None, "predicted": {"L": predicted, "TR": predicted}}
+
+
+def test_finite_amplitude_figures_pass_the_checks(tmp_path):
+    cases = [_case(0.1, 8e-3, 0.3), _case(0.3, 8e-3, 0.1), _case(1.0, 8e-3, 0.03), _case(0.3, 3e-2, 0.02),
+             _case(0.3, 8e-3, 1e-4, stored=True)]
+    with common.kept() as figures:
+        findings.figures(cases, str(tmp_path))
+    assert {name.rsplit("/", 1)[-1] for name in figures} == {f"finite_amplitude_{n}" for n in
+                                                             ("softening", "loss", "contacts", "crossover")}
+    crossover = figures[str(tmp_path / "finite_amplitude_crossover")]
+    for ax in crossover.axes:
+        named = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert all(what in named for _, what in findings.MARKERS), named
+    assert_figures(figures)
+
+
+def test_diffusivity_spheres_figure_passes_the_checks():
+    """scripts/tools/diffusivity_findings.py's spheres figure on six made-up d(omega) (the title
+    used to run off the left of its panel)."""
+    from scripts.tools import diffusivity_findings
+
+    edges = np.geomspace(0.02, 3.0, 40)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    rows = []
+    for i, dz in enumerate((0.64, 0.85, 0.91, 1.54, 2.34, 3.56)):
+        binned = 0.2 + 0.01 * dz / centres**2
+        nan = np.full(binned.size, np.nan)
+        g = results.Diffusivity("exact", centres, binned, edges, binned, nan, nan, np.ones(binned.size), 0.02, 1)
+        rows.append({"dim": 3, "rho": 0.0, "dz": dz, "pressure": 3e-3 * (1 + i), "N": 1005 + 3 * i, "g": g,
+                     "omega_star": 0.12 + 0.01 * i})
+    figures = diffusivity_findings.draw(rows, None)
+    assert list(figures) == ["diffusivity_spheres"]
+    assert_figures(figures)
