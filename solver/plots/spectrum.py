@@ -23,7 +23,9 @@ def plot_vdos(vdos: dict, stem: str, damped: bool = False) -> list[str]:
     """Fig. 1: g(omega) for every rho of ``vdos`` ({rho: results.Vdos}), rho = 0 dotted, omega_c
     marked by an arrow down to just above the axis (the axis reaching past every omega_c); empty
     bins left blank, not drawn as g = 0 (a bin between two empty ones as a dot); ``damped``: the file's vDOS is that of the damped
-    frequencies omega_d (spectrum.method pep), and the title and axes say so."""
+    frequencies omega_d (spectrum.method pep), and the title and axes say so.  A rho whose
+    spectrum holds no modes (an empty ``spectrum.window``: omega_c NaN) is left out."""
+    vdos = {rho: v for rho, v in vdos.items() if np.isfinite(v.omega_c)}
     if not vdos:
         return []
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -82,7 +84,8 @@ def plot_participation(per_mode: dict[float, tuple[np.ndarray, np.ndarray]], kep
     """Participation ratio P of every mode against omega (``results.participation``), one colour
     per rho, with its mean per ``bin_width`` bin as a line; the modes kept whole (``kept``,
     ``results.mode_shapes``) circled.  Log P axis: 1 for a mode spread evenly over every particle,
-    ~1/N on one particle."""
+    ~1/N on one particle.  A rho with no modes (an empty ``spectrum.window``) is left out."""
+    per_mode = {rho: values for rho, values in per_mode.items() if values[0].size}
     if not per_mode:
         return []
     fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")

@@ -1,7 +1,8 @@
 """A spectrum window that holds no modes (issue 58 point 4: 32 disks, ``window: [20, 21]``, above
 their largest omega) through the pipeline, on 1 and 2 ranks: the unit is stored with an empty
-``omega`` and resumed, the log says so in one line, and nothing raises or warns (warnings are
-errors under pytest)."""
+``omega`` and resumed, the log says so in one line, ``rotsound plot`` draws the file (the
+figures that have something to show, checked), and nothing raises or warns (warnings are errors
+under pytest)."""
 
 import pytest
 from conftest import COMM, assert_all, scene_of
@@ -24,3 +25,9 @@ def test_a_window_without_modes_is_a_stored_unit_said_in_one_line(shared_tmp, ca
             if how == "computed":
                 lines = [line for line in said if line.startswith("spectrum rho = 0.5")]
                 assert len(lines) == 1 and "no modes in the window omega in [20, 21]" in lines[0], said
+    if COMM.rank == 0:
+        from figures import assert_figures
+        from solver import plots
+
+        written = plots.plot_results(scene.output)  # plot_participation took omega.max() of no modes
+        assert_figures(plots.draw_results(scene.output), written)
