@@ -1,7 +1,7 @@
 """Figures of an amplitude sweep (``waves.engine: lammps`` with a list of amplitudes; issue 46,
 docs/finite_amplitude.md): how far omega(k) and gamma(k) move from their values at the sweep's
 smallest amplitude as A grows, the loss Q^-1 = 2 gamma / omega, and the contacts that slide and
-open, with the crossover measured (``analysis.thresholds.crossover``) and the thresholds
+open, with the crossover measured (``results.crossover``) and the thresholds
 predicted from the packing (``thresholds.affine_amplitudes``, ``predicted_crossover``).
 
 Never imports petsc4py or mpi4py.  Not collective.  Units: A in d0/t0, omega and gamma in 1/t0.
@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..analysis import thresholds
+from ..io import results
 from ..waves import excitation
 from .common import legend, log_ticks, plt, rho_label, save, series_colour
 
@@ -42,15 +43,14 @@ def plot_sweeps(sweeps: dict, stem: str, contacts: int | None = None, predicted:
         fig, axes = plt.subplots(1, 3, figsize=(15, 5), sharex=True)
         a = sweep.amplitude
         colors = [series_colour(kk, sweep.k.size) for kk in range(sweep.k.size)]
-        starred = False
+        starred, stars = False, results.crossover(sweep)
         for kk, (k, color) in enumerate(zip(sweep.k, colors)):
-            for value, error, style, name in ((sweep.omega, sweep.omega_err, "o-", r"\omega"),
-                                              (sweep.gamma, sweep.gamma_err, "s--", r"\gamma")):
+            for value, star, style, name in ((sweep.omega, stars.omega[kk], "o-", r"\omega"),
+                                             (sweep.gamma, stars.gamma[kk], "s--", r"\gamma")):
                 departure = np.abs(value[:, kk] / value[0, kk] - 1.0)
                 shown = departure > 0
                 axes[0].loglog(a[shown], departure[shown], style, ms=3, lw=0.8, color=color,
                                label=rf"${name}$, $k d_0$ = {k:.3f}")
-                star = thresholds.crossover(a, value[:, kk:kk + 1], error[:, kk:kk + 1])[0]
                 if np.isfinite(star) and star > 0:
                     axes[0].plot([star], [0.01], "*", ms=9, color=color, mec="k", mew=0.4,
                                  label=None if starred else r"measured $A^*$ (1 % and 2$\sigma$ out)")
