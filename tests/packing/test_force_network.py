@@ -5,18 +5,18 @@ the stressed packing, its line widths on the scale of the drawn particles; and e
 frictional results file readable and drawn without a warning.  Serial: figures and file reading."""
 
 import logging
-import os
 
 import numpy as np
 import pytest
 from conftest import COMM, REPO, all_pairs, jammed_packing, scene_of
-from figures import assert_readable, capture
+from figures import assert_figures, assert_readable, capture
 from matplotlib.collections import LineCollection
 
 from solver import pipeline, plots
 from solver.io import hdf5
 from solver.packing import geometry
 from solver.packing.mechanics import force_magnitudes
+from solver.plots import common
 from solver.plots.packing import SHARE, plot_force_network
 
 pytestmark = pytest.mark.serial_only
@@ -48,8 +48,10 @@ def test_tangential_forces_are_the_contact_files(tmp_path):
     np.testing.assert_allclose(np.sort(f_t[f_t > 0]), np.sort(magnitudes[magnitudes > 0]), rtol=1e-12, atol=0)
     reference = geometry.find_contacts(p.positions, p.diameters, p.box, active)
     np.testing.assert_allclose(f_n, reference.overlap, rtol=1e-12, atol=0)  # harmonic, kn = 1
-    written = plot_force_network(p, str(tmp_path / "stressed"))
-    assert written and all(os.path.getsize(w) > 10_000 for w in written), written
+    with common.kept() as figures:  # the figure the files would hold, checked, then written and read back
+        plot_force_network(p, str(tmp_path / "stressed"))
+    written = [path for stem, fig in figures.items() for path in common.save(fig, stem)]
+    assert_figures(figures, written)
 
 
 def test_plot_results_draws_the_force_network(tmp_path):
