@@ -4,10 +4,10 @@ benchmarks (benchmarks/) hold rotsound's solvers against, in one place.
 Each is computed densely from the gathered matrix (scipy.linalg's ``eigh`` of
 A = M^-1/2 D M^-1/2, scipy.sparse.linalg's ``expm`` of the first-order matrix), so a few
 thousand DOF at most (N^2 memory, N^3 time), and independently of the solvers it checks: this
-module imports the matrix (``model``) and nothing of ``spectrum`` or ``waves`` (its layer in tests/run/test_imports.py sits
-right above ``model``).  Arrays are over the non-rattlers in the packing's order
-(``dynmat.in_packing_order``) unless a function says otherwise.  The functions that gather are
-collective and give the same result on every rank.
+module imports the matrix (``model``) and nothing of ``spectrum`` or ``waves`` (its layer in
+tests/run/test_imports.py sits right above ``model``).  Arrays are over the non-rattlers in the
+packing's order (``dynmat.in_packing_order``) unless a function says otherwise.  The functions
+that gather are collective and give the same result on every rank.
 
 - :func:`dense_eigen`: the full eigendecomposition of A; :func:`dense_eigenvalues`, its eigenvalues
   alone;
