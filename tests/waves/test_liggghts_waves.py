@@ -29,11 +29,13 @@ import numpy as np
 import pytest
 from conftest import REPO, assert_close
 
+from scripts.crosschecks.harness import pooled_c
 from solver.contact_law import Cohesion, ContactModel
 from solver.io import hdf5
 from solver.model import dynmat
+from solver.packing import mechanics
 from solver.references import first_order_flow
-from solver.waves import correlations, excitation
+from solver.waves import excitation
 
 # dense exp(tJ) of 1500 DOF, the same on every rank: one rank is enough
 pytestmark = pytest.mark.serial_only
@@ -76,10 +78,11 @@ def misses(p, model, run, frames, amplitude, comm) -> tuple[float, float, float]
         exact = first_order_flow(dm, start, SAMPLE / t0, len(frames))[:, 1]
     finally:
         dm.destroy()
-    lig = frames[:, ~p.rattler, :exact.shape[-1]] * t0  # rotsound's units
+    assert frames.shape[-1] == exact.shape[-1], f"{frames.shape[-1]} columns for {exact.shape[-1]} DOF"
+    lig = frames[:, ~p.rattler] * t0  # rotsound's units
 
     def pooled(v):
-        return correlations.pooled((v[:, :, component] @ np.exp(-1j * k * x[:, axis]))[None, None, :], SAMPLE)[0][0]
+        return pooled_c([v[:, :, component] @ np.exp(-1j * k * x[:, axis])], SAMPLE)
 
     scale = amplitude * t0
     return (float(np.abs(lig[0] - start).max() / scale), float(np.abs(lig - exact).max() / scale),
@@ -88,8 +91,6 @@ def misses(p, model, run, frames, amplitude, comm) -> tuple[float, float, float]
 
 def wave(stem: str, suffix: str, cohesion, friction, columns: int):
     """(packing, LIGGGHTS's frames) of one committed wave, checked for its shape, rattlers and rest."""
-    from solver.packing import mechanics
-
     p = read(stem, cohesion, friction)
     assert p.info["length_unit"] == pytest.approx(1.0, rel=1e-15), "d0 = 1 in LIGGGHTS's units"
     net, torque = mechanics.net_load(p)
@@ -98,6 +99,15 @@ def wave(stem: str, suffix: str, cohesion, friction, columns: int):
     assert frames.shape == (FRAMES, p.n, columns)
     assert not frames[0, p.rattler].any(), "LIGGGHTS's start moves a rattler"
     return p, frames
+
+
+def assert_refereed(errors) -> None:
+    """``misses``' (start, trajectory, C) of the right matrix: LIGGGHTS's start is rotsound's to its
+    dump's 10 digits, its wave rotsound's to 1e-5 of the amplitude, C(k, t) to 1e-6."""
+    start, trajectory, c = errors
+    assert_close(start, 0.0, rtol=0.0, atol=1e-8, what="LIGGGHTS's start against rotsound's (10 digits)")
+    assert_close(trajectory, 0.0, rtol=0.0, atol=1e-5, what="trajectory / amplitude")
+    assert_close(c, 0.0, rtol=0.0, atol=1e-6, what="C(k, t)")
 
 
 def test_liggghts_rt_wave_about_its_frictional_packing(comm):
@@ -110,10 +120,7 @@ def test_liggghts_rt_wave_about_its_frictional_packing(comm):
     p, frames = wave("liggghts_3d_friction", "rt", None, 0.5, 6)
     assert p.rattler.sum() == 3 and p.info["n_stored"] == 382
     run = (5, 0)  # omega_z, k || x
-    start, trajectory, c = misses(p, ContactModel(KT, lever="contact"), run, frames, RT_AMPLITUDE, comm)
-    assert_close(start, 0.0, rtol=0.0, atol=1e-8, what="LIGGGHTS's start against rotsound's (10 digits)")
-    assert_close(trajectory, 0.0, rtol=0.0, atol=1e-5, what="trajectory / amplitude")
-    assert_close(c, 0.0, rtol=0.0, atol=1e-6, what="C(k, t)")
+    assert_refereed(misses(p, ContactModel(KT, lever="contact"), run, frames, RT_AMPLITUDE, comm))
     for model in (ContactModel(KT), ContactModel(KT, lever="contact", stored_forces="drop")):
         _, wrong, wrong_c = misses(p, model, run, frames, RT_AMPLITUDE, comm)
         assert wrong > 1e-2 and wrong_c > 1e-3, (model, wrong, wrong_c)
@@ -130,13 +137,12 @@ def test_liggghts_l_wave_about_its_wet_packing(comm):
     p, frames = wave("liggghts_3d_wet", "l", WET, None, 3)
     assert len(p.bridges) == 24 and not p.rattler.any()
     run = (0, 0)  # v_x, k || x
-    start, trajectory, c = misses(p, ContactModel(lever="contact", cohesion=WET), run, frames, L_AMPLITUDE, comm)
-    assert_close(start, 0.0, rtol=0.0, atol=1e-8, what="LIGGGHTS's start against rotsound's (10 digits)")
-    assert_close(trajectory, 0.0, rtol=0.0, atol=1e-5, what="trajectory / amplitude")
-    assert_close(c, 0.0, rtol=0.0, atol=1e-6, what="C(k, t)")
+    assert_refereed(misses(p, ContactModel(lever="contact", cohesion=WET), run, frames, L_AMPLITUDE, comm))
     dry = dataclasses.replace(p, model=ContactModel(lever="contact"), bridges=None)
-    _, wrong, wrong_c = misses(dry, ContactModel(lever="contact"), run, frames, L_AMPLITUDE, comm)
-    assert wrong > 1e-2 and wrong_c > 1e-3, (wrong, wrong_c)
+    touching = dataclasses.replace(p, bridges=None)  # the pull on contacts kept, the bridges apart dropped
+    for packing in (dry, touching):
+        _, wrong, wrong_c = misses(packing, packing.model, run, frames, L_AMPLITUDE, comm)
+        assert wrong > 1e-2 and wrong_c > 1e-3, (packing.model, wrong, wrong_c)
 
 
 def test_liggghts_rt_wave_about_its_wet_frictional_packing(comm):
@@ -149,10 +155,7 @@ def test_liggghts_rt_wave_about_its_wet_frictional_packing(comm):
     p, frames = wave("liggghts_3d_wet_friction", "rt", WET, 0.5, 6)
     assert not p.rattler.any()
     run = (5, 0)  # omega_z, k || x
-    start, trajectory, c = misses(p, ContactModel(KT, lever="contact", cohesion=WET), run, frames, RT_AMPLITUDE, comm)
-    assert_close(start, 0.0, rtol=0.0, atol=1e-8, what="LIGGGHTS's start against rotsound's (10 digits)")
-    assert_close(trajectory, 0.0, rtol=0.0, atol=1e-5, what="trajectory / amplitude")
-    assert_close(c, 0.0, rtol=0.0, atol=1e-6, what="C(k, t)")
+    assert_refereed(misses(p, ContactModel(KT, lever="contact", cohesion=WET), run, frames, RT_AMPLITUDE, comm))
     dry = dataclasses.replace(p, model=ContactModel(lever="contact"), bridges=None)
     for packing, model in ((dry, ContactModel(KT, lever="contact")), (p, ContactModel(KT, cohesion=WET))):
         _, wrong, wrong_c = misses(packing, model, run, frames, RT_AMPLITUDE, comm)
