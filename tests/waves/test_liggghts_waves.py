@@ -116,7 +116,9 @@ def test_liggghts_rt_wave_about_its_frictional_packing(comm):
     and its velocities and angular velocities follow exp(tJ) of rotsound's stressed matrix with
     LIGGGHTS's lever R - xi/2 to 7.0e-7 of the amplitude over t = 20 (about ten periods), C(k, t)
     to 6.5e-8.  With the lever R the trajectory misses by 1.2 (C by 0.19), without the stored
-    forces by 9.6e-2 (C by 6.8e-3); with kt 10 % high or low (not run here) C misses by 0.28, 0.29."""
+    forces by 9.6e-2 (C by 6.8e-3); with kt 10 % high or low (not run here) C misses by 0.28, 0.29.
+    The same wave at dt = 2e-4 (not committed): 9.6e-7 and C 1.3e-7, so C's difference is
+    LIGGGHTS's time-step error, first order in dt."""
     p, frames = wave("liggghts_3d_friction", "rt", None, 0.5, 6)
     assert p.rattler.sum() == 3 and p.info["n_stored"] == 382
     run = (5, 0)  # omega_z, k || x
