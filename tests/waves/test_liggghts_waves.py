@@ -155,7 +155,7 @@ def test_liggghts_rt_wave_about_its_wet_frictional_packing(comm):
     by 0.21 (C by 1.7e-2), the lever R by 2.0 (C by 0.29); with kt 10 % high (not run here) C
     misses by 0.26."""
     p, frames = wave("liggghts_3d_wet_friction", "rt", WET, 0.5, 6)
-    assert not p.rattler.any()
+    assert not p.rattler.any() and p.info["n_contacts"] == 418 and len(p.bridges) == 4, p.info
     run = (5, 0)  # omega_z, k || x
     assert_refereed(misses(p, ContactModel(KT, lever="contact", cohesion=WET), run, frames, RT_AMPLITUDE, comm))
     dry = dataclasses.replace(p, model=ContactModel(lever="contact"), bridges=None)
