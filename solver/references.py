@@ -1,13 +1,13 @@
 """Dense references: the exact answers that the tests, the cross-checks (crosschecks/) and the
 benchmarks (benchmarks/) hold rotsound's solvers against, in one place.
 
-Each is computed densely from the gathered matrix (scipy.linalg: ``eigh`` of
-A = M^-1/2 D M^-1/2, ``expm`` of the first-order matrix), so a few thousand DOF at most (N^2
-memory, N^3 time), and independently of the solvers it checks: this module imports the matrix
-(``model``) and nothing of ``spectrum`` or ``waves`` (its layer in tests/run/test_imports.py sits
-right above ``model``).  Arrays are over the non-rattlers in the packing's order
-(``dynmat.in_packing_order``) unless a function says otherwise.  The functions that gather are
-collective and give the same result on every rank.
+Each is computed densely from the gathered matrix (scipy.linalg's ``eigh`` of
+A = M^-1/2 D M^-1/2, scipy.sparse.linalg's ``expm`` of the first-order matrix), so a few
+thousand DOF at most (N^2 memory, N^3 time), and independently of the solvers it checks: this
+module imports the matrix (``model``) and nothing of ``spectrum`` or ``waves`` (its layer in
+tests/run/test_imports.py sits right above ``model``).  Arrays are over the non-rattlers in the
+packing's order (``dynmat.in_packing_order``) unless a function says otherwise.  The functions
+that gather are collective and give the same result on every rank.
 
 - :func:`dense_eigen`: the full eigendecomposition of A; :func:`dense_eigenvalues`, its eigenvalues
   alone;
@@ -127,7 +127,11 @@ def first_order_flow(dm, start: np.ndarray, sample: float, count: int, offset: f
     "packing", as ``excitation.whole_start`` gives it) or in the matrix's (``order`` "matrix",
     as the gathered Vec of a solver's start is); the result is in the same order.  Collective
     (gathers D, C and M)."""
-    import scipy.linalg as sl
+    # scipy.sparse.linalg's expm (Al-Mohy and Higham's algorithm, in Python; it takes a dense array),
+    # not scipy.linalg.expm: Debian 12's scipy 1.10.1 reads uninitialised memory in the latter for
+    # matrices of 400 rows or more (Pade order 9; scipy issue 18086, fixed in 1.13), so that one J
+    # gave another exp(tJ) call after call (tests/waves/test_liggghts_waves.py).
+    import scipy.sparse.linalg as spl
 
     if order not in ("packing", "matrix"):
         raise ValueError(f"order {order!r}: packing or matrix")
@@ -143,10 +147,10 @@ def first_order_flow(dm, start: np.ndarray, sample: float, count: int, offset: f
     j[size:, :size] = -d / m[:, None]
     if dm.C is not None:
         j[size:, size:] = -ordered(dynmat.gather_csr(dm.C).toarray()) / m[:, None]
-    step = sl.expm(sample * j)
+    step = spl.expm(sample * j)
     x = np.concatenate((np.zeros(size), np.ravel(start)))
     if offset:
-        x = sl.expm(offset * j) @ x
+        x = spl.expm(offset * j) @ x
     out = []
     for _ in range(count):
         out.append(x.reshape(2, -1, dm.dof))

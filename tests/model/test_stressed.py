@@ -469,10 +469,10 @@ def test_assembled_yade_matrix_is_yades_own_one_step_response(comm):
 def test_assembled_liggghts_matrix_is_liggghts_own_one_step_response(comm):
     """LIGGGHTS's forces and torques one step after moving every particle of its packing
     (tests/data/dem/liggghts_3d_friction.response, made by LIGGGHTS 3.8.0 itself; translations
-    only: its `set` cannot set angular velocities) are -D x for D under LAMMPS's history with the
-    lever R - xi/2, read from its files, to the moves' second order (measured 3.5e-8 of the largest
-    force, 1.4e-7 of the largest torque); with the lever R the torques miss by 5e-2, without the
-    stored forces D misses by 5e-3."""
+    only: its RT wave, tests/waves/test_liggghts_waves.py, referees the rotations) are -D x for D
+    under LAMMPS's history with the lever R - xi/2, read from its files, to the moves' second
+    order (measured 3.5e-8 of the largest force, 1.4e-7 of the largest torque); with the lever R
+    the torques miss by 5e-2, without the stored forces D misses by 5e-3."""
     import re
 
     from conftest import REPO
