@@ -38,7 +38,7 @@ def test_estimator_within_its_error_of_its_exact_target(comm, case):
     2 cannot pass; (ii) the bins' relative misses d / d_exact - 1, averaged with weights
     (d / d_err)^2, are within 4 standard errors of that mean, (sum of the weights)^-1/2 = 1-2 %
     (the bins' errors are nearly independent: over seeds 1-24 the mean's spread was 0.98 (2D) and
-    0.89 (3D) of it), so a d off by a common factor 1.2 fails by some 10 of them.  The sparse top
+    0.89 (3D) of it), so a d off by a common factor 1.2 fails by 13-18 of them (1.1: 6-10).  The sparse top
     bins (4-7 modes) have 7-17 % errors and count little in (ii)."""
     name, p, dm = case
     edges = _edges(dm)
