@@ -84,28 +84,36 @@ def shared_tmp(tmp_path):
     return pathlib.Path(COMM.bcast(str(tmp_path), root=0))
 
 
-def assert_close(actual, expected, rtol: float, atol: float = 0.0, what: str = "") -> None:
+def assert_close(actual, expected, rtol: float, atol: float = 0.0, what: str = "", equal_nan: bool = False) -> None:
     """Assert |actual - expected| <= atol + rtol |expected| elementwise, on every rank.
 
     Scale-aware: ``atol`` is 0 unless the caller passes one (with its reason written beside the
     call), so a tolerance never silently widens the way ``np.allclose``'s default atol = 1e-8
-    does on quantities of order 1e-5.  ``atol`` may be an array (a bound per element).  NaN
-    equals NaN only where both are NaN.
+    does on quantities of order 1e-5.  ``atol`` may be an array (a bound per element).  A NaN on
+    either side fails, unless the caller passes ``equal_nan=True`` (with the reason NaN is expected
+    written beside the call): then NaN equals NaN where both are NaN, and only there.
     """
     actual, expected = np.asarray(actual), np.asarray(expected)
     ok = actual.shape == expected.shape
-    worst = np.inf
+    worst, nans = np.inf, 0
     if ok:
-        both_nan = np.isnan(actual) & np.isnan(expected) if np.issubdtype(actual.dtype, np.floating) else False
+        both_nan = _isnan(actual) & _isnan(expected) if equal_nan else np.zeros(actual.shape, dtype=bool)
         err = np.abs(actual - expected)
         bound = atol + rtol * np.abs(expected)
         bad = ~(err <= bound) & ~both_nan
         ok = not np.any(bad)
+        nan = np.isnan(err) & ~both_nan
+        nans = int(np.count_nonzero(nan))
         ratio = np.where(bound > 0, err / np.where(bound > 0, bound, 1.0), np.where(err > 0, np.inf, 0.0))
-        worst = float(np.max(np.where(both_nan, 0.0, ratio))) if err.size else 0.0
+        worst = float(np.max(np.where(both_nan | nan, 0.0, ratio))) if err.size else 0.0
     atol_text = f"{np.max(atol):g} (largest of per-element values)" if np.ndim(atol) else f"{atol:g}"
-    assert_all(ok, f"{what}: shapes {actual.shape} vs {expected.shape}, worst error / bound = {worst:.3g} "
-                   f"(rtol={rtol:g}, atol={atol_text})")
+    assert_all(ok, f"{what}: shapes {actual.shape} vs {expected.shape}, worst error / bound = {worst:.3g}, "
+                   f"{nans} NaN (equal_nan={equal_nan}) (rtol={rtol:g}, atol={atol_text})")
+
+
+def _isnan(values: np.ndarray) -> np.ndarray:
+    """Elementwise NaN of an array of any dtype (False for integers, booleans and strings)."""
+    return np.isnan(values) if np.issubdtype(values.dtype, np.inexact) else np.zeros(values.shape, dtype=bool)
 
 
 def central_hessian(energy, count: int, size: int, h: float) -> np.ndarray:

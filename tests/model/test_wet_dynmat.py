@@ -39,6 +39,16 @@ def spheres(seed=3):
     return jammed.from_arrays(positions, rng.uniform(0.97, 1.03, 32), 2 * lattice, rattler=np.zeros(32, dtype=bool))
 
 
+def dense_matrix(packing, model, comm) -> np.ndarray:
+    """D of ``packing`` under ``model``, dense, rows and columns in the packing's order; the PETSc
+    matrix destroyed before returning.  Collective on ``comm``."""
+    dm = dynmat.assemble(packing, model, comm)
+    try:
+        return dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
+    finally:
+        dm.destroy()
+
+
 def total_energy_hessian(packing, model, pairs, h=1e-5):
     """Dense Hessian (N dof x N dof) from central differences of every pair's energy
     (``contact_law.pair_energy`` under ``model``), pairs (P, 2), assembled by hand."""
@@ -73,13 +83,12 @@ def test_wet_matrix_is_the_hessian_of_contacts_and_bridges(comm, small_packing, 
     found = geometry.find_contacts(packing.positions, packing.diameters, packing.box)
     pairs = np.concatenate((np.stack((found.i, found.j), 1), listed))
     expected = total_energy_hessian(packing, model, pairs)
-    dm = dynmat.assemble(packing, model, comm)
-    dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
+    dense = dense_matrix(packing, model, comm)
     scale = np.abs(expected).max()
     # central differences of a smooth energy at h = 1e-5: truncation ~1e-10, round-off ~1e-16/h^2 ~ 1e-6
     assert_close(dense, expected, rtol=0, atol=1e-6 * scale, what=f"{dim}D wet D against central differences")
-    dry = dynmat.gather_csr(dynmat.assemble(packing, ContactModel(**springs), comm).D).toarray()
-    assert np.abs(dynmat.in_packing_order(dm, dry) - expected).max() > 1e-3 * scale, "the bridges change nothing"
+    dry = dense_matrix(packing, ContactModel(**springs), comm)
+    assert np.abs(dry - expected).max() > 1e-3 * scale, "the bridges change nothing"
 
 
 def test_bridges_are_checked_against_their_packing(small_packing):
@@ -138,8 +147,6 @@ def test_liggghts_wet_packing_is_at_rest_with_the_pull_and_its_response_is_minus
     errors = {}
     for name, model in (("wet", ContactModel(lever="contact", cohesion=LIGGGHTS_WET)),
                         ("dry", ContactModel(lever="contact"))):
-        dm = dynmat.assemble(p, model, comm)
-        dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
-        dm.destroy()
+        dense = dense_matrix(p, model, comm)
         errors[name] = np.abs(forces + (dense @ moves.ravel()).reshape(moves.shape)).max() / np.abs(forces).max()
     assert errors["wet"] < 1e-6 and errors["dry"] > 5e-3, errors

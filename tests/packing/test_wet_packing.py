@@ -61,8 +61,10 @@ def test_a_wet_packing_is_a_stable_minimum(comm, wet_2d):
     round-off (a wrong sign of the pull or of its stiffness gives some)."""
     for model in (ContactModel(cohesion=COHESION), ContactModel(rho=0.5, cohesion=COHESION)):
         dm = dynmat.assemble(wet_2d, model, comm)
-        dense = dynmat.gather_csr(dm.D).toarray()
-        values = np.linalg.eigvalsh(dense)
+        try:
+            values = np.linalg.eigvalsh(dynmat.gather_csr(dm.D).toarray())
+        finally:
+            dm.destroy()
         # the residual forces (<= 1e-6) and round-off allow -1e-9 of the largest
         assert values.min() > -1e-9 * values.max(), f"rho = {model.rho}: lowest eigenvalue {values.min():.3e}"
 
@@ -79,7 +81,11 @@ def test_bridges_hold_a_packing_below_dry_jamming(comm, dim, phi, gamma):
     p = jammed.generate(128, phi, seed, dim=dim, cohesion=cohesion)
     assert mechanics.jamming_failure(p) is None, mechanics.jamming_failure(p)
     mechanics.require_equilibrium(p, "wet")
-    values = np.linalg.eigvalsh(dynmat.gather_csr(dynmat.assemble(p, ContactModel(cohesion=cohesion), comm).D).toarray())
+    dm = dynmat.assemble(p, ContactModel(cohesion=cohesion), comm)
+    try:
+        values = np.linalg.eigvalsh(dynmat.gather_csr(dm.D).toarray())
+    finally:
+        dm.destroy()
     zero = np.abs(values) < 1e-9 * values.max()
     assert zero.sum() == dim and values.min() > -1e-9 * values.max(), f"lowest eigenvalues {values[:dim + 2]}"
 

@@ -33,22 +33,32 @@ def _edges(dm, bins: int = 6) -> np.ndarray:
 
 def test_estimator_within_its_error_of_its_exact_target(comm, case):
     """K = 60, R = 64: d, the bin totals and the counts each within 4 reported standard errors of
-    the exact Jackson-filtered values at the same K (all bins with 2 or more modes); the errors
-    themselves under 20 % of d (measured: 2-7 % in 2D), so that the comparison means something."""
+    the exact Jackson-filtered values at the same K (all bins with 2 or more modes).  Two checks
+    make that mean something: (i) the errors are under 6 % of d in every bin of 10 or more modes
+    (measured 1.6-5.3 % over seeds 1-3), so 4 of them stay under a quarter of d there and a factor
+    2 cannot pass; (ii) the bins' relative misses d / d_exact - 1, averaged with weights
+    (d / d_err)^2, are within 4 standard errors of that mean, (sum of the weights)^-1/2 = 1-2 %
+    (the bins' errors are nearly independent: over seeds 1-24 the mean's spread was 0.98 (2D) and
+    0.89 (3D) of it), so a d off by a common factor 1.2 fails by 13-18 of them (1.1: 6-10).  The sparse top
+    bins (4-7 modes) have 7-17 % errors and count little in (ii)."""
     name, p, dm = case
     edges = _edges(dm)
     datasets, attrs = kd.binned_diffusivity(dm, p.positions, p.box, edges, moments=60, probes=64, seed=1, comm=comm)
     ref = references.allen_feldman_binned_dense(dm, p.positions, p.box, edges, attrs["omega_max"] ** 2, moments=60)
     used = ref["count"] >= 2.0
     assert_all(used.sum() >= 4, f"{name}: only {used.sum()} populated bins")
-    assert_all(np.all(np.isfinite(datasets["d"][used])), f"{name}: d is NaN in a populated bin")
-    assert_close(datasets["d"][used], ref["d"][used], rtol=0.0, atol=SIGMAS * datasets["d_err"][used],
-                 what=f"{name}: d against its exact target")
+    d, d_err, exact = datasets["d"][used], datasets["d_err"][used], ref["d"][used]
+    assert_all(np.all(np.isfinite(d)), f"{name}: d is NaN in a populated bin")
+    assert_close(d, exact, rtol=0.0, atol=SIGMAS * d_err, what=f"{name}: d against its exact target")
     assert_close(datasets["total"], ref["total"], rtol=0.0, atol=SIGMAS * datasets["total_err"] + 1e-12,
                  what=f"{name}: bin totals")
     assert_close(datasets["count"], ref["count"], rtol=0.0, atol=SIGMAS * datasets["count_err"] + 1e-12,
                  what=f"{name}: counts")
-    assert_all(np.all(datasets["d_err"][used] < 0.2 * datasets["d"][used]), f"{name}: d_err {datasets['d_err']}")
+    full = ref["count"][used] >= 10.0
+    assert_all(full.sum() >= 3 and np.all(d_err[full] < 0.06 * d[full]), f"{name}: d_err / d {d_err / d}")
+    weight = (d / d_err) ** 2
+    mean, error = np.sum(weight * (d / exact - 1.0)) / weight.sum(), weight.sum() ** -0.5
+    assert_all(abs(mean) < SIGMAS * error, f"{name}: mean relative miss {mean:.4f}, its error {error:.4f}")
     assert_all(attrs["moments"] == 60 and attrs["probes"] == 64, f"{name}: attrs {attrs}")
 
 
@@ -61,7 +71,9 @@ def test_blocks_and_bin_passes_do_not_change_the_result(comm, case):
     other, _ = kd.binned_diffusivity(dm, p.positions, p.box, edges, moments=40, probes=6, seed=2, comm=comm,
                                      block=1, bins_per_pass=2, chunk=7)
     for key in ("count", "total", "d", "d_err"):
-        assert_close(other[key], one[key], rtol=1e-12, atol=1e-14 * np.nanmax(np.abs(one[key])), what=f"{name} {key}")
+        # equal_nan: d and d_err are NaN in a bin without modes (3D: the first), in both
+        assert_close(other[key], one[key], rtol=1e-12, atol=1e-14 * np.nanmax(np.abs(one[key])), what=f"{name} {key}",
+                     equal_nan=key in ("d", "d_err"))
 
 
 @pytest.mark.mpi
@@ -79,8 +91,9 @@ def test_two_ranks_equal_one(comm, case):
     finally:
         alone.destroy()
     for key in ("count", "total", "d", "d_err"):
+        # equal_nan: d and d_err are NaN in a bin without modes (3D: the first), in both
         assert_close(both[key], single[key], rtol=1e-10, atol=1e-13 * np.nanmax(np.abs(single[key])),
-                     what=f"{name} {key}, 2 ranks vs 1")
+                     what=f"{name} {key}, 2 ranks vs 1", equal_nan=key in ("d", "d_err"))
 
 
 def test_statistical_error_falls_as_one_over_sqrt_probes_without_bias(comm):

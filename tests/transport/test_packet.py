@@ -157,16 +157,26 @@ def test_spreading_conserves_energy_and_starts_at_rest(comm, case):
     """The band packet: energy 1 at every sample to 1e-10 (drift reported), zero rate at t = 0
     (the two phases start with q0 = 0 or pi0 = 0: no current), <dr^2>(0) the reported msd0 to
     1e-10, attrs consistent.  (r_c, the start's energy-weighted centre by the minimum image about
-    ``centre``, is not a fixed point in these 32-particle boxes, where the start fills the box.)"""
+    ``centre``, is not a fixed point in these 32-particle boxes, where the start fills the box.)
+    local_d is the rate of <dr^2> over 2D: its integral from 0 to t (Simpson, step h = 0.05 t0)
+    is (<dr^2>(t) - <dr^2>(0)) / 2D, to Simpson's error t h^4 max|f^(4)| / 180.  f = local_d is a
+    sum of oscillations at the sums and differences of two modes' frequencies, at most
+    2 omega_top, so |f^(4)| <= (2 omega_top)^4 max|f| (Bernstein's inequality; max|f| over the
+    samples, doubled for its maximum between and beyond them): 5e-4 to 1e-3 of the growth here
+    (measured error 3e-9 to 8e-9 of it)."""
     name, p, dm = case
-    times = np.linspace(0.0, 20.0, 41)
+    times = np.linspace(0.0, 20.0, 401)
     ds, at = packet.spreading(dm, p.positions, p.box, band=(1.0, 2.5), centre=0.5 * p.box, radius=1.5,
                               times=times, seed=11, comm=comm, tol=1e-12)
     assert_all(at["energy_drift"] < 1e-10, f"{name}: energy drift {at['energy_drift']:.3g}")
     assert_close(ds["energy"], np.ones(times.size), rtol=1e-10, what=f"{name}: energy")
     assert_all(abs(ds["msd_rate"][0]) < 1e-12 * ds["msd"][0], f"{name}: rate at 0 {ds['msd_rate'][0]:.3g}")
     assert_close(ds["msd"][0], at["msd0"], rtol=1e-10, what=f"{name}: msd0")
-    assert_close(ds["local_d"], ds["msd_rate"] / (2 * p.dim), rtol=1e-15, what=f"{name}: local d")
+    f, h = ds["local_d"], times[1] - times[0]
+    growth = 2 * p.dim * np.cumsum(h / 3 * (f[:-2:2] + 4 * f[1:-1:2] + f[2::2]))  # at times[2::2]
+    bound = times[2::2] * h**4 * (2 * math.sqrt(at["lam_top"])) ** 4 * 2 * p.dim * 2 * np.abs(f).max() / 180
+    assert_close(growth, ds["msd"][2::2] - ds["msd"][0], rtol=0.0, atol=bound + 1e-12 * ds["msd"].max(),
+                 what=f"{name}: integral of the local d")
     assert_all(at["terms"] > 0 and at["filter_terms"] > 0 and at["start_particles"] > 0, f"{name}: attrs {at}")
 
 
@@ -203,7 +213,10 @@ def test_bad_inputs(comm, case):
 
 @pytest.mark.mpi
 def test_two_ranks_equal_one(comm, case):
-    """The 2-rank packet equals each rank's own 1-rank packet (COMM_SELF) to 1e-10."""
+    """The 2-rank packet equals each rank's own 1-rank packet (COMM_SELF) to 1e-10.  These
+    32-particle boxes have no diffusive window (the start's <dr^2>, 2.5 and 2.3 d0^2, is already
+    past the window's end, 0.3 of the uniform spread: 1.4 and 0.7): d is NaN on both, as
+    documented; the fit is compared where it exists, below."""
     from conftest import PETSc
 
     name, p, dm = case
@@ -218,51 +231,87 @@ def test_two_ranks_equal_one(comm, case):
         assert_close(ds[key], ds1[key], rtol=1e-10, atol=1e-12, what=f"{name}: {key}, 2 ranks vs 1")
     assert_close(ds["msd_rate"], ds1["msd_rate"], rtol=1e-10, atol=1e-10 * np.abs(ds1["msd_rate"]).max(),
                  what=f"{name}: msd_rate, 2 ranks vs 1")
-    assert_close(at["d"], at1["d"], rtol=1e-10, what=f"{name}: d, 2 ranks vs 1")
+    assert_all(math.isnan(at["d"]) and math.isnan(at1["d"]), f"{name}: d {at['d']}, alone {at1['d']}: no window")
 
 
 # The physics: a 512-disk packing (L = 21.4 d0), rho = 0.5, the band 2 < omega < 3 of d's plateau
 N_PHYSICS, BAND, ETA = 512, (2.0, 3.0), 0.05
 CENTRES, PROBES, RADIUS = 4, 8, 3.0
+PHYSICS_TIMES = np.linspace(0.0, 60.0, 121)
 AGREEMENT = 0.15
 
 
-def test_packet_diffusivity_agrees_with_allen_feldman(comm):
-    """The packet's d (default window, 8 probes, averaged over 4 start regions) against route 1's
-    d_n (dense, eta = 0.05: about 1 / t in the fit window, 25 level spacings) weighted by each
-    start's modal energies E_n = 1/2 (omega_n^2 (e_n.q0)^2 + (e_n.pi0)^2): within AGREEMENT (15 %)
-    (measured +8 %): the spread over start regions (+-8 % at this size) and the local d's drift
-    through the window (+-5 %) set it (docs/diffusivity_packet.md, section 3)."""
+@pytest.fixture(scope="module")
+def plateau():
+    """The packet in the plateau, on the suite's communicator (1 or 2 ranks): the 512-disk
+    packing, each start region's ``spreading`` arguments (4 random centres, 8 probes), attrs and
+    modal energies E_n (dense eigenvectors of route 1's modes), and route 1's d_n (dense,
+    eta = ETA) with its omega_n.  Returned as arrays: the matrix is destroyed before any test runs."""
+    from conftest import PETSc
+
+    comm = PETSc.COMM_WORLD
     p = jammed_packing(N_PHYSICS, 0.9, 7)
     dm = dynmat.assemble(p, ContactModel(0.5), comm)
     try:
-        a, lam, vec = _dense(dm)
+        _, lam, vec = _dense(dm)
         omega_af, d_af = references.allen_feldman_dense(dm, p.positions, p.box, ETA)
         keep = lam > 1e-4**2  # the same modes as route 1 (omega > zero_tol)
         lam_top = (largest_omega(dm) * (1 + packet.MARGIN)) ** 2
         rng = np.random.default_rng(2045)
-        times = np.linspace(0.0, 60.0, 121)
-        ours, theirs = [], []
+        regions, attrs, energies = [], [], []
         for c in range(CENTRES):  # a handful of start regions
-            centre = rng.random(2) * p.box
-            ds, at = packet.spreading(dm, p.positions, p.box, band=BAND, centre=centre, radius=RADIUS, times=times,
-                                      seed=c, comm=comm, probes=PROBES)
+            region = dict(band=BAND, centre=rng.random(2) * p.box, radius=RADIUS, seed=c, probes=PROBES)
+            _, at = packet.spreading(dm, p.positions, p.box, times=PHYSICS_TIMES, comm=comm, **region)
             A = scaled_operator(dm)
             try:
-                starts, _, _ = packet.band_starts(A, dm, p.positions, p.box, band=BAND, centre=centre, radius=RADIUS,
-                                                  seed=c, probes=PROBES, lam_top=lam_top, comm=comm)
+                starts, _, _ = packet.band_starts(A, dm, p.positions, p.box, lam_top=lam_top, comm=comm, **region)
             finally:
                 A.destroy()
             energy = np.zeros(keep.sum())
             for (q0, _), (_, p0) in zip(starts[::2], starts[1::2]):
                 energy += 0.5 * (lam[keep] * (vec[:, keep].T @ _whole(q0)) ** 2 + (vec[:, keep].T @ _whole(p0)) ** 2)
-            # the series are exact: the modal energies add up to the packet's energy, 1
-            assert_close(energy.sum(), 1.0, rtol=1e-9, what="modal energies")
-            assert_close(np.sqrt(lam[keep]), omega_af, rtol=1e-12, what="route 1's modes")
-            ours.append(at["d"])
-            theirs.append(energy @ d_af)
-        ratio = np.mean(ours) / np.mean(theirs)
-        print(f"packet d {np.round(ours, 4)}, route 1 {np.round(theirs, 4)}, ratio of means {ratio:.3f}")
-        assert_all(abs(ratio - 1) < AGREEMENT, f"packet d {ours} vs route 1 {theirs}: ratio {ratio:.3f}")
+            regions.append(region)
+            attrs.append(at)
+            energies.append(energy)
     finally:
         dm.destroy()
+    return {"packing": p, "regions": regions, "attrs": attrs, "energies": np.array(energies),
+            "omega": np.sqrt(lam[keep]), "omega_af": omega_af, "d_af": d_af}
+
+
+def test_packet_diffusivity_agrees_with_allen_feldman(plateau):
+    """The packet's d (default window, 8 probes, averaged over 4 start regions) against route 1's
+    d_n (dense, eta = 0.05: about 1 / t in the fit window, 25 level spacings) weighted by each
+    start's modal energies E_n = 1/2 (omega_n^2 (e_n.q0)^2 + (e_n.pi0)^2): every region's fit
+    window holds its samples and its d is finite; the mean within AGREEMENT (15 %) (measured
+    +8 %): the spread over start regions (+-8 % at this size) and the local d's drift through the
+    window (+-5 %) set it (docs/diffusivity_packet.md, section 3)."""
+    # the series are exact: the modal energies add up to the packet's energy, 1
+    assert_close(plateau["energies"].sum(axis=1), np.ones(CENTRES), rtol=1e-9, what="modal energies")
+    assert_close(plateau["omega"], plateau["omega_af"], rtol=1e-12, what="route 1's modes")
+    ours = np.array([at["d"] for at in plateau["attrs"]])
+    windows = [at["window"] for at in plateau["attrs"]]
+    inside = [np.count_nonzero((PHYSICS_TIMES >= a) & (PHYSICS_TIMES <= b)) for a, b in windows]
+    assert_all(np.all(np.isfinite(ours)) and min(inside) >= 4, f"d {ours} in windows {windows}")
+    theirs = plateau["energies"] @ plateau["d_af"]
+    ratio = np.mean(ours) / np.mean(theirs)
+    print(f"packet d {np.round(ours, 4)}, route 1 {np.round(theirs, 4)}, ratio of means {ratio:.3f}")
+    assert_all(abs(ratio - 1) < AGREEMENT, f"packet d {ours} vs route 1 {theirs}: ratio {ratio:.3f}")
+
+
+@pytest.mark.mpi
+def test_two_ranks_equal_one_where_the_fit_exists(plateau):
+    """The first start region of the physics packing on 2 ranks against each rank's own 1-rank
+    packet (COMM_SELF): the same fit window, and the fitted d (finite, and the one compared with
+    route 1 above) and its two halves' to 1e-10."""
+    from conftest import PETSc
+
+    p, region, at = plateau["packing"], plateau["regions"][0], plateau["attrs"][0]
+    alone = dynmat.assemble(p, ContactModel(0.5), PETSc.COMM_SELF)
+    try:
+        _, at1 = packet.spreading(alone, p.positions, p.box, times=PHYSICS_TIMES, comm=PETSc.COMM_SELF, **region)
+    finally:
+        alone.destroy()
+    assert_all(math.isfinite(at["d"]) and at["window"] == at1["window"], f"window {at['window']}, {at1['window']}")
+    for key in ("d", "d_first_half", "d_second_half"):
+        assert_close(at[key], at1[key], rtol=1e-10, what=f"{key}, 2 ranks vs 1")

@@ -31,14 +31,21 @@ def test_small_amplitude_scene_is_the_linear_verlet_scene(lammps_present, shared
     """A = 1e-5, mu = 1: every run's z_fixed equals rotsound's own Verlet waves of the same scene
     (waves.engine: rotsound, method ts) to 1e-5 of its largest value (measured 7e-7 in the library
     test: the O(A) nonlinearity), C to 1e-5 of C(0); no contact slides, opens or forms, and each
-    contact series has the unit's (R, K, S_c) shape at the times contacts_t.  The LAMMPS scene's plot and report read it."""
-    lammps, attrs = _run(shared_tmp, f"lammps{dim}", dim, engine="lammps")
+    contact series has the unit's (R, K, S_c) shape at the times contacts_t (contacts_every 1: a
+    record every sample).  energy_drift, from LAMMPS's state (kinetic energy and the contacts'
+    springs), equals that of the linear Verlet waves, from (v^T M v + u^T D u) / 2 of rotsound's
+    matrix: both are velocity Verlet at the same dt, whose energy wanders by O((omega dt)^2)
+    (6e-5 in 2D, 3e-4 in 3D here), sampled at the same times; to 2e-6 absolute (the energies are
+    quadratic in fields that agree to 7e-7; measured 4e-8).  The LAMMPS scene's plot and report read it."""
+    lammps, attrs = _run(shared_tmp, f"lammps{dim}", dim, engine="lammps", contacts_every=1)
     linear, _ = _run(shared_tmp, f"linear{dim}", dim)
     scale = np.abs(linear["z_fixed"]).max()
     assert_close(lammps["z_fixed"], linear["z_fixed"], rtol=0.0, atol=1e-5 * scale, what="z_fixed against Verlet")
     assert_close(lammps["C"], linear["C"], rtol=0.0, atol=1e-5 * np.abs(linear["C"]).max(), what="C against Verlet")
-    shape = lammps["z_fixed"].shape[:2] + lammps["contacts_t"].shape  # a record every 10th sample (the default)
-    assert_all(np.array_equal(lammps["contacts_t"], lammps["t"][::10]), f"{lammps['contacts_t']}")
+    assert_close(lammps["energy_drift"], linear["energy_drift"], rtol=0.0, atol=2e-6,
+                 what="energy drift against the linear Verlet waves'")
+    shape = lammps["z_fixed"].shape[:2] + lammps["contacts_t"].shape
+    assert_all(np.array_equal(lammps["contacts_t"], lammps["t"]), f"{lammps['contacts_t']}")
     assert_all(all(lammps[name].shape == shape for name in CONTACTS), {n: lammps[n].shape for n in CONTACTS})
     assert_all(lammps["contacts_sliding"].max() == 0 and lammps["contacts_opened"].max() == 0
                and lammps["contacts_formed"].max() == 0, "nothing slides, opens or forms at A = 1e-5")
@@ -67,7 +74,8 @@ def test_lammps_frictional_packing_waves_from_its_stored_forces(lammps_present, 
 
 def test_sliding_scene_records_its_contacts(lammps_present, shared_tmp):
     """2D, A = 1e-2, mu = 1 -> 0.1 by packing.friction: contacts slide and open and the wave loses
-    energy (energy_drift, the largest |E - E(0)| / E(0), is the share lost); a new mu is a new unit."""
+    more than half its energy by t = 20 (energy_drift, the largest |E - E(0)| / E(0); its value is
+    checked against the linear waves' where E is conserved, test above)."""
     scene = scene_of(shared_tmp / "slide.h5", cache="off", seed=1, packing={"n": 64, "phi": 0.9, "friction": 0.1},
                      model={"rho": [1.0]}, waves={"engine": "lammps", "n": [1], "modes": ["TR"], "t_end": 20.0,
                                                   "dt": 0.02, "amplitude": 1e-2})
@@ -75,10 +83,7 @@ def test_sliding_scene_records_its_contacts(lammps_present, shared_tmp):
     with results.open_results(scene.output) as f:
         group = f["waves/r00_TR_p0000"]
         sliding, opened, drift = group["contacts_sliding"][()], group["contacts_opened"][()], group["energy_drift"][()]
-        energy = group["contacts_energy"][()]
     assert_all(sliding.max() > 5 and opened.max() > 0, f"sliding {sliding.max()}, opened {opened.max()}")
-    assert_close(drift, np.abs(energy - energy[..., :1]).max(axis=-1) / energy[..., 0], rtol=1e-12,
-                 what="energy_drift is the contacts' energy series'")
     assert_all(np.all(drift > 0.5), f"share of the wave's energy lost by t = 20: {drift}")
 
 
@@ -103,11 +108,13 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
     with results.open_results(swept.output) as f, results.open_results(alone.output) as g:
         got = results.sweeps(f)[(1.0, "TR")]
         small = f["waves/r00_TR_p0000_a01"]["z"][()]
+        records, samples = (f["waves/r00_TR_p0000_a01"][name][()] for name in ("contacts_t", "t"))
         assert_all(f["waves/r00_TR_p0000_a01"].attrs["amplitude"] == 1e-5 and "waves/r00_TR_p0000" not in f,
                    "the second amplitude's unit")
         reference, fitted = g["waves/r00_TR_p0000"]["z"][()], results.fits(g)[(1.0, "TR")]
         assert_all(results.waves(f) == {} and results.fits(f) == {}, "the linear readers leave the sweep out")
     assert_close(small, reference, rtol=0.0, atol=1e-14 * np.abs(reference).max(), what="the 1e-5 unit")
+    assert_all(np.array_equal(records, samples[::10]), f"contacts_t {records}: every 10th sample (the default)")
     assert_close(got.amplitude, np.array([1e-5, 1e-2]), rtol=0.0, what="ascending amplitudes")
     assert_close(got.omega[0], fitted["omega"], rtol=1e-12, what="the small amplitude's fits")
     assert_close(reused_fit["omega"], fitted["omega"], rtol=1e-12, what="a cached sweep unit read as a single amplitude")
