@@ -168,12 +168,12 @@ def chebyshev_coefficients(func, lam_top: float, tol: float, start: int = 256) -
 
 
 @profiling.logged("rsAFPacketSeries")
-def chebyshev_apply(A, vectors: np.ndarray, coef: list, lam_top: float, comm) -> list:
+def chebyshev_apply(A, vectors: np.ndarray, coef: list, lam_top: float) -> list:
     """[(nloc, F_r)] for r = 0 .. R-1: sum_k T_k(B) v_r c_r[k] with B = 2 A / lam_top - 1, v_r the
     column r of ``vectors`` (nloc, R; this rank's rows of A's layout) and ``coef`` [(K_r, F_r)].
     One recursion (``chebyshev.Recursion`` on A, the interval [0, lam_top]) on the (nloc, R) block,
     one MatMatMult per term; the vectors are multiplied by their coefficients in chunks of
-    :data:`CHUNK` terms (one dgemm per column and chunk).  Collective on ``comm``, A's communicator."""
+    :data:`CHUNK` terms (one dgemm per column and chunk).  Collective on A's communicator."""
     nloc, columns = vectors.shape
     out = [np.zeros((nloc, c.shape[1])) for c in coef]
 
@@ -233,7 +233,7 @@ def band_starts(A, dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[fl
     if count == 0:
         raise ValueError(f"no particle lies within radius {radius} of centre {centre!r}")
     fcoef = chebyshev_coefficients(lambda lam: filter_values(lam, omega0, sigma), lam_top, tol)
-    filtered = chebyshev_apply(A, np.stack(raw, axis=1), [fcoef] * probes, lam_top, comm)
+    filtered = chebyshev_apply(A, np.stack(raw, axis=1), [fcoef] * probes, lam_top)
     starts = []
     image, vec = A.createVecLeft(), A.createVecRight()
     try:
@@ -284,7 +284,7 @@ def energy_spread(A, dof: int, starts: list, times: np.ndarray, centre, position
     nloc = A.getLocalSize()[0]
     if not columns:
         raise ValueError("energy_spread needs at least one start vector")
-    out = chebyshev_apply(A, np.stack(columns, axis=1).reshape(nloc, -1), coefs, lam_top, comm)
+    out = chebyshev_apply(A, np.stack(columns, axis=1).reshape(nloc, -1), coefs, lam_top)
     state = np.zeros((4, nloc, T))  # q, pi, A q, A pi of the sum of the columns of each start
     h = np.zeros((nloc, T))
     hdot = np.zeros((nloc, T))

@@ -61,7 +61,7 @@ def test_series_equals_dense_functions(comm, case):
         lambda x: np.concatenate([packet.family_values(f, x, TIMES) for f in packet.FAMILIES], axis=1), lam_top, 1e-12)
     A = scaled_operator(dm)
     try:
-        out = packet.chebyshev_apply(A, v[_rows(dm)], [coef, coef], lam_top, comm)
+        out = packet.chebyshev_apply(A, v[_rows(dm)], [coef, coef], lam_top)
     finally:
         A.destroy()
     for r in range(2):
