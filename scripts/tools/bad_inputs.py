@@ -371,7 +371,7 @@ CASES = [
      "is not listed once from each side (MercuryDPM writes every contact twice",
      _mercury(keep_fstat=lambda lines: lines[:4] + lines[5:])),
     ("MercuryDPM packing under LAMMPS's lever", MERCURY, [],
-     "not at rest with its stored tangential forces", _mercury()),
+     "set model.lever: contact and model.history: lammps", _mercury()),
     ("MercuryDPM contacts under the Hertz law", MERCURY + "model: {law: hertz, lever: contact}\n", [],
      "MercuryDPM's linear species (force k * overlap) are read with model.law: harmonic", _mercury()),
     # --- capillary bridges (model.cohesion)
