@@ -187,10 +187,12 @@ def read_mercury_fstat(path) -> RawContacts:
     ids = _ids(path, table, slice(1, 3), first + 1, MERCURY_LAYOUT, lowest=0)
     forward, backward = ids[:, 0] < ids[:, 1], ids[:, 0] > ids[:, 1]
     one_side = set(map(tuple, ids[forward])) ^ set(map(tuple, ids[backward][:, ::-1]))
-    if one_side or forward.sum() != backward.sum():
-        pair = sorted(one_side)[0] if one_side else "some"
-        _fail(path, f"the contact of particles {list(pair) if one_side else pair} is not listed once from each side "
+    if one_side:
+        _fail(path, f"the contact of particles {list(sorted(one_side)[0])} is not listed once from each side "
                     f"(MercuryDPM writes every contact twice, i j and j i): a truncated or edited file")
+    if forward.sum() != backward.sum() or forward.sum() + backward.sum() != len(ids):
+        _fail(path, "a contact is listed more than twice, or a particle with itself (MercuryDPM writes every contact "
+                    "twice, i j and j i, in each frame): an edited file")
     rows = table[forward]
     return RawContacts(ids[forward], rows[:, [9]] * rows[:, 13:16], "mercury-fstat", rows[:, [8]] * rows[:, 10:13],
                        np.ascontiguousarray(rows[:, 6]))

@@ -138,6 +138,8 @@ def _damaged_fstat(tmp_path, how):
     row = lines[first].split()
     if how == "one side":
         del lines[first + 1]
+    elif how == "twice from one side":
+        lines.insert(first, lines[first])
     elif how == "wall":
         row[2] = "-1"
     elif how == "columns":
@@ -163,6 +165,7 @@ def _damaged_fstat(tmp_path, how):
 
 @pytest.mark.parametrize("how, match", [
     ("one side", r"the contact of particles \[\d+, \d+\] is not listed once from each side"),
+    ("twice from one side", "a contact is listed more than twice"),
     ("wall", "line 4 is a contact with a wall"),
     ("columns", "contact lines have 15 columns; packing.contacts_format mercury-fstat reads 16"),
     ("non-number", "line 4 of the file, in the last frame's contact lines, 'x' is not a number"),
@@ -174,6 +177,29 @@ def test_damaged_fstat_files_are_refused_naming_the_file(tmp_path, how, match):
     with pytest.raises(InputError, match=match) as caught:
         _read(contacts=path)
     assert str(path) in str(caught.value)
+
+
+def test_a_scene_on_the_mercury_files_makes_the_stressed_packing(tmp_path):
+    """packing.file, packing.format: mercury (and detected), contacts_format: mercury-fstat through
+    the scene's keys and rules to the stressed packing; under LAMMPS's lever the scene is refused
+    before any compute, naming the keys MercuryDPM's convention needs."""
+    from conftest import COMM
+
+    from solver import pipeline
+    from solver.io import coerce, schema
+
+    from solver.io import scene_rules
+
+    rows = _fstat_rows()
+    at_limit = int(np.sum(rows[:, 9] >= (1 - 1e-9) * MU * rows[:, 8])) // 2  # MercuryDPM's sliding contacts
+    packing = {"file": str(PACKING), "contacts": str(CONTACTS), "contacts_format": "mercury-fstat", "friction": MU}
+    for extra in ({}, {"format": "mercury"}):
+        scene = {"packing": {**packing, **extra}, "model": {"lever": "contact", "rho": 2 / 7},
+                 "output": str(tmp_path / "out.h5")}
+        p, = pipeline.make_packings(coerce.build(schema.Scene, scene), COMM)
+        assert p.stressed and p.info["n_stored"] == len(rows) // 2 and p.info["n_mobilised"] == at_limit > 0
+    with pytest.raises(InputError, match="set model.lever: contact and model.history: lammps"):
+        scene_rules.check_scene(coerce.build(schema.Scene, {"packing": packing, "output": str(tmp_path / "out.h5")}))
 
 
 def test_the_fstat_under_hertz_or_read_as_a_dump_local_is_refused():
