@@ -69,6 +69,8 @@ def test_mercurys_waves_converge_to_the_stressed_matrixs_exact_solution(packing,
     p, d0, t0 = packing
     active = ~p.rattler
     start = _frames(RUNS[1e-3], d0, t0)[0][active]
+    given = _in_rotsound_units(np.loadtxt(DATA / "mercury_3d_waves.start"), d0, t0)[active]
+    assert_all(np.abs(start - given).max() <= 1e-15 * AMPLITUDE, "MercuryDPM's v(0) is not the start file's")
     errors = {}
     for name, model in (("stressed", ContactModel(2.0 / 7.0, lever="contact")),
                         ("unstressed", ContactModel(2.0 / 7.0, lever="contact", stored_forces="drop"))):
