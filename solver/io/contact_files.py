@@ -283,6 +283,10 @@ def mercury_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.nd
         _fail(path, "MercuryDPM's linear species (force k * overlap) are read with model.law: harmonic")
     if pairs.shape[0] == 0:
         return found.force
+    apart = np.flatnonzero(~(found.overlap > 0.0))
+    if apart.size:
+        _fail(path, f"the contact of particles {found.ids[apart[0]].tolist()} has overlap {found.overlap[apart[0]]:g} "
+                    f"<= 0; MercuryDPM lists touching pairs only")
     normal, _, overlap = geometry.pair_geometry(positions, diameters, box, pairs)
     off = np.flatnonzero(np.abs(found.overlap / unit - overlap) > SAME_STEP_TOL)
     if off.size:

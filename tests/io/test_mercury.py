@@ -151,6 +151,11 @@ def _damaged_fstat(tmp_path, how):
             words = lines[k].split()
             words[8] = repr(1.01 * float(words[8]))
             lines[k] = " ".join(words)
+    elif how == "apart":
+        for k in (first, first + 1):
+            words = lines[k].split()
+            words[6] = "0"
+            lines[k] = " ".join(words)
     elif how == "other step":
         for k in (first, first + 1):
             words = lines[k].split()
@@ -171,6 +176,7 @@ def _damaged_fstat(tmp_path, how):
     ("non-number", "line 4 of the file, in the last frame's contact lines, 'x' is not a number"),
     ("other kn", r"kn = fn / overlap differs between contacts"),
     ("other step", "the .data and .fstat files must be written at the same step"),
+    ("apart", r"has overlap 0 <= 0; MercuryDPM lists touching pairs only"),
 ])
 def test_damaged_fstat_files_are_refused_naming_the_file(tmp_path, how, match):
     path = _damaged_fstat(tmp_path, how)
