@@ -44,7 +44,9 @@ bench: setup
 	$(PY) -m scripts.benchmarks.bench_all
 
 # Remake the DEM packings in tests/data/dem/ with LAMMPS, LIGGGHTS and YADE themselves (see its
-# README.md). Not part of `make test`: the tests read the committed files.
+# README.md). Not part of `make test`: the tests read the committed files. MercuryDPM's files
+# (mercury_3d_*) are not remade here: MercuryDPM has no Debian package; its README.md, section
+# "MercuryDPM", says how it was built from its public source and the drivers compiled and run.
 DEM := cd tests/data/dem &&
 dem-data:
 	@bash scripts/tools/setup_dem.sh

@@ -15,7 +15,7 @@ import h5py
 import numpy as np
 
 GOOD = "packing: {n: 64, phi: 0.9}\n"
-DEM = pathlib.Path(__file__).resolve().parents[2] / "tests" / "data" / "dem"  # files made by LAMMPS, LIGGGHTS and YADE
+DEM = pathlib.Path(__file__).resolve().parents[2] / "tests" / "data" / "dem"  # files made by the DEM codes
 
 
 def _dem(name, keep=lambda text: text):
@@ -45,6 +45,19 @@ def _yade(name):
         shutil.copyfile(DEM / f"{name}.spheres", path)
         shutil.copyfile(DEM / f"{name}.contacts", f"{path}.contacts")
     return make
+
+
+def _mercury(keep_data=lambda lines: lines, keep_fstat=lambda lines: lines):
+    """A maker: MercuryDPM's frictional packing (.data) at ``path``, its .fstat at ``path.fstat``,
+    their lines passed through ``keep_data`` and ``keep_fstat``."""
+    def make(path):
+        for name, to, keep in (("data", path, keep_data), ("fstat", f"{path}.fstat", keep_fstat)):
+            lines = (DEM / f"mercury_3d_friction.{name}").read_text().splitlines()
+            pathlib.Path(to).write_text("\n".join(keep(lines)) + "\n")
+    return make
+
+
+MERCURY = "packing: {file: '{file}', contacts: '{file}.fstat', contacts_format: mercury-fstat, friction: 0.5}\n"
 
 
 def _renamed(lines, column, value):
@@ -291,7 +304,7 @@ CASES = [
      "must be a non-empty list of distinct axes from x, y, z", None),
     # --- packing files of LAMMPS, LIGGGHTS and YADE (tests/data/dem)
     ("unknown packing.format", GOOD.replace("}", ", format: xyz}"), [],
-     "packing.format = 'xyz': must be one of rotsound, lammps-data, lammps-dump, yade, or null", None),
+     "packing.format = 'xyz': must be one of rotsound, lammps-data, lammps-dump, yade, mercury, or null", None),
     ("LAMMPS data file with a triclinic box", "packing: {file: '{file}'}\n", [],
      "the box is triclinic", _dem("lammps_triclinic.data", None)),
     ("LAMMPS data file cut short", "packing: {file: '{file}'}\n", [],
@@ -351,6 +364,16 @@ CASES = [
      "packing.pressure = 0.01: the pressure at which LAMMPS holds a frictional packing", None),
     ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],
      "packing.friction = 0.5: the Coulomb mu of a frictional packing", None),
+    ("MercuryDPM data file whose counts disagree", MERCURY + "model: {lever: contact}\n", [],
+     "frame 0 (header at line 1) has 199 particle lines where its header says N = 200",
+     _mercury(keep_data=lambda lines: lines[:5] + lines[6:])),
+    ("MercuryDPM contact listed from one side", MERCURY + "model: {lever: contact}\n", [],
+     "is not listed once from each side (MercuryDPM writes every contact twice",
+     _mercury(keep_fstat=lambda lines: lines[:4] + lines[5:])),
+    ("MercuryDPM packing under LAMMPS's lever", MERCURY, [],
+     "set model.lever: contact and model.history: lammps", _mercury()),
+    ("MercuryDPM contacts under the Hertz law", MERCURY + "model: {law: hertz, lever: contact}\n", [],
+     "MercuryDPM's linear species (force k * overlap) are read with model.law: harmonic", _mercury()),
     # --- capillary bridges (model.cohesion)
     ("bridges without a surface tension", GOOD + "model: {cohesion: {volume: 1.0e-3}}\n", [],
      "model.cohesion.surface_tension is required", None),

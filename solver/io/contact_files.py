@@ -24,6 +24,14 @@ caller maps ids to the packing's particles and rescales (``hdf5``).
   force on id2 from id1).  The normal forces give each contact's kn, which must be the same for
   every contact (:func:`yade_forces`).  Read it with ``model.lever: contact`` and
   ``model.history: yade``.
+* ``mercury-fstat`` -- MercuryDPM's ``.fstat`` file (``DPMBase::writeFstatHeader``): per saved
+  step three ``#`` lines (time and the marker 1; the domain; the radii), then two lines per
+  contact, one from each particle's side: ``time i j cx cy cz overlap tangential_overlap fn ft
+  nx ny nz tx ty tz`` with i, j particle indices from 0 (a negative j is a wall), the contact
+  point, the overlap, the normal force fn (along n, from j to i) and the size ft of the
+  tangential force (along the unit vector t), both on i from j.  The last frame is read.  The
+  normal forces give kn (:func:`mercury_forces`).  MercuryDPM applies the tangential force at the
+  contact point, the middle of the overlap: read it with ``model.lever: contact``.
 The format is not detected: ``packing.contacts_format`` names it (default lammps-local); a
 LIGGGHTS file read as LAMMPS's fails on its columns 2 and 3, which are positions, not ids.
 """
@@ -50,12 +58,14 @@ class RawContacts:
     """ids (C, 2) int64 the two atoms of each contact (file ids); force (C, 3) float64 the
     tangential force on the first from the second, in the file's units; source: the format;
     normal_force (C, 3) float64 or None: the normal force on the first from the second, when the
-    file holds it (yade)."""
+    file holds it (yade, mercury-fstat); overlap (C,) float64 or None: each contact's overlap as
+    the file states it (mercury-fstat)."""
 
     ids: np.ndarray
     force: np.ndarray
     source: str
     normal_force: np.ndarray | None = None
+    overlap: np.ndarray | None = None
 
 
 def _fail(path, what: str):
@@ -147,18 +157,61 @@ def read_yade(path) -> RawContacts:
     return RawContacts(ids, -np.ascontiguousarray(table[:, 2:5]), "yade", -np.ascontiguousarray(table[:, 5:8]))
 
 
-READERS = {"lammps-local": read_lammps_local, "liggghts-local": read_liggghts_local, "yade": read_yade}
+MERCURY_LAYOUT = ("time i j cx cy cz overlap tangential_overlap fn ft nx ny nz tx ty tz (MercuryDPM's .fstat: "
+                  "particle indices from 0, contact point, overlap, |normal force| along n, |tangential force| "
+                  "along t, both on i from j)")
+
+
+def read_mercury_fstat(path) -> RawContacts:
+    """The last frame of MercuryDPM's ``.fstat`` (layout above) -> :class:`RawContacts` with one
+    row per contact (i < j; MercuryDPM lists each twice, once from each side), its normal force
+    and overlap.  InputError on a wall contact or a contact listed from one side only."""
+    text = read_text(path, KIND)
+    lines = text.rstrip().splitlines()
+    heads = [k for k, line in enumerate(lines) if line.lstrip().startswith("#")]
+    if not heads or heads[0] != 0:
+        _fail(path, "does not start with '#' header lines; MercuryDPM's .fstat starts every saved step with three "
+                    "('# time 1', '# xmin ymin zmin xmax ymax zmax', '# radii')")
+    first = heads[-1] + 1
+    if first == len(lines):
+        return RawContacts(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 3)), "mercury-fstat", np.zeros((0, 3)),
+                           np.zeros(0))
+    table = number_table(path, lines[first:], first + 1, "the last frame's contact lines", MERCURY_LAYOUT, KIND)
+    if table.shape[1] != 16:
+        _fail(path, f"contact lines have {table.shape[1]} columns; packing.contacts_format mercury-fstat reads 16: "
+                    f"{MERCURY_LAYOUT}")
+    wall = np.flatnonzero(table[:, 2] < 0)
+    if wall.size:
+        _fail(path, f"line {first + 1 + wall[0]} is a contact with a wall (j = {table[wall[0], 2]:g} < 0); rotsound's "
+                    f"packings are periodic, without walls")
+    ids = _ids(path, table, slice(1, 3), first + 1, MERCURY_LAYOUT, lowest=0)
+    forward, backward = ids[:, 0] < ids[:, 1], ids[:, 0] > ids[:, 1]
+    one_side = set(map(tuple, ids[forward])) ^ set(map(tuple, ids[backward][:, ::-1]))
+    if one_side:
+        _fail(path, f"the contact of particles {list(sorted(one_side)[0])} is not listed once from each side "
+                    f"(MercuryDPM writes every contact twice, i j and j i): a truncated or edited file")
+    if forward.sum() != backward.sum() or forward.sum() + backward.sum() != len(ids):
+        _fail(path, "a contact is listed more than twice, or a particle with itself (MercuryDPM writes every contact "
+                    "twice, i j and j i, in each frame): an edited file")
+    rows = table[forward]
+    return RawContacts(ids[forward], rows[:, [9]] * rows[:, 13:16], "mercury-fstat", rows[:, [8]] * rows[:, 10:13],
+                       np.ascontiguousarray(rows[:, 6]))
+
+
+READERS = {"lammps-local": read_lammps_local, "liggghts-local": read_liggghts_local, "yade": read_yade,
+           "mercury-fstat": read_mercury_fstat}
 FORMATS = tuple(READERS)
+DUMP_LOCAL = ("lammps-local", "liggghts-local")
 
 
 def read(path, fmt: str = "lammps-local") -> RawContacts:
     """Read a contact file of format ``fmt`` (``packing.contacts_format``).  A file that is not a
     text dump local, read as one, gets InputError naming the formats."""
     text = read_text(path, KIND)
-    if fmt != "yade" and not re.search(r"^ITEM: ENTRIES", text, re.M):
+    if fmt in DUMP_LOCAL and not re.search(r"^ITEM: ENTRIES", text, re.M):
         _fail(path, f"unknown format: not a text 'dump local' (no 'ITEM: ENTRIES' line); the formats read are "
-                    f"lammps-local ({LOCAL_LAYOUT}), liggghts-local ({LIGGGHTS_LAYOUT}) and yade ({YADE_LAYOUT}), "
-                    f"named by packing.contacts_format")
+                    f"lammps-local ({LOCAL_LAYOUT}), liggghts-local ({LIGGGHTS_LAYOUT}), yade ({YADE_LAYOUT}) and "
+                    f"mercury-fstat ({MERCURY_LAYOUT}), named by packing.contacts_format")
     return READERS[fmt](path)
 
 
@@ -190,13 +243,11 @@ def yade_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.ndarr
     if off.size:
         _fail(path, f"the normal force of ids {found.ids[off[0]].tolist()} is not along their centre line in the "
                     f"packing file; the two files must be written at the same step")
-    kn = size[touching] / (overlap[touching] * unit)
-    if kn.max() > (1.0 + KN_SPREAD_TOL) * kn.min():
-        _fail(path, f"kn = |normalForce| / overlap differs between contacts ({kn.min():.6g} to {kn.max():.6g}); "
-                    f"rotsound's harmonic law has one kn. YADE's FrictPhys makes kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2): "
-                    f"one kn needs E R the same for every sphere (one radius, or a FrictMat per sphere with young "
-                    f"proportional to 1/R, as tests/data/dem/yade_3d_friction.py uniform does)")
-    force = found.force / (kn.mean() * unit)
+    kn = _one_kn(path, size[touching] / (overlap[touching] * unit), "|normalForce| / overlap",
+                 "YADE's FrictPhys makes kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2): one kn needs E R the same for every "
+                 "sphere (one radius, or a FrictMat per sphere with young proportional to 1/R, as "
+                 "tests/data/dem/yade_3d_friction.py uniform does)")
+    force = found.force / (kn * unit)
     along = np.einsum("cd,cd->c", force, normal)
     shear = np.linalg.norm(force, axis=1)
     tilted = np.flatnonzero(np.abs(along) > SHEAR_NORMAL_TOL * shear)
@@ -206,3 +257,53 @@ def yade_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.ndarr
                     f"{abs(along[k]) / shear[k]:.2e} of itself (> {SHEAR_NORMAL_TOL:g}, the drift YADE's "
                     f"approximate rotation leaves); the file is not a YADE shear force at rest")
     return force - along[:, None] * normal
+
+
+def _one_kn(path, kn: np.ndarray, what: str, advice: str) -> float:
+    """The mean of the contacts' stiffnesses ``kn`` (``what`` says how they were found); InputError
+    with ``advice`` unless they are one number to ``KN_SPREAD_TOL``."""
+    if kn.max() > (1.0 + KN_SPREAD_TOL) * kn.min():
+        _fail(path, f"kn = {what} differs between contacts ({kn.min():.6g} to {kn.max():.6g}); rotsound's harmonic "
+                    f"law has one kn. {advice}")
+    return float(kn.mean())
+
+
+SAME_STEP_TOL = 1e-9  # d0: largest difference of a contact's overlap between MercuryDPM's .fstat and .data
+
+
+def mercury_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.ndarray, diameters: np.ndarray,
+                   box: np.ndarray, unit: float, law: str) -> np.ndarray:
+    """The tangential forces (C, 3) of a MercuryDPM ``.fstat`` in rotsound's units kn d0, with
+    pairs (C, 2) the contacts' particle indices and positions, diameters, box the packing in units
+    of d0 = ``unit`` file lengths.  kn = fn / overlap from the file's own columns, which must be
+    one number (a linear species: LinearViscoelastic*Species, force k overlap); each contact's
+    overlap and normal must be the packing file's (the two files written at the same step).  Not
+    collective."""
+    if law != "harmonic":
+        _fail(path, "MercuryDPM's linear species (force k * overlap) are read with model.law: harmonic")
+    if pairs.shape[0] == 0:
+        return found.force
+    apart = np.flatnonzero(~(found.overlap > 0.0))
+    if apart.size:
+        _fail(path, f"the contact of particles {found.ids[apart[0]].tolist()} has overlap {found.overlap[apart[0]]:g} "
+                    f"<= 0; MercuryDPM lists touching pairs only")
+    normal, _, overlap = geometry.pair_geometry(positions, diameters, box, pairs)
+    off = np.flatnonzero(np.abs(found.overlap / unit - overlap) > SAME_STEP_TOL)
+    if off.size:
+        k = off[0]
+        _fail(path, f"the overlap of particles {found.ids[k].tolist()} is {found.overlap[k] / unit:.6g} d0 here but "
+                    f"{overlap[k]:.6g} d0 in the packing file; the .data and .fstat files must be written at the same "
+                    f"step")
+    fn = np.linalg.norm(found.normal_force, axis=1)
+    tilted = np.flatnonzero(np.einsum("cd,cd->c", found.normal_force, normal) < (1.0 - 1e-9) * fn)
+    if tilted.size:
+        _fail(path, f"the normal force of particles {found.ids[tilted[0]].tolist()} is not along their centre line "
+                    f"(from the second to the first) in the packing file; the .data and .fstat files must be written "
+                    f"at the same step")
+    kn = _one_kn(path, fn / found.overlap, "fn / overlap", "MercuryDPM's LinearViscoelastic species have one "
+                 "stiffness k: give all particles one species")
+    return found.force / (kn * unit)
+
+
+KN_FROM_FILE = {"yade": yade_forces, "mercury-fstat": mercury_forces}
+"""Formats whose files hold the normal forces, so kn too -> the function that gives their tangential forces in kn d0."""

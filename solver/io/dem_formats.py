@@ -33,9 +33,18 @@ Formats (tests/data/dem/README.md shows real files of each, made by the programs
   box_hi are None.  Ids are the file's when it has them (``id_x_y_z_r_matId``), else the line
   order from 0 (YADE's body ids when every body is a sphere).  Both YADE writers print ``%g``:
   six significant digits.
+* ``mercury`` -- MercuryDPM's ``.data`` file of a 3D simulation (``DPMBase::outputXBallsData``,
+  XBalls format 14): one frame per saved step, each a header line ``N time xmin ymin zmin xmax
+  ymax zmax`` (the domain, which rotsound takes as the periodic box) and N lines ``x y z vx vy vz
+  radius euler(3) omega(3) info``; the last frame is read.  Radii, not diameters; no masses (one
+  species of one density: m proportional to d^3); ids are the particles' indices from 0 (the
+  line order), as MercuryDPM's ``.fstat`` names them.  Positions are printed with 15 significant
+  digits, the rest with the stream's precision (10 by default; a driver can set 17).  The 2D
+  format (8: header ``N time xmin ymin xmax ymax``, 8 columns) is refused.
 
 2D: a LAMMPS/LIGGGHTS packing is 2D (D = 2, the z column and z bounds dropped) when every
-atom's z is exactly 0, as ``dimension 2`` (fix enforce2d) leaves it; else 3D.  YADE is 3D.
+atom's z is exactly 0, as ``dimension 2`` (fix enforce2d) leaves it; else 3D.  YADE and
+MercuryDPM are 3D.
 
 Written by hand: lammpsio 0.9 (PyPI) has no atom_style sphere and no diameter/radius field, and
 ASE's lammps-data reader rejects atom_style sphere.  Numbers go through np.loadtxt (no Python
@@ -55,7 +64,7 @@ from solver.errors import InputError
 
 from ..wording import counted
 
-FORMATS = ("rotsound", "lammps-data", "lammps-dump", "yade")
+FORMATS = ("rotsound", "lammps-data", "lammps-dump", "yade", "mercury")
 SPHERE_COLUMNS = "id type diameter density x y z (and optionally the image flags ix iy iz)"
 YADE_FORMATS = {  # textExt '#format' name -> (number of columns or None for 'at least 4', id column)
     "x_y_z_r": (4, None),
@@ -78,7 +87,7 @@ class RawPacking:
     box_lo, box_hi (D,) float64, or both None when the format does not record the box (YADE
         without its ``##PERIODIC::`` line); orthogonal, periodic.
     ids (N,) int64: atom ids (YADE: the file's ids or the line order from 0).
-    source: the format read, "lammps-data", "lammps-dump" or "yade".
+    source: the format read, "lammps-data", "lammps-dump", "yade" or "mercury".
     """
 
     positions: np.ndarray
@@ -416,11 +425,57 @@ def _first_line(text: str) -> str:
     return re.search(r"\S.*", text).group(0)
 
 
+# --- MercuryDPM ----------------------------------------------------------------------------------
+
+MERCURY_HEADER = "N time xmin ymin zmin xmax ymax zmax"
+MERCURY_COLUMNS = "x y z vx vy vz radius euler_x euler_y euler_z omega_x omega_y omega_z info"
+
+
+def read_mercury_data(path) -> RawPacking:
+    """The last frame of a MercuryDPM ``.data`` file of a 3D simulation (format above) ->
+    :class:`RawPacking` (source "mercury", masses None, ids the particle indices from 0).  A
+    Python loop over frames only.  Not collective."""
+    text = read_text(path)
+    lines = text.rstrip().splitlines()
+    start, frame, count, first = 0, 0, 0, 0
+    while True:
+        header = lines[start].split()
+        if len(header) == 6 and all(_is_number(w) for w in header):
+            _fail(path, f"line {start + 1} is the header of a 2D MercuryDPM data file (N time xmin ymin xmax ymax); "
+                        f"rotsound reads MercuryDPM's 3D format, whose header is '{MERCURY_HEADER}'")
+        if len(header) != 8 or not all(_is_number(w) for w in header) or not header[0].isdigit() \
+                or int(header[0]) == 0:
+            more = f" (after the {count} particle lines that the header of frame {frame - 1}, at line {first + 1}, " \
+                   f"announces: that frame has more particle lines than its header says)" if frame else ""
+            _fail(path, f"line {start + 1} is not a frame header '{MERCURY_HEADER}' with N a positive whole number"
+                        f"{more}; a MercuryDPM data file has a header line before every frame's N particle lines")
+        count, first = int(header[0]), start
+        if start + 1 + count > len(lines):
+            _fail(path, f"frame {frame} (header at line {start + 1}) has {len(lines) - start - 1} particle lines where its "
+                        f"header says N = {count} (truncated or damaged file); it must list every particle once")
+        start += 1 + count
+        if start == len(lines):
+            break
+        frame += 1
+    rows = lines[first + 1:]
+    table = number_table(path, rows, first + 2, f"frame {frame}'s particle lines", f"the 14 columns {MERCURY_COLUMNS}")
+    if table.shape[1] != 14:
+        _fail(path, f"frame {frame}'s particle lines have {table.shape[1]} columns; MercuryDPM's 3D data file has 14: "
+                    f"{MERCURY_COLUMNS}")
+    values = np.array(lines[first].split(), dtype=np.float64)
+    if not np.all(np.isfinite(values)):
+        _fail(path, f"line {first + 1}, the header of frame {frame}, holds a non-finite value; '{MERCURY_HEADER}' "
+                    f"must be finite numbers")
+    ids = np.arange(count, dtype=np.int64)
+    return _packing(path, ids, table[:, :3], 2.0 * table[:, 6], None, values[2:5], values[5:8], "mercury",
+                    f"frame {frame}'s particle lines")
+
+
 # --- detection and dispatch --------------------------------------------------------------------
 
 
 def detect_format(path) -> str:
-    """"rotsound" (an HDF5 file), "lammps-data", "lammps-dump" or "yade", from the file's
+    """"rotsound" (an HDF5 file), "lammps-data", "lammps-dump", "yade" or "mercury", from the file's
     content (never its name).  InputError when it is none of them.  Not collective."""
     p = pathlib.Path(path)
     if not p.exists():
@@ -456,16 +511,19 @@ def detect_format(path) -> str:
     words = first.split()
     if 4 <= len(words) <= 5 and all(_is_number(w) for w in words):
         return "yade"  # SpherePack.save of a non-periodic packing: bare 'x y z r clumpId' lines
+    if len(words) in (6, 8) and words[0].isdigit() and all(_is_number(w) for w in words):
+        return "mercury"  # 'N time xmin ymin zmin xmax ymax zmax' (3D; 6 numbers: 2D, refused by the reader)
     if re.search(r"^[ \t]*\d+[ \t]+atoms[ \t]*(#.*)?$", head, re.M):
         return "lammps-data"
     _fail(path, f"unknown format; {_FORMATS_TEXT}")
 
 
 _FORMATS_TEXT = ("the formats read are rotsound (HDF5), lammps-data (LAMMPS/LIGGGHTS write_data, atom_style "
-                 "sphere), lammps-dump (LAMMPS/LIGGGHTS text dump starting 'ITEM: TIMESTEP') and yade "
-                 "(yade.export.textExt or SpherePack.save)")
+                 "sphere), lammps-dump (LAMMPS/LIGGGHTS text dump starting 'ITEM: TIMESTEP'), yade "
+                 "(yade.export.textExt or SpherePack.save) and mercury (MercuryDPM's 3D .data file)")
 
-READERS = {"lammps-data": read_lammps_data, "lammps-dump": read_lammps_dump, "yade": read_yade_text}
+READERS = {"lammps-data": read_lammps_data, "lammps-dump": read_lammps_dump, "yade": read_yade_text,
+           "mercury": read_mercury_data}
 
 
 def read(path, fmt: str | None = None) -> RawPacking:

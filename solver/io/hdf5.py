@@ -1,5 +1,5 @@
 """HDF5 files: packing files (input and output) and the results file. Rank 0 writes.  Packing
-files of LAMMPS, LIGGGHTS and YADE are read through ``dem_formats`` into the same checks.
+files of LAMMPS, LIGGGHTS, YADE and MercuryDPM are read through ``dem_formats`` into the same checks.
 
 Packing file format (input from any code, and what rotsound writes under ``/packings``):
   one configuration at the top level, or several as groups ``/packings/<i>`` (sorted by
@@ -220,8 +220,8 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
     ``contacts`` file (``contact_files``), its stored tangential forces, divided by kn d0 of the
     file's units with kn = 1 there (LAMMPS units lj with kn = 1): by the length unit (harmonic)
-    or its square (hertz, whose kn carries a length^1/2 more); a YADE file gives its kn itself
-    (``contact_files.yade_forces``)."""
+    or its square (hertz, whose kn carries a length^1/2 more); a YADE or MercuryDPM file gives its
+    kn itself (``contact_files.KN_FROM_FILE``)."""
     raw = dem_formats.read(path, fmt)
     if raw.box_lo is None:
         raise InputError(f"packing file {path}: the {raw.source} file records no periodic box; rotsound needs "
@@ -255,8 +255,8 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
         raise InputError(f"contact file {path}: atom id {found.ids.ravel()[missing[0]]} is not in the packing file "
                          f"({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe "
                          f"the same packing")
-    if found.normal_force is not None:  # YADE: kn from the file's normal forces
-        force = contact_files.yade_forces(path, found, at, positions, diameters, box, unit, law)
+    if found.source in contact_files.KN_FROM_FILE:  # YADE, MercuryDPM: kn from the file's normal forces
+        force = contact_files.KN_FROM_FILE[found.source](path, found, at, positions, diameters, box, unit, law)
     else:
         force = found.force / (unit if law == "harmonic" else unit ** 2)
     if raw.dim == 2:

@@ -82,11 +82,12 @@ class PackingSpec:
     count: int | None = _f(None, "number of independent configurations; default 1 when "
                                  "generating, all of the file's with `file`", _range(1, 100000), int)
     file: str | list[str] | None = _f(None, "packing file, or a list of files: rotsound's HDF5 layout, a LAMMPS or "
-                                            "LIGGGHTS data file or text dump (atom_style sphere), or a YADE text "
-                                            "export (see the manual, docs/packing_files.md)", None, "paths")
-    format: str | None = _f(None, "format of packing.file: rotsound, lammps-data, lammps-dump or yade; null: "
-                                  "detected from each file's content",
-                            _one_of(("rotsound", "lammps-data", "lammps-dump", "yade"), null=True), str)
+                                            "LIGGGHTS data file or text dump (atom_style sphere), a YADE text "
+                                            "export, or a MercuryDPM .data file (see the manual, "
+                                            "docs/packing_files.md)", None, "paths")
+    format: str | None = _f(None, "format of packing.file: rotsound, lammps-data, lammps-dump, yade or mercury "
+                                  "(MercuryDPM's 3D .data file); null: detected from each file's content",
+                            _one_of(("rotsound", "lammps-data", "lammps-dump", "yade", "mercury"), null=True), str)
     force_tol: float = _f(1e-6, "FIRE stops when the largest net force per particle, divided by m, is below "
                                 "force_tol (kn d0/m)",
                           _range(0.0, 1e-2, True), float)
@@ -105,8 +106,9 @@ class PackingSpec:
                                               "local of compute pair/gran/local pos id force force_tangential; read "
                                               "it with model.lever: contact) or yade (the table id1 id2 shearForce "
                                               "normalForce a YADE script writes, see the manual, docs/stressed_packings.md; read it with "
-                                              "model.lever: contact and model.history: yade)",
-                              _one_of(("lammps-local", "liggghts-local", "yade")), str)
+                                              "model.lever: contact and model.history: yade) or mercury-fstat "
+                                              "(MercuryDPM's .fstat; read it with model.lever: contact)",
+                              _one_of(("lammps-local", "liggghts-local", "yade", "mercury-fstat")), str)
     friction: float | None = _f(None, "Coulomb coefficient mu. With engine: lammps, generated packings are "
                                       "frictional, as a DEM code leaves them: squeezed from 0.75 phi to phi in "
                                       "LAMMPS (gran/hooke/history or gran/hertz/history, kt = 2/7 kn, damped) until "

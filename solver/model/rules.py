@@ -11,8 +11,10 @@ from __future__ import annotations
 
 from ..errors import InputError
 
-DEM_CONVENTIONS = {"liggghts-local": ("contact", "lammps"), "yade": ("contact", "yade")}
-"""contacts_format -> (model.lever, model.history) of the code that writes it (docs/stressed_contacts.md)."""
+DEM_CONVENTIONS = {"liggghts-local": ("contact", "lammps"), "yade": ("contact", "yade"),
+                   "mercury-fstat": ("contact", "lammps")}
+"""contacts_format -> (model.lever, model.history) of the code that writes it (docs/stressed_contacts.md;
+MercuryDPM's: its own waves converge to that matrix's, tests/io/test_mercury_waves.py)."""
 
 
 def check_section(model, where: str) -> None:
@@ -37,7 +39,7 @@ def check_dimension(model, dim: int, source: str) -> None:
 
 
 def check_dem_convention(model, packing) -> None:
-    """A LIGGGHTS or YADE contact file (``packing.contacts`` in ``packing.contacts_format``) whose
+    """A LIGGGHTS, YADE or MercuryDPM contact file (``packing.contacts`` in ``packing.contacts_format``) whose
     stored forces the matrix keeps, read under another code's lever or history, would give that
     code's matrix of this packing, silently: InputError naming the keys to set.  Not collective."""
     if packing.contacts is None or model.stored_forces != "keep":
