@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contact_law import ContactModel
+from .geometry import Cell
 from .stressed import TangentialForces
 
 
@@ -23,7 +24,9 @@ class Packing:
     """One configuration (units d0 = m = kn = 1).
 
     positions : (N, D) float64 in the box, D = 2 or 3;  diameters : (N,) float64;
-    box : (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box, origin at 0;
+    box : (D,) float64 side lengths (L_x, L_y[, L_z]) of the cell, origin at 0;  tilt : (T,) float64
+    the cell's tilt factors (``geometry.TILTS``: xy, or xy, xz, yz), or None (orthogonal);  periodic :
+    (D,) bool, which axes are periodic, or None (all);  ``cell`` is the three as a ``geometry.Cell``;
     rattler : (N,) bool;  info : provenance and statistics (energy, pressure, z, ...);
     masses : (N,) float64 the masses a file gave (its own units), or None (generated packings, and
     files without them); ``model.masses`` decides what the matrix uses (``dynmat.particle_masses``);
@@ -45,6 +48,16 @@ class Packing:
     tangential: TangentialForces | None = None
     model: ContactModel = ContactModel()
     bridges: np.ndarray | None = None
+    tilt: np.ndarray | None = None
+    periodic: np.ndarray | None = None
+
+    @property
+    def cell(self) -> Cell:
+        """The cell (``geometry.Cell``): sides, tilt and periodic axes."""
+        cell = Cell.of(self.box, self.dim)
+        return Cell(cell.sides,
+                    cell.tilt if self.tilt is None else np.asarray(self.tilt, dtype=float),
+                    cell.periodic if self.periodic is None else np.asarray(self.periodic, dtype=bool))
 
     @property
     def stressed(self) -> bool:
@@ -70,4 +83,4 @@ class Packing:
     @property
     def phi(self) -> float:
         """Area (2D) or volume (3D) fraction."""
-        return solid_volume(self.diameters, self.dim) / float(np.prod(self.box))
+        return solid_volume(self.diameters, self.dim) / self.cell.volume
