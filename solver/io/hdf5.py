@@ -160,7 +160,16 @@ def _read_tangential(group, where: str, n: int, dim: int):
 
 
 def _check_box(box, diameters, where: str, box_name: str) -> None:
-    """InputError unless every side is finite and > 2 max(diameters)."""
+    """InputError unless every side (of a tilted ``geometry.Cell``: every height across its faces) is
+    finite and > 2 max(diameters)."""
+    if isinstance(box, geometry.Cell) and box.tilted:
+        heights = box.heights
+        if not np.all(np.isfinite(heights)) or np.any(heights <= 2 * diameters.max()):
+            raise InputError(f"packing file {where}: the tilted cell (sides {box.sides.tolist()}, tilt "
+                             f"{box.tilt.tolist()}) is {np.round(heights, 6).tolist()} across its faces: every height "
+                             f"must be finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
+        return
+    box = box.sides if isinstance(box, geometry.Cell) else box
     if not np.all(np.isfinite(box)) or np.any(box <= 2 * diameters.max()):
         raise InputError(f"packing file {where}: {box_name} = {np.asarray(box).tolist()}: every side must be "
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
@@ -176,10 +185,13 @@ def _check_distinct(positions, diameters, box, where: str) -> None:
     coincide (``COINCIDENT``), under the periodic box."""
     from scipy.spatial import cKDTree
 
-    sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
-    folded = np.mod(positions, sides)
-    folded[folded >= sides] = 0.0  # np.mod of a tiny negative value rounds up to the side
-    pairs = cKDTree(folded, boxsize=sides).query_pairs(COINCIDENT * diameters.min(), output_type="ndarray")
+    if isinstance(box, geometry.Cell):
+        pairs = geometry.candidate_pairs(positions, box, COINCIDENT * diameters.min())
+    else:
+        sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
+        folded = np.mod(positions, sides)
+        folded[folded >= sides] = 0.0  # np.mod of a tiny negative value rounds up to the side
+        pairs = cKDTree(folded, boxsize=sides).query_pairs(COINCIDENT * diameters.min(), output_type="ndarray")
     if len(pairs):
         i, j = min(map(tuple, np.sort(pairs, axis=1)))
         raise InputError(f"packing file {where}: particles {i} and {j} (0-based, in the order read) have the same "
@@ -196,7 +208,8 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
     _check_box(box, diameters, where, box_name)
     _check_distinct(positions, diameters, box, where)
     if tangential is not None:
-        sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
+        sides = box if isinstance(box, geometry.Cell) else np.broadcast_to(np.asarray(box, dtype=float),
+                                                                             (positions.shape[1],))
         info = {**info, "n_stored": len(tangential),
                 "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, sides, model.law).sum())}
     packing = from_arrays(positions, diameters, box, rattler, info, masses, model, tangential, bridges)
@@ -216,7 +229,8 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
 def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel, contacts: str | None = None,
               friction: float | None = None, contacts_format: str = "lammps-local") -> Packing:
     """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
-    file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
+    file's mean diameter (d0 = 1), positions taken from the box's lower corner (the cell's origin;
+    a triclinic file's tilt gives the packing's ``geometry.Cell``, periodic along every axis); the file's
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
     ``contacts`` file (``contact_files``), its stored tangential forces, divided by kn d0 of the
     file's units with kn = 1 there (LAMMPS units lj with kn = 1): by the length unit (harmonic)
@@ -231,6 +245,8 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
     positions, diameters = (raw.positions - raw.box_lo) / unit, raw.diameters / unit
     box = (raw.box_hi - raw.box_lo) / unit
+    if raw.tilt is not None:
+        box = geometry.Cell(box, raw.tilt / unit, np.ones(raw.dim, dtype=bool))
     stored = gap = None
     if contacts is not None:
         _check_box(box, diameters, path, "box")
@@ -243,8 +259,9 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
-                   box: np.ndarray, model: ContactModel, friction: float | None, unit: float, fmt: str):
-    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` as rotsound's stored
+                   box, model: ContactModel, friction: float | None, unit: float, fmt: str):
+    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` (``box``: its (D,) sides or
+    its ``geometry.Cell``; the pairs' geometry is taken in it) as rotsound's stored
     tangential forces and, under ``model.cohesion``, the bridged pairs apart (LIGGGHTS's
     pair/gran/local lists every bridged pair, touching or not; None when dry)."""
     law = model.law
