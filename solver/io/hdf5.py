@@ -261,7 +261,8 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
 def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel, contacts: str | None = None,
               friction: float | None = None, contacts_format: str = "lammps-local") -> Packing:
     """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
-    file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
+    file's mean diameter (d0 = 1), positions taken from the box's lower corner (the cell's origin;
+    a triclinic file's tilt gives the packing's ``geometry.Cell``, periodic along every axis); the file's
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
     ``contacts`` file (``contact_files``), its stored tangential forces, divided by kn d0 of the
     file's units with kn = 1 there (LAMMPS units lj with kn = 1): by the length unit (harmonic)
@@ -276,6 +277,8 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
     positions, diameters = (raw.positions - raw.box_lo) / unit, raw.diameters / unit
     box = (raw.box_hi - raw.box_lo) / unit
+    if raw.tilt is not None:
+        box = geometry.Cell(box, raw.tilt / unit, np.ones(raw.dim, dtype=bool))
     stored = gap = None
     if contacts is not None:
         _check_box(box, diameters, path, "box")
@@ -288,8 +291,9 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
-                   box: np.ndarray, model: ContactModel, friction: float | None, unit: float, fmt: str):
-    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` as rotsound's stored
+                   box, model: ContactModel, friction: float | None, unit: float, fmt: str):
+    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` (``box``: its (D,) sides or
+    its ``geometry.Cell``; the pairs' geometry is taken in it) as rotsound's stored
     tangential forces and, under ``model.cohesion``, the bridged pairs apart (LIGGGHTS's
     pair/gran/local lists every bridged pair, touching or not; None when dry)."""
     law = model.law
