@@ -54,6 +54,7 @@ message naming the file, what is wrong and what is allowed.
 
 from __future__ import annotations
 
+import dataclasses
 import pathlib
 import re
 from dataclasses import dataclass
@@ -88,6 +89,9 @@ class RawPacking:
         without its ``##PERIODIC::`` line); orthogonal, periodic.
     ids (N,) int64: atom ids (YADE: the file's ids or the line order from 0).
     source: the format read, "lammps-data", "lammps-dump", "yade" or "mercury".
+    boundary: (D,) the LAMMPS boundary flags of each axis as a dump records them ("pp" periodic;
+        "ff", "fm", "fs", ... not: a wall at each f bound, docs/walls.md), or None when the file
+        does not record them (then every axis is periodic unless packing.walls says otherwise).
     """
 
     positions: np.ndarray
@@ -97,6 +101,7 @@ class RawPacking:
     box_hi: np.ndarray | None
     ids: np.ndarray
     source: str
+    boundary: tuple[str, ...] | None = None
 
     @property
     def dim(self) -> int:
@@ -320,9 +325,9 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
     if flags[:3] == ["xy", "xz", "yz"] or "abc" in flags:
         _fail(path, f"{where}: the box is triclinic ('ITEM: {box}'); rotsound's periodic boxes are orthogonal, "
                     f"so only 'ITEM: BOX BOUNDS pp pp pp' boxes are read")
-    if any(f != "pp" for f in flags[:2]) or len(flags) != 3:
-        _fail(path, f"{where}: the box is not periodic in every direction ('ITEM: {box}'); rotsound's packings "
-                    f"are periodic, so the boundary flags must be 'pp pp pp' ('pp pp ff' for disks, all at z = 0)")
+    if len(flags) != 3 or any(not re.fullmatch("pp|[fsm]{2}", f) for f in flags):
+        _fail(path, f"{where}: the boundary flags ('ITEM: {box}') must be three LAMMPS boundary styles: pp (periodic) "
+                    f"or two of f, s, m (a wall at each f bound: docs/walls.md)")
     try:
         values = np.array(items[box], dtype=np.float64)
     except ValueError:
@@ -360,17 +365,14 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
     positions = np.column_stack([col[c] for c in position])
     if position[0].startswith("xs"):
         positions = lo + positions * (hi - lo)
-    if flags[2] != "pp" and not np.all(positions[:, 2] == 0.0):
-        _fail(path, f"{where}: the box is not periodic in z ('ITEM: {box}') but the particles are not all at z = 0; "
-                    f"rotsound's packings are periodic, so the boundary flags must be 'pp pp pp' "
-                    f"('pp pp ff' for disks, all at z = 0)")
     if "mass" in col:
         masses = col["mass"].copy()
     elif "density" in col:
         masses = col["density"] * (np.pi / 6.0) * diameters ** 3
     else:
         masses = None
-    return _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines")
+    raw = _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines")
+    return dataclasses.replace(raw, boundary=tuple(flags[:raw.dim]))
 
 
 # --- YADE ---------------------------------------------------------------------------------------

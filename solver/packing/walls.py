@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import contact_law
 from ..errors import InputError
 
 AXES = "xyz"
@@ -223,3 +224,35 @@ def gravity_problem(gravity: np.ndarray | None, walls: Walls | None, periodic: n
                     f"give a wall facing against it (packing.walls)")
     return None
 
+
+
+def loads(positions: np.ndarray, diameters: np.ndarray, walls: Walls | None, stored: WallContacts | None, law: str,
+          active: np.ndarray | None = None) -> tuple[Touching, np.ndarray, np.ndarray]:
+    """(the wall contacts of the ``active`` particles, the force (K, D) on each particle from its
+    wall, the torque (K, r) it exerts, r = 1 in 2D, 3 in 3D): the normal force of ``law`` with
+    a' = R along n plus the ``stored`` tangential force, whose torque is -R n x f_t (the lever is the
+    full radius, LAMMPS's fix wall/gran).  Units kn d0, kn d0^2."""
+    touch = touching(positions, diameters, walls, active)
+    radius = 0.5 * diameters[touch.particle]
+    force = contact_law.normal_force(touch.overlap, law, radius)[:, None] * touch.normal
+    rot = 1 if positions.shape[1] == 2 else 3
+    torque = np.zeros((len(touch), rot))
+    if stored is not None:
+        tangential = stored.on(touch.particle, touch.wall)
+        force = force + tangential
+        torque = -radius[:, None] * contact_law.cross(touch.normal, tangential).reshape(len(touch), rot)
+    return touch, force, torque
+
+
+def volume_between(sides: np.ndarray, walls: Walls | None) -> float:
+    """The cell's volume (area in 2D) between its walls: along an axis with walls on both sides the
+    distance between the innermost two, else the cell's side."""
+    extent = np.asarray(sides, dtype=float).copy()
+    for axis in range(extent.size):
+        if walls is None:
+            break
+        on = walls.axis == axis
+        lower, upper = walls.position[on & (walls.facing > 0)], walls.position[on & (walls.facing < 0)]
+        if lower.size and upper.size:
+            extent[axis] = upper.min() - lower.max()
+    return float(np.prod(extent))
