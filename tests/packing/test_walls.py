@@ -101,3 +101,61 @@ def test_wall_contacts_keep_the_tangential_part_and_are_checked():
         walls.build_contacts([5], [0], [[0.2, 0.0]], positions, diameters, floor, "file")
     with pytest.raises(InputError, match=r"carry a force but do not touch their wall \(first: particle 1 and wall 0"):
         walls.build_contacts([1], [0], [[0.2, 0.0]], positions, diameters, floor, "file")
+
+
+def _write_dump(path, p, unit, lo, flags):
+    """``p`` as a LAMMPS text dump in a file's units: lengths times ``unit``, origin ``lo``, masses 1."""
+    dim = p.dim
+    x = np.zeros((p.n, 3))
+    x[:, :dim] = p.positions * unit + lo[:dim]
+    hi = lo + np.append(p.box, np.ones(3 - dim)) * unit
+    rows = "\n".join(f"{i + 1} 1 {p.diameters[i] * unit:.17g} 1 {x[i, 0]:.17g} {x[i, 1]:.17g} {x[i, 2]:.17g}"
+                     for i in range(p.n))
+    bounds = "\n".join(f"{lo[a]:.17g} {hi[a]:.17g}" for a in range(3))
+    path.write_text(f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{p.n}\nITEM: BOX BOUNDS {flags}\n{bounds}\n"
+                    f"ITEM: ATOMS id type diameter mass x y z\n{rows}\n")
+
+
+def test_a_lammps_dump_with_f_bounds_reads_between_walls_at_rest(tmp_path):
+    """'pp pp ff': walls at the z bounds; gravity and the wall contact file in the file's units
+    (lengths x 2, kn = 1 there, harmonic: forces and g divided by 2); at rest, as made; the same file
+    read without its gravity is not (negative control); rotsound's packing file keeps it all."""
+    from solver.io import hdf5
+
+    p = settled(3)
+    unit, lo = 2.0, np.array([-1.0, 3.0, 5.0])
+    dump = tmp_path / "walled.dump"
+    _write_dump(dump, p, unit, lo, "pp pp ff")
+    touch, push, _ = walls.loads(p.positions, p.diameters, p.walls, None, "harmonic")
+    tangential = 1e-3 * np.roll(touch.normal, 1, axis=1)  # a stored force the rest check must see
+    contacts = tmp_path / "walls.txt"
+    wall_files.write(contacts, touch.particle + 1, touch.wall, (push + tangential) * unit)
+    with pytest.raises(InputError, match="not at rest between its walls"):  # the stored forces' torques
+        hdf5.read_packings(str(dump), gravity=list(p.gravity * unit), wall_contacts=str(contacts))
+    wall_files.write(contacts, touch.particle + 1, touch.wall, push * unit)
+    read = hdf5.read_packings(str(dump), gravity=list(p.gravity * unit), wall_contacts=str(contacts))[0]
+    assert read.walls.axis.tolist() == [2, 2] and np.allclose(read.walls.position, [0.0, p.box[2]], rtol=0, atol=1e-12)
+    assert list(read.periodic) == [True, True, False] and np.allclose(read.gravity, p.gravity, rtol=1e-15, atol=0)
+    assert len(read.wall_contacts) == len(touch) and not read.wall_contacts.nonzero()
+    with pytest.raises(InputError, match="not at rest between its walls under gravity none"):
+        hdf5.read_packings(str(dump), wall_contacts=str(contacts))
+    _write_dump(dump, p, unit, lo, "pp pp pp")
+    with pytest.raises(InputError, match="stands on the periodic axis z"):
+        hdf5.read_packings(str(dump), walls=[{"axis": "z", "position": 5.0}])
+    saved = tmp_path / "walled.h5"
+    hdf5.save_packings(str(saved), [read])
+    again = hdf5.read_packings(str(saved))[0]
+    assert np.array_equal(again.walls.position, read.walls.position) and np.array_equal(again.gravity, read.gravity)
+    assert np.array_equal(again.info["stress"], read.info["stress"]) and len(again.wall_contacts) == len(touch)
+
+
+def test_gravity_along_a_periodic_axis_is_refused(tmp_path):
+    from solver.io import hdf5
+
+    p = settled(2)
+    dump = tmp_path / "walled.dump"
+    _write_dump(dump, p, 1.0, np.zeros(3), "pp ff pp")
+    with pytest.raises(InputError, match="packing.gravity has the component 0.01 along the periodic axis x"):
+        hdf5.read_packings(str(dump), gravity=[0.01, -0.01])
+    with pytest.raises(InputError, match="packing.gravity pulls along y \\(0.01\\) but no wall on that side"):
+        hdf5.read_packings(str(dump), gravity=[0.0, 0.01], walls=[{"axis": "y", "position": 0.0}])
