@@ -60,6 +60,7 @@ dem-data:
 	$(DEM) lmp -in lammps_3d_walls.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_walls_waves.in -var wave l -log none -screen none
 	$(DEM) lmp -in lammps_3d_walls_waves.in -var wave t -log none -screen none
+	$(DEM) liggghts -in liggghts_triclinic.in -log none > /dev/null
 	$(DEM) liggghts -in liggghts_3d.in -log none > /dev/null
 	$(DEM) liggghts -in liggghts_3d_friction.in -log none > /dev/null
 	$(DEM) liggghts -in liggghts_bridge_pairs.in -log none > /dev/null

@@ -20,13 +20,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .. import capillary, contact_law
 from ..errors import InputError
 from ..wording import counted
 from . import bridges as bridging
 from . import geometry
+from . import walls as walling
 
 if TYPE_CHECKING:
     from .configuration import Packing
@@ -52,8 +52,9 @@ class FrictionlessForces:
     its particles is (re-)listed; from then on the other moves at most 3s/4 (s/4 then, s/2 from
     its reference after) and the re-listed one s/2, so an unlisted pair cannot touch.  (Late in
     FIRE a few particles, about 1 %, trip the list while the median has moved s/30: measured at
-    N = 2048 in 3D.)  The skin is at most (min L_a/2 - max d)/1.25, so that a listed pair touches
-    through its listed image only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
+    N = 2048 in 3D.)  The skin is at most (min L_a/2 - max d)/1.25 (in a tilted cell, the smallest
+    height for L_a: ``geometry.narrowest``), so that a listed pair touches through its listed image
+    only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
     particle's forces are summed in a fixed order; the pass over them is compiled
     (``pair_forces.net_forces``), and so is each step's check of the largest move
     (``pair_forces.largest_squared_move``).  Measured at N = 32768 in 3D: a refresh of 1 % of the
@@ -64,10 +65,10 @@ class FrictionlessForces:
     REACH = 1.25  # reach of a partial refresh, in skins (see above)
 
     def __init__(self, diameters: np.ndarray, box, skin: float = 0.3, law: str = "harmonic"):
-        self.diameters, self.box = diameters, box  # box: (D,) sides, or one for a square or cube
+        self.diameters, self.box = diameters, box  # box: a geometry.Cell, (D,) sides, or one for a square or cube
         self.hertz = law == "hertz"  # else harmonic (contact_law.LAWS)
         self.largest = float(diameters.max())
-        self.skin = min(skin, (0.5 * float(np.min(box)) - self.largest) / self.REACH)
+        self.skin = min(skin, (0.5 * geometry.narrowest(box) - self.largest) / self.REACH)
         self.reference: np.ndarray | None = None
         self.rebuilds = self.refreshes = 0
         from .pair_forces import largest_squared_move, net_forces  # here, not at the top: numba takes 0.5 s
@@ -100,11 +101,7 @@ class FrictionlessForces:
         """Re-list the pairs of ``movers`` (N,) bool from the current positions."""
         n, index = x.shape[0], np.flatnonzero(movers)
         reach = self.REACH * self.skin
-        wrapped = geometry.wrap(x, self.box)
-        trees = [cKDTree(points, boxsize=self.box, balanced_tree=False, compact_nodes=False)
-                 for points in (wrapped, wrapped[index])]
-        found = trees[0].sparse_distance_matrix(trees[1], self.largest + reach, output_type="ndarray")
-        other, mover = found["i"], index[found["j"]]
+        other, mover = geometry.pairs_with(x, self.box, self.largest + reach, index)
         once = (other != mover) & (~movers[other] | (other < mover))  # a pair of two movers once
         fresh = self._near(x, np.minimum(other, mover)[once], np.maximum(other, mover)[once], reach)
         order = np.argsort(fresh[0] * n + fresh[1])
@@ -161,7 +158,7 @@ def force_magnitudes(packing: Packing) -> tuple[geometry.Contacts, np.ndarray, n
     """(contacts among non-rattlers, |f_n| (C,), |f_t| (C,)) of ``packing``: the normal force of
     its law (``Packing.model``) and the stored tangential force (zero for an unstressed packing; perpendicular to the
     normal by construction, ``stressed.build``), kn d0.  Not collective."""
-    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, ~packing.rattler)
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.cell, ~packing.rattler)
     d = packing.diameters
     f_n = contact_law.normal_force(found.overlap, packing.model.law, contact_law.reduced_radius(d[found.i], d[found.j]))
     stored = packing.tangential
@@ -171,8 +168,11 @@ def force_magnitudes(packing: Packing) -> tuple[geometry.Contacts, np.ndarray, n
 
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential: TangentialForces | None = None,
                   law: str = "harmonic", cohesion: capillary.Cohesion | None = None,
-                  bridges: np.ndarray | None = None) -> np.ndarray:
+                  bridges: np.ndarray | None = None, held: tuple | None = None) -> np.ndarray:
     """Rattler mask (N,), applied until no new rattler appears.
+
+    ``held`` (particle (K,), |force| (K,)): a walled packing's wall contacts, links to a body that
+    never rattles, counted and weighed with the contacts by every rule below (docs/walls.md).
 
     Unstressed (``tangential`` None): particles with fewer than D + 1 contacts among
     non-rattlers.
@@ -200,6 +200,11 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
         first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
         weight = np.concatenate((weight, pull))
 
+    wall_count = wall_weight = np.zeros(rattler.size)
+    if held is not None:
+        wall_count = np.bincount(held[0], minlength=rattler.size)
+        wall_weight = np.bincount(held[0], held[1], minlength=rattler.size)
+
     def per_particle(values, keep):
         return (np.bincount(first[keep], values[keep], minlength=rattler.size)
                 + np.bincount(second[keep], values[keep], minlength=rattler.size))
@@ -208,9 +213,9 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
         keep = ~rattler[first] & ~rattler[second]
         new = ~rattler
         if counted:
-            new &= per_particle(np.ones(len(first)), keep) < min_contacts(positions.shape[1])
+            new &= per_particle(np.ones(len(first)), keep) + wall_count < min_contacts(positions.shape[1])
         if weighed:
-            new &= per_particle(weight, keep) < EQUILIBRIUM_TOL
+            new &= per_particle(weight, keep) + wall_weight < EQUILIBRIUM_TOL
         if not new.any():
             return rattler
         rattler |= new
@@ -219,7 +224,7 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
 def describe(positions: np.ndarray, diameters: np.ndarray, box,
              rattler: np.ndarray, law: str = "harmonic", cohesion: capillary.Cohesion | None = None,
              bridges: np.ndarray | None = None) -> dict:
-    """Energy, pressure (virial sum_c f_c r_c / (D V), V the box volume, f_c the net normal force),
+    """Energy, pressure (virial sum_c f_c r_c / (D V), V the cell's volume, f_c the net normal force),
     mean contact number z and rattler fraction of a packing under the normal ``law`` (units
     kn = d0 = 1); wet (``cohesion``), the bridges' energy and pull join them (every contact, and
     the pairs across a gap ``bridges``), and ``n_bridges`` counts the bridged pairs among
@@ -246,7 +251,7 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
         wet = {"n_bridges": int((active[first] & active[second]).sum())}
     return {
         "energy": float(np.sum(energy)),
-        "pressure": float(np.sum(fn * distance) / (dim * np.prod(np.broadcast_to(box, (dim,))))),
+        "pressure": float(np.sum(fn * distance) / (dim * geometry.Cell.of(box, dim).volume)),
         "z": float(2.0 * keep.sum() / n_active) if n_active else 0.0,
         "rattler_fraction": float(rattler.mean()),
         "n_contacts": int(keep.sum()),
@@ -264,7 +269,7 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     f_t on j, with the arms l of its lever, ``contact_law.lever_arms``: R for LAMMPS;
     docs/stressed_contacts.md)."""
     active = ~packing.rattler
-    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.cell, active)
     cohesion = packing.model.cohesion
     f = contact_forces(found, packing.diameters, packing.model.law, packing.tangential, cohesion)  # eq:eij, on i
     rot = 1 if packing.dim == 2 else 3
@@ -278,7 +283,7 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     first, second = found.i, found.j
     if cohesion is not None:  # the bridges across a gap pull along their centre lines: no torque
         gap = wet_pairs(packing.bridges, active)
-        f = np.concatenate((f, bridging.pull_forces(packing.positions, packing.diameters, packing.box, gap, cohesion)))
+        f = np.concatenate((f, bridging.pull_forces(packing.positions, packing.diameters, packing.cell, gap, cohesion)))
         first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
     for axis in range(packing.dim):
         net[:, axis] = (np.bincount(first, f[:, axis], minlength=packing.n)
@@ -286,7 +291,56 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     for axis in range(rot):
         torque[:, axis] = -(np.bincount(found.i, arm_i * turn[:, axis], minlength=packing.n)
                             + np.bincount(found.j, arm_j * turn[:, axis], minlength=packing.n))
+    if packing.walls is not None:  # the walls push, their stored forces turn (lever R)
+        touch, push, turn = walling.loads(packing.positions, packing.diameters, packing.walls, packing.wall_contacts,
+                                          packing.model.law, active)
+        for axis in range(packing.dim):
+            net[:, axis] += np.bincount(touch.particle, push[:, axis], minlength=packing.n)
+        for axis in range(rot):
+            torque[:, axis] += np.bincount(touch.particle, turn[:, axis], minlength=packing.n)
+    if packing.gravity is not None:
+        net += walling.weights(packing.masses, packing.n, packing.gravity)
     return net, torque
+
+
+def with_walls(packing: Packing, walls: walling.Walls, wall_contacts: walling.WallContacts | None = None,
+               gravity: np.ndarray | None = None) -> Packing:
+    """``packing`` between ``walls`` (``walls.build``), with the stored tangential forces of its wall
+    contacts and ``gravity`` (D,) (docs/walls.md): the axes of the walls are not periodic, the
+    rattlers are found again with the wall contacts as links (:func:`find_rattlers`), and ``info``
+    gains the stress tensor (:func:`stress`).  Not collective."""
+    import dataclasses
+
+    periodic = packing.cell.periodic.copy()
+    periodic[walls.axis] = False
+    walled = dataclasses.replace(packing, walls=walls, wall_contacts=wall_contacts, periodic=periodic,
+                                 gravity=None if gravity is None else np.asarray(gravity, dtype=float))
+    cell, model = walled.cell, packing.model
+    touch, push, _ = walling.loads(packing.positions, packing.diameters, walls, wall_contacts, model.law)
+    rattler = find_rattlers(packing.positions, packing.diameters, cell, packing.tangential, model.law,
+                            model.cohesion, packing.bridges, held=(touch.particle, np.linalg.norm(push, axis=1)))
+    walled = dataclasses.replace(walled, rattler=rattler)
+    info = describe(packing.positions, packing.diameters, cell, rattler, model.law, model.cohesion, packing.bridges)
+    return dataclasses.replace(walled, info={**packing.info, **info, **stress(walled)})
+
+
+def stress(packing: Packing) -> dict:
+    """The stress tensor sigma = (1/V) sum_c r_c (x) f_c over the contacts (r_c = r_i - r_j, f_c the
+    force on i from j: normal, stored tangential, bridges' pull) and the wall contacts (r_c = h n, the
+    centre's offset from its wall, f_c the wall's force on it), V the cell's volume between its
+    walls (``walls.volume_between``); units kn d0^(1-D) (the pressure's).  Returns ``stress`` (D, D),
+    ``stress_walls`` (D, D) the wall contacts' share, ``pressure`` = trace / D, and ``n_wall_contacts``."""
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.cell)
+    f = contact_forces(found, packing.diameters, packing.model.law, packing.tangential, packing.model.cohesion)
+    volume = walling.volume_between(packing.box, packing.walls)
+    inner = np.einsum("cd,ce->de", found.normal * found.distance[:, None], f) / volume
+    touch, push, _ = walling.loads(packing.positions, packing.diameters, packing.walls, packing.wall_contacts,
+                                   packing.model.law)
+    offset = (0.5 * packing.diameters[touch.particle] - touch.overlap)[:, None] * touch.normal
+    outer = np.einsum("kd,ke->de", offset, push) / volume
+    total = inner + outer
+    return {"stress": total, "stress_walls": outer, "pressure": float(np.trace(total) / packing.dim),
+            "n_wall_contacts": len(touch)}
 
 
 def net_force(packing: Packing) -> float:
@@ -308,6 +362,16 @@ def require_equilibrium(packing: Packing, where: str) -> None:
     active = ~packing.rattler
     residual = float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
     twist = float(np.sqrt((torque[active] ** 2).sum(axis=1)).max())
+    if packing.walls is not None or packing.gravity is not None:
+        if residual > EQUILIBRIUM_TOL or twist > EQUILIBRIUM_TOL:
+            raise InputError(
+                f"packing file {where}: not at rest between its walls under gravity {_gravity(packing)}: the largest "
+                f"net force on a non-rattler (contacts, walls and m g, under the {law} normal law) is {residual:.3e} "
+                f"kn d0 and the largest net torque {twist:.3e} kn d0^2 (both must be <= {EQUILIBRIUM_TOL:g}); the walls "
+                f"(packing.walls, or a LAMMPS file's f bounds), the gravity (packing.gravity) and the stored forces "
+                f"(packing.contacts, packing.wall_contacts) must be those the packing came to rest under "
+                f"(docs/walls.md)")
+        return
     if packing.tangential is not None:
         if residual > EQUILIBRIUM_TOL or twist > EQUILIBRIUM_TOL:
             raise InputError(
@@ -326,6 +390,11 @@ def require_equilibrium(packing: Packing, where: str) -> None:
             f"LAMMPS 'dump local' of patom1 patom2 and the pair's tangential force; the manual, docs/stressed_packings.md), or set "
             f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles; "
             f"one written with few digits, as YADE's 6, is off balance by its rounding and needs this too)")
+
+
+def _gravity(packing: Packing) -> str:
+    """The packing's gravity for messages: 'g = [..] kn d0 per unit mass' or 'none'."""
+    return "none" if packing.gravity is None else f"g = {np.asarray(packing.gravity).tolist()} kn d0 per unit mass"
 
 
 def jamming_failure(packing: Packing) -> str | None:
@@ -347,7 +416,7 @@ def jamming_failure(packing: Packing) -> str | None:
     z >= D + 1 for large N' (frictional isostaticity).  In a wet packing every bridged pair
     across a gap is a constraint too (a normal one, as a contact).
     """
-    stats = describe(packing.positions, packing.diameters, packing.box, packing.rattler,
+    stats = describe(packing.positions, packing.diameters, packing.cell, packing.rattler,
                      packing.info.get("law", "harmonic"), packing.model.cohesion, packing.bridges)
     dim, name = packing.dim, NAMES[packing.dim]
     n_active = packing.n - int(packing.rattler.sum())

@@ -1,6 +1,6 @@
 """The scene's rules on its ``packing`` section: what its keys ask together (a contact file needs
 its packing file, friction and pressure need the protocol that uses them (or, for friction,
-the waves' LAMMPS engine), generated packings
+the waves' LAMMPS engine), shear needs rotsound's FIRE, generated packings
 need N and phi), and which stored tangential forces the section alone gives its packings.
 
 Each rule takes the section (``io.schema.PackingSpec``) and raises InputError naming the keys;
@@ -19,10 +19,18 @@ def check_section(spec, where: str) -> None:
         raise InputError(f"{where}contacts: the stored tangential forces of packing.file's packings; they need "
                          f"packing.file" + (" and cannot go with packing.relax, which re-minimises without them"
                                             if spec.relax else ""))
+    walled = [name for name in ("walls", "wall_contacts", "gravity") if getattr(spec, name) is not None]
+    if walled and (spec.file is None or spec.relax):
+        raise InputError(f"{where}{walled[0]}: walls and gravity belong to a packing read from packing.file (generated "
+                         f"packings are periodic and weightless)" + (", and cannot go with packing.relax, whose FIRE "
+                                                                     "knows neither" if spec.relax else ""))
     if spec.pressure is not None and (spec.friction is None or spec.file is not None):
         raise InputError(f"{where}pressure = {spec.pressure}: the pressure at which LAMMPS holds a frictional packing "
                          f"it makes: needs packing.friction with packing.engine: lammps and no packing.file (for a "
                          f"frictionless one in the same protocol, give friction: 0)")
+    if spec.shear and (spec.file is not None or spec.engine != "fire"):
+        raise InputError(f"{where}shear = {spec.shear}: the shear of a packing rotsound's FIRE generates (packing.engine: "
+                         f"fire, no packing.file); a packing file's cell carries its own tilt")
     if spec.file is None:
         for name in ("n", "phi"):
             if getattr(spec, name) is None:
