@@ -16,7 +16,8 @@ Committed files (tests/data/dem/README.md; the inputs say how each was made):
   t = 20 of every sphere's velocities and angular velocities.
 
 rotsound's reference: X(t) = exp(tJ) X(0) (``references.first_order_flow``: the exact solution the
-stressed wave path, ``waves/exponential.py``, is measured against) on its matrix with the files'
+stressed wave path, ``waves/exponential.py``, is measured against; that path itself is compared
+through z_fixed(t)) on its matrix with the files'
 masses (``mass_rule="density"``: its unit of mass is the mean mass m0, its time unit sqrt(m0 / kn)
 = sqrt(m0) of LAMMPS's; d0 = 1 in both), from LAMMPS's own start (frame 0, which is checked to be
 1e-7 sin(k x) in the excited component on every sphere).  The negative controls: the same packing
@@ -25,7 +26,6 @@ without its walls (or without its upper wall) in the matrix misses by far more, 
 """
 
 import dataclasses
-import inspect
 import re
 
 import numpy as np
@@ -39,6 +39,7 @@ from solver.io import hdf5
 from solver.model import dynmat
 from solver.packing import mechanics
 from solver.references import first_order_flow
+from solver.waves import excitation, exponential
 
 DATA = REPO / "tests" / "data" / "dem"
 STEM = "lammps_3d_walls"
@@ -48,14 +49,10 @@ KT = 2 / 7                # kt / kn of lammps_3d_walls.in, particles and walls a
 FRICTION = 0.5
 GRAVITY = [0.0, 0.0, -0.002]  # fix gravity 0.002 vector 0 0 -1: force m g with the file's masses
 RUNS = {"l": (0, 0), "t": (2, 0)}  # wave file -> (excited component, axis of k): v_x, v_z; k || x
+MODES = {"l": "L", "t": "TR"}     # wave file -> rotsound's mode of that run (excitation.RUNS)
 
-pytestmark = [
-    pytest.mark.serial_only,  # dense exp(tJ) of 900 DOF, the same on every rank: one rank is enough
-    pytest.mark.skipif("wall_contacts" not in inspect.signature(hdf5.read_packings).parameters,
-                       reason="needs issue 59 point 2 (walls, branch h-walls): hdf5.read_packings(walls=, "
-                              "wall_contacts=, gravity=), Packing.walls and the wall contacts' blocks in "
-                              "model/dynmat.py"),
-]
+# dense exp(tJ) of 900 DOF, the same on every rank: one rank is enough
+pytestmark = pytest.mark.serial_only
 
 
 def upper_wall() -> float:
@@ -108,6 +105,23 @@ def misses(p, suffix: str, comm) -> tuple[float, float]:
             float(np.abs(pooled(lammps) - pooled(exact)).max()))
 
 
+def pipeline_z(p, suffix: str, comm) -> np.ndarray:
+    """z_fixed (S,) = sum_i v_i,c(t) exp(-i k x_i(0)) of rotsound's own wave run (its start,
+    ``excitation.start_velocity``, and its stressed wave path, ``exponential.exponential_all``) at
+    LAMMPS's frame times, in LAMMPS's velocity units.  Collective."""
+    t0 = np.sqrt(p.masses.mean())
+    component, axis = RUNS[suffix]
+    run = excitation.runs(MODES[suffix], p.dim).index((component, axis))
+    dm = dynmat.assemble(p, ContactModel(KT), comm, mass_rule="density")
+    try:
+        (series,) = exponential.exponential_all(dm, p.positions, [(MODES[suffix], run, 2 * np.pi / float(p.box[axis]))],
+                                                amplitude=AMPLITUDE * t0, times=np.arange(FRAMES) * SAMPLE / t0,
+                                                tol=1e-10)
+    finally:
+        dm.destroy()
+    return series.z_fixed / t0
+
+
 def test_lammps_packing_between_walls_reads_at_rest(packing):
     """The walls' and gravity's positive control: 150 spheres, none a rattler, 415 pair contacts with
     their stored tangential forces and 28 wall contacts (22 on the lower wall, 6 on the upper), at
@@ -145,7 +159,9 @@ def test_lammps_waves_between_walls(packing, suffix, comm):
     dt = 5e-5 (twice the steps) 3.2e-5.  The matrix without the walls misses by 32 and 29 (C by
     0.15, 0.30; nothing holds the packing up), without the upper wall (6 contacts) by 20 and 5.5
     (C by 0.03, 0.12).  The walls' stored tangential forces add no stiffness (a flat wall's normal
-    does not turn): dropping them changes nothing (not asserted)."""
+    does not turn): dropping them changes nothing (not asserted).  rotsound's own run of the wave
+    (its start: no zero mode is projected out between frictional walls; the MFN of
+    ``waves/exponential.py``) gives LAMMPS's z_fixed(t) to 1.6e-7 (L) and 1.8e-7 (T) of |z(0)|."""
     p = packing
     component, axis = RUNS[suffix]
     start = lammps_frames(suffix, p.n)[0]
@@ -156,6 +172,12 @@ def test_lammps_waves_between_walls(packing, suffix, comm):
     trajectory, c = misses(p, suffix, comm)
     assert_close(trajectory, 0.0, rtol=0.0, atol=1e-4, what="trajectory / amplitude")
     assert_close(c, 0.0, rtol=0.0, atol=1e-6, what="C(k, t)")
+    # rotsound's own run (its start, no zero mode projected out between walls; the MFN path)
+    lammps_z = lammps_frames(suffix, p.n)[:, :, component] @ np.exp(-1j * 2 * np.pi / float(p.box[axis])
+                                                                    * p.positions[:, axis])
+    ours = pipeline_z(p, suffix, comm)
+    assert_close(np.abs(ours - lammps_z).max() / np.abs(lammps_z[0]), 0.0, rtol=0.0, atol=1e-6,
+                 what="z_fixed(t) of waves/exponential.py against LAMMPS's, over |z(0)|")
     lower = p.wall_contacts.wall == 0
     for wrong in (dataclasses.replace(p, walls=None, wall_contacts=None),
                   dataclasses.replace(p, walls=dataclasses.replace(p.walls, axis=p.walls.axis[:1],
