@@ -188,3 +188,25 @@ def test_lammps_waves_between_walls(packing, suffix, comm):
                                           wall=p.wall_contacts.wall[lower], force=p.wall_contacts.force[lower]))):
         missed, _ = misses(wrong, suffix, comm)
         assert missed > 1.0, (len(wrong.walls or ()), missed)
+
+
+def test_a_scene_on_the_lammps_walls_files_makes_the_same_packing(packing, tmp_path):
+    """The same files through a scene's keys (packing.file, contacts, friction, walls, wall_contacts,
+    gravity; schema, scene rules, pipeline.make_packings) give the packing read above: the same
+    positions, walls, stored pair and wall forces and gravity."""
+    from conftest import COMM
+
+    from solver import pipeline
+    from solver.io import coerce, scene_rules, schema
+
+    scene = coerce.build(schema.Scene, {
+        "packing": {"file": str(DATA / f"{STEM}.data"), "contacts": str(DATA / f"{STEM}.contacts"),
+                    "friction": FRICTION, "walls": [{"axis": "z", "position": 0.0}, {"axis": "z", "position": upper_wall()}],
+                    "wall_contacts": str(DATA / f"{STEM}.walls"), "gravity": GRAVITY},
+        "model": {"rho": KT}, "waves": {"modes": ["L", "TR"], "axes": ["x"], "n": [1], "method": "exponential"}, "output": str(tmp_path / "out.h5")})
+    scene_rules.check_scene(scene)
+    p, = pipeline.make_packings(scene, COMM)
+    assert np.array_equal(p.positions, packing.positions) and np.array_equal(p.gravity, packing.gravity)
+    assert np.array_equal(p.walls.position, packing.walls.position) and not p.rattler.any()
+    assert np.array_equal(p.wall_contacts.force, packing.wall_contacts.force)
+    assert np.array_equal(p.tangential.force, packing.tangential.force)
