@@ -17,10 +17,10 @@ Committed files (tests/data/dem/README.md; the inputs say how each was made):
 
 rotsound's reference: X(t) = exp(tJ) X(0) (``references.first_order_flow``: the exact solution the
 stressed wave path, ``waves/exponential.py``, is measured against; that path itself is compared
-through z_fixed(t)) on its matrix with the files'
-masses (``mass_rule="density"``: its unit of mass is the mean mass m0, its time unit sqrt(m0 / kn)
-= sqrt(m0) of LAMMPS's; d0 = 1 in both), from LAMMPS's own start (frame 0, which is checked to be
-1e-7 sin(k x) in the excited component on every sphere).  The negative controls: the same packing
+through z_fixed(t)) on its matrix with the files' masses (``mass_rule="density"``: its unit of mass
+is the mean mass m0, its time unit sqrt(m0 / kn) = sqrt(m0) of LAMMPS's; d0 = 1 in both), from
+LAMMPS's own start (frame 0, which is checked to be 1e-7 sin(k x) in the excited component on
+every sphere).  The negative controls: the same packing
 without its walls (or without its upper wall) in the matrix misses by far more, and without gravity
 (or without the walls) it is not at rest and is refused when read.
 """
