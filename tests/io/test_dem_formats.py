@@ -479,3 +479,33 @@ def test_a_2d_dump_not_periodic_in_z_and_a_word_column_read_as_the_plain_dump(tm
     assert named_read.positions.shape == (128, 2)
     for field in ("positions", "diameters", "masses", "box_lo", "box_hi", "ids"):
         assert np.array_equal(getattr(named_read, field), getattr(plain, field)), field
+
+
+@pytest.mark.parametrize("name", ["lammps_triclinic.dump", "liggghts_triclinic.data", "liggghts_triclinic.dump"])
+def test_a_triclinic_packing_reads_at_rest_in_its_tilted_cell(name):
+    """read_packings of LAMMPS's tilted packing: its cell (the file's tilt over the mean diameter), at
+    rest under its harmonic forces in the tilted cell (the rest check passes; LAMMPS's FIRE left
+    7.5e-14), the 472 contacts LAMMPS counted; the dump and LIGGGHTS's files of the same state give
+    the same packing; the same positions in the orthogonal box of the same sides are far from rest."""
+    import dataclasses
+
+    from solver.io import hdf5
+    from solver.packing import mechanics
+
+    data = hdf5.read_packings(str(DATA / "lammps_triclinic.data"))[0]
+    unit = dem_formats.read(DATA / "lammps_triclinic.data").diameters.mean()
+    assert_close(data.tilt, TRICLINIC["tilt"] / unit, rtol=1e-15, what="tilt in d0")
+    assert_close(data.box, (TRICLINIC["hi"] - TRICLINIC["lo"]) / unit, rtol=1e-15, what="sides in d0")
+    assert data.periodic is None and data.cell.tilted
+    fractional = data.cell.fractional(data.positions)
+    assert np.all((fractional >= 0.0) & (fractional < 1.0)), "wrapped into the tilted cell"
+    assert len(geometry.find_contacts(data.positions, data.diameters, data.cell)) == 472
+    other = hdf5.read_packings(str(DATA / name))[0]
+    # %.17g dump: write_data's remap, a few ulp; LIGGGHTS's %g dump: six digits of O(5) file lengths
+    atol = 2e-5 if name == "liggghts_triclinic.dump" else 1e-14
+    assert_close(other.tilt, data.tilt, rtol=1e-5 if name == "liggghts_triclinic.dump" else 1e-15, what="tilt")
+    assert_close(other.positions, data.positions, rtol=0.0, atol=atol, what=f"{name} positions")
+    assert np.array_equal(other.rattler, data.rattler)
+    orthogonal = dataclasses.replace(data, tilt=None)
+    with pytest.raises(InputError, match="not in mechanical equilibrium"):
+        mechanics.require_equilibrium(orthogonal, "the positions in the orthogonal box")
