@@ -554,3 +554,34 @@ def test_lammps_reads_the_tilted_dump(tmp_path, lammps_present):
     np.testing.assert_allclose(np.subtract(hi, lo), cell.sides, rtol=0, atol=4e-15)
     np.testing.assert_allclose([xy, xz, yz], cell.tilt, rtol=0, atol=1e-15)
     np.testing.assert_allclose(x, positions, rtol=0, atol=1e-13)
+
+
+@pytest.fixture(scope="module")
+def tilted_file(tmp_path_factory):
+    """The results file of LAMMPS's tilted packing (tests/data/dem/lammps_triclinic.data) with one mode kept."""
+    out = tmp_path_factory.mktemp("tilted") / "tilted.h5"
+    scene = scene_of(out, cache="off", packing={"file": str(REPO / "tests" / "data" / "dem" / "lammps_triclinic.data")},
+                     model={"rho": [0.5]}, modes={"omega": [1.0], "count": 1})
+    pipeline.run(scene, COMM, [])
+    return str(out)
+
+
+def test_a_tilted_results_file_exports_its_cell(tilted_file, tmp_path):
+    """Through the results file: the notebook API gives the file's cell, and each export of it
+    (with its mode) carries that cell: the dump read back by rotsound, extxyz and the dump by OVITO."""
+    from solver.io import dem_formats
+
+    read = hdf5.read_packings(str(REPO / "tests" / "data" / "dem" / "lammps_triclinic.data"))[0]
+    with results.open_results(tilted_file) as f:
+        p = results.packing(f, 0)
+    np.testing.assert_array_equal(p["tilt"], read.tilt)
+    np.testing.assert_array_equal(p["cell"].matrix, read.cell.matrix)
+    files = {fmt: export.export(tilted_file, fmt, str(tmp_path / name), mode=0)[0][0]
+             for fmt, name in (("extxyz", "t.xyz"), ("lammps-dump", "t.dump"), ("vtp", "t.vtp"))}
+    back = dem_formats.read_lammps_dump(files["lammps-dump"])
+    np.testing.assert_array_equal(back.tilt, read.tilt)
+    np.testing.assert_allclose(back.box_hi - back.box_lo, read.box, rtol=0, atol=4e-15)  # the bounding box's round-off
+    seen = ovito_read([files["extxyz"], files["lammps-dump"]])["files"]
+    for fmt in ("extxyz", "lammps-dump"):
+        np.testing.assert_allclose(np.array(seen[files[fmt]]["cell"])[:, :3], read.cell.matrix, rtol=0, atol=1e-12,
+                                   err_msg=fmt)
