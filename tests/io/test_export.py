@@ -483,7 +483,7 @@ def _write_tilted(folder, dim):
     frames = [(positions, fields)]
     pbc = [True] * dim + [False] * (3 - dim)
     return {"extxyz": export._extxyz(str(folder / "t.xyz"), vectors, pbc, frames, {"packing": 0})[0],
-            "lammps-dump": export._lammps_dump(str(folder / "t.dump"), vectors, dim, frames)[0],
+            "lammps-dump": export._lammps_dump(str(folder / "t.dump"), vectors, dim, pbc, frames)[0],
             "vtp": export._vtp(str(folder / "t.vtp"), frames, vectors, dim, None)}
 
 
@@ -585,3 +585,23 @@ def test_a_tilted_results_file_exports_its_cell(tilted_file, tmp_path):
     for fmt in ("extxyz", "lammps-dump"):
         np.testing.assert_allclose(np.array(seen[files[fmt]]["cell"])[:, :3], read.cell.matrix, rtol=0, atol=1e-12,
                                    err_msg=fmt)
+
+
+def test_an_axis_with_walls_is_open_in_every_export(mode_file, tmp_path):
+    """A packing whose cell has walls along y (attribute periodic = [True, False] in its results
+    file) is exported open along y, and along z in 2D: extxyz pbc T F F, the dump's pp ff ff, and
+    OVITO's cell pbc (True, False, False)."""
+    import shutil
+
+    import h5py
+
+    walled = tmp_path / "walled.h5"
+    shutil.copyfile(mode_file, walled)
+    with h5py.File(walled, "r+") as f:
+        f["packings"][sorted(f["packings"])[0]].attrs["periodic"] = np.array([True, False])
+    xyz = export.export(str(walled), "extxyz", str(tmp_path / "w.xyz"))[0][0]
+    dump = export.export(str(walled), "lammps-dump", str(tmp_path / "w.dump"))[0][0]
+    with open(dump) as text:
+        assert text.read().splitlines()[4] == "ITEM: BOX BOUNDS pp ff ff"
+    seen = ovito_read([xyz, dump])["files"]
+    assert seen[xyz]["pbc"] == seen[dump]["pbc"] == [True, False, False]
