@@ -65,6 +65,7 @@ message naming the file, what is wrong and what is allowed.
 
 from __future__ import annotations
 
+import dataclasses
 import pathlib
 import re
 from dataclasses import dataclass
@@ -103,6 +104,9 @@ class RawPacking:
         in the file's units, or None (an orthogonal box).
     ids (N,) int64: atom ids (YADE: the file's ids or the line order from 0).
     source: the format read, "lammps-data", "lammps-dump", "yade" or "mercury".
+    boundary: (D,) the LAMMPS boundary flags of each axis as a dump records them ("pp" periodic;
+        "ff", "fm", "fs", ... not: a wall at each f bound, docs/walls.md), or None when the file
+        does not record them (then every axis is periodic unless packing.walls says otherwise).
     """
 
     positions: np.ndarray
@@ -113,6 +117,7 @@ class RawPacking:
     ids: np.ndarray
     source: str
     tilt: np.ndarray | None = None
+    boundary: tuple[str, ...] | None = None
 
     @property
     def dim(self) -> int:
@@ -357,9 +362,9 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
                     f"restricted one, 'ITEM: BOX BOUNDS xy xz yz pp pp pp' (dump without dump_modify triclinic/general)")
     if triclinic:
         flags = flags[3:]
-    if any(f != "pp" for f in flags[:2]) or len(flags) != 3:
-        _fail(path, f"{where}: the box is not periodic in every direction ('ITEM: {box}'); rotsound's packings "
-                    f"are periodic, so the boundary flags must be 'pp pp pp' ('pp pp ff' for disks, all at z = 0)")
+    if len(flags) != 3 or any(not re.fullmatch("pp|[fsm]{2}", f) for f in flags):
+        _fail(path, f"{where}: the boundary flags ('ITEM: {box}') must be three LAMMPS boundary styles: pp (periodic) "
+                    f"or two of f, s, m (a wall at each f bound: docs/walls.md)")
     try:
         values = np.array(items[box], dtype=np.float64)
     except ValueError:
@@ -405,17 +410,14 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
     if position[0].startswith("xs"):
         cell = Cell(hi - lo, np.zeros(3) if tilt is None else tilt, np.ones(3, dtype=bool))
         positions = lo + positions @ cell.matrix.T
-    if flags[2] != "pp" and not np.all(positions[:, 2] == 0.0):
-        _fail(path, f"{where}: the box is not periodic in z ('ITEM: {box}') but the particles are not all at z = 0; "
-                    f"rotsound's packings are periodic, so the boundary flags must be 'pp pp pp' "
-                    f"('pp pp ff' for disks, all at z = 0)")
     if "mass" in col:
         masses = col["mass"].copy()
     elif "density" in col:
         masses = col["density"] * (np.pi / 6.0) * diameters ** 3
     else:
         masses = None
-    return _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines", tilt)
+    raw = _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines", tilt)
+    return dataclasses.replace(raw, boundary=tuple(flags[:raw.dim]))
 
 
 # --- YADE ---------------------------------------------------------------------------------------

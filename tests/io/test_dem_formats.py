@@ -402,10 +402,9 @@ DAMAGED = [
      r"atom lines have 6 columns but 'ITEM: ATOMS' names 7"),
     ("dump: negative radius", "lammps_3d.dump", _set_atom_value(9, 2, "-0.4"), None,
      r"frame 0's atom lines: 1 particle\(s\) have a non-positive diameter \(first: id 1, diameter -0.8\)"),
-    ("dump: not periodic", "liggghts_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp fm pp"), None,
-     r"the box is not periodic in every direction \('ITEM: BOX BOUNDS pp fm pp'\)"),
-    ("dump: 3D spheres in a box not periodic in z", "lammps_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp pp ff"),
-     None, r"the box is not periodic in z \('ITEM: BOX BOUNDS pp pp ff'\) but the particles are not all at z = 0"),
+    ("dump: boundary flags not LAMMPS's", "liggghts_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp fp pp"),
+     None, r"the boundary flags \('ITEM: BOX BOUNDS pp fp pp'\) must be three LAMMPS boundary styles: pp \(periodic\) "
+           r"or two of f, s, m"),
     ("dump: atom count not a number", "lammps_2d.dump", _replace("ATOMS\n128", "ATOMS\n12a"), None,
      r"'ITEM: NUMBER OF ATOMS' must be followed by one positive whole number"),
     ("yade: unknown #format", "yade_3d.txt", _replace("#format x_y_z_r", "#format x_y_z_r_vel"), None,
@@ -479,6 +478,16 @@ def test_a_2d_dump_not_periodic_in_z_and_a_word_column_read_as_the_plain_dump(tm
     assert named_read.positions.shape == (128, 2)
     for field in ("positions", "diameters", "masses", "box_lo", "box_hi", "ids"):
         assert np.array_equal(getattr(named_read, field), getattr(plain, field)), field
+    assert named_read.boundary == ("pp", "pp") and plain.boundary == ("pp", "pp")
+
+
+def test_a_3d_dump_with_f_bounds_keeps_its_boundary_flags(tmp_path):
+    """'pp pp fm' (a wall at the lower z bound, docs/walls.md): read, with the flags kept per axis."""
+    path = tmp_path / "walled.dump"
+    path.write_text((DATA / "lammps_3d.dump").read_text().replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp pp fm"))
+    walled, plain = dem_formats.read_lammps_dump(path), dem_formats.read_lammps_dump(DATA / "lammps_3d.dump")
+    assert walled.boundary == ("pp", "pp", "fm") and plain.boundary == ("pp", "pp", "pp")
+    assert np.array_equal(walled.positions, plain.positions)
 
 
 @pytest.mark.parametrize("name", ["lammps_triclinic.dump", "liggghts_triclinic.data", "liggghts_triclinic.dump"])
