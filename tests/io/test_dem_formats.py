@@ -518,3 +518,26 @@ def test_a_triclinic_packing_reads_at_rest_in_its_tilted_cell(name):
     orthogonal = dataclasses.replace(data, tilt=None)
     with pytest.raises(InputError, match="not in mechanical equilibrium"):
         mechanics.require_equilibrium(orthogonal, "the positions in the orthogonal box")
+
+
+def test_a_tilt_across_walls_is_refused(tmp_path):
+    """A tilt shears only along periodic axes: a tilted dump with walls (f bounds) along z and a
+    tilt xz, and the tilted data file with the scene's walls along z (packing.walls), are refused
+    naming the file; the same dump with walls along z and a tilt xy alone is read."""
+    from solver.io import hdf5
+
+    path = _edit(tmp_path, "lammps_triclinic.dump", "BOX BOUNDS xy xz yz pp pp pp", "BOX BOUNDS xy xz yz pp pp ff")
+    with pytest.raises(InputError, match=re.escape(f"packing file {path}: the triclinic box's tilt xz = 0.9 shears "
+                                                   f"across axis z, which has walls")):
+        dem_formats.read(path)
+    data = DATA / "lammps_triclinic.data"
+    with pytest.raises(InputError, match=re.escape(f"packing file {data}: the triclinic box's tilt xz = 0.902532 "
+                                                   f"shears across axis z, which has walls")):
+        hdf5.read_packings(str(data), walls=[{"axis": "z", "position": -50.0}])
+    text = path.read_text().replace("2.5000000000000000e-01 4.2999999999999998e+00 -8.0000000000000004e-01",
+                                    "2.5000000000000000e-01 4.2999999999999998e+00 0")
+    lines = text.splitlines()
+    lines[6] = lines[6].rsplit(" ", 1)[0] + " 0"  # xz = yz = 0: xy alone, across y, which is periodic
+    path.write_text("\n".join(lines) + "\n")
+    sheared = dem_formats.read(path)
+    assert sheared.boundary == ("pp", "pp", "ff") and np.array_equal(sheared.tilt, [-1.3, 0.0, 0.0])
