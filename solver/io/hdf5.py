@@ -331,6 +331,13 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
                                      contacts_format)
         info.update(contacts=contacts)
     walled = _dem_walls(path, raw, positions, diameters, unit, model.law, walls, wall_contacts, gravity)
+    if walled is not None and isinstance(box, geometry.Cell):  # the scene's walls: no tilt may shear across them
+        periodic = box.periodic.copy()
+        periodic[walled[0].axis[walled[0].axis < raw.dim]] = False
+        problem = geometry.Cell(box.sides, box.tilt, periodic).tilt_problem()
+        if problem is not None:
+            raise InputError(f"packing file {path}: the triclinic box's {problem} (packing.walls or the file's f "
+                             f"bounds); a tilt may shear only along periodic axes")
     return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, model, stored,
                    gap, walled)
 
