@@ -18,7 +18,7 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
                                  required with model.cohesion, refused without it
                                  (docs/capillary_bridges.md); the packing's attributes
                                  cohesion_law, surface_tension, ... record the law it was made with
-    attribute box   (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box
+    attribute box   (D,) float64 side lengths (L_x, L_y[, L_z]) of the periodic box (orthogonal, or tilted by tilt)
                                  (origin at 0), each > 2 max(diameters) (a pair then touches
                                  through one image only)
     or attribute box_length float  the side L of a square or cubic box (files written before

@@ -89,6 +89,10 @@ def test_a_sheared_packing_is_written_and_read_back_bit_for_bit(tmp_path):
     for name in ("positions", "diameters", "box", "rattler", "tilt"):
         assert_all(np.array_equal(getattr(read, name), getattr(p, name)), f"{name} read back")
     assert_all(read.periodic is None and read.info["pressure"] == p.info["pressure"], "the same packing")
+    walled = dataclasses.replace(p, tilt=None, periodic=np.array([True, False]))  # walls along y: no images
+    hdf5.save_packings(path, [walled])
+    (read,) = hdf5.read_packings(path, check_equilibrium=False)  # without its images it is not at rest
+    assert_all(np.array_equal(read.periodic, walled.periodic) and read.tilt is None, "periodic read back")
 
 
 def test_the_unit_store_keeps_the_cell_and_the_content_key_sees_it():
@@ -147,3 +151,9 @@ def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_ima
     assert_all(np.all((gap > 0) & (gap < capillary.rupture_distance(0.5 * p.diameters[i], 0.5 * p.diameters[j],
                                                                       cohesion))), "bridges apart, not broken")
     mechanics.require_equilibrium(p, "the wet sheared packing")
+
+
+def test_the_recipe_key_of_a_generated_packing_holds_its_shear():
+    keys = [unit_keys.packing_key(scene_of("out.h5", packing={"n": 64, "phi": 0.9, **shear}), 0).digest
+            for shear in ({}, {"shear": 0.0}, {"shear": 0.3}, {"shear": -0.3})]
+    assert_all(keys[0] == keys[1] and len(set(keys)) == 3, "shear 0 keeps the key of before; others differ")
