@@ -94,7 +94,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     decision: the particles are wet from the start, so the same seed gives the dry packing of the
     same start]; it keeps its bridged pairs across a gap (``Packing.bridges``).
 
-    With ``shear`` = gamma (``engine`` fire only) the cell is tilted by xy = gamma L
+    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the cell is tilted by xy = gamma L
     (``sheared_cell``; the same random start, uniform in the square, is uniform in the tilted
     cell too) and FIRE minimises in it: a packing at rest in a sheared periodic cell.
 
@@ -102,6 +102,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     than two large diameters across (a pair could touch through two periodic images: tiny N at
     high phi in 3D), and RuntimeError if FIRE does not reach ``force_tol`` within ``max_steps``.
     """
+    if shear and (engine != "fire" or friction is not None):
+        raise ValueError(f"shear = {shear}: rotsound's FIRE (engine fire, no friction) makes sheared packings")
     rng = np.random.default_rng(seed)
     diameters = rng.permutation(bidisperse_diameters(n))  # mixed, so the sort below is safe
     box_length = box_length_for(diameters, phi, dim)
