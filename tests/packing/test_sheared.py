@@ -7,7 +7,7 @@ import dataclasses
 import h5py
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close, brute_contacts, scene_of
+from conftest import assert_all, assert_close, brute_contacts, scene_of, with_random_stored_forces
 
 from solver import contact_law
 from solver.errors import InputError
@@ -135,7 +135,7 @@ def test_a_bad_cell_in_a_packing_file_is_named(tmp_path, attrs, fragment):
     assert_all(fragment in str(raised.value), str(raised.value))
 
 
-def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_images():
+def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_images(tmp_path):
     """FIRE with capillary bridges in the tilted cell: every bridged pair apart is within its rupture
     distance through the cell's nearest image (brute force), and the packing is at rest with them."""
     from solver import capillary
@@ -151,6 +151,25 @@ def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_ima
     assert_all(np.all((gap > 0) & (gap < capillary.rupture_distance(0.5 * p.diameters[i], 0.5 * p.diameters[j],
                                                                       cohesion))), "bridges apart, not broken")
     mechanics.require_equilibrium(p, "the wet sheared packing")
+    path = str(tmp_path / "wet.h5")
+    hdf5.save_packings(path, [p])
+    (read,) = hdf5.read_packings(path, model=p.model)  # its bridges checked in the tilted cell, and its rest
+    assert_all(np.array_equal(read.bridges, p.bridges) and np.array_equal(read.positions, p.positions), "read back")
+
+
+def test_a_tilted_packings_stored_tangential_forces_are_read_through_the_cells_images(tmp_path):
+    """Stored forces on contacts across the tilted faces pass the file's checks (each pair touches,
+    each force is tangential) only in the tilted cell."""
+    p = with_random_stored_forces(sheared(2, 0.3), 11)
+    path = str(tmp_path / "stressed.h5")
+    hdf5.save_packings(path, [p])
+    (read,) = hdf5.read_packings(path, check_equilibrium=False)  # random forces: not at rest
+    assert_all(np.array_equal(read.tangential.pairs, p.tangential.pairs), "every stored pair kept")
+    # the reader projects the normal part out again: round-off, as for an orthogonal packing
+    assert_close(read.tangential.force, p.tangential.force, rtol=0, atol=1e-14 * np.abs(p.tangential.force).max(),
+                 what="and its force")
+    i, j, _ = brute_contacts(p.positions, p.diameters, p.cell)
+    assert_all(set(zip(i, j)) == set(map(tuple, read.tangential.pairs)), "the stored pairs are the contacts")
 
 
 def test_the_recipe_key_of_a_generated_packing_holds_its_shear():
