@@ -176,3 +176,17 @@ def test_the_recipe_key_of_a_generated_packing_holds_its_shear():
     keys = [unit_keys.packing_key(scene_of("out.h5", packing={"n": 64, "phi": 0.9, **shear}), 0).digest
             for shear in ({}, {"shear": 0.0}, {"shear": 0.3}, {"shear": -0.3})]
     assert_all(keys[0] == keys[1] and len(set(keys)) == 3, "shear 0 keeps the key of before; others differ")
+
+
+def test_a_tilted_cell_narrower_than_two_diameters_is_refused(tmp_path):
+    """Sides 2.2 > 2 d, but tilted by half a side the cell is 2.2 / sqrt(1.25) = 1.97 across: a pair
+    could touch through two images."""
+    path = str(tmp_path / "narrow.h5")
+    with h5py.File(path, "w") as f:
+        f["positions"] = np.array([[0.3, 0.4], [1.4, 1.5]])
+        f["diameters"] = np.ones(2)
+        f.attrs["box"] = [2.2, 2.2]
+        f.attrs["tilt"] = [1.1]
+    with pytest.raises(InputError, match=r"narrow.h5: the cell of box = \[2.2, 2.2\] tilted by tilt = \[1.1\] is "
+                                         r"1.968 across at its narrowest: every height must be > 2 max\(diameters\)"):
+        hdf5.read_packings(path)
