@@ -128,9 +128,9 @@ def _cell_of(group, box: np.ndarray, dim: int, where: str):
     if "tilt" in group.attrs:
         tilt = np.atleast_1d(np.asarray(group.attrs["tilt"]))
         if tilt.shape != (len(names),) or not np.issubdtype(tilt.dtype, np.number) or not np.all(np.isfinite(tilt)):
+            plural = "s" if len(names) > 1 else ""
             raise InputError(f"packing file {where}: attribute 'tilt' = {tilt.tolist()}: need {len(names)} finite "
-                             f"number{'s' if len(names) > 1 else ''}, the cell's tilt factor{'s' if len(names) > 1 else ''} "
-                             f"{', '.join(names)} (LAMMPS's) in d0")
+                             f"number{plural}, the cell's tilt factor{plural} {', '.join(names)} (LAMMPS's) in d0")
     if "periodic" in group.attrs:
         periodic = np.atleast_1d(np.asarray(group.attrs["periodic"]))
         if periodic.shape != (dim,) or periodic.dtype != bool:

@@ -94,9 +94,10 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     decision: the particles are wet from the start, so the same seed gives the dry packing of the
     same start]; it keeps its bridged pairs across a gap (``Packing.bridges``).
 
-    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the cell is tilted by xy = gamma L
-    (``sheared_cell``; the same random start, uniform in the square, is uniform in the tilted
-    cell too) and FIRE minimises in it: a packing at rest in a sheared periodic cell.
+    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the cell
+    is tilted by xy = gamma L (``sheared_cell``; the same random start, uniform in the square, is
+    uniform in the tilted cell too) and FIRE minimises in it: a packing at rest in a sheared
+    periodic cell.
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the cell would not be more
     than two large diameters across (a pair could touch through two periodic images: tiny N at

@@ -66,10 +66,11 @@ Decisions, and why:
 
 - **The fit.**  d = slope / (2 D) of a least-squares line through <dr^2>(t) over a window
   [t_a, t_b]; by default t_b is the last sample with <dr^2> below ``SATURATION_FRACTION`` of the
-  box's uniform-spread value sum_a L_a^2 / 12 (a tilted cell's: its edges' sum_a |a|^2 / 12) and t_a = t_b / 2 (after the ballistic start; see
-  the docs page for how these were chosen).  Error estimate: the larger distance of the two
-  half-windows' slopes from the whole window's.  The exact local d(t) = (d<dr^2>/dt) / (2 D) is
-  returned at every sample, so a user can see the plateau and choose the window.
+  box's uniform-spread value sum_a L_a^2 / 12 (a tilted cell's: its edges' sum_a |a|^2 / 12) and
+  t_a = t_b / 2 (after the ballistic start; see the docs page for how these were chosen).  Error
+  estimate: the larger distance of the two half-windows' slopes from the whole window's.  The
+  exact local d(t) = (d<dr^2>/dt) / (2 D) is returned at every sample, so a user can see the
+  plateau and choose the window.
 
 Cost, n DOF, T times, P probes: K ~ omega_max t_max / 2 + (terms of the filter) MatMatMults on
 2 P columns; 2 K n (2 P)(4 T) flops in the dgemms; memory (2 P)(4 T + 4 + chunk) n / p float64
@@ -358,7 +359,8 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
     attrs: ``d``, ``d_error``, ``d_first_half``, ``d_second_half`` (d0^2/t0), ``window`` (t0),
     ``energy_drift`` (max |H(t) - H| / H, H = 1 exactly), ``terms`` (propagation series),
     ``filter_terms``, ``lam_top`` (1/t0^2), ``omega0``, ``sigma`` (1/t0), ``saturation``
-    (sum L_a^2 / 12, or a tilted cell's edges' sum |a|^2 / 12, d0^2), ``r_c`` (d0; the start's energy-weighted centre, by the minimum image
+    (sum L_a^2 / 12, or a tilted cell's edges' sum |a|^2 / 12, d0^2), ``r_c`` (d0; the start's
+    energy-weighted centre, by the minimum image
     about ``centre``: the fixed centre of every <dr^2>), ``msd0`` (d0^2, the start's <dr^2> about
     r_c), ``start_particles`` (in the region), ``probes``,
     ``t_cross`` (the first sample where local_d reaches half of d: the end of the ballistic start)."""

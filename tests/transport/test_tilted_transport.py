@@ -43,7 +43,8 @@ def test_position_operators_of_a_tilted_packing_take_the_cells_images(comm):
         separation = np.zeros((n, n))
         separation[i, j], separation[j, i] = delta[:, axis], -delta[:, axis]
         expected = a * np.kron(separation, np.ones((dof, dof)))
-        assert_close(x[axis], expected, rtol=0, atol=1e-12 * np.abs(expected).max(), what=f"X^{axis} of the tilted cell")
+        assert_close(x[axis], expected, rtol=0, atol=1e-12 * np.abs(expected).max(),
+                     what=f"X^{axis} of the tilted cell")
 
 
 def test_the_packets_start_region_and_saturation_in_a_tilted_cell(comm):
