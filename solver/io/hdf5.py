@@ -301,21 +301,23 @@ def _dem_walls(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, di
     periodic = np.array([flag == "pp" for flag in flags])
     if walls is not None:
         axis = np.array([walling.AXES.index(w["axis"]) for w in walls], dtype=np.int64)
-        lo = np.append(raw.box_lo, np.zeros(3 - dim))
-        position = np.array([(w["position"] - lo[a]) / unit for w, a in zip(walls, axis)])
+        position = np.array([w["position"] for w in walls], dtype=float)
         if raw.boundary is None:
             periodic[axis[axis < dim]] = False
     else:
-        sides = (raw.box_hi - raw.box_lo) / unit
-        bounds = [(a, end * sides[a]) for a in range(dim) for end, flag in enumerate(flags[a]) if flag == "f"]
+        bounds = [(a, (raw.box_lo, raw.box_hi)[end][a]) for a in range(dim) for end, flag in enumerate(flags[a])
+                  if flag == "f"]
         axis = np.array([a for a, _ in bounds], dtype=np.int64)
         position = np.array([p for _, p in bounds], dtype=float)
     if not axis.size and wall_contacts is None and gravity is None:
         return None
-    built = walling.build(axis, position, positions, diameters, periodic, f"packing file {path} (packing.walls)")
+    in_file = walling.build(axis, position, raw.positions, raw.diameters, periodic,  # messages in the file's terms
+                            f"packing file {path} (packing.walls)")
+    built = walling.Walls(in_file.axis, (in_file.position - raw.box_lo[in_file.axis]) / unit, in_file.facing)
+    _check_gravity(None if gravity is None else np.asarray(gravity, dtype=float), built, periodic,
+                   f"packing file {path}")
     scale = unit if law == "harmonic" else unit ** 2  # kn d0 of the file's units (kn = 1 there)
     g = None if gravity is None else np.asarray(gravity, dtype=float) / scale
-    _check_gravity(g, built, periodic, f"packing file {path}")
     stored = None
     if wall_contacts is not None:
         found = wall_files.read(wall_contacts)
