@@ -214,7 +214,9 @@ def packing_friction(f) -> float | None:
 def first_packing(f) -> dict | None:
     """The first configuration: positions (N, D) (D = 2 or 3), diameters (N,), rattler (N,) bool and the
     attributes box (D,) side lengths, phi, z (mean contact number; NaN if absent: a loaded packing
-    has none), and a wet packing's bridges (B, 2) (its bridged pairs apart); None without packings."""
+    has none), a wet packing's bridges (B, 2) (its bridged pairs apart), and a packing between walls
+    its walls ({axis (W,), position (W,)}), its stress tensor stress (D, D) with the walls' share
+    stress_walls (D, D), and its gravity (D,) when it has one (docs/walls.md); None without packings."""
     return packing(f, 0) if _groups(f, "packings") else None
 
 
@@ -226,9 +228,15 @@ def packing(f, index: int) -> dict:
         raise InputError(f"results file {f.filename}: no packing {index} (it has {len(groups)})")
     g = groups[index]
     wet = {"bridges": g["bridges"][()].reshape(-1, 2)} if "bridges" in g else {}
+    walled = {}
+    if "walls" in g:  # docs/walls.md
+        walled = {"walls": {"axis": g["walls/axis"][()], "position": g["walls/position"][()]},
+                  "stress": g.attrs["stress"], "stress_walls": g.attrs["stress_walls"]}
+    if "gravity" in g.attrs:
+        walled["gravity"] = g.attrs["gravity"]
     return {"positions": g["positions"][()], "diameters": g["diameters"][()], "rattler": g["rattler"][()],
             "box": hdf5.box_of(g, g["positions"].shape[1]), "phi": float(g.attrs["phi"]),
-            "z": float(g.attrs.get("z", np.nan)), **wet}
+            "z": float(g.attrs.get("z", np.nan)), **wet, **walled}
 
 
 def mode_shapes(f) -> list[ModeShapes]:

@@ -10,7 +10,7 @@ import pytest
 from walled import GRAVITY, settled
 
 from solver.errors import InputError
-from solver.io import wall_files
+from solver.io import results, wall_files
 from solver.packing import mechanics, walls
 
 pytestmark = pytest.mark.serial_only  # no communicator
@@ -147,6 +147,12 @@ def test_a_lammps_dump_with_f_bounds_reads_between_walls_at_rest(tmp_path):
     again = hdf5.read_packings(str(saved))[0]
     assert np.array_equal(again.walls.position, read.walls.position) and np.array_equal(again.gravity, read.gravity)
     assert np.array_equal(again.info["stress"], read.info["stress"]) and len(again.wall_contacts) == len(touch)
+    out = tmp_path / "results.h5"  # the results file and the notebook API carry them
+    hdf5.write_results(str(out), {}, [read], {})
+    with results.open_results(str(out)) as f:
+        seen = results.packing(f, 0)
+    assert seen["walls"]["axis"].tolist() == [2, 2] and np.array_equal(seen["gravity"], read.gravity)
+    assert np.array_equal(seen["stress_walls"], read.info["stress_walls"])
 
 
 def test_gravity_along_a_periodic_axis_is_refused(tmp_path):
