@@ -199,7 +199,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     """Content key of every matrix, spectrum, modes, transport and waves unit of the scene (``task_units``), by unit
     name. Not collective.
 
-    A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
+    A packing is keyed by its arrays, stored tangential forces, walls and wall contacts included
+    (gravity adds no stiffness: not in the keys; so a file and a generated
     packing with equal contents share units, and 2D and 3D never do: the arrays' shapes are
     hashed); the rolling and twisting ratios join every key when they are not 0, and masses, law,
     mobilised, lever, stored_forces and history when not their defaults, and the dashpots when on (so units made
@@ -224,6 +225,9 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
         stored = [] if p.tangential is None else [p.tangential.pairs, p.tangential.force]  # likewise
         stored += [] if p.bridges is None else [p.bridges]  # a wet packing's bridged pairs apart
+        stored += [] if p.walls is None else [p.walls.axis, p.walls.position, p.walls.facing]  # docs/walls.md
+        stored += [] if p.wall_contacts is None else [p.wall_contacts.particle, p.wall_contacts.wall,
+                                                      p.wall_contacts.force]
         base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses, *stored),
                 "version": __version__, **springs}
         for r_index in range(len(scene.model.rho)):

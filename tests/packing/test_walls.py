@@ -165,3 +165,19 @@ def test_gravity_along_a_periodic_axis_is_refused(tmp_path):
         hdf5.read_packings(str(dump), gravity=[0.01, -0.01])
     with pytest.raises(InputError, match="packing.gravity pulls along y \\(0.01\\) but no wall on that side"):
         hdf5.read_packings(str(dump), gravity=[0.0, 0.01], walls=[{"axis": "y", "position": 0.0}])
+
+
+def test_walls_and_their_stored_forces_key_the_units(tmp_path):
+    """A matrix unit of a packing between walls is not the same packing's without them (nor with
+    other stored wall forces); gravity, which adds no stiffness, leaves the key alone."""
+    from conftest import scene_of
+    from solver.io import unit_keys
+
+    p = settled(2)
+    scene = scene_of(tmp_path / "out.h5", packing={"file": "walled.h5"}, model={"rho": [0.5]})
+    touch = walls.touching(p.positions, p.diameters, p.walls)
+    loaded = dataclasses.replace(p, wall_contacts=walls.WallContacts(touch.particle, touch.wall,
+                                                                     1e-3 * np.roll(touch.normal, 1, axis=1)))
+    variants = [p, dataclasses.replace(p, walls=None), loaded, dataclasses.replace(p, gravity=None)]
+    keys = [unit_keys.scene_keys(scene, [v], [])["matrices/r00_p0000"].digest for v in variants]
+    assert len(set(keys[:3])) == 3 and keys[3] == keys[0], keys
