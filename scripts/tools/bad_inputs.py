@@ -339,7 +339,7 @@ CASES = [
     ("gravity with no wall to hold it", "packing: {file: '{file}', gravity: [0.0, 0.0, 1.0]}\n", [],
      "packing.gravity pulls along z (1) but no wall on that side holds the packing", _walled("pp pp fm")),
     ("wall contact naming a missing particle", "packing: {file: '{file}', wall_contacts: '{file}.walls'}\n", [],
-     "particle id 9999 is not in the packing file", _walled(wall_lines="9999 0 0.0 0.0 0.1\n")),
+     "atom id 9999 is not in the packing file", _walled(wall_lines="9999 0 0.0 0.0 0.1\n")),
     ("wall contact naming a missing wall", "packing: {file: '{file}', wall_contacts: '{file}.walls'}\n", [],
      "names wall 7, but the packing has 2 wall(s)", _walled(wall_lines="1 7 0.0 0.0 0.1\n")),
     ("waves along a walled axis", "packing: {file: '{file}'}\nmodel: {rho: [0.5]}\nwaves: {n: [1], axes: [y]}\n", [],

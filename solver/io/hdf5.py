@@ -321,20 +321,32 @@ def _dem_walls(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, di
     stored = None
     if wall_contacts is not None:
         found = wall_files.read(wall_contacts)
-        at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
-        missing = np.flatnonzero(raw.ids[at] != found.ids)
-        if missing.size:
-            raise InputError(f"wall contact file {wall_contacts}: particle id {found.ids[missing[0]]} is not in the "
-                             f"packing file {path} ({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the "
-                             f"two files must describe the same packing")
-        force = found.force / scale
-        if dim == 2:
-            if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
-                raise InputError(f"wall contact file {wall_contacts}: a force has a z component, but the packing is 2D")
-            force = force[:, :2]
-        stored = walling.build_contacts(at, found.wall, force, positions, diameters, built,
-                                        f"wall contact file {wall_contacts}")
+        where = f"wall contact file {wall_contacts}"
+        force = _in_plane(found.force / scale, dim, where)
+        stored = walling.build_contacts(_indices(raw, found.ids, where), found.wall, force, positions, diameters, built,
+                                        where)
     return built, stored, g
+
+
+def _indices(raw: dem_formats.RawPacking, ids: np.ndarray, where: str) -> np.ndarray:
+    """The particle indices (same shape) of the atom ``ids`` a file (``where``) names; InputError
+    for an id the packing ``raw`` lacks."""
+    at = np.minimum(np.searchsorted(raw.ids, ids), raw.ids.size - 1)
+    missing = np.flatnonzero(raw.ids[at].ravel() != ids.ravel())
+    if missing.size:
+        raise InputError(f"{where}: atom id {ids.ravel()[missing[0]]} is not in the packing file ({raw.ids.size} "
+                         f"atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe the same packing")
+    return at
+
+
+def _in_plane(force: np.ndarray, dim: int, where: str) -> np.ndarray:
+    """Forces (C, 3) as (C, dim): in 2D, InputError naming ``where`` unless every z component is
+    round-off (1e-12 of the largest), then dropped."""
+    if dim == 3:
+        return force
+    if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
+        raise InputError(f"{where}: a force has a z component, but the packing is 2D")
+    return force[:, :2]
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
@@ -344,20 +356,12 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
     pair/gran/local lists every bridged pair, touching or not; None when dry)."""
     law = model.law
     found = contact_files.read(path, fmt)
-    at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
-    missing = np.flatnonzero(raw.ids[at] != found.ids)
-    if missing.size:
-        raise InputError(f"contact file {path}: atom id {found.ids.ravel()[missing[0]]} is not in the packing file "
-                         f"({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe "
-                         f"the same packing")
+    at = _indices(raw, found.ids, f"contact file {path}")
     if found.source in contact_files.KN_FROM_FILE:  # YADE, MercuryDPM: kn from the file's normal forces
         force = contact_files.KN_FROM_FILE[found.source](path, found, at, positions, diameters, box, unit, law)
     else:
         force = found.force / (unit if law == "harmonic" else unit ** 2)
-    if raw.dim == 2:
-        if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
-            raise InputError(f"contact file {path}: a tangential force has a z component, but the packing is 2D")
-        force = force[:, :2]
+    force = _in_plane(force, raw.dim, f"contact file {path}")
     gap = None
     if model.cohesion is not None:  # the listed pairs apart are bridged (checks: bridges.build)
         _, _, overlap = geometry.pair_geometry(positions, diameters, box, np.sort(at, axis=1))
