@@ -181,3 +181,27 @@ def test_walls_and_their_stored_forces_key_the_units(tmp_path):
     variants = [p, dataclasses.replace(p, walls=None), loaded, dataclasses.replace(p, gravity=None)]
     keys = [unit_keys.scene_keys(scene, [v], [])["matrices/r00_p0000"].digest for v in variants]
     assert len(set(keys[:3])) == 3 and keys[3] == keys[0], keys
+
+
+def test_a_lammps_data_file_takes_its_walls_from_the_scene(tmp_path):
+    """A data file records no boundary: packing.walls (file coordinates) makes their axis walled;
+    the 2D settled packing, shifted by lo and scaled by 1.5, reads at rest with its gravity."""
+    from solver.io import hdf5
+
+    p = settled(2)
+    unit, lo = 1.5, np.array([2.0, -1.0])
+    x = p.positions * unit + lo
+    density = 6.0 / (np.pi * (p.diameters * unit) ** 3)  # mass 1 each, LAMMPS's rule
+    atoms = "\n".join(f"{i + 1} 1 {p.diameters[i] * unit:.17g} {density[i]:.17g} {x[i, 0]:.17g} {x[i, 1]:.17g} 0"
+                      for i in range(p.n))
+    hi = lo + p.box * unit
+    path = tmp_path / "walled.data"
+    path.write_text(f"LAMMPS data file\n\n{p.n} atoms\n1 atom types\n\n{lo[0]:.17g} {hi[0]:.17g} xlo xhi\n"
+                    f"{lo[1]:.17g} {hi[1]:.17g} ylo yhi\n-0.5 0.5 zlo zhi\n\nAtoms # sphere\n\n{atoms}\n")
+    scene_walls = [{"axis": "y", "position": float(lo[1])}, {"axis": "y", "position": float(hi[1])}]
+    read = hdf5.read_packings(str(path), walls=scene_walls, gravity=list(p.gravity * unit))[0]
+    assert list(read.periodic) == [True, False]
+    assert np.allclose(read.walls.position, [0.0, p.box[1]], rtol=0, atol=1e-12)
+    assert np.allclose(read.positions, p.positions, rtol=0, atol=1e-12)
+    with pytest.raises(InputError, match="not at rest between its walls"):
+        hdf5.read_packings(str(path), walls=scene_walls)
