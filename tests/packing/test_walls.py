@@ -205,3 +205,13 @@ def test_a_lammps_data_file_takes_its_walls_from_the_scene(tmp_path):
     assert np.allclose(read.positions, p.positions, rtol=0, atol=1e-12)
     with pytest.raises(InputError, match="not at rest between its walls"):
         hdf5.read_packings(str(path), walls=scene_walls)
+
+
+def test_walls_refuse_capillary_bridges():
+    from solver.capillary import Cohesion
+    from solver.contact_law import ContactModel
+
+    p = settled(2)
+    wet = dataclasses.replace(p, model=ContactModel(cohesion=Cohesion("willett", 0.01, 0.0, 0.001, 0.0)))
+    with pytest.raises(InputError, match="capillary bridges to a wall are not modelled"):
+        mechanics.with_walls(wet, p.walls)
