@@ -102,6 +102,8 @@ def _valid(path, dim=2, **changes):
                 f[key] = data[key]
         if data["box_length"] is not None:
             f.attrs["box_length"] = data["box_length"]
+        if "tilt" in data:
+            f.attrs["tilt"] = data["tilt"]
 
 
 def _mixed(path):
@@ -348,8 +350,12 @@ CASES = [
     # --- packing files of LAMMPS, LIGGGHTS and YADE (tests/data/dem)
     ("unknown packing.format", GOOD.replace("}", ", format: xyz}"), [],
      "packing.format = 'xyz': must be one of rotsound, lammps-data, lammps-dump, yade, mercury, or null", None),
-    ("LAMMPS data file with a triclinic box", "packing: {file: '{file}'}\n", [],
-     "the box is triclinic", _dem("lammps_triclinic.data", None)),
+    ("LAMMPS data file with a tilt beyond half a side", "packing: {file: '{file}'}\n", [],
+     "the triclinic box's tilt xy = -2.8 is beyond half the side L_x = 5.5",
+     _dem("lammps_triclinic.data", lambda text: text.replace("-1.3 0.9 -0.8 xy xz yz", "-2.8 0.9 -0.8 xy xz yz"))),
+    ("2D LAMMPS data file tilted along z (xz or yz)", "packing: {file: '{file}'}\n", [],
+     "in 2D only xy shears the cell, so xz and yz must be 0",
+     _dem("lammps_2d.data", lambda text: text.replace("1.25 11 ylo yhi", "1.25 11 ylo yhi\n0.75 0.5 0 xy xz yz"))),
     ("LAMMPS data file cut short", "packing: {file: '{file}'}\n", [],
      "the Atoms section has 117 atom lines where the header says 128 atoms",
      _dem("lammps_3d.data", lambda text: text[:len(text) // 2])),
@@ -405,6 +411,12 @@ CASES = [
      "model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu", None),
     ("pressure without friction", "packing: {n: 64, phi: 0.82, pressure: 0.01}\n", [],
      "packing.pressure = 0.01: the pressure at which LAMMPS holds a frictional packing", None),
+    ("a shear beyond LAMMPS's limit", "packing: {n: 64, phi: 0.9, shear: 0.7}\n", [],
+     "packing.shear = 0.7: must be in [-0.5, 0.5]", None),
+    ("a shear on a packing file", "packing: {file: '{file}', shear: 0.2}\n", [],
+     "packing.shear = 0.2: the shear of a packing rotsound's FIRE generates", _valid),
+    ("a packing file whose tilt is beyond half a side", "packing: {file: '{file}'}\n", [],
+     "attribute 'tilt' = [9.0]: tilt xy = 9 is beyond half the side L_x", lambda path: _valid(path, tilt=np.array([9.0]))),
     ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],
      "packing.friction = 0.5: the Coulomb mu of a frictional packing", None),
     ("MercuryDPM data file whose counts disagree", MERCURY + "model: {lever: contact}\n", [],

@@ -28,6 +28,10 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
     wall_contacts/ optional group: the stored tangential forces of the wall contacts: particle (C,)
                 int64 0-based, wall (C,) int64, force (C, D) float64 on the particle (kn d0)
     attribute gravity (D,) float64  optional: the body force per unit mass (kn d0 per unit of masses)
+    attribute tilt  (T,) float64 optional: the cell's tilt factors xy (2D) or xy, xz, yz (3D), LAMMPS's
+                                 (``geometry.Cell``: edges a = (L_x, 0, 0), b = (xy, L_y, 0),
+                                 c = (xz, yz, L_z)), each at most half the side it shears; absent: orthogonal
+    attribute periodic (D,) bool optional: which axes are periodic (False: walls, no images); absent: all
 """
 
 from __future__ import annotations
@@ -102,17 +106,18 @@ def _read_one(group, where: str, check_equilibrium: bool, model: ContactModel) -
         fail(f"'{name}' has shape {box.shape}; need ({dim},) for 'box' or one number for 'box_length'")
     if "box" in group.attrs and "box_length" in group.attrs and np.any(box != group.attrs["box_length"]):
         fail(f"'box' = {box.tolist()} and 'box_length' = {group.attrs['box_length']} disagree")
+    box = _cell_of(group, box, dim, where)
     if stored is not None:
         _check_box(box, diameters, where, name)
         _check_distinct(positions, diameters, box, where)
         pairs, force, friction = stored
-        stored = stressed.build(pairs, force, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)),
+        stored = stressed.build(pairs, force, _folded(positions, box), diameters, _sides(box, dim),
                                 model.law, friction, f"packing file {where}:/tangential")
     if gap is not None:
         _check_box(box, diameters, where, name)
-        gap = bridging.build(gap, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), model.cohesion,
+        gap = bridging.build(gap, _folded(positions, box), diameters, _sides(box, dim), model.cohesion,
                              f"packing file {where}:/bridges")
-    walled = _read_walls(group, where, np.mod(positions, box), diameters) if "walls" in group else None
+    walled = _read_walls(group, where, _folded(positions, box), diameters) if "walls" in group else None
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
                    check_equilibrium, model, stored, gap, walled)
 
@@ -136,6 +141,44 @@ def _read_walls(group, where: str, positions: np.ndarray, diameters: np.ndarray)
         stored = walling.build_contacts(*stored, positions, diameters, walls, f"packing file {where}:/wall_contacts")
     _check_gravity(gravity, walls, periodic, f"packing file {where}")
     return walls, stored, gravity
+
+
+def _cell_of(group, box: np.ndarray, dim: int, where: str):
+    """The box of a packing group as the geometry takes it: a ``geometry.Cell`` when the group has
+    attribute ``tilt`` or ``periodic`` (format above), else ``box`` as read (files without them read
+    as before).  InputError naming the file when either is malformed or the tilt is beyond what
+    rotsound takes (``Cell.tilt_problem``)."""
+    if "tilt" not in group.attrs and "periodic" not in group.attrs:
+        return box
+    names = geometry.TILTS[dim]
+    cell = geometry.Cell.of(np.broadcast_to(box, (dim,)), dim)
+    tilt, periodic = cell.tilt, cell.periodic
+    if "tilt" in group.attrs:
+        tilt = np.atleast_1d(np.asarray(group.attrs["tilt"]))
+        if tilt.shape != (len(names),) or not np.issubdtype(tilt.dtype, np.number) or not np.all(np.isfinite(tilt)):
+            raise InputError(f"packing file {where}: attribute 'tilt' = {tilt.tolist()}: need {len(names)} finite "
+                             f"number{'s' if len(names) > 1 else ''}, the cell's tilt factor{'s' if len(names) > 1 else ''} "
+                             f"{', '.join(names)} (LAMMPS's) in d0")
+    if "periodic" in group.attrs:
+        periodic = np.atleast_1d(np.asarray(group.attrs["periodic"]))
+        if periodic.shape != (dim,) or periodic.dtype != bool:
+            raise InputError(f"packing file {where}: attribute 'periodic' = {periodic.tolist()}: need {dim} booleans, "
+                             f"whether each axis is periodic (False: walls)")
+    cell = geometry.Cell(cell.sides, tilt.astype(float), periodic)
+    problem = cell.tilt_problem()
+    if problem is not None:
+        raise InputError(f"packing file {where}: attribute 'tilt' = {cell.tilt.tolist()}: {problem}")
+    return cell
+
+
+def _folded(positions: np.ndarray, box) -> np.ndarray:
+    """``positions`` folded into the cell ``box`` (a ``geometry.Cell``, sides, or one side)."""
+    return geometry.wrap(positions, box) if isinstance(box, geometry.Cell) else np.mod(positions, box)
+
+
+def _sides(box, dim: int):
+    """``box`` as the geometry functions take it: a ``geometry.Cell`` as it is, else its (dim,) sides."""
+    return box if isinstance(box, geometry.Cell) else np.broadcast_to(box, (dim,))
 
 
 def _read_bridges(group, where: str, model: ContactModel):
@@ -188,12 +231,19 @@ def _read_tangential(group, where: str, n: int, dim: int):
 
 
 def _check_box(box, diameters, where: str, box_name: str, walled_axes=()) -> None:
-    """InputError unless every side is finite and > 2 max(diameters) (the latter but along
-    ``walled_axes``, which have no images)."""
-    sides = np.delete(np.broadcast_to(box, (np.size(box),)), list(walled_axes))
-    if not np.all(np.isfinite(box)) or np.any(sides <= 2 * diameters.max()):
-        raise InputError(f"packing file {where}: {box_name} = {np.asarray(box).tolist()}: every side must be "
+    """InputError unless every side is finite and > 2 max(diameters) (but along ``walled_axes``,
+    which have no images), and so is every height of a tilted cell (``box`` a ``geometry.Cell``,
+    the sides, or one side)."""
+    sides = box.sides if isinstance(box, geometry.Cell) else box
+    imaged = np.delete(np.broadcast_to(sides, (np.size(sides),)), list(walled_axes))
+    if not np.all(np.isfinite(sides)) or np.any(imaged <= 2 * diameters.max()):
+        raise InputError(f"packing file {where}: {box_name} = {np.asarray(sides).tolist()}: every side must be "
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
+    if isinstance(box, geometry.Cell) and geometry.narrowest(box) <= 2 * diameters.max():
+        raise InputError(f"packing file {where}: the cell of {box_name} = {sides.tolist()} tilted by tilt = "
+                         f"{box.tilt.tolist()} is {geometry.narrowest(box):.4g} across at its narrowest: every "
+                         f"height must be > 2 max(diameters) = {2 * diameters.max():.4g}, so that a pair touches "
+                         f"through one image only")
 
 
 COINCIDENT = 1e-9
@@ -204,14 +254,9 @@ normal is undefined."""
 def _check_distinct(positions, diameters, box, where: str) -> None:
     """InputError naming the first pair (0-based, in the order read) of particles whose centres
     coincide (``COINCIDENT``), under the periodic box."""
-    from scipy.spatial import cKDTree
-
-    sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
-    folded = np.mod(positions, sides)
-    folded[folded >= sides] = 0.0  # np.mod of a tiny negative value rounds up to the side
-    pairs = cKDTree(folded, boxsize=sides).query_pairs(COINCIDENT * diameters.min(), output_type="ndarray")
+    pairs = geometry.candidate_pairs(positions, box, COINCIDENT * diameters.min())  # sorted, i < j
     if len(pairs):
-        i, j = min(map(tuple, np.sort(pairs, axis=1)))
+        i, j = pairs[0]
         raise InputError(f"packing file {where}: particles {i} and {j} (0-based, in the order read) have the same "
                          f"centre {positions[i].tolist()} (closer than {COINCIDENT:g} of the smallest diameter, "
                          f"across the periodic box): their contact normal is undefined; move or remove one")
@@ -236,9 +281,9 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
     _check_box(box, diameters, where, box_name, () if walled is None else set(walled[0].axis.tolist()))
     _check_distinct(positions, diameters, box, where)
     if tangential is not None:
-        sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
         info = {**info, "n_stored": len(tangential),
-                "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, sides, model.law).sum())}
+                "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, _sides(box, positions.shape[1]),
+                                                      model.law).sum())}
     packing = from_arrays(positions, diameters, box, rattler, info, masses, model, tangential, bridges)
     if walled is not None:  # (walls, wall contacts, gravity): docs/walls.md
         packing = mechanics.with_walls(packing, *walled)
@@ -259,7 +304,8 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
               friction: float | None = None, contacts_format: str = "lammps-local", walls: list | None = None,
               wall_contacts: str | None = None, gravity: list | None = None) -> Packing:
     """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
-    file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
+    file's mean diameter (d0 = 1), positions taken from the box's lower corner (the cell's origin;
+    a triclinic file's tilt gives the packing's ``geometry.Cell``, periodic along every axis); the file's
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
     ``contacts`` file (``contact_files``), its stored tangential forces, divided by kn d0 of the
     file's units with kn = 1 there (LAMMPS units lj with kn = 1): by the length unit (harmonic)
@@ -275,14 +321,20 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
     positions, diameters = (raw.positions - raw.box_lo) / unit, raw.diameters / unit
     box = (raw.box_hi - raw.box_lo) / unit
+    walled = _dem_walls(path, raw, positions, diameters, unit, model.law, walls, wall_contacts, gravity)
+    walled_axes = () if walled is None else set(walled[0].axis.tolist())
+    if raw.tilt is not None or walled_axes:  # no images across a wall
+        periodic = np.ones(raw.dim, dtype=bool)
+        periodic[list(walled_axes)] = False
+        tilt = np.zeros(len(geometry.TILTS[raw.dim])) if raw.tilt is None else raw.tilt / unit
+        box = geometry.Cell(box, tilt, periodic)
     stored = gap = None
     if contacts is not None:
-        _check_box(box, diameters, path, "box")
+        _check_box(box, diameters, path, "box", walled_axes)
         _check_distinct(positions, diameters, box, path)
         stored, gap = _stored_forces(contacts, raw, positions, diameters, box, model, friction, unit,
                                      contacts_format)
         info.update(contacts=contacts)
-    walled = _dem_walls(path, raw, positions, diameters, unit, model.law, walls, wall_contacts, gravity)
     return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, model, stored,
                    gap, walled)
 
@@ -350,8 +402,9 @@ def _in_plane(force: np.ndarray, dim: int, where: str) -> np.ndarray:
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
-                   box: np.ndarray, model: ContactModel, friction: float | None, unit: float, fmt: str):
-    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` as rotsound's stored
+                   box, model: ContactModel, friction: float | None, unit: float, fmt: str):
+    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` (``box``: its (D,) sides or
+    its ``geometry.Cell``; the pairs' geometry is taken in it) as rotsound's stored
     tangential forces and, under ``model.cohesion``, the bridged pairs apart (LIGGGHTS's
     pair/gran/local lists every bridged pair, touching or not; None when dry)."""
     law = model.law
@@ -453,6 +506,10 @@ def write_packing(group, packing: Packing) -> None:
     group.attrs["box"] = packing.box
     if np.all(packing.box == packing.box[0]):
         group.attrs["box_length"] = packing.box[0]  # square or cubic: readers of the older layout go on
+    if packing.tilt is not None:
+        group.attrs["tilt"] = packing.tilt
+    if packing.periodic is not None:
+        group.attrs["periodic"] = packing.periodic
     group.attrs["phi"] = packing.phi
     for key, value in packing.info.items():
         group.attrs[key] = value
