@@ -23,15 +23,15 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
                                  through one image only)
     or attribute box_length float  the side L of a square or cubic box (files written before
                                  rectangular boxes; rotsound writes it too when the box is one)
+    attribute tilt  (T,) float64 optional: the cell's tilt factors xy (2D) or xy, xz, yz (3D), LAMMPS's
+                                 (``geometry.Cell``: edges a = (L_x, 0, 0), b = (xy, L_y, 0),
+                                 c = (xz, yz, L_z)), each at most half the side it shears; absent: orthogonal
+    attribute periodic (D,) bool optional: which axes are periodic (False: walls, no images); absent: all
     walls/      optional group: flat walls (docs/walls.md): axis (W,) int64 (0 = x), position (W,)
                 float64 (d0); their axes are not periodic
     wall_contacts/ optional group: the stored tangential forces of the wall contacts: particle (C,)
                 int64 0-based, wall (C,) int64, force (C, D) float64 on the particle (kn d0)
     attribute gravity (D,) float64  optional: the body force per unit mass (kn d0 per unit of masses)
-    attribute tilt  (T,) float64 optional: the cell's tilt factors xy (2D) or xy, xz, yz (3D), LAMMPS's
-                                 (``geometry.Cell``: edges a = (L_x, 0, 0), b = (xy, L_y, 0),
-                                 c = (xz, yz, L_z)), each at most half the side it shears; absent: orthogonal
-    attribute periodic (D,) bool optional: which axes are periodic (False: walls, no images); absent: all
 """
 
 from __future__ import annotations
@@ -232,10 +232,10 @@ def _read_tangential(group, where: str, n: int, dim: int):
 
 def _check_box(box, diameters, where: str, box_name: str, walled_axes=()) -> None:
     """InputError unless every side is finite and > 2 max(diameters) (but along ``walled_axes``,
-    which have no images), and so is every height of a tilted cell (``box`` a ``geometry.Cell``,
-    the sides, or one side)."""
-    sides = box.sides if isinstance(box, geometry.Cell) else box
-    imaged = np.delete(np.broadcast_to(sides, (np.size(sides),)), list(walled_axes))
+    which have no images), and so is every height of a tilted cell (``box`` a ``geometry.Cell``, the
+    sides, or one side)."""
+    sides = box.sides if isinstance(box, geometry.Cell) else np.broadcast_to(np.asarray(box, dtype=float), (np.size(box),))
+    imaged = np.delete(sides, list(walled_axes))
     if not np.all(np.isfinite(sides)) or np.any(imaged <= 2 * diameters.max()):
         raise InputError(f"packing file {where}: {box_name} = {np.asarray(sides).tolist()}: every side must be "
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
@@ -328,6 +328,10 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
         periodic[list(walled_axes)] = False
         tilt = np.zeros(len(geometry.TILTS[raw.dim])) if raw.tilt is None else raw.tilt / unit
         box = geometry.Cell(box, tilt, periodic)
+        problem = box.tilt_problem() if walled_axes else None  # no tilt may shear across a wall
+        if problem is not None:
+            raise InputError(f"packing file {path}: the triclinic box's {problem} (packing.walls or the file's f "
+                             f"bounds); a tilt may shear only along periodic axes")
     stored = gap = None
     if contacts is not None:
         _check_box(box, diameters, path, "box", walled_axes)

@@ -96,13 +96,13 @@ class Cell:
 
 
 def narrowest(box) -> float:
-    """The smallest distance across ``box`` to a periodic image (a :class:`Cell`: its smallest height
-    along a periodic axis, inf when none is: a walled axis has no images; (D,) sides or one side of
-    an orthogonal cell: the smallest side, as given): what a cutoff must stay below half of."""
-    if not isinstance(box, Cell):
-        return float(np.min(box))
-    across = (box.heights if box.tilted else box.sides)[box.periodic]
-    return float(np.min(across)) if across.size else np.inf
+    """The smallest distance across ``box`` between the faces of a periodic axis (a :class:`Cell`:
+    its smallest height along a periodic axis, inf when none is; (D,) sides or one side of an
+    orthogonal periodic cell: the smallest side, as given): what a cutoff must stay below half of."""
+    if isinstance(box, Cell):
+        across = box.heights if box.tilted else box.sides
+        return float(np.min(across[box.periodic], initial=np.inf))
+    return float(np.min(box))
 
 
 def wrap(positions: np.ndarray, box) -> np.ndarray:

@@ -80,7 +80,7 @@ def test_gravity_adds_no_stiffness(comm, dim):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_stored_wall_forces_make_the_hertz_matrix_non_symmetric(comm, dim):
     """Stored wall forces under hertz add wall_stressed_blocks on the diagonal (their FD check is in
-    test_wall_contact_law.py): the assembled difference is exactly those blocks, and D is flagged non-symmetric;
+    test_wall_law.py): the assembled difference is exactly those blocks, and D is flagged non-symmetric;
     under the harmonic law they add nothing and D stays symmetric."""
     p = settled(dim)
     touch = walls.touching(p.positions, p.diameters, p.walls)
