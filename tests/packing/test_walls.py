@@ -215,3 +215,13 @@ def test_walls_refuse_capillary_bridges():
     wet = dataclasses.replace(p, model=ContactModel(cohesion=Cohesion("willett", 0.01, 0.0, 0.001, 0.0)))
     with pytest.raises(InputError, match="capillary bridges to a wall are not modelled"):
         mechanics.with_walls(wet, p.walls)
+
+
+def test_the_log_line_names_the_walls_their_share_and_gravity():
+    from solver.pipeline import _walls_line
+
+    p = settled(3)
+    share = np.trace(p.info["stress_walls"]) / 3
+    assert _walls_line(p) == (f", walls z = 0, z = {p.walls.position[1]:g} ({p.info['n_wall_contacts']} wall contacts, "
+                              f"their share of the pressure {share:.3e}), g = [0.0, 0.0, -0.01]")
+    assert p.info["n_wall_contacts"] == 18  # 9 on the floor, 9 under the ceiling
