@@ -12,6 +12,7 @@ per matrix by ``schedule.plan``.  Pure and not collective: every rank raises the
 from __future__ import annotations
 
 from ..errors import InputError
+from ..packing.geometry import TILTS
 from . import excitation, lammps_dem
 from .schedule import MIN_SAMPLES, SECOND_ORDER
 
@@ -69,12 +70,19 @@ def check_damping(spec, dashpots: str) -> None:
 
 
 def check_boxes(spec, packings) -> None:
-    """Refuse wave numbers a packing's box does not allow (``excitation.wave_vectors``), for every
-    packing. Not collective."""
+    """Refuse wave numbers a packing's cell does not allow (``excitation.wave_vectors``: in a tilted
+    cell along its reciprocal vectors), and ``waves.engine: lammps`` on a tilted cell (its finite-
+    amplitude runs build an orthogonal LAMMPS box: ``lammps_dem``), for every packing. Not collective."""
     if spec is None:
         return
-    for p in packings:
-        excitation.wave_vectors(spec, p.box, excitation.wave_axes(spec, p.dim))
+    for index, p in enumerate(packings):
+        cell = p.cell
+        if spec.engine == "lammps" and cell.tilted:
+            tilt = ", ".join(f"{name} = {value:.6g}" for name, value in zip(TILTS[p.dim], cell.tilt))
+            raise InputError(f"waves.engine: lammps: configuration {index} is in a tilted cell ({tilt}), and "
+                             "LAMMPS's finite-amplitude waves run in an orthogonal box only; use waves.engine: "
+                             "rotsound (the linear waves take the tilted cell)")
+        excitation.wave_vectors(spec, cell, excitation.wave_axes(spec, p.dim))
 
 
 def check_engine(spec, packing, model) -> None:
