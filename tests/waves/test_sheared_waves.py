@@ -113,8 +113,9 @@ def test_lammps_tr_wave_about_its_sheared_packing(sheared, comm):
 def test_leaving_out_the_tilt_misses(sheared, comm):
     """The same packing read as orthogonal (the tilt left out) misses LAMMPS's wave by far more:
     its start (k along x, polarisation e_y) by 0.85 of the amplitude; exp(tJ) of its matrix grows
-    without bound (measured 4e11 of the amplitude by t = 20: in the orthogonal cell 13 of the 371
-    contacts across the y faces are apart, and the matrix has negative eigenvalues); and the tilted
+    without bound (measured 4e11 of the amplitude by t = 20: in the orthogonal cell 28 of the 371
+    contacts, across the y faces, are apart and 15 other pairs overlap, and its matrix has negative
+    eigenvalues); and the tilted
     matrix with the orthogonal wave (k along x) misses by 2.1 (z by 0.52)."""
     p, frames = sheared
     flat = dataclasses.replace(p, tilt=None)
