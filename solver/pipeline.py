@@ -100,7 +100,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[Pa
     else:
         made = parallel.owner_compute(comm, seeds, lambda s: jammed.generate(
             spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law,
-            cohesion=scene.model.bridges))
+            cohesion=scene.model.bridges, shear=spec.shear))
     for i, p in zip(missing, made):
         if store:
             store.save(f"packings/{i:04d}", *packing_unit(p), key=recipe[i])
@@ -253,7 +253,7 @@ def _compute(scene, p, matrix: Unit, todo: list[Unit], commit, comm, checkpoint=
         if wanted is not None:
             check_interrupt(comm)
             with profiling.stage("transport"):
-                datasets, attrs, line = transport_unit.solve(scene.transport, dm, p.positions, p.box, rho, p_index,
+                datasets, attrs, line = transport_unit.solve(scene.transport, dm, p.positions, p.cell, rho, p_index,
                                                              scene.seed, comm, scratch, scene.spectrum)
                 commit(wanted, datasets, attrs)
                 say(comm, line)

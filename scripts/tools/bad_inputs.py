@@ -79,6 +79,8 @@ def _valid(path, dim=2, **changes):
                 f[key] = data[key]
         if data["box_length"] is not None:
             f.attrs["box_length"] = data["box_length"]
+        if "tilt" in data:
+            f.attrs["tilt"] = data["tilt"]
 
 
 def _mixed(path):
@@ -362,6 +364,12 @@ CASES = [
      "model.mobilised = 'slide': which contacts are at the Coulomb limit needs their mu", None),
     ("pressure without friction", "packing: {n: 64, phi: 0.82, pressure: 0.01}\n", [],
      "packing.pressure = 0.01: the pressure at which LAMMPS holds a frictional packing", None),
+    ("a shear beyond LAMMPS's limit", "packing: {n: 64, phi: 0.9, shear: 0.7}\n", [],
+     "packing.shear = 0.7: must be in [-0.5, 0.5]", None),
+    ("a shear on a packing file", "packing: {file: '{file}', shear: 0.2}\n", [],
+     "packing.shear = 0.2: the shear of a packing rotsound's FIRE generates", _valid),
+    ("a packing file whose tilt is beyond half a side", "packing: {file: '{file}'}\n", [],
+     "attribute 'tilt' = [9.0]: tilt xy = 9 is beyond half the side L_x", lambda path: _valid(path, tilt=np.array([9.0]))),
     ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],
      "packing.friction = 0.5: the Coulomb mu of a frictional packing", None),
     ("MercuryDPM data file whose counts disagree", MERCURY + "model: {lever: contact}\n", [],

@@ -23,6 +23,10 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
                                  through one image only)
     or attribute box_length float  the side L of a square or cubic box (files written before
                                  rectangular boxes; rotsound writes it too when the box is one)
+    attribute tilt  (T,) float64 optional: the cell's tilt factors xy (2D) or xy, xz, yz (3D), LAMMPS's
+                                 (``geometry.Cell``: edges a = (L_x, 0, 0), b = (xy, L_y, 0),
+                                 c = (xz, yz, L_z)), each at most half the side it shears; absent: orthogonal
+    attribute periodic (D,) bool optional: which axes are periodic (False: walls, no images); absent: all
 """
 
 from __future__ import annotations
@@ -96,18 +100,57 @@ def _read_one(group, where: str, check_equilibrium: bool, model: ContactModel) -
         fail(f"'{name}' has shape {box.shape}; need ({dim},) for 'box' or one number for 'box_length'")
     if "box" in group.attrs and "box_length" in group.attrs and np.any(box != group.attrs["box_length"]):
         fail(f"'box' = {box.tolist()} and 'box_length' = {group.attrs['box_length']} disagree")
+    box = _cell_of(group, box, dim, where)
     if stored is not None:
         _check_box(box, diameters, where, name)
         _check_distinct(positions, diameters, box, where)
         pairs, force, friction = stored
-        stored = stressed.build(pairs, force, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)),
+        stored = stressed.build(pairs, force, _folded(positions, box), diameters, _sides(box, dim),
                                 model.law, friction, f"packing file {where}:/tangential")
     if gap is not None:
         _check_box(box, diameters, where, name)
-        gap = bridging.build(gap, np.mod(positions, box), diameters, np.broadcast_to(box, (dim,)), model.cohesion,
+        gap = bridging.build(gap, _folded(positions, box), diameters, _sides(box, dim), model.cohesion,
                              f"packing file {where}:/bridges")
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
                    check_equilibrium, model, stored, gap)
+
+
+def _cell_of(group, box: np.ndarray, dim: int, where: str):
+    """The box of a packing group as the geometry takes it: a ``geometry.Cell`` when the group has
+    attribute ``tilt`` or ``periodic`` (format above), else ``box`` as read (files without them read
+    as before).  InputError naming the file when either is malformed or the tilt is beyond what
+    rotsound takes (``Cell.tilt_problem``)."""
+    if "tilt" not in group.attrs and "periodic" not in group.attrs:
+        return box
+    names = geometry.TILTS[dim]
+    cell = geometry.Cell.of(np.broadcast_to(box, (dim,)), dim)
+    tilt, periodic = cell.tilt, cell.periodic
+    if "tilt" in group.attrs:
+        tilt = np.atleast_1d(np.asarray(group.attrs["tilt"]))
+        if tilt.shape != (len(names),) or not np.issubdtype(tilt.dtype, np.number) or not np.all(np.isfinite(tilt)):
+            raise InputError(f"packing file {where}: attribute 'tilt' = {tilt.tolist()}: need {len(names)} finite "
+                             f"number{'s' if len(names) > 1 else ''}, the cell's tilt factor{'s' if len(names) > 1 else ''} "
+                             f"{', '.join(names)} (LAMMPS's) in d0")
+    if "periodic" in group.attrs:
+        periodic = np.atleast_1d(np.asarray(group.attrs["periodic"]))
+        if periodic.shape != (dim,) or periodic.dtype != bool:
+            raise InputError(f"packing file {where}: attribute 'periodic' = {periodic.tolist()}: need {dim} booleans, "
+                             f"whether each axis is periodic (False: walls)")
+    cell = geometry.Cell(cell.sides, tilt.astype(float), periodic)
+    problem = cell.tilt_problem()
+    if problem is not None:
+        raise InputError(f"packing file {where}: attribute 'tilt' = {cell.tilt.tolist()}: {problem}")
+    return cell
+
+
+def _folded(positions: np.ndarray, box) -> np.ndarray:
+    """``positions`` folded into the cell ``box`` (a ``geometry.Cell``, sides, or one side)."""
+    return geometry.wrap(positions, box) if isinstance(box, geometry.Cell) else np.mod(positions, box)
+
+
+def _sides(box, dim: int):
+    """``box`` as the geometry functions take it: a ``geometry.Cell`` as it is, else its (dim,) sides."""
+    return box if isinstance(box, geometry.Cell) else np.broadcast_to(box, (dim,))
 
 
 def _read_bridges(group, where: str, model: ContactModel):
@@ -160,10 +203,17 @@ def _read_tangential(group, where: str, n: int, dim: int):
 
 
 def _check_box(box, diameters, where: str, box_name: str) -> None:
-    """InputError unless every side is finite and > 2 max(diameters)."""
-    if not np.all(np.isfinite(box)) or np.any(box <= 2 * diameters.max()):
-        raise InputError(f"packing file {where}: {box_name} = {np.asarray(box).tolist()}: every side must be "
+    """InputError unless every side is finite and > 2 max(diameters), and so is every height of a
+    tilted cell (``box`` a ``geometry.Cell``, the sides, or one side)."""
+    sides = box.sides if isinstance(box, geometry.Cell) else box
+    if not np.all(np.isfinite(sides)) or np.any(sides <= 2 * diameters.max()):
+        raise InputError(f"packing file {where}: {box_name} = {np.asarray(sides).tolist()}: every side must be "
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
+    if isinstance(box, geometry.Cell) and geometry.narrowest(box) <= 2 * diameters.max():
+        raise InputError(f"packing file {where}: the cell of {box_name} = {sides.tolist()} tilted by tilt = "
+                         f"{box.tilt.tolist()} is {geometry.narrowest(box):.4g} across at its narrowest: every "
+                         f"height must be > 2 max(diameters) = {2 * diameters.max():.4g}, so that a pair touches "
+                         f"through one image only")
 
 
 COINCIDENT = 1e-9
@@ -174,14 +224,9 @@ normal is undefined."""
 def _check_distinct(positions, diameters, box, where: str) -> None:
     """InputError naming the first pair (0-based, in the order read) of particles whose centres
     coincide (``COINCIDENT``), under the periodic box."""
-    from scipy.spatial import cKDTree
-
-    sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
-    folded = np.mod(positions, sides)
-    folded[folded >= sides] = 0.0  # np.mod of a tiny negative value rounds up to the side
-    pairs = cKDTree(folded, boxsize=sides).query_pairs(COINCIDENT * diameters.min(), output_type="ndarray")
+    pairs = geometry.candidate_pairs(positions, box, COINCIDENT * diameters.min())  # sorted, i < j
     if len(pairs):
-        i, j = min(map(tuple, np.sort(pairs, axis=1)))
+        i, j = pairs[0]
         raise InputError(f"packing file {where}: particles {i} and {j} (0-based, in the order read) have the same "
                          f"centre {positions[i].tolist()} (closer than {COINCIDENT:g} of the smallest diameter, "
                          f"across the periodic box): their contact normal is undefined; move or remove one")
@@ -196,9 +241,9 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
     _check_box(box, diameters, where, box_name)
     _check_distinct(positions, diameters, box, where)
     if tangential is not None:
-        sides = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],))
         info = {**info, "n_stored": len(tangential),
-                "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, sides, model.law).sum())}
+                "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, _sides(box, positions.shape[1]),
+                                                      model.law).sum())}
     packing = from_arrays(positions, diameters, box, rattler, info, masses, model, tangential, bridges)
     if packing.rattler.all():
         name = mechanics.NAMES[packing.dim]
@@ -342,6 +387,10 @@ def write_packing(group, packing: Packing) -> None:
     group.attrs["box"] = packing.box
     if np.all(packing.box == packing.box[0]):
         group.attrs["box_length"] = packing.box[0]  # square or cubic: readers of the older layout go on
+    if packing.tilt is not None:
+        group.attrs["tilt"] = packing.tilt
+    if packing.periodic is not None:
+        group.attrs["periodic"] = packing.periodic
     group.attrs["phi"] = packing.phi
     for key, value in packing.info.items():
         group.attrs[key] = value

@@ -124,6 +124,10 @@ class PackingSpec:
                                       "packing is at rest at this pressure (to 1e-3), then it settles in that box; "
                                       "phi is then where the squeeze ends and the packing's own phi is reported. "
                                       "null: the squeeze's box is kept", _range(0.0, 1e2, True), float)
+    shear: float = _f(0.0, "generated packings with engine: fire: the shear strain gamma of their periodic cell, its "
+                           "tilt xy over its side L (LAMMPS's xy = gamma L; xz = yz = 0): FIRE makes them at rest in "
+                           "the tilted (sheared) cell (docs/packings.md). Between -0.5 and 0.5, LAMMPS's limit; "
+                           "0: the square or cubic box", _range(-0.5, 0.5), float)
     relax: bool = _f(False, "with `file`: re-minimise each configuration frictionlessly with FIRE (to force_tol) "
                             "before the matrix is built, for packings made with friction, which balance only "
                             "with their tangential forces (they are refused otherwise); this moves the particles",

@@ -173,7 +173,7 @@ def packing_key(scene, index: int) -> UnitKey:
     """Key of generated packing ``index`` of ``scene``: its recipe.
 
     ``dim`` joins the settings only in 3D, ``engine`` only when it is lammps, ``law`` only when
-    it is hertz: a 2D harmonic FIRE recipe
+    it is hertz, ``shear`` only when not 0: a 2D harmonic FIRE recipe
     hashes as it did before these keys existed, so 2D packings already in a units folder or the
     cache are found again (and a 3D or LAMMPS recipe never matches one).
     """
@@ -192,6 +192,8 @@ def packing_key(scene, index: int) -> UnitKey:
         settings["pressure"] = spec.pressure
     if scene.model.cohesion is not None:  # wet: FIRE runs with the bridges
         settings["cohesion"] = dataclasses.asdict(scene.model.cohesion)
+    if spec.shear:  # FIRE in a sheared cell; unsheared recipes keep the keys of before
+        settings["shear"] = spec.shear
     return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
 
 
@@ -201,7 +203,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
 
     A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
     packing with equal contents share units, and 2D and 3D never do: the arrays' shapes are
-    hashed); the rolling and twisting ratios join every key when they are not 0, and masses, law,
+    hashed; a tilted cell's tilt and periodic axes too, an orthogonal periodic one's keys are as before); the
+    rolling and twisting ratios join every key when they are not 0, and masses, law,
     mobilised, lever, stored_forces and history when not their defaults, and the dashpots when on (so units made
     before they existed keep their keys); spectra and waves also by their section's settings and the PETSc options that act on
     their stage (``options.acting_on``; ``-log_view`` and the like change no key); KPM's probes
@@ -224,7 +227,10 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
         stored = [] if p.tangential is None else [p.tangential.pairs, p.tangential.force]  # likewise
         stored += [] if p.bridges is None else [p.bridges]  # a wet packing's bridged pairs apart
-        base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses, *stored),
+        cell = p.cell  # a tilted cell or walls: the cell joins the key (orthogonal periodic keys as before)
+        shape = [] if not cell.tilted and cell.periodic.all() else [{"tilt": cell.tilt.tolist(),
+                                                                     "periodic": cell.periodic.tolist()}]
+        base = {"packing": content_key(p.positions, p.diameters, box, p.rattler, *masses, *stored, *shape),
                 "version": __version__, **springs}
         for r_index in range(len(scene.model.rho)):
             for unit in task_units(scene, r_index, p_index):

@@ -293,13 +293,15 @@ class WindowCheckpoint:
 
 
 def packing_unit(p) -> tuple[dict, dict]:
-    """A packing as (datasets, attrs) for the store (the box as attribute ``box`` (D,))."""
+    """A packing as (datasets, attrs) for the store (the box as attribute ``box`` (D,), a tilted
+    cell's tilt as ``tilt`` (T,), axes with walls as ``periodic`` (D,))."""
     datasets = {"positions": p.positions, "diameters": p.diameters, "rattler": p.rattler}
     if p.tangential is not None:  # a frictional packing's stored forces
         datasets.update(tangential_pairs=p.tangential.pairs, tangential_force=p.tangential.force)
     if p.bridges is not None:  # a wet packing's bridged pairs apart (its cohesion is in info)
         datasets.update(bridges=p.bridges)
-    return datasets, {"box": p.box, **p.info}  # generated packings only: no masses
+    cell = {name: value for name, value in (("tilt", p.tilt), ("periodic", p.periodic)) if value is not None}
+    return datasets, {"box": p.box, **cell, **p.info}  # generated packings only: no masses
 
 
 def packing_from_unit(unit):
@@ -308,10 +310,11 @@ def packing_from_unit(unit):
     attrs = dict(attrs)
     box = np.broadcast_to(attrs.pop("box") if "box" in attrs else attrs.pop("box_length"),  # older units
                           datasets["positions"].shape[1:]).astype(float)
+    tilt, periodic = attrs.pop("tilt", None), attrs.pop("periodic", None)  # absent: orthogonal, periodic
     info = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in attrs.items()}
     stored = None
     if "tangential_pairs" in datasets:
         stored = TangentialForces(datasets["tangential_pairs"], datasets["tangential_force"], info.get("friction"))
     return Packing(datasets["positions"], datasets["diameters"], box, datasets["rattler"].astype(bool), info,
-                   tangential=stored, bridges=datasets.get("bridges"),
+                   tangential=stored, bridges=datasets.get("bridges"), tilt=tilt, periodic=periodic,
                    model=ContactModel(law=info.get("law", "harmonic"), cohesion=cohesion_of(info)))  # as generated

@@ -157,7 +157,7 @@ def matrix_order(packing: Packing) -> np.ndarray:
     of ``jammed.spatial_order`` (2D: strips along y, by x in a strip; 3D: slabs along z, strips
     along y, by x), rattlers dropped.  The identity on the non-rattlers for packings stored in that
     order (every packing rotsound makes).  Not collective; the same on every rank."""
-    order = spatial_order(packing.positions, packing.box)
+    order = spatial_order(packing.positions, packing.cell)
     return order[~packing.rattler[order]]
 
 
@@ -168,7 +168,7 @@ def local_contacts(packing: Packing, order: np.ndarray, disk_range: tuple[int, i
     start, stop = disk_range
     owned = np.zeros(packing.n, dtype=bool)
     owned[order[start:stop]] = True
-    found = geometry.find_contacts_touching(packing.positions, packing.diameters, packing.box, owned,
+    found = geometry.find_contacts_touching(packing.positions, packing.diameters, packing.cell, owned,
                                             ~packing.rattler)
     index = np.full(packing.n, -1)
     index[order] = np.arange(order.size)  # packing particle -> matrix particle
@@ -248,7 +248,7 @@ def _gap_bridges(packing: Packing, model: ContactModel, order: np.ndarray, disk_
     owned = np.zeros(packing.n, dtype=bool)
     owned[order[start:stop]] = True
     pairs = packing.bridges[bridges.rank_share(packing.bridges, owned, ~packing.rattler)]
-    normal, distance, overlap = geometry.pair_geometry(packing.positions, packing.diameters, packing.box, pairs)
+    normal, distance, overlap = geometry.pair_geometry(packing.positions, packing.diameters, packing.cell, pairs)
     radius = 0.5 * packing.diameters
     blocks = contact_law.pair_blocks(normal, distance, overlap, radius[pairs[:, 0]], radius[pairs[:, 1]], model,
                                      with_rotation=with_rotation)

@@ -95,6 +95,14 @@ class Cell:
         return None
 
 
+def narrowest(box) -> float:
+    """The smallest distance across ``box`` (a :class:`Cell`: its smallest height; (D,) sides or one
+    side of an orthogonal cell: the smallest side, as given): what a cutoff must stay below half of."""
+    if isinstance(box, Cell) and box.tilted:
+        return float(np.min(box.heights))
+    return float(np.min(box.sides if isinstance(box, Cell) else box))
+
+
 def wrap(positions: np.ndarray, box) -> np.ndarray:
     """Return ``positions`` (N, D) folded into the cell along its periodic axes: ``[0, L_a)`` along
     each axis a of an orthogonal cell, fractional coordinates in ``[0, 1)`` in a tilted one."""
@@ -170,6 +178,26 @@ def candidate_pairs(positions: np.ndarray, box, cutoff: float) -> np.ndarray:
     tree = cKDTree(wrap(positions, cell), boxsize=boxsize, balanced_tree=False, compact_nodes=False)
     pairs = tree.query_pairs(r=cutoff, output_type="ndarray")
     return pairs[np.argsort(pairs[:, 0] * n + pairs[:, 1])]
+
+
+def pairs_with(positions: np.ndarray, box, cutoff: float, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every particle closer than ``cutoff`` (under periodic images) to one of the particles ``index``
+    (M,): (other (P,), of (P,)) each pair once, a particle with itself included, in no set order.
+    Every height of a tilted cell must exceed 2 ``cutoff``."""
+    cell = Cell.of(box, positions.shape[1])
+    if cell.tilted:
+        points, image_of = _images(positions, cell, cutoff)  # the particles first, then images
+        found = cKDTree(points, balanced_tree=False, compact_nodes=False).sparse_distance_matrix(
+            cKDTree(points[index], balanced_tree=False, compact_nodes=False), cutoff, output_type="ndarray")
+        n = positions.shape[0]
+        keys = np.unique(image_of[found["i"]] * n + index[found["j"]])
+        return keys // n, keys % n
+    wrapped = wrap(positions, cell)
+    boxsize = np.where(cell.periodic, cell.sides, 0.0)  # cKDTree: 0 is an axis without images
+    trees = [cKDTree(points, boxsize=boxsize, balanced_tree=False, compact_nodes=False)
+             for points in (wrapped, wrapped[index])]
+    found = trees[0].sparse_distance_matrix(trees[1], cutoff, output_type="ndarray")
+    return found["i"], index[found["j"]]
 
 
 @dataclass(frozen=True)

@@ -56,20 +56,23 @@ def smallest_n(phi: float, dim: int) -> int:
     return max(MIN_N, n)
 
 
-def spatial_order(positions: np.ndarray, box: np.ndarray) -> np.ndarray:
+def spatial_order(positions: np.ndarray, box) -> np.ndarray:
     """Permutation sorting particles into ~n^(1/D) slices along the last axis (2D: strips by y;
-    3D: slabs by z, then ~n^(1/3) strips by y inside a slab), by x inside a strip."""
+    3D: slabs by z, then ~n^(1/3) strips by y inside a slab), by x inside a strip; in a tilted
+    ``geometry.Cell`` the slices are of its fractional coordinates (parallel to its faces)."""
     n, dim = positions.shape
     slices = max(1, int(np.sqrt(n) if dim == 2 else np.cbrt(n)))
-    cell = np.minimum((positions[:, 1:] / box[1:] * slices).astype(int), slices - 1)
-    return np.lexsort((positions[:, 0], *cell.T))  # the last key (y in 2D, z in 3D) sorts first
+    cell = geometry.Cell.of(box, dim)
+    across = cell.fractional(positions)[:, 1:] if cell.tilted else positions[:, 1:] / cell.sides[1:]
+    slab = np.minimum((across * slices).astype(int), slices - 1)
+    return np.lexsort((positions[:, 0], *slab.T))  # the last key (y in 2D, z in 3D) sorts first
 
 
 @profiling.logged("rsPackingFIRE")
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
              max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
              law: str = "harmonic", friction: float | None = None, pressure: float | None = None,
-             cohesion: Cohesion | None = None) -> Packing:
+             cohesion: Cohesion | None = None, shear: float = 0.0) -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
     fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``:
     rotsound's FIRE (not collective) or LAMMPS's
@@ -86,29 +89,38 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     decision: the particles are wet from the start, so the same seed gives the dry packing of the
     same start]; it keeps its bridged pairs across a gap (``Packing.bridges``).
 
-    Raises InputError (naming packing.n and packing.phi) before FIRE if the box would not exceed
-    two large diameters (a pair could touch through two periodic images: tiny N at high phi in
-    3D), and RuntimeError if FIRE does not reach ``force_tol`` within ``max_steps``.
+    With ``shear`` = gamma (``engine`` fire only) the cell is tilted by xy = gamma L
+    (``sheared_cell``; the same random start, uniform in the square, is uniform in the tilted
+    cell too) and FIRE minimises in it: a packing at rest in a sheared periodic cell.
+
+    Raises InputError (naming packing.n and packing.phi) before FIRE if the cell would not be more
+    than two large diameters across (a pair could touch through two periodic images: tiny N at
+    high phi in 3D), and RuntimeError if FIRE does not reach ``force_tol`` within ``max_steps``.
     """
     rng = np.random.default_rng(seed)
     diameters = rng.permutation(bidisperse_diameters(n))  # mixed, so the sort below is safe
     box_length = box_length_for(diameters, phi, dim)
     box = np.full(dim, box_length)
-    if box_length <= 2.0 * D_LARGE:
-        raise InputError(f"packing.n = {n}, packing.phi = {phi}: the {dim}D box would have side L = "
-                         f"{box_length:.4g}, not more than two large diameters (2 d_L = {2 * D_LARGE:.4g}), so a "
+    cell = sheared_cell(box, shear)
+    if geometry.narrowest(cell) <= 2.0 * D_LARGE:
+        across = (f"side L = {box_length:.4g}" if not shear else
+                  f"side L = {box_length:.4g} and, tilted by packing.shear = {shear}, a height of "
+                  f"{geometry.narrowest(cell):.4g}")
+        raise InputError(f"packing.n = {n}, packing.phi = {phi}: the {dim}D box would have {across}, not more than "
+                         f"two large diameters (2 d_L = {2 * D_LARGE:.4g}), so a "
                          f"pair could touch through two periodic images: choose packing.n >= "
-                         f"{smallest_n(phi, dim)} at this phi, or a smaller packing.phi")
+                         f"{smallest_n(phi, dim)} at this phi" + (" (more when sheared)" if shear else "")
+                         + ", or a smaller packing.phi")
     if friction is not None:
         return _frictional(diameters, box, phi, rng, force_tol, max_steps, comm, law, friction, pressure)
     start = rng.uniform(0.0, box_length, size=(n, dim))
-    start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
+    start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers (the square's, also when sheared)
     if engine == "lammps":
         x, steps, max_force = lammps_engine.minimize(start, diameters, box, force_tol, max_steps, comm, law=law)
         stats = {"engine": "lammps"}
     else:
-        forces = (mechanics.FrictionlessForces(diameters, box, law=law) if cohesion is None
-                  else wet.WetForces(diameters, box, cohesion, law))
+        forces = (mechanics.FrictionlessForces(diameters, cell, law=law) if cohesion is None
+                  else wet.WetForces(diameters, cell, cohesion, law))
         result = fire.minimize(start, forces, force_tol, max_steps)
         if not result.converged:
             raise RuntimeError(f"FIRE did not converge: max |F| = {result.max_force:.3e} > "
@@ -116,20 +128,30 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
         x, steps, max_force = result.x, result.steps, result.max_force
         dry = forces if cohesion is None else forces.dry
         stats = {"neighbour_rebuilds": dry.rebuilds, "neighbour_refreshes": dry.refreshes}
-    positions = geometry.wrap(x, box)
-    order = spatial_order(positions, box)
+    positions = geometry.wrap(x, cell)
+    order = spatial_order(positions, cell)
     positions, diameters = positions[order], diameters[order]
     gap = None
     if cohesion is not None:
         new_index = np.empty_like(order)
         new_index[order] = np.arange(n)
-        gap = bridges.build(new_index[forces.bridged(n)], positions, diameters, box, cohesion, "the wet packing")
+        gap = bridges.build(new_index[forces.bridged(n)], positions, diameters, cell, cohesion, "the wet packing")
         stats.update(bridges_broken=forces.broken, **bridges.cohesion_record(cohesion))
-    rattler = mechanics.find_rattlers(positions, diameters, box, law=law, cohesion=cohesion, bridges=gap)
-    info = mechanics.describe(positions, diameters, box, rattler, law, cohesion, gap)
+    rattler = mechanics.find_rattlers(positions, diameters, cell, law=law, cohesion=cohesion, bridges=gap)
+    info = mechanics.describe(positions, diameters, cell, rattler, law, cohesion, gap)
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
+    if shear:
+        info.update(shear=shear)
     return Packing(positions, diameters, box, rattler, info, model=ContactModel(law=law, cohesion=cohesion),
-                   bridges=gap)
+                   bridges=gap, tilt=cell.tilt if cell.tilted else None)
+
+
+def sheared_cell(box: np.ndarray, shear: float) -> geometry.Cell:
+    """The periodic cell of sides ``box`` (D,) tilted by xy = ``shear`` L_x (``packing.shear``: the tilt
+    over the side, |shear| <= 1/2), xz = yz = 0; orthogonal at shear 0."""
+    tilt = np.zeros(len(geometry.TILTS[box.size]))
+    tilt[0] = shear * box[0]
+    return geometry.Cell(box, tilt, np.ones(box.size, dtype=bool))
 
 
 SQUEEZE_FROM = 0.75  # a frictional packing's start: phi_start = 0.75 phi, squeezed to phi
@@ -169,14 +191,14 @@ def relax(packing: Packing, force_tol: float = 1e-6, max_steps: int = 2_000_000)
     statistics are recomputed.  Not collective.  Raises RuntimeError if FIRE does not converge.
     """
     law = packing.model.law
-    forces = mechanics.FrictionlessForces(packing.diameters, packing.box, law=law)
+    forces = mechanics.FrictionlessForces(packing.diameters, packing.cell, law=law)
     result = fire.minimize(packing.positions, forces, force_tol, max_steps)
     if not result.converged:
         raise RuntimeError(f"packing.relax: FIRE did not converge: max |F| = {result.max_force:.3e} > "
                            f"{force_tol:.1e} after {result.steps} steps ({packing.info.get('source', 'packing')})")
     info = {key: packing.info[key] for key in ("source",) if key in packing.info}
     info.update(relaxed=True, fire_steps=result.steps, max_force=result.max_force, force_tol=force_tol, law=law)
-    return from_arrays(result.x, packing.diameters, packing.box, None, info, packing.masses, packing.model)
+    return from_arrays(result.x, packing.diameters, packing.cell, None, info, packing.masses, packing.model)
 
 
 def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.ndarray | None = None,
@@ -184,7 +206,8 @@ def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.n
                 model: ContactModel = ContactModel(), tangential: TangentialForces | None = None,
                 bridges: np.ndarray | None = None) -> Packing:
     """Build a :class:`Packing` from user arrays (e.g. another code's packing), positions (N, D),
-    ``box`` the (D,) sides or one side for a square or cubic box, ``masses`` (N,) or None,
+    ``box`` a ``geometry.Cell`` (its tilt and periodic axes kept on the packing), the (D,) sides or
+    one side for a square or cubic box, ``masses`` (N,) or None,
     ``tangential`` the stored tangential forces (``stressed.build``) or None, ``bridges`` the
     bridged pairs apart of a wet packing (``bridges.build``) or None, under the contact ``model``
     (its normal law, lever and cohesion, kept on the packing: ``ContactModel.at_rest``): the
@@ -194,15 +217,17 @@ def from_arrays(positions: np.ndarray, diameters: np.ndarray, box, rattler: np.n
     is None.
     """
     positions = np.asarray(positions, dtype=float)
-    box = np.broadcast_to(np.asarray(box, dtype=float), (positions.shape[1],)).copy()
-    positions = geometry.wrap(positions, box)
+    cell = geometry.Cell.of(box, positions.shape[1])
+    positions = geometry.wrap(positions, cell)
     diameters = np.asarray(diameters, dtype=float)
     if rattler is None:
-        rattler = mechanics.find_rattlers(positions, diameters, box, tangential, model.law, model.cohesion, bridges)
-    stats = mechanics.describe(positions, diameters, box, rattler, model.law, model.cohesion, bridges)
+        rattler = mechanics.find_rattlers(positions, diameters, cell, tangential, model.law, model.cohesion, bridges)
+    stats = mechanics.describe(positions, diameters, cell, rattler, model.law, model.cohesion, bridges)
     stats.update(info or {})
-    return Packing(positions, diameters, box, np.asarray(rattler, dtype=bool), stats,
-                   None if masses is None else np.asarray(masses, dtype=float), tangential, model.at_rest(), bridges)
+    return Packing(positions, diameters, np.array(cell.sides, dtype=float), np.asarray(rattler, dtype=bool), stats,
+                   None if masses is None else np.asarray(masses, dtype=float), tangential, model.at_rest(), bridges,
+                   tilt=np.array(cell.tilt, dtype=float) if cell.tilted else None,
+                   periodic=None if np.all(cell.periodic) else np.array(cell.periodic, dtype=bool))
 
 
 PHI_JAMMING = {2: 0.84, 3: 0.648}

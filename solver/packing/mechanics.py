@@ -20,7 +20,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .. import capillary, contact_law
 from ..errors import InputError
@@ -52,8 +51,9 @@ class FrictionlessForces:
     its particles is (re-)listed; from then on the other moves at most 3s/4 (s/4 then, s/2 from
     its reference after) and the re-listed one s/2, so an unlisted pair cannot touch.  (Late in
     FIRE a few particles, about 1 %, trip the list while the median has moved s/30: measured at
-    N = 2048 in 3D.)  The skin is at most (min L_a/2 - max d)/1.25, so that a listed pair touches
-    through its listed image only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
+    N = 2048 in 3D.)  The skin is at most (min L_a/2 - max d)/1.25 (in a tilted cell, the smallest
+    height for L_a: ``geometry.narrowest``), so that a listed pair touches through its listed image
+    only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
     particle's forces are summed in a fixed order; the pass over them is compiled
     (``pair_forces.net_forces``), and so is each step's check of the largest move
     (``pair_forces.largest_squared_move``).  Measured at N = 32768 in 3D: a refresh of 1 % of the
@@ -64,10 +64,10 @@ class FrictionlessForces:
     REACH = 1.25  # reach of a partial refresh, in skins (see above)
 
     def __init__(self, diameters: np.ndarray, box, skin: float = 0.3, law: str = "harmonic"):
-        self.diameters, self.box = diameters, box  # box: (D,) sides, or one for a square or cube
+        self.diameters, self.box = diameters, box  # box: a geometry.Cell, (D,) sides, or one for a square or cube
         self.hertz = law == "hertz"  # else harmonic (contact_law.LAWS)
         self.largest = float(diameters.max())
-        self.skin = min(skin, (0.5 * float(np.min(box)) - self.largest) / self.REACH)
+        self.skin = min(skin, (0.5 * geometry.narrowest(box) - self.largest) / self.REACH)
         self.reference: np.ndarray | None = None
         self.rebuilds = self.refreshes = 0
         from .pair_forces import largest_squared_move, net_forces  # here, not at the top: numba takes 0.5 s
@@ -100,11 +100,7 @@ class FrictionlessForces:
         """Re-list the pairs of ``movers`` (N,) bool from the current positions."""
         n, index = x.shape[0], np.flatnonzero(movers)
         reach = self.REACH * self.skin
-        wrapped = geometry.wrap(x, self.box)
-        trees = [cKDTree(points, boxsize=self.box, balanced_tree=False, compact_nodes=False)
-                 for points in (wrapped, wrapped[index])]
-        found = trees[0].sparse_distance_matrix(trees[1], self.largest + reach, output_type="ndarray")
-        other, mover = found["i"], index[found["j"]]
+        other, mover = geometry.pairs_with(x, self.box, self.largest + reach, index)
         once = (other != mover) & (~movers[other] | (other < mover))  # a pair of two movers once
         fresh = self._near(x, np.minimum(other, mover)[once], np.maximum(other, mover)[once], reach)
         order = np.argsort(fresh[0] * n + fresh[1])
@@ -161,7 +157,7 @@ def force_magnitudes(packing: Packing) -> tuple[geometry.Contacts, np.ndarray, n
     """(contacts among non-rattlers, |f_n| (C,), |f_t| (C,)) of ``packing``: the normal force of
     its law (``Packing.model``) and the stored tangential force (zero for an unstressed packing; perpendicular to the
     normal by construction, ``stressed.build``), kn d0.  Not collective."""
-    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, ~packing.rattler)
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.cell, ~packing.rattler)
     d = packing.diameters
     f_n = contact_law.normal_force(found.overlap, packing.model.law, contact_law.reduced_radius(d[found.i], d[found.j]))
     stored = packing.tangential
@@ -219,7 +215,7 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
 def describe(positions: np.ndarray, diameters: np.ndarray, box,
              rattler: np.ndarray, law: str = "harmonic", cohesion: capillary.Cohesion | None = None,
              bridges: np.ndarray | None = None) -> dict:
-    """Energy, pressure (virial sum_c f_c r_c / (D V), V the box volume, f_c the net normal force),
+    """Energy, pressure (virial sum_c f_c r_c / (D V), V the cell's volume, f_c the net normal force),
     mean contact number z and rattler fraction of a packing under the normal ``law`` (units
     kn = d0 = 1); wet (``cohesion``), the bridges' energy and pull join them (every contact, and
     the pairs across a gap ``bridges``), and ``n_bridges`` counts the bridged pairs among
@@ -246,7 +242,7 @@ def describe(positions: np.ndarray, diameters: np.ndarray, box,
         wet = {"n_bridges": int((active[first] & active[second]).sum())}
     return {
         "energy": float(np.sum(energy)),
-        "pressure": float(np.sum(fn * distance) / (dim * np.prod(np.broadcast_to(box, (dim,))))),
+        "pressure": float(np.sum(fn * distance) / (dim * geometry.Cell.of(box, dim).volume)),
         "z": float(2.0 * keep.sum() / n_active) if n_active else 0.0,
         "rattler_fraction": float(rattler.mean()),
         "n_contacts": int(keep.sum()),
@@ -264,7 +260,7 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     f_t on j, with the arms l of its lever, ``contact_law.lever_arms``: R for LAMMPS;
     docs/stressed_contacts.md)."""
     active = ~packing.rattler
-    found = geometry.find_contacts(packing.positions, packing.diameters, packing.box, active)
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.cell, active)
     cohesion = packing.model.cohesion
     f = contact_forces(found, packing.diameters, packing.model.law, packing.tangential, cohesion)  # eq:eij, on i
     rot = 1 if packing.dim == 2 else 3
@@ -278,7 +274,7 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     first, second = found.i, found.j
     if cohesion is not None:  # the bridges across a gap pull along their centre lines: no torque
         gap = wet_pairs(packing.bridges, active)
-        f = np.concatenate((f, bridging.pull_forces(packing.positions, packing.diameters, packing.box, gap, cohesion)))
+        f = np.concatenate((f, bridging.pull_forces(packing.positions, packing.diameters, packing.cell, gap, cohesion)))
         first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
     for axis in range(packing.dim):
         net[:, axis] = (np.bincount(first, f[:, axis], minlength=packing.n)
@@ -347,7 +343,7 @@ def jamming_failure(packing: Packing) -> str | None:
     z >= D + 1 for large N' (frictional isostaticity).  In a wet packing every bridged pair
     across a gap is a constraint too (a normal one, as a contact).
     """
-    stats = describe(packing.positions, packing.diameters, packing.box, packing.rattler,
+    stats = describe(packing.positions, packing.diameters, packing.cell, packing.rattler,
                      packing.info.get("law", "harmonic"), packing.model.cohesion, packing.bridges)
     dim, name = packing.dim, NAMES[packing.dim]
     n_active = packing.n - int(packing.rattler.sum())

@@ -1,6 +1,6 @@
 """The scene's rules on its ``packing`` section: what its keys ask together (a contact file needs
 its packing file, friction and pressure need the protocol that uses them (or, for friction,
-the waves' LAMMPS engine), generated packings
+the waves' LAMMPS engine), shear needs rotsound's FIRE, generated packings
 need N and phi), and which stored tangential forces the section alone gives its packings.
 
 Each rule takes the section (``io.schema.PackingSpec``) and raises InputError naming the keys;
@@ -23,6 +23,9 @@ def check_section(spec, where: str) -> None:
         raise InputError(f"{where}pressure = {spec.pressure}: the pressure at which LAMMPS holds a frictional packing "
                          f"it makes: needs packing.friction with packing.engine: lammps and no packing.file (for a "
                          f"frictionless one in the same protocol, give friction: 0)")
+    if spec.shear and (spec.file is not None or spec.engine != "fire"):
+        raise InputError(f"{where}shear = {spec.shear}: the shear of a packing rotsound's FIRE generates (packing.engine: "
+                         f"fire, no packing.file); a packing file's cell carries its own tilt")
     if spec.file is None:
         for name in ("n", "phi"):
             if getattr(spec, name) is None:

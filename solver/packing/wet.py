@@ -16,7 +16,7 @@ from .mechanics import FrictionlessForces
 
 
 def check_box(diameters: np.ndarray, box, cohesion: capillary.Cohesion) -> None:
-    """InputError unless every side of ``box`` (D,) exceeds 2 (d + s_c) for every pair of the
+    """InputError unless every side of ``box`` (D,) (every height of a tilted ``geometry.Cell``) exceeds 2 (d + s_c) for every pair of the
     ``diameters``' sizes, d = R_i + R_j the pair's contact distance and s_c its bridge's rupture
     distance under ``cohesion`` (d0): a bridge must reach its partner through one periodic image
     only (minimum image on unwrapped positions).  Not collective."""
@@ -24,7 +24,7 @@ def check_box(diameters: np.ndarray, box, cohesion: capillary.Cohesion) -> None:
     r_i, r_j = np.meshgrid(radius, radius)
     rupture = capillary.rupture_distance(r_i, r_j, cohesion)
     k = int(np.argmax(r_i + r_j + rupture))
-    contact, s_c, side = float((r_i + r_j).flat[k]), float(rupture.flat[k]), float(np.min(box))
+    contact, s_c, side = float((r_i + r_j).flat[k]), float(rupture.flat[k]), geometry.narrowest(box)
     if not side > 2.0 * (contact + s_c):
         raise InputError(f"a wet packing's box side L = {side:.4g} d0 must exceed 2 (d + s_c) = "
                          f"{2.0 * (contact + s_c):.4g} d0, with d = {contact:.4g} d0 the largest contact distance and "
@@ -37,7 +37,7 @@ def check_box(diameters: np.ndarray, box, cohesion: capillary.Cohesion) -> None:
 class WetForces:
     """Forces (N, D) and energy of a wet packing for ``fire.minimize``, and its bridged pairs.
 
-    diameters (N,), box (D,) sides, ``cohesion`` the bridges' law, ``law`` the normal law.  The
+    diameters (N,), box (D,) sides or a ``geometry.Cell``, ``cohesion`` the bridges' law, ``law`` the normal law.  The
     bridged pairs are kept as sorted keys i N + j (i < j); each call adds the pairs its contact
     list finds touching and drops those apart by s_c or more, then adds their pull (the whole pass
     vectorised over the bridges).  The box must exceed twice the largest contact distance plus

@@ -27,15 +27,19 @@ def pair_energies(ref_delta, contact, normal, radius_i, radius_j, springs, law, 
                                    du=w[:, :dim] - w[:, m:m + dim], theta_i=theta_i, theta_j=theta_j)
 
 
-def finite_difference_matrix(p, springs, h=1e-5, law="harmonic"):  # 2 h below the smallest overlap
-    """Dense Hessian from central differences of each contact's energy, assembled by hand."""
+def finite_difference_matrix(p, springs, h=1e-5, law="harmonic", contacts=None):  # 2 h below the smallest overlap
+    """Dense Hessian from central differences of each contact's energy, assembled by hand; over
+    ``contacts`` (i, j, r_i - r_j) among the non-rattlers (their indices among them), or, when
+    None, the contacts geometry finds in p's cubic box."""
     active = ~p.rattler
     pos, diam = p.positions[active], p.diameters[active]
-    found = geometry.find_contacts(pos, diam, p.box_length)
-    ref = geometry.minimum_image(pos[found.i] - pos[found.j], p.box_length)
-    args = (ref, 0.5 * (diam[found.i] + diam[found.j]), found.normal,
-            0.5 * diam[found.i], 0.5 * diam[found.j], springs, law)
-    count, dim = found.normal.shape
+    if contacts is None:
+        found = geometry.find_contacts(pos, diam, p.box_length)
+        contacts = found.i, found.j, geometry.minimum_image(pos[found.i] - pos[found.j], p.box_length)
+    i, j, ref = contacts
+    normal = ref / np.sqrt(np.einsum("pd,pd->p", ref, ref))[:, None]
+    args = (ref, 0.5 * (diam[i] + diam[j]), normal, 0.5 * diam[i], 0.5 * diam[j], springs, law)
+    count, dim = normal.shape
     m = dim + (1 if dim == 2 else 3)
     local = central_hessian(lambda w: pair_energies(*args, w), count, 2 * m, h)
     dof = dynmat.dof_per_particle(dim, ContactModel(*springs))
@@ -43,7 +47,7 @@ def finite_difference_matrix(p, springs, h=1e-5, law="harmonic"):  # 2 h below t
     dense = np.zeros((n, n))
     keep = np.arange(dof)
     for c in range(count):
-        idx = np.concatenate((found.i[c] * dof + keep, found.j[c] * dof + keep))
+        idx = np.concatenate((i[c] * dof + keep, j[c] * dof + keep))
         sel = np.concatenate((keep, m + keep))
         dense[np.ix_(idx, idx)] += local[c][np.ix_(sel, sel)]
     return dense
