@@ -1,9 +1,11 @@
 """Standing waves in a tilted (triclinic) cell (issue 59 point 1): k along the reciprocal vectors
 (``excitation.wave_vector``), the polarisations turning with k (``excitation.polarisation``), the
-periods and log lines, the LAMMPS engine's refusal; and in an orthogonal cell the start, channel
-and sampled z the same, bit for bit, as the formulas of k along an axis."""
+periods and log lines, the LAMMPS engine's refusal, the start periodic in the cell and the waves
+of a sheared packing against the dense exact reference; and in an orthogonal cell the start,
+channel and sampled z the same, bit for bit, as the formulas of k along an axis."""
 
 import dataclasses
+import functools
 
 import numpy as np
 import pytest
@@ -13,8 +15,10 @@ from solver.contact_law import ContactModel
 from solver.errors import InputError
 from solver.io.schema import WavesSpec
 from solver.model import dynmat
+from solver.packing import jammed
 from solver.packing.geometry import Cell
-from solver.waves import excitation, rules
+from solver.references import dense_eigen, exact_z_fixed
+from solver.waves import excitation, exponential, rules, spectral
 from solver.waves.sampling import FourierSampler
 
 CELL3 = Cell(np.array([4.0, 5.0, 6.0]), np.array([1.1, -0.7, 0.9]), np.ones(3, dtype=bool))
@@ -155,5 +159,63 @@ def test_orthogonal_start_channel_and_z_as_along_the_axis(small_packing, comm):
             b = np.zeros((stop - start, dm.dof), complex)
             b[:, c] = np.exp(1j * k * r0[:, a])
             assert np.array_equal(excitation.channel(dm, small_packing.positions, c, a, k), b.ravel())
+    finally:
+        dm.destroy()
+
+
+@functools.lru_cache(maxsize=None)
+def sheared_disks():
+    """64 disks at phi = 0.9 that FIRE brought to rest in a cell tilted by xy = 0.3 L (seed 7; the
+    packing of tests/model/test_tilted_dynmat.py)."""
+    return jammed.generate(64, 0.9, np.random.SeedSequence([7, 0]), shear=0.3)
+
+
+def test_the_start_is_periodic_in_the_tilted_cell(comm):
+    """Every run's start v(0) along b_x and b_y of the sheared disks is the same (to 1e-13 of the
+    amplitude) when every disk is moved to another of its periodic images r + H m: the wave is
+    periodic in the tilted cell.  k along the orthogonal axis x instead (the tilt left out) changes
+    it by order the amplitude."""
+    p = sheared_disks()
+    cell = p.cell
+    moved = p.positions + np.random.default_rng(2).integers(-2, 3, size=(p.n, 2)) @ cell.matrix.T
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    try:
+        mpi = comm.tompi4py()
+        for mode in ("L", "TR", "RT"):
+            for c, a in excitation.runs(mode, 2):
+                k = excitation.wave_vector(2 * np.pi / excitation.periods(cell)[a], a, cell)
+                start = excitation.whole_start(dm, p.positions, c, a, k, 1.0, mpi)
+                assert_close(excitation.whole_start(dm, moved, c, a, k, 1.0, mpi), start, rtol=0.0, atol=1e-13,
+                             what=f"{mode} ({c}, {a}) on the images")
+        flat = 2 * np.pi / p.box[0]
+        along_x = excitation.whole_start(dm, moved, 1, 0, flat, 1.0, mpi) - excitation.whole_start(
+            dm, p.positions, 1, 0, flat, 1.0, mpi)
+        assert np.abs(along_x).max() > 0.5, np.abs(along_x).max()
+    finally:
+        dm.destroy()
+
+
+@pytest.mark.parametrize("path", ["spectral", "exponential"])
+def test_waves_of_the_sheared_disks_are_the_dense_reference(comm, path):
+    """rotsound's standing waves of every mode and run (k along b_x and b_y, n = 1, to t = 10) on the
+    sheared disks' matrix (rotations, rho = 0.5) follow the dense exact reference
+    (``references.exact_z_fixed``, its own polarisation: the QR of [k, e_c]) to 1e-8 of max |z|,
+    on the Lanczos and the exponential paths."""
+    p = sheared_disks()
+    cell = p.cell
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    try:
+        eig = dense_eigen(dm)
+        times = np.arange(0.0, 10.0 + 1e-9, 0.25)
+        waves = [(mode, r, excitation.wave_vector(2 * np.pi * n / excitation.periods(cell)[a], a, cell))
+                 for mode in ("L", "TR", "RT") for r, (_, a) in enumerate(excitation.runs(mode, 2)) for n in (1,)]
+        if path == "spectral":
+            series = spectral.spectral_all(dm, p.positions, waves, amplitude=1e-3, times=times, tol=1e-10)
+        else:
+            series = exponential.exponential_all(dm, p.positions, waves, amplitude=1e-3, times=times, tol=1e-10,
+                                                 rate=float(np.sqrt(eig[0].max())))
+        for (mode, r, k), s in zip(waves, series):
+            exact = exact_z_fixed(p, dm, eig, excitation.runs(mode, 2)[r], k, times, 1e-3)
+            assert_close(s.z_fixed, exact, rtol=0.0, atol=1e-8 * np.abs(exact).max(), what=f"{path} {mode} run {r}")
     finally:
         dm.destroy()
