@@ -368,6 +368,10 @@ CASES = [
      "packing.shear = 0.7: must be in [-0.5, 0.5]", None),
     ("a shear on a packing file", "packing: {file: '{file}', shear: 0.2}\n", [],
      "packing.shear = 0.2: the shear of a packing rotsound's FIRE generates", _valid),
+    ("LAMMPS's waves in a sheared cell", "packing: {n: 64, phi: 0.9, shear: 0.2, friction: 0.5}\n"
+     "waves: {engine: lammps, n: [1], amplitude: 1.0e-4}\n", [],
+     "waves.engine: lammps: packing.shear = 0.2 tilts the cell, and LAMMPS's finite-amplitude waves run in an "
+     "orthogonal box only", None),
     ("a packing file whose tilt is beyond half a side", "packing: {file: '{file}'}\n", [],
      "attribute 'tilt' = [9.0]: tilt xy = 9 is beyond half the side L_x", lambda path: _valid(path, tilt=np.array([9.0]))),
     ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],

@@ -79,14 +79,18 @@ def check_boxes(spec, packings) -> None:
         cell = p.cell
         if spec.engine == "lammps" and cell.tilted:
             tilt = ", ".join(f"{name} = {value:.6g}" for name, value in zip(TILTS[p.dim], cell.tilt))
-            raise InputError(f"waves.engine: lammps: configuration {index} is in a tilted cell ({tilt}), and "
-                             "LAMMPS's finite-amplitude waves run in an orthogonal box only; use waves.engine: "
-                             "rotsound (the linear waves take the tilted cell)")
+            _refuse_tilted_lammps(f"configuration {index} is in a tilted cell ({tilt})")
         excitation.wave_vectors(spec, cell, excitation.wave_axes(spec, p.dim))
 
 
+def _refuse_tilted_lammps(why: str) -> None:
+    raise InputError(f"waves.engine: lammps: {why}, and LAMMPS's finite-amplitude waves run in an orthogonal box "
+                     "only; use waves.engine: rotsound (the linear waves take the tilted cell)")
+
+
 def check_engine(spec, packing, model) -> None:
-    """Refuse, with ``waves.engine: lammps``, what LAMMPS's waves cannot take: rotsound's own
+    """Refuse, with ``waves.engine: lammps``, what LAMMPS's waves cannot take: a sheared cell
+    (``packing.shear``; a tilted file: ``check_boxes``), rotsound's own
     path or integrator given too (and ``contacts_every`` without it), no Coulomb coefficient (``packing.friction``), a contact model
     gran/*/history lacks (``lammps_dem.unsupported``), masses other than equal.  Not collective."""
     if spec is not None and spec.engine != "lammps" and spec.contacts_every is not None:
@@ -94,6 +98,8 @@ def check_engine(spec, packing, model) -> None:
                          "records of LAMMPS's contacts (waves.engine: lammps); rotsound's linear waves have none")
     if spec is None or spec.engine != "lammps":
         return
+    if packing.shear:
+        _refuse_tilted_lammps(f"packing.shear = {packing.shear:g} tilts the cell")
     if spec.method != "ts" or spec.integrator != "verlet":
         key, value = ("method", spec.method) if spec.method != "ts" else ("integrator", spec.integrator)
         raise InputError(f"waves.{key} = {value!r} with waves.engine: lammps: LAMMPS integrates the waves with its "
