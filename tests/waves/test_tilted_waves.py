@@ -9,10 +9,12 @@ import functools
 
 import numpy as np
 import pytest
-from conftest import assert_close
+from conftest import COMM, assert_close, scene_of
 
+from solver import pipeline
 from solver.contact_law import ContactModel
 from solver.errors import InputError
+from solver.io import hdf5
 from solver.io.schema import WavesSpec
 from solver.model import dynmat
 from solver.packing import jammed
@@ -217,5 +219,36 @@ def test_waves_of_the_sheared_disks_are_the_dense_reference(comm, path):
         for (mode, r, k), s in zip(waves, series):
             exact = exact_z_fixed(p, dm, eig, excitation.runs(mode, 2)[r], k, times, 1e-3)
             assert_close(s.z_fixed, exact, rtol=0.0, atol=1e-8 * np.abs(exact).max(), what=f"{path} {mode} run {r}")
+    finally:
+        dm.destroy()
+
+
+def test_a_scene_runs_its_waves_along_the_reciprocal_vector(shared_tmp, capsys, comm):
+    """A scene on the sheared disks' packing file (waves.axes [x], n = 1, L and TR, spectral path):
+    the log gives |k| = 2 pi / height and the direction b_x / |b_x|, the results' k is that |k|,
+    and each unit's z_fixed is the dense exact reference's along b_x to 1e-8 of max |z|."""
+    p = sheared_disks()
+    path = shared_tmp / "sheared.h5"
+    if COMM.rank == 0:
+        hdf5.save_packings(str(path), [p])
+    COMM.barrier()
+    scene = scene_of(shared_tmp / "waves.h5", cache="off", packing={"file": str(path)}, model={"rho": 0.5},
+                     waves={"modes": ["L", "TR"], "n": [1], "axes": ["x"], "method": "spectral", "t_end": 10.0})
+    capsys.readouterr()
+    units = pipeline.run(scene, COMM, [])["units"]
+    log = COMM.bcast(capsys.readouterr().out, root=0)
+    cell = p.cell
+    k = 2 * np.pi / cell.heights[0]
+    direction = unit(cell.reciprocal()[0])
+    assert f"waves: |k| d0 = {k:.4f} (n = 1, period {cell.heights[0]:.3f} along b_x = " \
+           f"({direction[0]:.4f}, {direction[1]:.4f}))" in log, log
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    try:
+        eig = dense_eigen(dm)
+        for mode in ("L", "TR"):
+            datasets, _ = units[next(name for name in units if name.startswith("waves/") and f"_{mode}_" in name)]
+            assert_close(datasets["k"], [k], rtol=1e-15, atol=0.0, what="|k| in the results")
+            exact = exact_z_fixed(p, dm, eig, excitation.runs(mode, 2)[0], k * direction, datasets["t"], 1e-3)
+            assert_close(datasets["z_fixed"][0, 0], exact, rtol=0.0, atol=1e-8 * np.abs(exact).max(), what=mode)
     finally:
         dm.destroy()
