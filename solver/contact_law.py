@@ -556,3 +556,101 @@ def restitution_damping(restitution: float, m_eff: float = RESTITUTION_M_EFF) ->
     e = exp(-gamma_n pi / (2 omega_d)) and gamma_n = 2 omega_0 (-ln e) / sqrt(pi^2 + ln^2 e)."""
     log = np.log(restitution)
     return float(2.0 * np.sqrt(KN / m_eff) * -log / np.sqrt(np.pi**2 + log**2))
+
+
+# --- a particle against a flat immovable wall (docs/walls.md) -------------------------------------
+# The pair law with the other body immovable and of infinite radius: a' = R, the lever R (LAMMPS's
+# fix wall/gran), no geometric term (a flat wall's normal does not turn), the rotations the particle's own.
+
+def _wall_maps(normal: np.ndarray, radius: np.ndarray) -> list[tuple[str, np.ndarray]]:
+    """The wall contact's stretches as linear maps of the particle's (u, theta): [(spring, B (K, k, m))]
+    for the tangential s_t = P u - R theta x n, rolling s_r = R theta x n and (3D) twisting
+    s_o = R n . theta, m = D + r."""
+    count, dim = normal.shape
+    c_n = _rotation_map(normal)
+    m = dim + c_n.shape[2]
+    b_t = np.zeros((count, dim, m))
+    b_t[:, :, :dim] = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
+    b_t[:, :, dim:] = -radius[:, None, None] * c_n
+    b_r = np.zeros((count, dim, m))
+    b_r[:, :, dim:] = radius[:, None, None] * c_n
+    maps = [("rho", b_t), ("rho_roll", b_r)]
+    if dim == 3:
+        b_o = np.zeros((count, 1, m))
+        b_o[:, 0, dim:] = radius[:, None] * normal
+        maps.append(("rho_twist", b_o))
+    return maps
+
+
+def wall_energy(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, model: ContactModel,
+                u: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Energy (K,) of wall contacts (reference ``normal`` (K, D) from the wall into the particle,
+    ``overlap`` (K,) xi, ``radius`` (K,) R) after the particle moves by u (K, D) and turns by theta
+    ((K,) in 2D, (K, 3) in 3D): the normal energy at xi - n.u (exact: the wall is flat) with
+    a' = R, plus kt |s_t|^2/2 + kr |s_r|^2/2 + ko s_o^2/2 scaled by :func:`spring_scale`."""
+    _refuse_twist_in_2d(normal, model)
+    energy = normal_energy(np.maximum(overlap - np.einsum("kd,kd->k", normal, u), 0.0), model.law, radius)
+    x = np.concatenate((u, _rotations(theta)), axis=1)
+    scale = spring_scale(overlap, model.law, radius)
+    for name, b in _wall_maps(normal, radius):
+        stretch = np.einsum("kij,kj->ki", b, x)
+        energy = energy + 0.5 * KN * getattr(model, name) * scale * np.einsum("ki,ki->k", stretch, stretch)
+    return energy
+
+
+def wall_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, model: ContactModel,
+                with_rotation: bool = True) -> np.ndarray:
+    """The self blocks (K, k, k) the wall contacts add to their particles' rows of D (k as in
+    :func:`pair_blocks`): k_n n n^T on the translations (k_n = df_n/dxi at a' = R, no geometric
+    term) plus kx B^T B for each spring's map B (:func:`_wall_maps`), the Hessian of
+    :func:`wall_energy` (docs/walls.md section 3)."""
+    _refuse_twist_in_2d(normal, model)
+    count, dim = normal.shape
+    maps = _wall_maps(normal, radius)
+    m = maps[0][1].shape[2]
+    full = np.zeros((count, m, m))
+    full[:, :dim, :dim] = (normal_stiffness(overlap, model.law, radius)[:, None, None]
+                           * normal[:, :, None] * normal[:, None, :])
+    scale = spring_scale(overlap, model.law, radius)
+    for name, b in maps:
+        ratio = getattr(model, name)
+        if ratio:
+            full += KN * ratio * scale[:, None, None] * np.einsum("cki,ckj->cij", b, b)
+    k = m if with_rotation else dim
+    return full[:, :k, :k]
+
+
+def wall_stressed_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, tangential: np.ndarray,
+                         model: ContactModel, with_rotation: bool = True) -> np.ndarray:
+    """What stored tangential forces ``tangential`` (K, D) on the particles from their walls add to
+    the self blocks (K, k, k), in LAMMPS's history convention (docs/walls.md section 4): the wall's
+    normal does not turn, so only the Hertz stiffness' growth with the overlap remains, with
+    c = :func:`tangential_growth`: the rows of u gain c f_t n^T, those of theta -R c (n x f_t) n^T
+    on the columns of u; zero under the harmonic law."""
+    count, dim = normal.shape
+    rot = _rotation_map(normal).shape[2]
+    c = tangential_growth(overlap, model.law)[:, None, None]
+    m = dim + rot if with_rotation else dim
+    block = np.zeros((count, m, m))
+    block[:, :dim, :dim] = c * tangential[:, :, None] * normal[:, None, :]
+    if with_rotation:
+        turn = cross(normal, tangential).reshape(count, rot)
+        block[:, dim:, :dim] = -radius[:, None, None] * c * turn[:, :, None] * normal[:, None, :]
+    return block
+
+
+def wall_damping_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, mass: np.ndarray,
+                        model: ContactModel, with_rotation: bool = True) -> np.ndarray:
+    """The dashpots' self blocks (K, k, k) of wall contacts (LAMMPS's fix wall/gran: m_eff = m_i,
+    ``mass`` (K,)): s m (gamma_n n n^T + gamma_t B_t^T B_t), B_t the tangential map of
+    :func:`_wall_maps`, s = :func:`spring_scale` at a' = R (docs/walls.md section 5)."""
+    count, dim = normal.shape
+    b_t = _wall_maps(normal, radius)[0][1]
+    m = b_t.shape[2]
+    b_n = np.zeros((count, 1, m))
+    b_n[:, 0, :dim] = normal
+    scale = mass * spring_scale(overlap, model.law, radius)
+    full = scale[:, None, None] * (model.gamma_n * np.einsum("cki,ckj->cij", b_n, b_n)
+                                   + model.gamma_t * np.einsum("cki,ckj->cij", b_t, b_t))
+    k = m if with_rotation else dim
+    return full[:, :k, :k]

@@ -83,7 +83,8 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[Pa
         def load(_):
             read = hdf5.read_packings(spec.file, spec.count, check_equilibrium=not spec.relax,
                                       model=scene.model.at_rest, contacts=spec.contacts, friction=spec.friction,
-                                      contacts_format=spec.contacts_format, fmt=spec.format)
+                                      contacts_format=spec.contacts_format, fmt=spec.format, walls=spec.walls,
+                                      wall_contacts=spec.wall_contacts, gravity=spec.gravity)
             return [_relaxed(p, index, scene) for index, p in enumerate(read)] if spec.relax else read
 
         return parallel.owner_compute(comm, [0], load)[0]

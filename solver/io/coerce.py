@@ -19,7 +19,8 @@ def _type_name(kind) -> str:
             "floats": "a number or a list of numbers", "number_or_list": "a number or a list of numbers", "paths": "a path or a list of paths",
             bool: "true or false", "window": "a list [omega_lo, omega_hi]", "strs": "a list of names",
             "ints": "a list of integers", "floats_list": "a list of numbers",
-            "cache": "auto, a folder path, or off", "ranks": "auto or a whole number"}.get(
+            "cache": "auto, a folder path, or off", "ranks": "auto or a whole number",
+            "walls": "a list of walls, each a mapping {axis: x, y or z, position: a number}"}.get(
         kind, "a mapping")
 
 
@@ -88,6 +89,18 @@ def _coerce(value, kind, where):
         if not value:
             raise InputError(f"{where} = []: must not be empty")
         return [_coerce(v, float, where) for v in value]
+    if kind == "walls":  # [{axis: z, position: 0.0}, ...]
+        if not isinstance(value, list):
+            fail()
+        walls = []
+        for index, wall in enumerate(value):
+            if not isinstance(wall, dict) or set(map(str, wall)) != {"axis", "position"}:
+                raise InputError(f"{where}[{index}] = {wall!r}: each wall is a mapping with the keys axis and "
+                                 f"position, e.g. {{axis: z, position: 0.0}}")
+            if wall["axis"] not in ("x", "y", "z"):
+                raise InputError(f"{where}[{index}].axis = {wall['axis']!r}: must be x, y or z")
+            walls.append({"axis": wall["axis"], "position": _coerce(wall["position"], float, f"{where}[{index}].position")})
+        return walls
     if kind == "paths":
         items = value if isinstance(value, list) else [value]
         if not items or not all(isinstance(v, str) and v for v in items):

@@ -220,10 +220,10 @@ SHEAR_NORMAL_TOL = 1e-3  # largest |f_s . n| / |f_s| of a YADE shear force proje
 
 
 def yade_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.ndarray, diameters: np.ndarray,
-                box: np.ndarray, unit: float, law: str) -> np.ndarray:
+                box, unit: float, law: str) -> np.ndarray:
     """The tangential forces (C, 3) of a YADE contact file in rotsound's units kn d0, with pairs
-    (C, 2) the contacts' particle indices and positions, diameters, box the packing in units of
-    d0 = ``unit`` file lengths.  kn = |normalForce| / overlap is taken from the file, and must
+    (C, 2) the contacts' particle indices and positions, diameters, box (its ``geometry.Cell`` or
+    sides) the packing in units of d0 = ``unit`` file lengths.  kn = |normalForce| / overlap is taken from the file, and must
     be one number (to 1e-6): YADE's FrictPhys gives kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2), one
     kn only when E R is the same for every sphere, and rotsound's harmonic law has one.  YADE's
     ScGeom::rotate never projects a shear force back onto the tangent plane; a normal part up to
@@ -272,10 +272,10 @@ SAME_STEP_TOL = 1e-9  # d0: largest difference of a contact's overlap between Me
 
 
 def mercury_forces(path, found: RawContacts, pairs: np.ndarray, positions: np.ndarray, diameters: np.ndarray,
-                   box: np.ndarray, unit: float, law: str) -> np.ndarray:
+                   box, unit: float, law: str) -> np.ndarray:
     """The tangential forces (C, 3) of a MercuryDPM ``.fstat`` in rotsound's units kn d0, with
-    pairs (C, 2) the contacts' particle indices and positions, diameters, box the packing in units
-    of d0 = ``unit`` file lengths.  kn = fn / overlap from the file's own columns, which must be
+    pairs (C, 2) the contacts' particle indices and positions, diameters, box (its ``geometry.Cell``
+    or sides) the packing in units of d0 = ``unit`` file lengths.  kn = fn / overlap from the file's own columns, which must be
     one number (a linear species: LinearViscoelastic*Species, force k overlap); each contact's
     overlap and normal must be the packing file's (the two files written at the same step).  Not
     collective."""

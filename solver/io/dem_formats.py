@@ -11,7 +11,7 @@ script wraps them.  The caller wraps and rescales.
 Formats (tests/data/dem/README.md shows real files of each, made by the programs):
 
 * ``lammps-data`` -- ``write_data`` of LAMMPS or LIGGGHTS.  Header ``N atoms``, ``xlo xhi``,
-  ``ylo yhi``, ``zlo zhi``; ``Atoms # sphere`` section with columns ``id type diameter density
+  ``ylo yhi``, ``zlo zhi`` and, for a triclinic box, ``xy xz yz`` (the tilt factors); ``Atoms # sphere`` section with columns ``id type diameter density
   x y z`` and optionally the image flags ``ix iy iz``.  LIGGGHTS (and older LAMMPS) write a bare
   ``Atoms`` line without the style comment: then a section of 7 or 10 columns is read as
   sphere's.  The file holds densities, not masses: ``masses = density * pi d^3 / 6``, the mass
@@ -19,10 +19,15 @@ Formats (tests/data/dem/README.md shows real files of each, made by the programs
   was used, in which case write_data's density is still mass / (pi d^3 / 6)).
 * ``lammps-dump`` -- a text ``dump custom`` / ``write_dump``: ``ITEM: TIMESTEP``, ``ITEM:
   NUMBER OF ATOMS``, ``ITEM: BOX BOUNDS pp pp pp`` (``pp pp ff`` for disks, all at z = 0, as
-  rotsound's 2D export writes) with three ``lo hi`` lines, ``ITEM: ATOMS`` and its column names;
+  rotsound's 2D export writes) with three ``lo hi`` lines, or a triclinic box's ``ITEM: BOX BOUNDS
+  xy xz yz pp pp pp`` with three lines ``xlo_bound xhi_bound xy``, ``ylo_bound yhi_bound xz``,
+  ``zlo_bound zhi_bound yz``: the bounding box of the tilted cell, from which the cell's own bounds
+  are xlo = xlo_bound - min(0, xy, xz, xy + xz), xhi = xhi_bound - max(0, xy, xz, xy + xz), ylo =
+  ylo_bound - min(0, yz), yhi = yhi_bound - max(0, yz), z as given (LAMMPS's dump and read_dump
+  pages); LAMMPS's general triclinic ``BOX BOUNDS abc origin`` is refused.  ``ITEM: ATOMS`` and its column names;
   columns not read may hold words (``dump_modify element``).  Needs ``id``, ``diameter`` or ``radius`` (LIGGGHTS scripts usually
   dump radius), and ``x y z`` (or unwrapped ``xu yu zu``, or scaled ``xs ys zs``, converted to
-  lo + s (hi - lo)); takes ``mass`` when present, else ``density`` (LIGGGHTS), else masses are
+  lo + H s, H the cell's matrix: lo + s (hi - lo) in an orthogonal box); takes ``mass`` when present, else ``density`` (LIGGGHTS), else masses are
   None.  Any number of frames; one is read.
 * ``yade`` -- ``yade.export.textExt`` (first line ``#format x_y_z_r``, or ``x_y_z_r_matId``,
   ``id_x_y_z_r_matId``, ``x_y_z_r_attrs`` whose first four columns are x y z r, or textClumps'
@@ -46,6 +51,12 @@ Formats (tests/data/dem/README.md shows real files of each, made by the programs
 atom's z is exactly 0, as ``dimension 2`` (fix enforce2d) leaves it; else 3D.  YADE and
 MercuryDPM are 3D.
 
+Triclinic boxes (LAMMPS's restricted triclinic cell, ``geometry.Cell``): a tilt line or tilted
+``BOX BOUNDS`` gives ``RawPacking.tilt``; LIGGGHTS writes both formats as LAMMPS does.  A tilt beyond
+half the side it shears (``Cell.tilt_problem``) is refused, and so is a 2D packing whose xz or yz is
+not 0 (in 2D only xy shears the cell).  YADE's cell: SpherePack.save's ``##PERIODIC::`` line holds
+the cell's sizes only, not its ``hSize``, so a YADE file read here is orthogonal.
+
 Written by hand: lammpsio 0.9 (PyPI) has no atom_style sphere and no diameter/radius field, and
 ASE's lammps-data reader rejects atom_style sphere.  Numbers go through np.loadtxt (no Python
 loop over atoms).  Every bad or damaged file raises :class:`solver.errors.InputError` with one
@@ -54,6 +65,7 @@ message naming the file, what is wrong and what is allowed.
 
 from __future__ import annotations
 
+import dataclasses
 import pathlib
 import re
 from dataclasses import dataclass
@@ -62,6 +74,7 @@ import numpy as np
 
 from solver.errors import InputError
 
+from ..packing.geometry import TILTS, Cell
 from ..wording import counted
 
 FORMATS = ("rotsound", "lammps-data", "lammps-dump", "yade", "mercury")
@@ -85,9 +98,15 @@ class RawPacking:
     diameters (N,) float64, all > 0.
     masses (N,) float64 or None when the file has none (LAMMPS data: density * pi d^3 / 6).
     box_lo, box_hi (D,) float64, or both None when the format does not record the box (YADE
-        without its ``##PERIODIC::`` line); orthogonal, periodic.
+        without its ``##PERIODIC::`` line); periodic; the cell's origin is box_lo and its sides
+        box_hi - box_lo (a triclinic dump's bounding box converted to these).
+    tilt (T,) float64 the tilt factors of a triclinic box (``geometry.TILTS[D]``: xy, or xy xz yz),
+        in the file's units, or None (an orthogonal box).
     ids (N,) int64: atom ids (YADE: the file's ids or the line order from 0).
     source: the format read, "lammps-data", "lammps-dump", "yade" or "mercury".
+    boundary: (D,) the LAMMPS boundary flags of each axis as a dump records them ("pp" periodic;
+        "ff", "fm", "fs", ... not: a wall at each f bound, docs/walls.md), or None when the file
+        does not record them (then every axis is periodic unless packing.walls says otherwise).
     """
 
     positions: np.ndarray
@@ -97,6 +116,8 @@ class RawPacking:
     box_hi: np.ndarray | None
     ids: np.ndarray
     source: str
+    tilt: np.ndarray | None = None
+    boundary: tuple[str, ...] | None = None
 
     @property
     def dim(self) -> int:
@@ -196,16 +217,33 @@ def _check_box(path, lo: np.ndarray, hi: np.ndarray) -> None:
                     f"each box side must have positive length")
 
 
-def _packing(path, ids, positions, diameters, masses, lo, hi, source, where) -> RawPacking:
-    """Sort by id, drop z when every z is 0, check sizes (``where`` names the rows) and box."""
+def _packing(path, ids, positions, diameters, masses, lo, hi, source, where, tilt=None) -> RawPacking:
+    """Sort by id, drop z when every z is 0, check sizes (``where`` names the rows), box and
+    ``tilt`` (3,) xy xz yz of a triclinic box (or None)."""
     order = np.argsort(ids, kind="stable")
     ids, positions, diameters = ids[order], positions[order], diameters[order]
     masses = None if masses is None else masses[order]
     _check_sizes(path, diameters, masses, ids, where)
     _check_box(path, lo, hi)
     dim = 2 if np.all(positions[:, 2] == 0.0) else 3
+    if tilt is not None:
+        tilt = _check_tilt(path, tilt, hi[:dim] - lo[:dim])
     return RawPacking(positions=np.ascontiguousarray(positions[:, :dim]), diameters=diameters, masses=masses,
-                      box_lo=lo[:dim].copy(), box_hi=hi[:dim].copy(), ids=ids, source=source)
+                      box_lo=lo[:dim].copy(), box_hi=hi[:dim].copy(), ids=ids, source=source, tilt=tilt)
+
+
+def _check_tilt(path, tilt: np.ndarray, sides: np.ndarray) -> np.ndarray:
+    """The (T,) tilt factors of a cell of ``sides`` (D,) from a file's xy xz yz (3,); InputError
+    when xz or yz is not 0 in 2D or a tilt is beyond half its side (``Cell.tilt_problem``)."""
+    dim = sides.size
+    if dim == 2 and np.any(tilt[1:] != 0.0):
+        _fail(path, f"the packing is 2D (every z is 0) but the box's tilt xz = {tilt[1]:g}, yz = {tilt[2]:g}: in 2D "
+                    f"only xy shears the cell, so xz and yz must be 0")
+    tilt = tilt[:len(TILTS[dim])].copy()
+    problem = Cell(sides, tilt, np.ones(dim, dtype=bool)).tilt_problem()
+    if problem is not None:
+        _fail(path, f"the triclinic box's {problem}")
+    return tilt
 
 
 # --- LAMMPS / LIGGGHTS data file -------------------------------------------------------------
@@ -221,18 +259,19 @@ def read_lammps_data(path) -> RawPacking:
     body = text.split("\n", 1)[1] if "\n" in text else ""  # the first line is a free title
     first = _SECTION.search(body)
     header = body[:first.start()] if first else body
-    counts, bounds = {}, {}
+    counts, bounds, tilt = {}, {}, None
     for raw in header.splitlines():
         words = raw.split("#", 1)[0].split()
         if not words:
             continue
-        if words[-3:] == ["xy", "xz", "yz"]:
-            _fail(path, "the box is triclinic (an 'xy xz yz' tilt line); rotsound's periodic boxes are "
-                        "orthogonal, so only boxes given by 'xlo xhi', 'ylo yhi', 'zlo zhi' are read")
         key = " ".join(w for w in words if not _is_number(w))
         values = [w for w in words if _is_number(w)]
         if key in ("xlo xhi", "ylo yhi", "zlo zhi") and len(values) == 2:
             bounds[key[0]] = (float(values[0]), float(values[1]))
+        elif key == "xy xz yz" and len(values) == 3:
+            tilt = np.array(values, dtype=np.float64)
+            if not np.all(np.isfinite(tilt)):
+                _fail(path, f"header line '{raw.strip()}': the tilt factors xy xz yz must be finite numbers")
         elif key in ("atoms", "atom types") and len(values) == 1:
             counts[key] = values[0]
         elif not values:
@@ -273,7 +312,7 @@ def read_lammps_data(path) -> RawPacking:
     if bad.size:
         _fail(path, f"the Atoms section: {bad.size} atom(s) have a non-positive density (first: id {ids[bad[0]]}); "
                     f"densities must be > 0")
-    return _packing(path, ids, table[:, 4:7], diameters, masses, lo, hi, "lammps-data", "the Atoms section")
+    return _packing(path, ids, table[:, 4:7], diameters, masses, lo, hi, "lammps-data", "the Atoms section", tilt)
 
 
 def _is_number(word: str) -> bool:
@@ -317,19 +356,29 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
     if box is None:
         _fail(path, f"{where} has no 'ITEM: BOX BOUNDS' line; a dump records its box there")
     flags = box.split()[2:]
-    if flags[:3] == ["xy", "xz", "yz"] or "abc" in flags:
-        _fail(path, f"{where}: the box is triclinic ('ITEM: {box}'); rotsound's periodic boxes are orthogonal, "
-                    f"so only 'ITEM: BOX BOUNDS pp pp pp' boxes are read")
-    if any(f != "pp" for f in flags[:2]) or len(flags) != 3:
-        _fail(path, f"{where}: the box is not periodic in every direction ('ITEM: {box}'); rotsound's packings "
-                    f"are periodic, so the boundary flags must be 'pp pp pp' ('pp pp ff' for disks, all at z = 0)")
+    triclinic = flags[:3] == ["xy", "xz", "yz"]
+    if "abc" in flags:
+        _fail(path, f"{where}: the box is LAMMPS's general triclinic cell ('ITEM: {box}'); rotsound reads the "
+                    f"restricted one, 'ITEM: BOX BOUNDS xy xz yz pp pp pp' (dump without dump_modify triclinic/general)")
+    if triclinic:
+        flags = flags[3:]
+    if len(flags) != 3 or any(not re.fullmatch("pp|[fsm]{2}", f) for f in flags):
+        _fail(path, f"{where}: the boundary flags ('ITEM: {box}') must be three LAMMPS boundary styles: pp (periodic) "
+                    f"or two of f, s, m (a wall at each f bound: docs/walls.md)")
     try:
         values = np.array(items[box], dtype=np.float64)
     except ValueError:
         _fail(path, f"{where}: the box bounds are not numbers; 'ITEM: {box}' is followed by three lines 'lo hi'")
-    if values.size != 6 or not np.all(np.isfinite(values)):
-        _fail(path, f"{where}: 'ITEM: {box}' must be followed by three lines of two finite numbers 'lo hi'")
-    lo, hi = values[0::2].copy(), values[1::2].copy()
+    width = 3 if triclinic else 2
+    if values.size != 3 * width or not np.all(np.isfinite(values)):
+        _fail(path, f"{where}: 'ITEM: {box}' must be followed by three lines of {width} finite numbers "
+                    + ("'lo_bound hi_bound tilt'" if triclinic else "'lo hi'"))
+    lo, hi = values[0::width].copy(), values[1::width].copy()
+    tilt = values[2::3].copy() if triclinic else None
+    if triclinic:  # the bounding box -> the cell's bounds (LAMMPS's dump page)
+        xy, xz, yz = tilt
+        lo -= [min(0.0, xy, xz, xy + xz), min(0.0, yz), 0.0]
+        hi -= [max(0.0, xy, xz, xy + xz), max(0.0, yz), 0.0]
     names, _, rows = atoms.partition("\n")
     names = names.split()
     lines = rows.rstrip().splitlines()
@@ -359,18 +408,16 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
     diameters = col[size] * (2.0 if size == "radius" else 1.0)
     positions = np.column_stack([col[c] for c in position])
     if position[0].startswith("xs"):
-        positions = lo + positions * (hi - lo)
-    if flags[2] != "pp" and not np.all(positions[:, 2] == 0.0):
-        _fail(path, f"{where}: the box is not periodic in z ('ITEM: {box}') but the particles are not all at z = 0; "
-                    f"rotsound's packings are periodic, so the boundary flags must be 'pp pp pp' "
-                    f"('pp pp ff' for disks, all at z = 0)")
+        cell = Cell(hi - lo, np.zeros(3) if tilt is None else tilt, np.ones(3, dtype=bool))
+        positions = lo + positions @ cell.matrix.T
     if "mass" in col:
         masses = col["mass"].copy()
     elif "density" in col:
         masses = col["density"] * (np.pi / 6.0) * diameters ** 3
     else:
         masses = None
-    return _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines")
+    raw = _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines", tilt)
+    return dataclasses.replace(raw, boundary=tuple(flags[:raw.dim]))
 
 
 # --- YADE ---------------------------------------------------------------------------------------

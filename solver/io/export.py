@@ -3,7 +3,9 @@ files that OVITO and ParaView open.
 
 Formats, each by the library made for it (or the format's own conventions), each field under the
 name OVITO's reader of that format takes it for:
-  extxyz       extended XYZ by ASE (``ase.io.write``): one file, one frame per phase.  The first
+  extxyz       extended XYZ by ASE (``ase.io.write``): one file, one frame per phase, the cell as
+               ``Lattice="ax ay az bx by bz cx cy cz"`` (its three edge vectors, :func:`cell_vectors`;
+               ``pbc="T T F"`` in 2D).  The first
                column is ``type``, ``small`` or ``large`` (instead of ASE's species "X"): OVITO
                reads a Particle Type of two named types, ASE a string array.
   vtp          VTK XML PolyData of vertex cells by VTK's ``vtkXMLPolyDataWriter``: one file per
@@ -22,12 +24,19 @@ name OVITO's reader of that format takes it for:
                contact network as Aspherix writes one, ``<stem>.bridges.vtp`` (``_<frame>`` before
                .vtp over frames): a line per bridge from the centre of i to that of j's periodic image
                nearest to i, cell arrays ``id1`` and ``id2`` (1-based particle ids) and ``gap`` (the
-               packing's, d0); and ``<stem>.vtm``, a VTK multiblock file naming both files, which
-               ParaView and OVITO open as one (OVITO: particles and a Lines object of
-               particle-particle contacts).  No bridge files for a dry packing or one whose every
-               bridge is a contact.
+               packing's, d0).  No bridge files for a dry packing or one whose every bridge is a
+               contact.  The cell is ``<stem>.cell.vtp``, its outline (the 12 edges of the
+               parallelepiped, 2D: the 4 of the parallelogram) with the field data ``cell``, its edge
+               vectors a, b, c as the rows of a 3 x 3 matrix (9 values; OVITO's particle reader stops
+               at field data, hence a file of its own).  ``<stem>.vtm`` (``_<frame>`` before .vtm over
+               frames), a VTK multiblock file, names the particles, the cell and the bridges; ParaView
+               and OVITO open it as one (OVITO: the particles and a Lines object of particle-particle
+               contacts; it skips the outline and has no cell from a vtp: extxyz and the dump give
+               OVITO the cell).
   lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``, in 2D ``pp pp
-               ff``, open in z as the extxyz's pbc, ``ITEM: ATOMS id type element x y z ...``, the
+               ff``, open in z as the extxyz's pbc; a tilted cell's ``ITEM: BOX BOUNDS xy xz yz pp pp
+               pp`` with LAMMPS's bounding box and the tilts, :func:`_box_bounds`, which rotsound's
+               own dump reader reads back; ``ITEM: ATOMS id type element x y z ...``, the
                ``element`` column the types' names, as LAMMPS's ``dump_modify element`` writes them,
                which OVITO takes as its Particle Type names), written here (no maintained writer
                exists outside LAMMPS): one file, one timestep per frame.  OVITO's dump reader makes
@@ -48,7 +57,7 @@ over them under the scene's ``model.law``, kn d0) and, for a stressed packing, `
 (the sum of the stored |f_t|); with a mode also ``displacement`` and ``rotation`` (3-vectors: d0
 and rad; in 2D z is 0 and the rotation is (0, 0, theta)), ``share`` (the particle's part of the
 mode's kinetic energy, sums to 1) and ``rotational_share`` (the part of that in its rotations; 0
-where the share is 0).  2D packings get z = 0 and a box of height 1 in z.  A mode is animated over
+where the share is 0).  2D packings get z = 0 and a box of height 1 in z (edge c = (0, 0, 1)).  A mode is animated over
 ``frames`` phases of one period: frame f has positions r + a u cos(2 pi f / frames), a such that
 the largest displacement is ``amplitude`` d0, so that frame 0 (the only one when ``frames`` is 1)
 shows the largest displacement and ``frames`` frames make one whole period; rotation vectors are
@@ -91,11 +100,12 @@ def particle_fields(packing) -> dict[str, np.ndarray]:
 
 def bridges_of(packing) -> dict | None:
     """A wet packing's bridged pairs apart as the vtp export writes them: {"pairs": (B, 2) 0-based,
-    "gap": (B,) d0, "box": (D,)}; None for a dry packing or one whose every bridge is a contact."""
+    "gap": (B,) d0, "cell": the packing's ``geometry.Cell``}; None for a dry packing or one whose every
+    bridge is a contact."""
     if packing.bridges is None or len(packing.bridges) == 0:
         return None
-    _, _, overlap = geometry.pair_geometry(packing.positions, packing.diameters, packing.box, packing.bridges)
-    return {"pairs": packing.bridges, "gap": -overlap, "box": np.broadcast_to(packing.box, (packing.dim,))}
+    _, _, overlap = geometry.pair_geometry(packing.positions, packing.diameters, packing.cell, packing.bridges)
+    return {"pairs": packing.bridges, "gap": -overlap, "cell": packing.cell}
 
 
 def mode_fields(shapes: results.ModeShapes, m: int) -> dict[str, np.ndarray]:
@@ -128,13 +138,21 @@ def _frames(positions3: np.ndarray, fields: dict, frames: int, amplitude: float)
     return out
 
 
-def _extxyz(path: str, cell: np.ndarray, pbc, frames, info: dict) -> list[str]:
+def cell_vectors(cell: geometry.Cell) -> np.ndarray:
+    """(3, 3) the cell's edge vectors a, b, c as rows (d0), what the exports write: ``cell.matrix``'s
+    columns; a 2D cell padded with c = (0, 0, 1), the disks' plane inside a box of height 1."""
+    vectors = np.eye(3)
+    vectors[:cell.dim, :cell.dim] = cell.matrix.T
+    return vectors
+
+
+def _extxyz(path: str, vectors: np.ndarray, pbc, frames, info: dict) -> list[str]:
     import ase
     import ase.io
 
     atoms = []
     for positions, fields in frames:
-        a = ase.Atoms(["X"] * len(positions), positions=positions, cell=np.diag(cell), pbc=pbc, info=dict(info))
+        a = ase.Atoms(["X"] * len(positions), positions=positions, cell=vectors, pbc=pbc, info=dict(info))
         for name, value in fields.items():
             a.new_array(name, np.array(TYPE_NAMES)[value - 1] if name == "type" else np.asarray(value))
         atoms.append(a)
@@ -215,9 +233,9 @@ def _bundle(target: str, blocks: dict[str, str]) -> None:
 def _network(positions: np.ndarray, bridges: dict):
     """The bridges (:func:`bridges_of`) between particles at ``positions`` (N, 3) as Aspherix's
     contact network: two points per line, the centre of i and that of j's image nearest to i."""
-    pairs, box = bridges["pairs"], bridges["box"]
+    pairs, cell = bridges["pairs"], bridges["cell"]
     ends = positions[pairs[:, 1]] - positions[pairs[:, 0]]
-    ends[:, :len(box)] = geometry.minimum_image(ends[:, :len(box)], box)
+    ends[:, :cell.dim] = geometry.minimum_image(ends[:, :cell.dim], cell)
     ends += positions[pairs[:, 0]]
     network = _polydata(np.stack((positions[pairs[:, 0]], ends), axis=1).reshape(-1, 3), "lines",
                         np.arange(2 * len(pairs)).reshape(-1, 2))
@@ -225,11 +243,31 @@ def _network(positions: np.ndarray, bridges: dict):
     return network
 
 
-def _vtp(path: str, frames, bridges: dict | None) -> list[str]:
-    """The vtp files of ``frames`` (the module docstring); with ``bridges`` ({"pairs": (B, 2), "gap":
-    (B,), "box": (D,) the periodic sides}, B > 0) also each frame's bridges and its .vtm bundle."""
+def _outline(vectors: np.ndarray, dim: int):
+    """The cell of edge vectors ``vectors`` (rows, :func:`cell_vectors`) from the origin as a
+    vtkPolyData of its edges (3D: the 12 of the parallelepiped; 2D: the 4 of the parallelogram at
+    z = 0), its field data ``cell`` the matrix of the edge vectors as rows (1 tuple of 9: a, b, c)."""
+    from vtkmodules.util import numpy_support
+
+    steps = np.array(np.meshgrid(*[[0, 1]] * dim, indexing="ij")).reshape(dim, -1).T  # corners, fractional
+    corners = steps @ vectors[:dim]
+    edges = np.array([(a, b) for a in range(len(steps)) for b in range(a + 1, len(steps))
+                      if np.abs(steps[a] - steps[b]).sum() == 1])
+    outline = _polydata(corners, "lines", edges)
+    matrix = numpy_support.numpy_to_vtk(vectors.reshape(1, 9).copy(), deep=True)
+    matrix.SetName("cell")
+    outline.GetFieldData().AddArray(matrix)
+    return outline
+
+
+def _vtp(path: str, frames, vectors: np.ndarray, dim: int, bridges: dict | None) -> list[str]:
+    """The vtp files of ``frames`` (the module docstring), the cell of edge vectors ``vectors`` as
+    ``<stem>.cell.vtp`` and each frame's .vtm bundle; with ``bridges`` ({"pairs": (B, 2), "gap":
+    (B,), "cell": the packing's cell}, B > 0) also each frame's bridges, in its bundle."""
     stem = path[:-4]
     paths = [path] if len(frames) == 1 else [f"{stem}_{f:04d}.vtp" for f in range(len(frames))]
+    outline = f"{stem}.cell.vtp"
+    _write_polydata(_outline(vectors, dim), outline)
     lines, bundles = [], []
     for f, (target, (positions, fields)) in enumerate(zip(paths, frames)):
         # one vertex cell per particle: OVITO recognises particles by them
@@ -240,13 +278,14 @@ def _vtp(path: str, frames, bridges: dict | None) -> list[str]:
         # point array would stop its reader)
         _add_arrays(cloud.GetCellData(), {"type_name": np.array(TYPE_NAMES)[fields["type"] - 1]})
         _write_polydata(cloud, target)
-        if bridges is None:
-            continue
-        lines.append(f"{stem}.bridges{'' if len(frames) == 1 else f'_{f:04d}'}.vtp")
-        _write_polydata(_network(positions, bridges), lines[-1])
+        blocks = {"particles": target, "cell": outline}
+        if bridges is not None:
+            lines.append(f"{stem}.bridges{'' if len(frames) == 1 else f'_{f:04d}'}.vtp")
+            _write_polydata(_network(positions, bridges), lines[-1])
+            blocks["bridges"] = lines[-1]
         bundles.append(f"{target[:-4]}.vtm")
-        _bundle(bundles[-1], {"particles": target, "bridges": lines[-1]})
-    return paths + lines + bundles
+        _bundle(bundles[-1], blocks)
+    return paths + [outline] + lines + bundles
 
 
 def _quaternion(rotation: np.ndarray) -> np.ndarray:
@@ -281,18 +320,33 @@ def _dump_columns(fields: dict) -> tuple[list[str], list[str], np.ndarray]:
     return names, formats, np.stack(columns, axis=1).astype(float)
 
 
-def _lammps_dump(path: str, cell: np.ndarray, dim: int, frames) -> list[str]:
+def _box_bounds(vectors: np.ndarray, dim: int) -> str:
+    """The dump's ``ITEM: BOX BOUNDS`` line and its three lines of the cell of edge vectors
+    ``vectors`` (rows, :func:`cell_vectors`) from the origin (2D: z from -1/2 to 1/2, the disks'
+    plane inside the box, as LAMMPS's 2D boxes have it): ``lo hi`` per axis, or for a tilted cell
+    LAMMPS's ``xy xz yz`` form, the bounding box and the tilt on each line (xlo_bound = xlo +
+    min(0, xy, xz, xy + xz), xhi_bound = xhi + max(0, xy, xz, xy + xz), ylo_bound = ylo + min(0,
+    yz), yhi_bound = yhi + max(0, yz))."""
     lo = np.zeros(3)
-    if dim == 2:  # the disks' plane z = 0 inside the box, as LAMMPS's 2D boxes have it
-        lo[2] = -0.5 * cell[2]
-    bounds = "pp pp pp" if dim == 3 else "pp pp ff"  # 2D: open in z, as the extxyz's pbc T T F
+    if dim == 2:
+        lo[2] = -0.5 * vectors[2, 2]
+    hi = lo + np.diag(vectors)
+    flags = "pp pp pp" if dim == 3 else "pp pp ff"  # 2D: open in z, as the extxyz's pbc T T F
+    xy, xz, yz = vectors[1, 0], vectors[2, 0], vectors[2, 1]
+    if xy == xz == yz == 0.0:
+        return f"ITEM: BOX BOUNDS {flags}\n" + "".join(f"{lo[a]:.16e} {hi[a]:.16e}\n" for a in range(3))
+    low = lo + [min(0.0, xy, xz, xy + xz), min(0.0, yz), 0.0]
+    high = hi + [max(0.0, xy, xz, xy + xz), max(0.0, yz), 0.0]
+    return f"ITEM: BOX BOUNDS xy xz yz {flags}\n" + "".join(
+        f"{low[a]:.16e} {high[a]:.16e} {tilt:.16e}\n" for a, tilt in enumerate((xy, xz, yz)))
+
+
+def _lammps_dump(path: str, vectors: np.ndarray, dim: int, frames) -> list[str]:
+    bounds = _box_bounds(vectors, dim)
     with atomic_write(path) as partial, open(partial, "w", encoding="ascii") as out:
         for step, (positions, fields) in enumerate(frames):
             names, formats, values = _dump_columns(fields)
-            out.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n{len(positions)}\n"
-                      f"ITEM: BOX BOUNDS {bounds}\n")
-            for axis in range(3):
-                out.write(f"{lo[axis]:.16e} {lo[axis] + cell[axis]:.16e}\n")
+            out.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n{len(positions)}\n{bounds}")
             out.write("ITEM: ATOMS id type element x y z " + " ".join(names) + "\n")
             table = np.empty((len(positions), 6 + len(names)), dtype=object)
             table[:, 0] = np.arange(1, len(positions) + 1)
@@ -359,17 +413,16 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
     positions, dim = config.positions, config.dim
     positions3 = np.zeros((len(positions), 3))
     positions3[:, :dim] = positions
-    cell = np.ones(3)
-    cell[:dim] = config.box
+    vectors = cell_vectors(config.cell)
     steps = _frames(positions3, fields, frames if mode is not None else 1, amplitude)
     try:
         os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
         if fmt == "extxyz":
-            written = _extxyz(output, cell, [True] * dim + [False] * (3 - dim), steps, info)
+            written = _extxyz(output, vectors, [True] * dim + [False] * (3 - dim), steps, info)
         elif fmt == "vtp":
-            written = _vtp(output, steps, bridges_of(config))
+            written = _vtp(output, steps, vectors, dim, bridges_of(config))
         else:
-            written = _lammps_dump(output, cell, dim, steps)
+            written = _lammps_dump(output, vectors, dim, steps)
     except OSError as exc:
         raise InputError(f"export --output {output}: cannot write ({exc})") from None
     return written, describe(info)

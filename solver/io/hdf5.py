@@ -27,6 +27,11 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
                                  (``geometry.Cell``: edges a = (L_x, 0, 0), b = (xy, L_y, 0),
                                  c = (xz, yz, L_z)), each at most half the side it shears; absent: orthogonal
     attribute periodic (D,) bool optional: which axes are periodic (False: walls, no images); absent: all
+    walls/      optional group: flat walls (docs/walls.md): axis (W,) int64 (0 = x), position (W,)
+                float64 (d0); their axes are not periodic
+    wall_contacts/ optional group: the stored tangential forces of the wall contacts: particle (C,)
+                int64 0-based, wall (C,) int64, force (C, D) float64 on the particle (kn d0)
+    attribute gravity (D,) float64  optional: the body force per unit mass (kn d0 per unit of masses)
 """
 
 from __future__ import annotations
@@ -39,11 +44,12 @@ import numpy as np
 
 from ..errors import InputError
 from .. import profiling
-from . import contact_files, dem_formats
+from . import contact_files, dem_formats, wall_files
 from .atomic import atomic_write
 from ..contact_law import ContactModel
 from ..packing import bridges as bridging
 from ..packing import geometry, mechanics, stressed
+from ..packing import walls as walling
 from ..packing.configuration import Packing
 from ..packing.jammed import from_arrays
 from ..wording import counted
@@ -111,8 +117,30 @@ def _read_one(group, where: str, check_equilibrium: bool, model: ContactModel) -
         _check_box(box, diameters, where, name)
         gap = bridging.build(gap, _folded(positions, box), diameters, _sides(box, dim), model.cohesion,
                              f"packing file {where}:/bridges")
+    walled = _read_walls(group, where, _folded(positions, box), diameters) if "walls" in group else None
     return _finish(positions, diameters, box, rattler, masses, {"source": where}, where, name,
-                   check_equilibrium, model, stored, gap)
+                   check_equilibrium, model, stored, gap, walled)
+
+
+def _read_walls(group, where: str, positions: np.ndarray, diameters: np.ndarray) -> tuple:
+    """(walls, wall contacts or None, gravity or None) of a packing group's ``walls`` and
+    ``wall_contacts`` groups and ``gravity`` attribute (format above)."""
+    try:
+        axis = np.asarray(group["walls/axis"][()], dtype=np.int64)
+        position = np.asarray(group["walls/position"][()], dtype=float)
+        contacts = group.get("wall_contacts")
+        stored = None if contacts is None else tuple(np.asarray(contacts[k][()]) for k in ("particle", "wall", "force"))
+        gravity = np.asarray(group.attrs["gravity"], dtype=float) if "gravity" in group.attrs else None
+    except (KeyError, OSError, ValueError, TypeError) as exc:
+        raise InputError(f"packing file {where}: group 'walls' needs datasets 'axis' (W,) and 'position' (W,), group "
+                         f"'wall_contacts' datasets 'particle', 'wall', 'force' ({exc})") from None
+    periodic = np.ones(positions.shape[1], dtype=bool)
+    periodic[axis[(axis >= 0) & (axis < periodic.size)]] = False
+    walls = walling.build(axis, position, positions, diameters, periodic, f"packing file {where}:/walls")
+    if stored is not None:
+        stored = walling.build_contacts(*stored, positions, diameters, walls, f"packing file {where}:/wall_contacts")
+    _check_gravity(gravity, walls, periodic, f"packing file {where}")
+    return walls, stored, gravity
 
 
 def _cell_of(group, box: np.ndarray, dim: int, where: str):
@@ -202,11 +230,13 @@ def _read_tangential(group, where: str, n: int, dim: int):
     return pairs, force, friction
 
 
-def _check_box(box, diameters, where: str, box_name: str) -> None:
-    """InputError unless every side is finite and > 2 max(diameters), and so is every height of a
-    tilted cell (``box`` a ``geometry.Cell``, the sides, or one side)."""
-    sides = box.sides if isinstance(box, geometry.Cell) else box
-    if not np.all(np.isfinite(sides)) or np.any(sides <= 2 * diameters.max()):
+def _check_box(box, diameters, where: str, box_name: str, walled_axes=()) -> None:
+    """InputError unless every side is finite and > 2 max(diameters) (but along ``walled_axes``,
+    which have no images), and so is every height of a tilted cell (``box`` a ``geometry.Cell``, the
+    sides, or one side)."""
+    sides = box.sides if isinstance(box, geometry.Cell) else np.broadcast_to(np.asarray(box, dtype=float), (np.size(box),))
+    imaged = np.delete(sides, list(walled_axes))
+    if not np.all(np.isfinite(sides)) or np.any(imaged <= 2 * diameters.max()):
         raise InputError(f"packing file {where}: {box_name} = {np.asarray(sides).tolist()}: every side must be "
                          f"finite and > 2 max(diameters) = {2 * diameters.max():.4g}")
     if isinstance(box, geometry.Cell) and geometry.narrowest(box) <= 2 * diameters.max():
@@ -232,19 +262,31 @@ def _check_distinct(positions, diameters, box, where: str) -> None:
                          f"across the periodic box): their contact normal is undefined; move or remove one")
 
 
+def _check_gravity(gravity, walls, periodic: np.ndarray, where: str) -> None:
+    """InputError naming ``where`` when ``gravity`` (D,) has another dimension than the packing or
+    cannot be held (``walls.gravity_problem``)."""
+    if gravity is not None and gravity.shape != periodic.shape:
+        raise InputError(f"{where}: packing.gravity has {gravity.size} components, the packing is {periodic.size}D")
+    problem = walling.gravity_problem(gravity, walls, periodic)
+    if problem:
+        raise InputError(f"{where}: {problem}")
+
+
 def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, box_name: str,
-            check_equilibrium: bool, model: ContactModel, tangential=None, bridges=None) -> Packing:
+            check_equilibrium: bool, model: ContactModel, tangential=None, bridges=None, walled=None) -> Packing:
     """The checks every format shares (box > 2 max d, no two centres on one point, not all rattlers, equilibrium under
     ``model``'s normal law and lever with the stored ``tangential`` forces if any), then the Packing, which keeps
     ``model`` (``Packing.model``).  ``info`` of a DEM
     file holds its ``length_unit`` (then a contact file is what a frictional packing lacks)."""
-    _check_box(box, diameters, where, box_name)
+    _check_box(box, diameters, where, box_name, () if walled is None else set(walled[0].axis.tolist()))
     _check_distinct(positions, diameters, box, where)
     if tangential is not None:
         info = {**info, "n_stored": len(tangential),
                 "n_mobilised": int(stressed.mobilised(tangential, positions, diameters, _sides(box, positions.shape[1]),
                                                       model.law).sum())}
     packing = from_arrays(positions, diameters, box, rattler, info, masses, model, tangential, bridges)
+    if walled is not None:  # (walls, wall contacts, gravity): docs/walls.md
+        packing = mechanics.with_walls(packing, *walled)
     if packing.rattler.all():
         name = mechanics.NAMES[packing.dim]
         needed = mechanics.min_contacts(packing.dim)
@@ -259,14 +301,17 @@ def _finish(positions, diameters, box, rattler, masses, info: dict, where: str, 
 
 
 def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel, contacts: str | None = None,
-              friction: float | None = None, contacts_format: str = "lammps-local") -> Packing:
+              friction: float | None = None, contacts_format: str = "lammps-local", walls: list | None = None,
+              wall_contacts: str | None = None, gravity: list | None = None) -> Packing:
     """A LAMMPS/LIGGGHTS/YADE file (``dem_formats``) in rotsound's units: lengths divided by the
-    file's mean diameter (d0 = 1), positions taken from the box's lower corner; the file's
+    file's mean diameter (d0 = 1), positions taken from the box's lower corner (the cell's origin;
+    a triclinic file's tilt gives the packing's ``geometry.Cell``, periodic along every axis); the file's
     masses kept as they are (``model.masses: density`` scales them to a mean of 1).  With a
     ``contacts`` file (``contact_files``), its stored tangential forces, divided by kn d0 of the
     file's units with kn = 1 there (LAMMPS units lj with kn = 1): by the length unit (harmonic)
     or its square (hertz, whose kn carries a length^1/2 more); a YADE or MercuryDPM file gives its
-    kn itself (``contact_files.KN_FROM_FILE``)."""
+    kn itself (``contact_files.KN_FROM_FILE``).  ``walls``, ``wall_contacts``, ``gravity``: the
+    scene's (``packing.walls`` ...; :func:`_dem_walls`)."""
     raw = dem_formats.read(path, fmt)
     if raw.box_lo is None:
         raise InputError(f"packing file {path}: the {raw.source} file records no periodic box; rotsound needs "
@@ -276,6 +321,8 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
     positions, diameters = (raw.positions - raw.box_lo) / unit, raw.diameters / unit
     box = (raw.box_hi - raw.box_lo) / unit
+    if raw.tilt is not None:
+        box = geometry.Cell(box, raw.tilt / unit, np.ones(raw.dim, dtype=bool))
     stored = gap = None
     if contacts is not None:
         _check_box(box, diameters, path, "box")
@@ -283,13 +330,63 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
         stored, gap = _stored_forces(contacts, raw, positions, diameters, box, model, friction, unit,
                                      contacts_format)
         info.update(contacts=contacts)
+    walled = _dem_walls(path, raw, positions, diameters, unit, model.law, walls, wall_contacts, gravity)
     return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, model, stored,
-                   gap)
+                   gap, walled)
+
+
+def _dem_walls(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray, unit: float,
+               law: str, walls: list | None, wall_contacts: str | None, gravity: list | None) -> tuple | None:
+    """(walls, wall contacts, gravity) of a DEM packing in rotsound's units (docs/walls.md), or None
+    when it has none: the scene's ``walls`` (``packing.walls``: axis and position in the file's
+    units and coordinates) on axes the file does not make periodic (a file that records no
+    boundary, a LAMMPS data file: the axes the walls stand on), else a wall at each f bound of the
+    file's boundary flags (``RawPacking.boundary``); the ``wall_contacts`` file's forces (ids
+    mapped to particles, divided by kn d0 as the contact files' are), ``gravity`` divided likewise
+    (force = mass g with the file's masses)."""
+    dim = raw.dim
+    flags = raw.boundary or ("pp",) * dim
+    periodic = np.array([flag == "pp" for flag in flags])
+    if walls is not None:
+        axis = np.array([walling.AXES.index(w["axis"]) for w in walls], dtype=np.int64)
+        lo = np.append(raw.box_lo, np.zeros(3 - dim))
+        position = np.array([(w["position"] - lo[a]) / unit for w, a in zip(walls, axis)])
+        if raw.boundary is None:
+            periodic[axis[axis < dim]] = False
+    else:
+        sides = (raw.box_hi - raw.box_lo) / unit
+        bounds = [(a, end * sides[a]) for a in range(dim) for end, flag in enumerate(flags[a]) if flag == "f"]
+        axis = np.array([a for a, _ in bounds], dtype=np.int64)
+        position = np.array([p for _, p in bounds], dtype=float)
+    if not axis.size and wall_contacts is None and gravity is None:
+        return None
+    built = walling.build(axis, position, positions, diameters, periodic, f"packing file {path} (packing.walls)")
+    scale = unit if law == "harmonic" else unit ** 2  # kn d0 of the file's units (kn = 1 there)
+    g = None if gravity is None else np.asarray(gravity, dtype=float) / scale
+    _check_gravity(g, built, periodic, f"packing file {path}")
+    stored = None
+    if wall_contacts is not None:
+        found = wall_files.read(wall_contacts)
+        at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
+        missing = np.flatnonzero(raw.ids[at] != found.ids)
+        if missing.size:
+            raise InputError(f"wall contact file {wall_contacts}: particle id {found.ids[missing[0]]} is not in the "
+                             f"packing file {path} ({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the "
+                             f"two files must describe the same packing")
+        force = found.force / scale
+        if dim == 2:
+            if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
+                raise InputError(f"wall contact file {wall_contacts}: a force has a z component, but the packing is 2D")
+            force = force[:, :2]
+        stored = walling.build_contacts(at, found.wall, force, positions, diameters, built,
+                                        f"wall contact file {wall_contacts}")
+    return built, stored, g
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
-                   box: np.ndarray, model: ContactModel, friction: float | None, unit: float, fmt: str):
-    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` as rotsound's stored
+                   box, model: ContactModel, friction: float | None, unit: float, fmt: str):
+    """The contact file ``path`` (format ``fmt``) of the packing ``raw`` (``box``: its (D,) sides or
+    its ``geometry.Cell``; the pairs' geometry is taken in it) as rotsound's stored
     tangential forces and, under ``model.cohesion``, the bridged pairs apart (LIGGGHTS's
     pair/gran/local lists every bridged pair, touching or not; None when dry)."""
     law = model.law
@@ -323,7 +420,8 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
 def read_packings(paths: str | list[str], count: int | None = None, check_equilibrium: bool = True,
                   model: ContactModel = ContactModel(), fmt: str | None = None,
                   contacts: str | list[str] | None = None, friction: float | None = None,
-                  contacts_format: str = "lammps-local") -> list[Packing]:
+                  contacts_format: str = "lammps-local", walls: list | None = None,
+                  wall_contacts: str | list[str] | None = None, gravity: list | None = None) -> list[Packing]:
     """Read configurations from one or more packing files (first ``count``); each must be in
     equilibrium under its normal forces (and its stored tangential forces, if any) unless
     ``check_equilibrium`` is False (``packing.relax`` re-minimises it), under the contact
@@ -332,10 +430,16 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
     ``fmt`` is ``packing.format`` (None: each file's format is detected from its content);
     ``contacts`` (``packing.contacts``) one contact file per DEM packing file, whose stored
     tangential forces join it, ``friction`` the mu they were made with (or None),
-    ``contacts_format`` their format.  rotsound's own files carry their stored forces inside.  Not collective."""
+    ``contacts_format`` their format; ``walls``, ``wall_contacts`` (one file per DEM packing file),
+    ``gravity``: ``packing.walls``, ``packing.wall_contacts``, ``packing.gravity`` (docs/walls.md).
+    rotsound's own files carry their stored forces, walls and gravity inside.  Not collective."""
     packings: list[Packing] = []
     paths = [paths] if isinstance(paths, str) else paths
     contacts = [contacts] if isinstance(contacts, str) else contacts
+    wall_contacts = [wall_contacts] if isinstance(wall_contacts, str) else wall_contacts
+    if wall_contacts is not None and len(wall_contacts) != len(paths):
+        raise InputError(f"packing.wall_contacts: {len(wall_contacts)} wall contact file(s) for {len(paths)} packing "
+                         f"file(s); give one per packing file, in the same order")
     if contacts is not None and len(contacts) != len(paths):
         raise InputError(f"packing.contacts: {len(contacts)} contact file(s) for {len(paths)} packing file(s); give "
                          f"one contact file per packing file, in the same order")
@@ -349,8 +453,13 @@ def read_packings(paths: str | list[str], count: int | None = None, check_equili
                              f"HDF5 format")
         if kind != "rotsound":
             packings.append(_from_dem(path, kind, check_equilibrium, model, contacts[index] if contacts else None,
-                                      friction, contacts_format))
+                                      friction, contacts_format, walls,
+                                      wall_contacts[index] if wall_contacts else None, gravity))
             continue
+        if walls is not None or wall_contacts is not None or gravity is not None:
+            raise InputError(f"packing.walls, packing.wall_contacts, packing.gravity: {path} is a rotsound HDF5 packing "
+                             f"file, which holds its walls and gravity itself (groups 'walls', 'wall_contacts', "
+                             f"attribute gravity); these keys go with LAMMPS and LIGGGHTS packing files")
         if contacts is not None:
             raise InputError(f"packing.contacts: {path} is a rotsound HDF5 packing file, which holds its stored "
                              f"tangential forces itself (group 'tangential'); contact files go with LAMMPS, "
@@ -402,6 +511,14 @@ def write_packing(group, packing: Packing) -> None:
             sub.attrs["friction"] = packing.tangential.friction
     if packing.bridges is not None:
         group.create_dataset("bridges", data=packing.bridges.reshape(-1, 2).astype(np.int64))
+    if packing.walls is not None:
+        group.create_dataset("walls/axis", data=packing.walls.axis)
+        group.create_dataset("walls/position", data=packing.walls.position)
+    if packing.wall_contacts is not None:
+        for key in ("particle", "wall", "force"):
+            group.create_dataset(f"wall_contacts/{key}", data=getattr(packing.wall_contacts, key))
+    if packing.gravity is not None:
+        group.attrs["gravity"] = packing.gravity
 
 
 def box_of(group, dim: int) -> np.ndarray:

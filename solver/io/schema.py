@@ -128,6 +128,21 @@ class PackingSpec:
                            "tilt xy over its side L (LAMMPS's xy = gamma L; xz = yz = 0): FIRE makes them at rest in "
                            "the tilted (sheared) cell (docs/packings.md). Between -0.5 and 0.5, LAMMPS's limit; "
                            "0: the square or cubic box", _range(-0.5, 0.5), float)
+    walls: list[dict] | None = _f(None, "with `file`: flat immovable walls, a list of {axis: x, y or z, position: p}, p in "
+                                        "the packing file's units and coordinates (as LAMMPS's fix wall/gran xplane/"
+                                        "yplane/zplane takes them), on axes the file does not make periodic; each faces "
+                                        "the side its particles are on. null: a LAMMPS file's f (fm, fs) bounds imply "
+                                        "walls at its box bounds; other axes have none (docs/walls.md)", None, "walls")
+    wall_contacts: str | list[str] | None = _f(None, "with `file`: the wall contact file(s), one per packing file: one line "
+                                                     "per particle-wall contact, 'id wall fx fy fz' (the particle's id, "
+                                                     "the wall's index from 0, the force on it from the wall in the "
+                                                     "file's units), '#' comments; the tangential parts are the contacts' "
+                                                     "stored forces (docs/walls.md)", None, "paths")
+    gravity: list[float] | None = _f(None, "with `file`: the body force per unit mass, a vector of D numbers in the packing "
+                                           "file's units (LAMMPS's fix gravity as a vector: force = mass g); it enters "
+                                           "the rest check, not the stiffness; it must point against a wall "
+                                           "(docs/walls.md)", lambda v: None if len(v) in (2, 3) and all(map(math.isfinite, v))
+                                     else "must be a list of 2 or 3 finite numbers", "floats_list")
     relax: bool = _f(False, "with `file`: re-minimise each configuration frictionlessly with FIRE (to force_tol) "
                             "before the matrix is built, for packings made with friction, which balance only "
                             "with their tangential forces (they are refused otherwise); this moves the particles",

@@ -37,7 +37,7 @@ from .. import profiling
 from ..packing import geometry
 from .. import contact_law
 from ..contact_law import ContactModel
-from ..packing import bridges, stressed
+from ..packing import bridges, stressed, walls
 from ..packing.configuration import Packing
 from ..packing.jammed import spatial_order
 
@@ -73,6 +73,7 @@ class DynamicalMatrix:
     C: object | None = None          # the dashpots' damping matrix (model.damping: model/damping.py)
     damping_max: float | None = None  # largest eigenvalue of M^-1 C (1/t0), cached by operators
     range_planes: object | None = None  # half-planes about the numerical range of (A, C^), cached by pep windows
+    wall_axes: tuple[int, ...] = ()   # the normals' axes of the wall contacts (``held_axes``): docs/walls.md
 
     @property
     def size(self) -> int:
@@ -87,13 +88,22 @@ class DynamicalMatrix:
         """The exact zero modes of every packing's D, as (DOF slot, name): the uniform translation
         along each axis, and -- with rotations but no tangential spring (rho = 0) -- the uniform
         spin about each rotation axis, which rolling and twisting springs do not resist
-        (PHYSICS.md section 8).  Slot s means the vector with 1 in DOF s of every particle.
-        Not collective."""
+        (PHYSICS.md section 8).  Between walls (``wall_axes``, docs/walls.md section 6) the walls
+        hold the translation along their normals, and with a tangential spring every translation;
+        with rolling springs a spin about an axis other than their normals (2D: the spin), with
+        twisting springs a spin about their normals.  Slot s means the vector with 1 in DOF s of
+        every particle.  Not collective."""
         names = "xyz"
-        modes = [(axis, f"translation {names[axis]}") for axis in range(self.dim)]
+        walled = bool(self.wall_axes)
+        modes = [(axis, f"translation {names[axis]}") for axis in range(self.dim)
+                 if axis not in self.wall_axes and not (walled and self.model.rho > 0.0)]
         if self.rotations and self.model.rho == 0.0:
-            spins = ["z"] if self.dim == 2 else list(names)
-            modes += [(self.dim + k, f"spin {axis}") for k, axis in enumerate(spins)]
+            spins = [2] if self.dim == 2 else [0, 1, 2]
+            for k, axis in enumerate(spins):
+                rolled = self.model.rho_roll > 0.0 and any(w != axis for w in self.wall_axes)
+                twisted = self.dim == 3 and self.model.rho_twist > 0.0 and axis in self.wall_axes
+                if not (rolled or twisted):
+                    modes.append((self.dim + k, f"spin {names[axis]}"))
         return modes
 
     def destroy(self) -> None:
@@ -229,6 +239,11 @@ def local_csr(packing: Packing, model: ContactModel, order: np.ndarray, disk_ran
             for block, extra in zip((h_ii, h_ij, h_ji, h_jj), slide):
                 block[limit] += extra
     a, b = contacts.a, contacts.b
+    if packing.walls is not None:  # each wall contact adds its particle's self block (docs/walls.md)
+        owner, w_ii = _wall_blocks(packing, model, order, disk_range, dof > packing.dim)
+        zero = np.zeros_like(w_ii)
+        a, b = np.concatenate((a, owner)), np.concatenate((b, owner))
+        h_ii, h_ij, h_ji, h_jj = (np.concatenate(pair) for pair in ((h_ii, w_ii), (h_ij, zero), (h_ji, zero), (h_jj, zero)))
     if model.cohesion is not None and packing.bridges is not None:  # bridged pairs across a gap
         bridged, (g_ii, g_ij, g_jj) = _gap_bridges(packing, model, order, disk_range, dof > packing.dim)
         a, b = np.concatenate((a, bridged[:, 0])), np.concatenate((b, bridged[:, 1]))
@@ -236,6 +251,39 @@ def local_csr(packing: Packing, model: ContactModel, order: np.ndarray, disk_ran
                                   ((h_ii, g_ii), (h_ij, g_ij), (h_ji, np.transpose(g_ij, (0, 2, 1))), (h_jj, g_jj)))
     csr = blocks_csr(a, b, (h_ii, h_ij, h_ji, h_jj), disk_range, dof, int((~packing.rattler).sum()))
     return csr, dof, int(contacts.first.sum())
+
+
+def owned_wall_contacts(packing: Packing, order: np.ndarray, disk_range: tuple[int, int]):
+    """(the wall contacts (``walls.Touching``) of the matrix particles ``disk_range`` owns, their
+    matrix particles (K,)). Not collective."""
+    start, stop = disk_range
+    owned = np.zeros(packing.n, dtype=bool)
+    owned[order[start:stop]] = True
+    touch = walls.touching(packing.positions, packing.diameters, packing.walls, owned & ~packing.rattler)
+    index = np.full(packing.n, -1)
+    index[order] = np.arange(order.size)
+    return touch, index[touch.particle]
+
+
+def _wall_blocks(packing: Packing, model: ContactModel, order: np.ndarray, disk_range: tuple[int, int],
+                 with_rotation: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The wall contacts' self blocks (K, k, k) (``contact_law.wall_blocks``, plus the stored
+    tangential forces' ``wall_stressed_blocks`` when the model keeps them) of the matrix particles
+    ``disk_range`` owns, and those particles (K,).  Not collective."""
+    touch, owner = owned_wall_contacts(packing, order, disk_range)
+    radius = 0.5 * packing.diameters[touch.particle]
+    blocks = contact_law.wall_blocks(touch.normal, touch.overlap, radius, model, with_rotation)
+    if packing.wall_contacts is not None and model.stored_forces == "keep":
+        stored = packing.wall_contacts.on(touch.particle, touch.wall)
+        blocks = blocks + contact_law.wall_stressed_blocks(touch.normal, touch.overlap, radius, stored, model,
+                                                           with_rotation)
+    return owner, blocks
+
+
+def held_axes(packing: Packing) -> tuple[int, ...]:
+    """The axes of the walls some non-rattler touches (the normals of its wall contacts). Not collective."""
+    touch = walls.touching(packing.positions, packing.diameters, packing.walls, ~packing.rattler)
+    return tuple(int(a) for a in np.unique(packing.walls.axis[touch.wall])) if len(touch) else ()
 
 
 def _gap_bridges(packing: Packing, model: ContactModel, order: np.ndarray, disk_range: tuple[int, int],
@@ -291,7 +339,8 @@ def assemble(packing: Packing, model: ContactModel, comm, mass_rule: str = "equa
     start, stop = disk_range
     mine = order[start:stop]
     M.setArray(mass_diagonal(packing.diameters[mine], particle_masses(packing, mass_rule)[mine], packing.dim, dof))
-    return DynamicalMatrix(D, M, active, order, dof, model, disk_range, n_contacts, packing.dim, symmetric=symmetric)
+    return DynamicalMatrix(D, M, active, order, dof, model, disk_range, n_contacts, packing.dim, symmetric=symmetric,
+                           wall_axes=held_axes(packing) if packing.walls is not None else ())
 
 
 def gather_csr(mat) -> sp.csr_matrix:

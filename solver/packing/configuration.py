@@ -12,6 +12,7 @@ import numpy as np
 from ..contact_law import ContactModel
 from .geometry import Cell
 from .stressed import TangentialForces
+from .walls import WallContacts, Walls
 
 
 def solid_volume(diameters: np.ndarray, dim: int) -> float:
@@ -36,7 +37,10 @@ class Packing:
     lever of the stored forces' torques, and the capillary bridges' cohesion): the scene's for a
     file read, the engine's for a generated packing;  bridges : (B, 2) int64 the pairs of a wet
     packing that are apart but still bridged (``bridges.build``; every contact is bridged too), or
-    None (dry).
+    None (dry);  walls : the flat walls on its axes that are not periodic (``walls.Walls``), or None;
+    wall_contacts : the stored tangential forces of its wall contacts (``walls.WallContacts``), or
+    None;  gravity : (D,) float64 the body force per unit mass (kn d0 per unit of ``masses``, 1 when
+    None), or None (docs/walls.md).
     """
 
     positions: np.ndarray
@@ -50,6 +54,9 @@ class Packing:
     bridges: np.ndarray | None = None
     tilt: np.ndarray | None = None
     periodic: np.ndarray | None = None
+    walls: Walls | None = None
+    wall_contacts: WallContacts | None = None
+    gravity: np.ndarray | None = None
 
     @property
     def cell(self) -> Cell:
@@ -61,8 +68,10 @@ class Packing:
 
     @property
     def stressed(self) -> bool:
-        """Whether some stored tangential force is not zero (the matrix is then not symmetric)."""
-        return self.tangential is not None and self.tangential.nonzero()
+        """Whether some stored tangential force, between particles or on a wall, is not zero (the
+        matrix is then not symmetric)."""
+        return ((self.tangential is not None and self.tangential.nonzero())
+                or (self.wall_contacts is not None and self.wall_contacts.nonzero()))
 
     @property
     def n(self) -> int:

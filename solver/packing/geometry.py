@@ -96,11 +96,13 @@ class Cell:
 
 
 def narrowest(box) -> float:
-    """The smallest distance across ``box`` (a :class:`Cell`: its smallest height; (D,) sides or one
-    side of an orthogonal cell: the smallest side, as given): what a cutoff must stay below half of."""
-    if isinstance(box, Cell) and box.tilted:
-        return float(np.min(box.heights))
-    return float(np.min(box.sides if isinstance(box, Cell) else box))
+    """The smallest distance across ``box`` between the faces of a periodic axis (a :class:`Cell`:
+    its smallest height along a periodic axis, inf when none is; (D,) sides or one side of an
+    orthogonal periodic cell: the smallest side, as given): what a cutoff must stay below half of."""
+    if isinstance(box, Cell):
+        across = box.heights if box.tilted else box.sides
+        return float(np.min(across[box.periodic], initial=np.inf))
+    return float(np.min(box))
 
 
 def wrap(positions: np.ndarray, box) -> np.ndarray:

@@ -26,6 +26,7 @@ from ..errors import InputError
 from ..wording import counted
 from . import bridges as bridging
 from . import geometry
+from . import walls as walling
 
 if TYPE_CHECKING:
     from .configuration import Packing
@@ -167,8 +168,11 @@ def force_magnitudes(packing: Packing) -> tuple[geometry.Contacts, np.ndarray, n
 
 def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential: TangentialForces | None = None,
                   law: str = "harmonic", cohesion: capillary.Cohesion | None = None,
-                  bridges: np.ndarray | None = None) -> np.ndarray:
+                  bridges: np.ndarray | None = None, held: tuple | None = None) -> np.ndarray:
     """Rattler mask (N,), applied until no new rattler appears.
+
+    ``held`` (particle (K,), |force| (K,)): a walled packing's wall contacts, links to a body that
+    never rattles, counted and weighed with the contacts by every rule below (docs/walls.md).
 
     Unstressed (``tangential`` None): particles with fewer than D + 1 contacts among
     non-rattlers.
@@ -196,6 +200,11 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
         first, second = np.concatenate((first, gap[:, 0])), np.concatenate((second, gap[:, 1]))
         weight = np.concatenate((weight, pull))
 
+    wall_count = wall_weight = np.zeros(rattler.size)
+    if held is not None:
+        wall_count = np.bincount(held[0], minlength=rattler.size)
+        wall_weight = np.bincount(held[0], held[1], minlength=rattler.size)
+
     def per_particle(values, keep):
         return (np.bincount(first[keep], values[keep], minlength=rattler.size)
                 + np.bincount(second[keep], values[keep], minlength=rattler.size))
@@ -204,9 +213,9 @@ def find_rattlers(positions: np.ndarray, diameters: np.ndarray, box, tangential:
         keep = ~rattler[first] & ~rattler[second]
         new = ~rattler
         if counted:
-            new &= per_particle(np.ones(len(first)), keep) < min_contacts(positions.shape[1])
+            new &= per_particle(np.ones(len(first)), keep) + wall_count < min_contacts(positions.shape[1])
         if weighed:
-            new &= per_particle(weight, keep) < EQUILIBRIUM_TOL
+            new &= per_particle(weight, keep) + wall_weight < EQUILIBRIUM_TOL
         if not new.any():
             return rattler
         rattler |= new
@@ -282,7 +291,56 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     for axis in range(rot):
         torque[:, axis] = -(np.bincount(found.i, arm_i * turn[:, axis], minlength=packing.n)
                             + np.bincount(found.j, arm_j * turn[:, axis], minlength=packing.n))
+    if packing.walls is not None:  # the walls push, their stored forces turn (lever R)
+        touch, push, turn = walling.loads(packing.positions, packing.diameters, packing.walls, packing.wall_contacts,
+                                          packing.model.law, active)
+        for axis in range(packing.dim):
+            net[:, axis] += np.bincount(touch.particle, push[:, axis], minlength=packing.n)
+        for axis in range(rot):
+            torque[:, axis] += np.bincount(touch.particle, turn[:, axis], minlength=packing.n)
+    if packing.gravity is not None:
+        net += walling.weights(packing.masses, packing.n, packing.gravity)
     return net, torque
+
+
+def with_walls(packing: Packing, walls: walling.Walls, wall_contacts: walling.WallContacts | None = None,
+               gravity: np.ndarray | None = None) -> Packing:
+    """``packing`` between ``walls`` (``walls.build``), with the stored tangential forces of its wall
+    contacts and ``gravity`` (D,) (docs/walls.md): the axes of the walls are not periodic, the
+    rattlers are found again with the wall contacts as links (:func:`find_rattlers`), and ``info``
+    gains the stress tensor (:func:`stress`).  Not collective."""
+    import dataclasses
+
+    periodic = packing.cell.periodic.copy()
+    periodic[walls.axis] = False
+    walled = dataclasses.replace(packing, walls=walls, wall_contacts=wall_contacts, periodic=periodic,
+                                 gravity=None if gravity is None else np.asarray(gravity, dtype=float))
+    cell, model = walled.cell, packing.model
+    touch, push, _ = walling.loads(packing.positions, packing.diameters, walls, wall_contacts, model.law)
+    rattler = find_rattlers(packing.positions, packing.diameters, cell, packing.tangential, model.law,
+                            model.cohesion, packing.bridges, held=(touch.particle, np.linalg.norm(push, axis=1)))
+    walled = dataclasses.replace(walled, rattler=rattler)
+    info = describe(packing.positions, packing.diameters, cell, rattler, model.law, model.cohesion, packing.bridges)
+    return dataclasses.replace(walled, info={**packing.info, **info, **stress(walled)})
+
+
+def stress(packing: Packing) -> dict:
+    """The stress tensor sigma = (1/V) sum_c r_c (x) f_c over the contacts (r_c = r_i - r_j, f_c the
+    force on i from j: normal, stored tangential, bridges' pull) and the wall contacts (r_c = h n, the
+    centre's offset from its wall, f_c the wall's force on it), V the cell's volume between its
+    walls (``walls.volume_between``); units kn d0^(1-D) (the pressure's).  Returns ``stress`` (D, D),
+    ``stress_walls`` (D, D) the wall contacts' share, ``pressure`` = trace / D, and ``n_wall_contacts``."""
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.cell)
+    f = contact_forces(found, packing.diameters, packing.model.law, packing.tangential, packing.model.cohesion)
+    volume = walling.volume_between(packing.box, packing.walls)
+    inner = np.einsum("cd,ce->de", found.normal * found.distance[:, None], f) / volume
+    touch, push, _ = walling.loads(packing.positions, packing.diameters, packing.walls, packing.wall_contacts,
+                                   packing.model.law)
+    offset = (0.5 * packing.diameters[touch.particle] - touch.overlap)[:, None] * touch.normal
+    outer = np.einsum("kd,ke->de", offset, push) / volume
+    total = inner + outer
+    return {"stress": total, "stress_walls": outer, "pressure": float(np.trace(total) / packing.dim),
+            "n_wall_contacts": len(touch)}
 
 
 def net_force(packing: Packing) -> float:
@@ -304,6 +362,16 @@ def require_equilibrium(packing: Packing, where: str) -> None:
     active = ~packing.rattler
     residual = float(np.sqrt((net[active] ** 2).sum(axis=1)).max())
     twist = float(np.sqrt((torque[active] ** 2).sum(axis=1)).max())
+    if packing.walls is not None or packing.gravity is not None:
+        if residual > EQUILIBRIUM_TOL or twist > EQUILIBRIUM_TOL:
+            raise InputError(
+                f"packing file {where}: not at rest between its walls under gravity {_gravity(packing)}: the largest "
+                f"net force on a non-rattler (contacts, walls and m g, under the {law} normal law) is {residual:.3e} "
+                f"kn d0 and the largest net torque {twist:.3e} kn d0^2 (both must be <= {EQUILIBRIUM_TOL:g}); the walls "
+                f"(packing.walls, or a LAMMPS file's f bounds), the gravity (packing.gravity) and the stored forces "
+                f"(packing.contacts, packing.wall_contacts) must be those the packing came to rest under "
+                f"(docs/walls.md)")
+        return
     if packing.tangential is not None:
         if residual > EQUILIBRIUM_TOL or twist > EQUILIBRIUM_TOL:
             raise InputError(
@@ -322,6 +390,11 @@ def require_equilibrium(packing: Packing, where: str) -> None:
             f"LAMMPS 'dump local' of patom1 patom2 and the pair's tangential force; the manual, docs/stressed_packings.md), or set "
             f"packing.relax: true to re-minimise it frictionlessly with FIRE first (this moves the particles; "
             f"one written with few digits, as YADE's 6, is off balance by its rounding and needs this too)")
+
+
+def _gravity(packing: Packing) -> str:
+    """The packing's gravity for messages: 'g = [..] kn d0 per unit mass' or 'none'."""
+    return "none" if packing.gravity is None else f"g = {np.asarray(packing.gravity).tolist()} kn d0 per unit mass"
 
 
 def jamming_failure(packing: Packing) -> str | None:

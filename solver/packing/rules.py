@@ -19,6 +19,11 @@ def check_section(spec, where: str) -> None:
         raise InputError(f"{where}contacts: the stored tangential forces of packing.file's packings; they need "
                          f"packing.file" + (" and cannot go with packing.relax, which re-minimises without them"
                                             if spec.relax else ""))
+    walled = [name for name in ("walls", "wall_contacts", "gravity") if getattr(spec, name) is not None]
+    if walled and (spec.file is None or spec.relax):
+        raise InputError(f"{where}{walled[0]}: walls and gravity belong to a packing read from packing.file (generated "
+                         f"packings are periodic and weightless)" + (", and cannot go with packing.relax, whose FIRE "
+                                                                     "knows neither" if spec.relax else ""))
     if spec.pressure is not None and (spec.friction is None or spec.file is not None):
         raise InputError(f"{where}pressure = {spec.pressure}: the pressure at which LAMMPS holds a frictional packing "
                          f"it makes: needs packing.friction with packing.engine: lammps and no packing.file (for a "

@@ -76,7 +76,7 @@ def position_operators(dm, positions: np.ndarray, box: np.ndarray, comm) -> list
     dof = dm.dof
     rows = start + np.repeat(np.arange(stop - start), np.diff(indptr))
     particles = np.asarray(positions, dtype=float)[dm.order]  # matrix particle -> position
-    delta = minimum_image(particles[rows // dof] - particles[indices // dof], np.asarray(box, dtype=float))
+    delta = minimum_image(particles[rows // dof] - particles[indices // dof], box)  # a geometry.Cell or the (D,) sides
     mats = []
     try:
         for axis in range(dm.dim):

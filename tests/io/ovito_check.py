@@ -8,7 +8,8 @@ Each FILE is opened with ``ovito.io.import_file`` as the desktop application's *
 (a numbered series by a ``*`` pattern).  Prints one JSON object: ``files``, per FILE its
 ``frames``, particle ``count`` and, per particle property of frame 0, ``dtype``, ``components``,
 ``types`` ({id: [name, [r, g, b]]}, typed properties only) and ``values`` (nested lists), the
-cell's ``pbc`` (null without a cell) and ``lines``, per Lines object (e.g. the particle-particle
+cell's ``pbc`` and ``cell`` (OVITO's 3 x 4 cell matrix: the edge vectors a, b, c and the origin as
+columns; both null without a cell) and ``lines``, per Lines object (e.g. the particle-particle
 contacts OVITO reads from a contact network in a .vtm) its ``count`` (points) and ``values`` per
 property.  With
 ``--render``, the first FILE's frame 0 is drawn from the top (+z) by OVITO's default renderer
@@ -42,7 +43,8 @@ def describe(path: str) -> dict:
     lines = {name: {"count": found.count, "values": {key: np.asarray(found[key]).tolist() for key in found.keys()}}
              for name, found in data.lines.items()}
     return {"frames": pipeline.num_frames, "count": data.particles.count, "properties": properties,
-            "pbc": None if data.cell is None else list(data.cell.pbc), "lines": lines}
+            "pbc": None if data.cell is None else list(data.cell.pbc),
+            "cell": None if data.cell is None else np.asarray(data.cell).tolist(), "lines": lines}
 
 
 class Centres(ViewportOverlayInterface):

@@ -3,6 +3,7 @@ README.md) load with the numbers their input scripts asked for, and damaged copi
 refused with one message naming the file and what is wrong.  Reads committed files only: none of
 the programs is needed."""
 
+import pathlib
 import re
 
 import h5py
@@ -12,6 +13,7 @@ from conftest import REPO, assert_close
 
 from solver.errors import InputError
 from solver.io import dem_formats
+from solver.packing import geometry
 
 pytestmark = pytest.mark.serial_only  # file reading, no communicator: nothing to gain from a second rank
 
@@ -109,10 +111,117 @@ def test_frictional_packing_stands_only_on_its_tangential_forces():
         dem_formats.read(DATA / "lammps_3d_friction.forces")
 
 
-@pytest.mark.parametrize("name", ["lammps_triclinic.data", "lammps_triclinic.dump"])
-def test_triclinic_boxes_are_refused(name):
-    with pytest.raises(InputError, match=re.escape(str(DATA / name)) + r".*triclinic.*orthogonal"):
-        dem_formats.read(DATA / name)
+TRICLINIC = {"lo": np.array([-1.5, 2.0, 0.25]), "hi": np.array([4.0, 6.6, 4.3]), "tilt": np.array([-1.3, 0.9, -0.8])}
+"""lammps_triclinic.in's cell: region prism -1.5 4.0 2.0 6.6 0.25 4.3 -1.3 0.9 -0.8."""
+
+
+def _triclinic_dump_text(keep=lambda names: names) -> str:
+    """lammps_triclinic.dump's text with its ATOMS names passed through ``keep`` (a list -> a list)."""
+    text = (DATA / "lammps_triclinic.dump").read_text()
+    head, sep, rest = text.partition("ITEM: ATOMS ")
+    names, _, rows = rest.partition("\n")
+    return head + sep + " ".join(keep(names.split())) + "\n" + rows
+
+
+@pytest.mark.parametrize("name", ["lammps_triclinic.data", "lammps_triclinic.dump", "liggghts_triclinic.data",
+                                  "liggghts_triclinic.dump"])
+def test_triclinic_files_hold_the_cell_the_script_made(name):
+    """The data file's 'xy xz yz' line and the dump's bounding box (xlo_bound = xlo + min(0, xy, xz,
+    xy + xz), ...) give the prism of the input script; LAMMPS placed every sphere inside it."""
+    p = dem_formats.read(DATA / name)
+    assert p.positions.shape == (128, 3) and np.array_equal(p.ids, np.arange(1, 129))
+    # the dump's bounding box holds -2.8 = -1.5 + (-1.3) as the double nearest to it: one rounding of
+    # O(4) numbers on the way back, 2 ulp
+    assert_close(p.box_lo, TRICLINIC["lo"], rtol=0.0, atol=1e-15, what=f"{name} box_lo")
+    assert_close(p.box_hi, TRICLINIC["hi"], rtol=0.0, atol=1e-15, what=f"{name} box_hi")
+    assert_close(p.tilt, TRICLINIC["tilt"], rtol=0.0, what=f"{name} tilt")
+    cell = geometry.Cell(p.box_hi - p.box_lo, p.tilt, np.ones(3, dtype=bool))
+    fractional = cell.fractional(p.positions - p.box_lo)
+    # LAMMPS keeps atoms in the cell (lo <= s < 1 after its last re-neighbouring); the LIGGGHTS dump's
+    # %g moves a position by up to 5e-6 relative
+    slack = 1e-5 if name == "liggghts_triclinic.dump" else 0.0
+    assert np.all(fractional >= -slack) and np.all(fractional < 1.0 + slack), (fractional.min(), fractional.max())
+    assert not np.all((p.positions >= p.box_lo) & (p.positions < p.box_hi)), "a tilted cell leaves its bounds"
+
+
+def test_triclinic_data_dump_and_scaled_coordinates_agree(tmp_path):
+    """The data file, the dump's x y z and its scaled xs ys zs (converted by lo + H s) and LIGGGHTS's
+    files of the same state (read from LAMMPS's data file) give the same packing."""
+    data = dem_formats.read(DATA / "lammps_triclinic.data")
+    dump = dem_formats.read(DATA / "lammps_triclinic.dump")
+    # both %.17g, but write_data (after the dump) remaps the atoms into the cell through fractional
+    # coordinates (x -> lamda -> x): a few ulp of O(5) (measured 1.8e-15)
+    assert_close(dump.positions, data.positions, rtol=0.0, atol=1e-14, what="dump vs data positions")
+    assert_close(dump.diameters, data.diameters, rtol=0.0, what="dump vs data diameters")
+    assert_close(dump.masses, data.masses, rtol=1e-15, what="data vs dump masses")
+    scaled = _triclinic_dump_text(lambda names: [{"x": "ux", "y": "uy", "z": "uz"}.get(n, n) for n in names])
+    path = tmp_path / "scaled.dump"
+    path.write_text(scaled)
+    from_s = dem_formats.read(path)
+    # LAMMPS computes xs from x in double precision (H^-1 (x - lo)); back through lo + H s: a few ulp of O(5)
+    assert_close(from_s.positions, data.positions, rtol=0.0, atol=1e-14, what="lo + H s vs x y z")
+    liggghts_data = dem_formats.read(DATA / "liggghts_triclinic.data")  # %.16e, remapped once more: ulp
+    assert_close(liggghts_data.positions, data.positions, rtol=0.0, atol=1e-14, what="LIGGGHTS data positions")
+    assert_close(liggghts_data.tilt, data.tilt, rtol=0.0, what="LIGGGHTS data tilt")
+    liggghts_dump = dem_formats.read(DATA / "liggghts_triclinic.dump")  # %g: six significant digits
+    assert_close(liggghts_dump.positions, data.positions, rtol=5e-6, atol=1e-6, what="LIGGGHTS dump positions (%g)")
+    assert_close(liggghts_dump.box_lo, data.box_lo, rtol=0.0, atol=1e-15, what="LIGGGHTS dump box_lo")
+    assert_close(liggghts_dump.tilt, data.tilt, rtol=0.0, what="LIGGGHTS dump tilt")
+
+
+def test_triclinic_contacts_are_lammps_contacts():
+    """The contacts found in the tilted cell (positions from its origin) are, sphere by sphere, the
+    ones LAMMPS counted (compute contact/atom, column c_touch); in the orthogonal box of the same
+    sides they are not."""
+    p = dem_formats.read(DATA / "lammps_triclinic.dump")
+    touch = np.loadtxt(DATA / "lammps_triclinic.dump", skiprows=9, usecols=10)
+    cell = geometry.Cell(p.box_hi - p.box_lo, p.tilt, np.ones(3, dtype=bool))
+    found = geometry.find_contacts(p.positions - p.box_lo, p.diameters, cell)
+    assert found.count_per_particle(p.diameters.size).sum() == touch.sum() == 944
+    assert np.array_equal(found.count_per_particle(p.diameters.size), touch)
+    orthogonal = geometry.find_contacts(p.positions - p.box_lo, p.diameters, p.box_hi - p.box_lo)
+    assert not np.array_equal(orthogonal.count_per_particle(p.diameters.size), touch)
+
+
+def _edit(tmp_path, name, old, new) -> pathlib.Path:
+    path = tmp_path / name
+    text = (DATA / name).read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+@pytest.mark.parametrize("name, old, new, problem", [
+    ("lammps_triclinic.data", "-1.3 0.9 -0.8 xy xz yz", "-2.8 0.9 -0.8 xy xz yz",
+     "tilt xy = -2.8 is beyond half the side L_x = 5.5"),
+    ("lammps_triclinic.data", "-1.3 0.9 -0.8 xy xz yz", "-1.3 0.9 2.4 xy xz yz",
+     "tilt yz = 2.4 is beyond half the side L_y = 4.6"),
+    # xy = 2.9 with the same bounding box: xlo = -2.8, xhi = 4.9 - 3.8 = 1.1, L_x = 3.9
+    ("lammps_triclinic.dump", "-2.7999999999999998e+00 4.9000000000000004e+00 -1.3000000000000000e+00",
+     "-2.8 4.9 2.9", "tilt xy = 2.9 is beyond half the side L_x = 3.9"),
+])
+def test_tilt_beyond_half_a_side_is_refused(tmp_path, name, old, new, problem):
+    path = _edit(tmp_path, name, old, new)
+    with pytest.raises(InputError, match=re.escape(f"packing file {path}: the triclinic box's {problem}")):
+        dem_formats.read(path)
+
+
+def test_2d_tilt_xy_is_read_and_xz_yz_refused(tmp_path):
+    """A 2D file's cell shears by xy alone; xz or yz (which shear along z) are refused."""
+    path = _edit(tmp_path, "lammps_2d.data", "1.25 11 ylo yhi", "1.25 11 ylo yhi\n0.75 0 0 xy xz yz")
+    p = dem_formats.read(path)
+    assert p.dim == 2 and np.array_equal(p.tilt, [0.75])
+    path = _edit(tmp_path, "lammps_2d.data", "1.25 11 ylo yhi", "1.25 11 ylo yhi\n0.75 0 0.5 xy xz yz")
+    with pytest.raises(InputError, match=re.escape(f"packing file {path}: the packing is 2D (every z is 0) but the "
+                                                   f"box's tilt xz = 0, yz = 0.5: in 2D only xy shears the cell")):
+        dem_formats.read(path)
+
+
+def test_general_triclinic_dump_is_refused(tmp_path):
+    path = _edit(tmp_path, "lammps_triclinic.dump", "BOX BOUNDS xy xz yz pp pp pp", "BOX BOUNDS abc origin pp pp pp")
+    with pytest.raises(InputError, match=re.escape(f"packing file {path}: frame 0: the box is LAMMPS's general "
+                                                   f"triclinic cell")):
+        dem_formats.read(path)
 
 
 def test_liggghts_data_and_dump_hold_the_bidisperse_packing():
@@ -293,10 +402,9 @@ DAMAGED = [
      r"atom lines have 6 columns but 'ITEM: ATOMS' names 7"),
     ("dump: negative radius", "lammps_3d.dump", _set_atom_value(9, 2, "-0.4"), None,
      r"frame 0's atom lines: 1 particle\(s\) have a non-positive diameter \(first: id 1, diameter -0.8\)"),
-    ("dump: not periodic", "liggghts_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp fm pp"), None,
-     r"the box is not periodic in every direction \('ITEM: BOX BOUNDS pp fm pp'\)"),
-    ("dump: 3D spheres in a box not periodic in z", "lammps_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp pp ff"),
-     None, r"the box is not periodic in z \('ITEM: BOX BOUNDS pp pp ff'\) but the particles are not all at z = 0"),
+    ("dump: boundary flags not LAMMPS's", "liggghts_3d.dump", _replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp fp pp"),
+     None, r"the boundary flags \('ITEM: BOX BOUNDS pp fp pp'\) must be three LAMMPS boundary styles: pp \(periodic\) "
+           r"or two of f, s, m"),
     ("dump: atom count not a number", "lammps_2d.dump", _replace("ATOMS\n128", "ATOMS\n12a"), None,
      r"'ITEM: NUMBER OF ATOMS' must be followed by one positive whole number"),
     ("yade: unknown #format", "yade_3d.txt", _replace("#format x_y_z_r", "#format x_y_z_r_vel"), None,
@@ -370,3 +478,13 @@ def test_a_2d_dump_not_periodic_in_z_and_a_word_column_read_as_the_plain_dump(tm
     assert named_read.positions.shape == (128, 2)
     for field in ("positions", "diameters", "masses", "box_lo", "box_hi", "ids"):
         assert np.array_equal(getattr(named_read, field), getattr(plain, field)), field
+    assert named_read.boundary == ("pp", "pp") and plain.boundary == ("pp", "pp")
+
+
+def test_a_3d_dump_with_f_bounds_keeps_its_boundary_flags(tmp_path):
+    """'pp pp fm' (a wall at the lower z bound, docs/walls.md): read, with the flags kept per axis."""
+    path = tmp_path / "walled.dump"
+    path.write_text((DATA / "lammps_3d.dump").read_text().replace("BOX BOUNDS pp pp pp", "BOX BOUNDS pp pp fm"))
+    walled, plain = dem_formats.read_lammps_dump(path), dem_formats.read_lammps_dump(DATA / "lammps_3d.dump")
+    assert walled.boundary == ("pp", "pp", "fm") and plain.boundary == ("pp", "pp", "pp")
+    assert np.array_equal(walled.positions, plain.positions)

