@@ -26,17 +26,14 @@ import pytest
 from conftest import REPO, assert_close
 
 from solver.contact_law import ContactModel
-from solver.io import dem_formats, hdf5
+from solver.io import hdf5
 from solver.model import dynmat
 from solver.packing import mechanics
 from solver.references import first_order_flow
 from solver.waves import excitation, exponential
 
-# dense exp(tJ) of 756 DOF, the same on every rank: one rank is enough.  Until the reader of a
-# triclinic LAMMPS file (issue 59, tri-io: RawPacking.tilt) is merged, main refuses the file.
-pytestmark = [pytest.mark.serial_only,
-              pytest.mark.skipif("tilt" not in {f.name for f in dataclasses.fields(dem_formats.RawPacking)},
-                                 reason="needs the triclinic LAMMPS reader (issue 59)")]
+# dense exp(tJ) of 756 DOF, the same on every rank: one rank is enough
+pytestmark = pytest.mark.serial_only
 
 DATA = REPO / "tests" / "data" / "dem"
 SAMPLE, FRAMES, AMPLITUDE = 0.2, 101, 1e-7  # lammps_3d_sheared.in: dump interval, frames, start amplitude
