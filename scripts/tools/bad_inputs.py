@@ -57,6 +57,12 @@ def _mercury(keep_data=lambda lines: lines, keep_fstat=lambda lines: lines):
     return make
 
 
+def _sheared(path):
+    """A maker: LAMMPS's sheared frictional packing (lammps_3d_sheared) at ``path``, its contacts at ``path.contacts``."""
+    shutil.copyfile(DEM / "lammps_3d_sheared.data", path)
+    shutil.copyfile(DEM / "lammps_3d_sheared.contacts", f"{path}.contacts")
+
+
 MERCURY = "packing: {file: '{file}', contacts: '{file}.fstat', contacts_format: mercury-fstat, friction: 0.5}\n"
 
 
@@ -376,6 +382,9 @@ CASES = [
      "waves: {engine: lammps, n: [1], amplitude: 1.0e-4}\n", [],
      "waves.engine: lammps: packing.shear = 0.2 tilts the cell, and LAMMPS's finite-amplitude waves run in an "
      "orthogonal box only", None),
+    ("LAMMPS's waves on a triclinic packing file", "packing: {file: '{file}', contacts: '{file}.contacts', "
+     "friction: 0.5}\nwaves: {engine: lammps, n: [1], amplitude: 1.0e-4}\n", [],
+     "waves.engine: lammps: configuration 0 is in a tilted cell (xy = 0.720845, xz = 0, yz = 0)", _sheared),
     ("a packing file whose tilt is beyond half a side", "packing: {file: '{file}'}\n", [],
      "attribute 'tilt' = [9.0]: tilt xy = 9 is beyond half the side L_x", lambda path: _valid(path, tilt=np.array([9.0]))),
     ("friction on rotsound's FIRE", "packing: {n: 64, phi: 0.82, friction: 0.5}\n", [],
