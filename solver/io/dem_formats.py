@@ -217,9 +217,10 @@ def _check_box(path, lo: np.ndarray, hi: np.ndarray) -> None:
                     f"each box side must have positive length")
 
 
-def _packing(path, ids, positions, diameters, masses, lo, hi, source, where, tilt=None) -> RawPacking:
+def _packing(path, ids, positions, diameters, masses, lo, hi, source, where, tilt=None, periodic=None) -> RawPacking:
     """Sort by id, drop z when every z is 0, check sizes (``where`` names the rows), box and
-    ``tilt`` (3,) xy xz yz of a triclinic box (or None)."""
+    ``tilt`` (3,) xy xz yz of a triclinic box (or None) in the cell periodic along ``periodic`` (3,)
+    bool (None: every axis)."""
     order = np.argsort(ids, kind="stable")
     ids, positions, diameters = ids[order], positions[order], diameters[order]
     masses = None if masses is None else masses[order]
@@ -227,20 +228,22 @@ def _packing(path, ids, positions, diameters, masses, lo, hi, source, where, til
     _check_box(path, lo, hi)
     dim = 2 if np.all(positions[:, 2] == 0.0) else 3
     if tilt is not None:
-        tilt = _check_tilt(path, tilt, hi[:dim] - lo[:dim])
+        tilt = _check_tilt(path, tilt, hi[:dim] - lo[:dim], np.ones(dim, dtype=bool) if periodic is None
+                           else np.asarray(periodic[:dim], dtype=bool))
     return RawPacking(positions=np.ascontiguousarray(positions[:, :dim]), diameters=diameters, masses=masses,
                       box_lo=lo[:dim].copy(), box_hi=hi[:dim].copy(), ids=ids, source=source, tilt=tilt)
 
 
-def _check_tilt(path, tilt: np.ndarray, sides: np.ndarray) -> np.ndarray:
-    """The (T,) tilt factors of a cell of ``sides`` (D,) from a file's xy xz yz (3,); InputError
-    when xz or yz is not 0 in 2D or a tilt is beyond half its side (``Cell.tilt_problem``)."""
+def _check_tilt(path, tilt: np.ndarray, sides: np.ndarray, periodic: np.ndarray) -> np.ndarray:
+    """The (T,) tilt factors of a cell of ``sides`` (D,), periodic along ``periodic`` (D,), from a
+    file's xy xz yz (3,); InputError when xz or yz is not 0 in 2D, a tilt is beyond half its side or
+    shears across an axis with walls (``Cell.tilt_problem``)."""
     dim = sides.size
     if dim == 2 and np.any(tilt[1:] != 0.0):
         _fail(path, f"the packing is 2D (every z is 0) but the box's tilt xz = {tilt[1]:g}, yz = {tilt[2]:g}: in 2D "
                     f"only xy shears the cell, so xz and yz must be 0")
     tilt = tilt[:len(TILTS[dim])].copy()
-    problem = Cell(sides, tilt, np.ones(dim, dtype=bool)).tilt_problem()
+    problem = Cell(sides, tilt, periodic).tilt_problem()
     if problem is not None:
         _fail(path, f"the triclinic box's {problem}")
     return tilt
@@ -416,7 +419,8 @@ def read_lammps_dump(path, frame: int = -1) -> RawPacking:
         masses = col["density"] * (np.pi / 6.0) * diameters ** 3
     else:
         masses = None
-    raw = _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines", tilt)
+    raw = _packing(path, ids, positions, diameters, masses, lo, hi, "lammps-dump", f"{where}'s atom lines", tilt,
+                   np.array([flag == "pp" for flag in flags]))
     return dataclasses.replace(raw, boundary=tuple(flags[:raw.dim]))
 
 

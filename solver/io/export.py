@@ -5,7 +5,7 @@ Formats, each by the library made for it (or the format's own conventions), each
 name OVITO's reader of that format takes it for:
   extxyz       extended XYZ by ASE (``ase.io.write``): one file, one frame per phase, the cell as
                ``Lattice="ax ay az bx by bz cx cy cz"`` (its three edge vectors, :func:`cell_vectors`;
-               ``pbc="T T F"`` in 2D).  The first
+               ``pbc`` the cell's periodic axes, ``F`` along walls and along z in 2D: ``"T T F"``).  The first
                column is ``type``, ``small`` or ``large`` (instead of ASE's species "X"): OVITO
                reads a Particle Type of two named types, ASE a string array.
   vtp          VTK XML PolyData of vertex cells by VTK's ``vtkXMLPolyDataWriter``: one file per
@@ -34,7 +34,7 @@ name OVITO's reader of that format takes it for:
                contacts; it skips the outline and has no cell from a vtp: extxyz and the dump give
                OVITO the cell).
   lammps-dump  LAMMPS's text dump (``ITEM: TIMESTEP``, ``ITEM: BOX BOUNDS pp pp pp``, in 2D ``pp pp
-               ff``, open in z as the extxyz's pbc; a tilted cell's ``ITEM: BOX BOUNDS xy xz yz pp pp
+               ff``, open in z as the extxyz's pbc, ``ff`` along an axis with walls; a tilted cell's ``ITEM: BOX BOUNDS xy xz yz pp pp
                pp`` with LAMMPS's bounding box and the tilts, :func:`_box_bounds`, which rotsound's
                own dump reader reads back; ``ITEM: ATOMS id type element x y z ...``, the
                ``element`` column the types' names, as LAMMPS's ``dump_modify element`` writes them,
@@ -320,10 +320,11 @@ def _dump_columns(fields: dict) -> tuple[list[str], list[str], np.ndarray]:
     return names, formats, np.stack(columns, axis=1).astype(float)
 
 
-def _box_bounds(vectors: np.ndarray, dim: int) -> str:
+def _box_bounds(vectors: np.ndarray, dim: int, pbc: list[bool]) -> str:
     """The dump's ``ITEM: BOX BOUNDS`` line and its three lines of the cell of edge vectors
     ``vectors`` (rows, :func:`cell_vectors`) from the origin (2D: z from -1/2 to 1/2, the disks'
-    plane inside the box, as LAMMPS's 2D boxes have it): ``lo hi`` per axis, or for a tilted cell
+    plane inside the box, as LAMMPS's 2D boxes have it), each axis ``pp`` where ``pbc`` (3,) says
+    periodic, else ``ff`` (2D: z; a walled axis): ``lo hi`` per axis, or for a tilted cell
     LAMMPS's ``xy xz yz`` form, the bounding box and the tilt on each line (xlo_bound = xlo +
     min(0, xy, xz, xy + xz), xhi_bound = xhi + max(0, xy, xz, xy + xz), ylo_bound = ylo + min(0,
     yz), yhi_bound = yhi + max(0, yz))."""
@@ -331,7 +332,7 @@ def _box_bounds(vectors: np.ndarray, dim: int) -> str:
     if dim == 2:
         lo[2] = -0.5 * vectors[2, 2]
     hi = lo + np.diag(vectors)
-    flags = "pp pp pp" if dim == 3 else "pp pp ff"  # 2D: open in z, as the extxyz's pbc T T F
+    flags = " ".join("pp" if periodic else "ff" for periodic in pbc)  # as the extxyz's pbc
     xy, xz, yz = vectors[1, 0], vectors[2, 0], vectors[2, 1]
     if xy == xz == yz == 0.0:
         return f"ITEM: BOX BOUNDS {flags}\n" + "".join(f"{lo[a]:.16e} {hi[a]:.16e}\n" for a in range(3))
@@ -341,8 +342,8 @@ def _box_bounds(vectors: np.ndarray, dim: int) -> str:
         f"{low[a]:.16e} {high[a]:.16e} {tilt:.16e}\n" for a, tilt in enumerate((xy, xz, yz)))
 
 
-def _lammps_dump(path: str, vectors: np.ndarray, dim: int, frames) -> list[str]:
-    bounds = _box_bounds(vectors, dim)
+def _lammps_dump(path: str, vectors: np.ndarray, dim: int, pbc: list[bool], frames) -> list[str]:
+    bounds = _box_bounds(vectors, dim, pbc)
     with atomic_write(path) as partial, open(partial, "w", encoding="ascii") as out:
         for step, (positions, fields) in enumerate(frames):
             names, formats, values = _dump_columns(fields)
@@ -414,15 +415,16 @@ def export(path: str, fmt: str, output: str, packing: int = 0, rho: float | None
     positions3 = np.zeros((len(positions), 3))
     positions3[:, :dim] = positions
     vectors = cell_vectors(config.cell)
+    pbc = [bool(periodic) for periodic in config.cell.periodic] + [False] * (3 - dim)  # walls and 2D's z: open
     steps = _frames(positions3, fields, frames if mode is not None else 1, amplitude)
     try:
         os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
         if fmt == "extxyz":
-            written = _extxyz(output, vectors, [True] * dim + [False] * (3 - dim), steps, info)
+            written = _extxyz(output, vectors, pbc, steps, info)
         elif fmt == "vtp":
             written = _vtp(output, steps, vectors, dim, bridges_of(config))
         else:
-            written = _lammps_dump(output, vectors, dim, steps)
+            written = _lammps_dump(output, vectors, dim, pbc, steps)
     except OSError as exc:
         raise InputError(f"export --output {output}: cannot write ({exc})") from None
     return written, describe(info)

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..contact_law import ContactModel
 from ..errors import InputError
+from ..packing import geometry
 from . import hdf5
 from .hdf5 import FORMAT_VERSION
 
@@ -213,8 +214,12 @@ def packing_friction(f) -> float | None:
 
 def first_packing(f) -> dict | None:
     """The first configuration: positions (N, D) (D = 2 or 3), diameters (N,), rattler (N,) bool and the
-    attributes box (D,) side lengths, phi, z (mean contact number; NaN if absent: a loaded packing
-    has none), and a wet packing's bridges (B, 2) (its bridged pairs apart); None without packings."""
+    attributes box (D,) side lengths, tilt (T,) the cell's tilt factors (``geometry.TILTS``: xy, or
+    xy xz yz; zeros when orthogonal), periodic (D,) bool (which axes are periodic), cell (the three as
+    a ``geometry.Cell``: ``cell.matrix`` holds the edge vectors), phi, z (mean contact number; NaN if
+    absent: a loaded packing has none), and a wet packing's bridges (B, 2) (its bridged pairs apart);
+    None without packings.  A file written before tilted cells (no attributes tilt, periodic) reads
+    as orthogonal and periodic."""
     return packing(f, 0) if _groups(f, "packings") else None
 
 
@@ -226,9 +231,14 @@ def packing(f, index: int) -> dict:
         raise InputError(f"results file {f.filename}: no packing {index} (it has {len(groups)})")
     g = groups[index]
     wet = {"bridges": g["bridges"][()].reshape(-1, 2)} if "bridges" in g else {}
+    dim = g["positions"].shape[1]
+    cell = geometry.Cell.of(hdf5.box_of(g, dim), dim)
+    if "tilt" in g.attrs or "periodic" in g.attrs:
+        cell = geometry.Cell(cell.sides, np.asarray(g.attrs.get("tilt", cell.tilt), dtype=float),
+                             np.asarray(g.attrs.get("periodic", cell.periodic), dtype=bool))
     return {"positions": g["positions"][()], "diameters": g["diameters"][()], "rattler": g["rattler"][()],
-            "box": hdf5.box_of(g, g["positions"].shape[1]), "phi": float(g.attrs["phi"]),
-            "z": float(g.attrs.get("z", np.nan)), **wet}
+            "box": cell.sides.copy(), "tilt": cell.tilt.copy(), "periodic": cell.periodic.copy(), "cell": cell,
+            "phi": float(g.attrs["phi"]), "z": float(g.attrs.get("z", np.nan)), **wet}
 
 
 def mode_shapes(f) -> list[ModeShapes]:

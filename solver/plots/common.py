@@ -20,9 +20,11 @@ matplotlib.rcParams["figure.dpi"] = DPI
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
+from matplotlib.patches import Polygon  # noqa: E402
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 from ..errors import InputError  # noqa: E402
+from ..packing.geometry import Cell  # noqa: E402
 
 
 LEGEND_PT = 7
@@ -128,6 +130,22 @@ def section(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray) -> tu
     dz -= box[2] * np.rint(dz / box[2])
     cut = np.abs(dz) < 0.5 * diameters
     return cut, 2.0 * np.sqrt(0.25 * diameters[cut] ** 2 - dz[cut] ** 2)
+
+
+def frame_cell(ax, cell) -> float:
+    """Frame ``ax`` (equal aspect) on the picture of ``cell`` (a ``geometry.Cell``, or the (D,) sides
+    of an orthogonal one): its xy face (3D: its section z = L_z/2, shifted by c/2); a tilted cell's
+    parallelogram drawn as a grey outline, the limits its bounding box.  Returns the framed width
+    in x (d0)."""
+    cell = Cell.of(cell, np.size(cell))
+    h = cell.matrix
+    origin = 0.5 * h[:2, 2] if cell.dim == 3 else np.zeros(2)
+    corners = origin + np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]) @ h[:2, :2].T
+    if cell.tilted:
+        ax.add_patch(Polygon(corners, closed=True, fill=False, edgecolor="0.4", linewidth=0.8, zorder=3))
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), aspect="equal")
+    return float(hi[0] - lo[0])
 
 
 def disks(ax, centres: np.ndarray, diameters: np.ndarray, **style) -> EllipseCollection:

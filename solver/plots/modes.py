@@ -16,7 +16,7 @@ import numpy as np
 from matplotlib.colors import CenteredNorm
 
 from ..io.results import ModeShapes, WaveSnapshot
-from .common import disks, plt, rho_label, save, section
+from .common import disks, frame_cell, plt, rho_label, save, section
 
 ARROW = 1.0
 """Length of the longest drawn arrow (d0): a mode's amplitude is arbitrary, only its shape counts."""
@@ -30,7 +30,8 @@ def _draw(packing: dict, arrows: np.ndarray, turn: np.ndarray | None, label: str
     """The particles of ``packing`` (``results.packing``) to scale with ``arrows`` (N, D) scaled so
     that the longest is ``ARROW`` d0 and coloured by ``turn`` (N,), the rotation component about z
     (blue-white-red, centred on 0; grey when None), rattlers outlined in red; spheres as their
-    section z = L_z/2 (``common.section``).  ``label``: the colour bar's; ``title``: its lines
+    section z = L_z/2 (``common.section``); a tilted cell as its parallelogram (``common.frame_cell``).
+    ``label``: the colour bar's; ``title``: its lines
     above one on N and the arrows.  Constrained layout: the title stays inside the figure, whose
     colour bar shifts the picture left."""
     pos, box = packing["positions"], packing["box"]
@@ -52,7 +53,8 @@ def _draw(packing: dict, arrows: np.ndarray, turn: np.ndarray | None, label: str
     ax.quiver(centres[:, 0], centres[:, 1], u[:, 0], u[:, 1], angles="xy", scale_units="xy",
               scale=longest / ARROW if longest > 0 else 1.0, width=0.002, color="k", minlength=0)
     plane = ", section $z = L_z/2$" if box.size == 3 else ""
-    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
+    frame_cell(ax, packing.get("cell", packing["box"]))
+    ax.set(xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
            title=f"{title}\n$N$ = {pos.shape[0]}{plane}; arrows longest {ARROW:g} $d_0$, rattlers red")
     ax.title.set_fontsize(9)
     return save(fig, stem)

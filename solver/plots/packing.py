@@ -8,7 +8,8 @@ Spheres: the particles cut by the plane z = L_z/2 (``common.section``) and the c
 two of them, in-plane.
 
 A contact across the periodic boundary is drawn as two halves, one from each centre towards the
-other's nearest image, so that every chord shows inside the box.  Never imports petsc4py or
+other's nearest image, so that every chord shows inside the box.  A tilted cell is drawn as its
+parallelogram (``common.frame_cell``), its particles inside it.  Never imports petsc4py or
 mpi4py.  Each function writes ``<stem>.png`` and ``.pdf``.  Not collective.  Units: d0, forces in
 kn d0.
 """
@@ -19,7 +20,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 
 from ..packing import geometry, mechanics
-from .common import disks, plt, save, section
+from .common import disks, frame_cell, plt, save, section
 
 SHARE = 0.12
 """Width of the line of a contact carrying the mean normal force, in d0 on the drawing: thin
@@ -43,9 +44,9 @@ def plot_force_network(packing, stem: str) -> list[str]:
     rattler = packing.rattler[cut]
     disks(ax, packing.positions[cut, :2], diam, facecolors="0.9", edgecolors=np.where(rattler, "tab:red", "0.6"),
           linewidths=np.where(rattler, 0.8, 0.2))
-    ax.set(xlim=(0, packing.box[0]), ylim=(0, packing.box[1]), aspect="equal")
+    width = frame_cell(ax, packing.cell)
     ax.apply_aspect()  # the drawn box, in points, fixes how wide d0 is drawn
-    d0_points = ax.get_position().width * fig.get_figwidth() * 72.0 / packing.box[0]
+    d0_points = ax.get_position().width * fig.get_figwidth() * 72.0 / width
     scale = SHARE * d0_points / f_n.mean() if f_n.size else 0.0
     chosen = geometry.Contacts(found.i[keep], found.j[keep], found.normal[keep], found.distance[keep],
                                found.overlap[keep])
@@ -78,7 +79,8 @@ def plot_packing(packing: dict, stem: str) -> list[str]:
     plane = ", section $z = L_z/2$" if box.size == 3 else ""
     fig, ax = plt.subplots(figsize=(6, 6))
     disks(ax, pos, diam, facecolors=colors, edgecolors="k", linewidths=0.2)
-    ax.set(xlim=(0, box[0]), ylim=(0, box[1]), aspect="equal", xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
+    frame_cell(ax, packing.get("cell", packing["box"]))
+    ax.set(xlabel=r"$x\,/\,d_0$", ylabel=r"$y\,/\,d_0$",
            title=rf"$N$ = {packing['diameters'].size}, $\phi$ = {packing['phi']:.3f}, $z$ = {packing['z']:.2f}, "
                  f"rattlers in red ({int(packing['rattler'].sum())}){plane}")
     return save(fig, stem)

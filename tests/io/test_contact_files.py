@@ -306,3 +306,38 @@ def test_a_yade_contact_file_whose_interactions_do_not_touch_is_refused(tmp_path
     path.write_text(f"# one interaction\n{apart[0]} {apart[1]} 0 1 0 1 0 0\n")
     with pytest.raises(InputError, match="no listed interaction touches"):
         hdf5.read_packings(YADE[0], contacts=str(path), contacts_format="yade", model=LEVER_CONTACT)
+
+
+def test_a_contact_file_of_a_tilted_packing_takes_its_pairs_in_the_tilted_cell(tmp_path):
+    """The stored forces of a triclinic packing's contact file join it in its tilted cell: a LAMMPS
+    dump local of LAMMPS's tilted packing (tests/data/dem/lammps_triclinic.data) listing its 472
+    contacts, each with a tangential force of 1e-9 (file units) perpendicular to its centre line
+    through the tilted cell's nearest image, reads as 472 stored forces, their forces the file's over
+    the length unit; many of its pairs touch only across a tilted face (apart in the orthogonal box
+    of the same sides, where the file would be refused)."""
+    from solver.io import dem_formats
+    from solver.packing import geometry
+
+    raw = dem_formats.read(DATA / "lammps_triclinic.data")
+    cell = geometry.Cell(raw.box_hi - raw.box_lo, raw.tilt, np.ones(3, dtype=bool))
+    positions = raw.positions - raw.box_lo
+    found = geometry.find_contacts(positions, raw.diameters, cell)
+    pairs = np.column_stack((found.i, found.j))
+    _, _, apart = geometry.pair_geometry(positions, raw.diameters, cell.sides, pairs)
+    assert len(pairs) == 472 and np.sum(apart <= 0) > 20, np.sum(apart <= 0)  # across a tilted face
+    tangent = np.cross(found.normal, [0.3, -0.5, 0.8])
+    force = 1e-9 * tangent / np.linalg.norm(tangent, axis=1)[:, None]
+    rows = "\n".join(f"{k + 1} {raw.ids[i]} {raw.ids[j]} {f[0]!r} {f[1]!r} {f[2]!r}"
+                     for k, ((i, j), f) in enumerate(zip(pairs, force)))
+    path = tmp_path / "tilted.contacts"
+    path.write_text(f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ENTRIES\n{len(pairs)}\nITEM: BOX BOUNDS xy xz yz pp pp pp\n"
+                    "0 1 0\n0 1 0\n0 1 0\nITEM: ENTRIES index c_pairs[1] c_pairs[2] c_shear[1] c_shear[2] c_shear[3]\n"
+                    f"{rows}\n")
+    p = hdf5.read_packings(str(DATA / "lammps_triclinic.data"), contacts=str(path))[0]
+    unit = raw.diameters.mean()
+    assert p.cell.tilted and len(p.tangential) == 472
+    order = np.lexsort((p.tangential.pairs[:, 1], p.tangential.pairs[:, 0]))
+    expected = np.lexsort((pairs[:, 1], pairs[:, 0]))
+    np.testing.assert_array_equal(p.tangential.pairs[order], pairs[expected])
+    # the file's force on i from j over the length unit (harmonic: kn = 1 in file units), i < j kept
+    assert_close(p.tangential.force[order], force[expected] / unit, rtol=1e-12, atol=1e-24, what="stored forces")

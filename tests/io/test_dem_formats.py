@@ -488,3 +488,56 @@ def test_a_3d_dump_with_f_bounds_keeps_its_boundary_flags(tmp_path):
     walled, plain = dem_formats.read_lammps_dump(path), dem_formats.read_lammps_dump(DATA / "lammps_3d.dump")
     assert walled.boundary == ("pp", "pp", "fm") and plain.boundary == ("pp", "pp", "pp")
     assert np.array_equal(walled.positions, plain.positions)
+
+
+@pytest.mark.parametrize("name", ["lammps_triclinic.dump", "liggghts_triclinic.data", "liggghts_triclinic.dump"])
+def test_a_triclinic_packing_reads_at_rest_in_its_tilted_cell(name):
+    """read_packings of LAMMPS's tilted packing: its cell (the file's tilt over the mean diameter), at
+    rest under its harmonic forces in the tilted cell (the rest check passes; LAMMPS's FIRE left
+    7.5e-14), the 472 contacts LAMMPS counted; the dump and LIGGGHTS's files of the same state give
+    the same packing; the same positions in the orthogonal box of the same sides are far from rest."""
+    import dataclasses
+
+    from solver.io import hdf5
+    from solver.packing import mechanics
+
+    data = hdf5.read_packings(str(DATA / "lammps_triclinic.data"))[0]
+    unit = dem_formats.read(DATA / "lammps_triclinic.data").diameters.mean()
+    assert_close(data.tilt, TRICLINIC["tilt"] / unit, rtol=1e-15, what="tilt in d0")
+    assert_close(data.box, (TRICLINIC["hi"] - TRICLINIC["lo"]) / unit, rtol=1e-15, what="sides in d0")
+    assert data.periodic is None and data.cell.tilted
+    fractional = data.cell.fractional(data.positions)
+    assert np.all((fractional >= 0.0) & (fractional < 1.0)), "wrapped into the tilted cell"
+    assert len(geometry.find_contacts(data.positions, data.diameters, data.cell)) == 472
+    other = hdf5.read_packings(str(DATA / name))[0]
+    # %.17g dump: write_data's remap, a few ulp; LIGGGHTS's %g dump: six digits of O(5) file lengths
+    atol = 2e-5 if name == "liggghts_triclinic.dump" else 1e-14
+    assert_close(other.tilt, data.tilt, rtol=1e-5 if name == "liggghts_triclinic.dump" else 1e-15, what="tilt")
+    assert_close(other.positions, data.positions, rtol=0.0, atol=atol, what=f"{name} positions")
+    assert np.array_equal(other.rattler, data.rattler)
+    orthogonal = dataclasses.replace(data, tilt=None)
+    with pytest.raises(InputError, match="not in mechanical equilibrium"):
+        mechanics.require_equilibrium(orthogonal, "the positions in the orthogonal box")
+
+
+def test_a_tilt_across_walls_is_refused(tmp_path):
+    """A tilt shears only along periodic axes: a tilted dump with walls (f bounds) along z and a
+    tilt xz, and the tilted data file with the scene's walls along z (packing.walls), are refused
+    naming the file; the same dump with walls along z and a tilt xy alone is read."""
+    from solver.io import hdf5
+
+    path = _edit(tmp_path, "lammps_triclinic.dump", "BOX BOUNDS xy xz yz pp pp pp", "BOX BOUNDS xy xz yz pp pp ff")
+    with pytest.raises(InputError, match=re.escape(f"packing file {path}: the triclinic box's tilt xz = 0.9 shears "
+                                                   f"across axis z, which has walls")):
+        dem_formats.read(path)
+    data = DATA / "lammps_triclinic.data"
+    with pytest.raises(InputError, match=re.escape(f"packing file {data}: the triclinic box's tilt xz = 0.902532 "
+                                                   f"shears across axis z, which has walls")):
+        hdf5.read_packings(str(data), walls=[{"axis": "z", "position": -50.0}])
+    text = path.read_text().replace("2.5000000000000000e-01 4.2999999999999998e+00 -8.0000000000000004e-01",
+                                    "2.5000000000000000e-01 4.2999999999999998e+00 0")
+    lines = text.splitlines()
+    lines[6] = lines[6].rsplit(" ", 1)[0] + " 0"  # xz = yz = 0: xy alone, across y, which is periodic
+    path.write_text("\n".join(lines) + "\n")
+    sheared = dem_formats.read(path)
+    assert sheared.boundary == ("pp", "pp", "ff") and np.array_equal(sheared.tilt, [-1.3, 0.0, 0.0])

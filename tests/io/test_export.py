@@ -483,7 +483,7 @@ def _write_tilted(folder, dim):
     frames = [(positions, fields)]
     pbc = [True] * dim + [False] * (3 - dim)
     return {"extxyz": export._extxyz(str(folder / "t.xyz"), vectors, pbc, frames, {"packing": 0})[0],
-            "lammps-dump": export._lammps_dump(str(folder / "t.dump"), vectors, dim, frames)[0],
+            "lammps-dump": export._lammps_dump(str(folder / "t.dump"), vectors, dim, pbc, frames)[0],
             "vtp": export._vtp(str(folder / "t.vtp"), frames, vectors, dim, None)}
 
 
@@ -554,3 +554,54 @@ def test_lammps_reads_the_tilted_dump(tmp_path, lammps_present):
     np.testing.assert_allclose(np.subtract(hi, lo), cell.sides, rtol=0, atol=4e-15)
     np.testing.assert_allclose([xy, xz, yz], cell.tilt, rtol=0, atol=1e-15)
     np.testing.assert_allclose(x, positions, rtol=0, atol=1e-13)
+
+
+@pytest.fixture(scope="module")
+def tilted_file(tmp_path_factory):
+    """The results file of LAMMPS's tilted packing (tests/data/dem/lammps_triclinic.data) with one mode kept."""
+    out = tmp_path_factory.mktemp("tilted") / "tilted.h5"
+    scene = scene_of(out, cache="off", packing={"file": str(REPO / "tests" / "data" / "dem" / "lammps_triclinic.data")},
+                     model={"rho": [0.5]}, modes={"omega": [1.0], "count": 1})
+    pipeline.run(scene, COMM, [])
+    return str(out)
+
+
+def test_a_tilted_results_file_exports_its_cell(tilted_file, tmp_path):
+    """Through the results file: the notebook API gives the file's cell, and each export of it
+    (with its mode) carries that cell: the dump read back by rotsound, extxyz and the dump by OVITO."""
+    from solver.io import dem_formats
+
+    read = hdf5.read_packings(str(REPO / "tests" / "data" / "dem" / "lammps_triclinic.data"))[0]
+    with results.open_results(tilted_file) as f:
+        p = results.packing(f, 0)
+    np.testing.assert_array_equal(p["tilt"], read.tilt)
+    np.testing.assert_array_equal(p["cell"].matrix, read.cell.matrix)
+    files = {fmt: export.export(tilted_file, fmt, str(tmp_path / name), mode=0)[0][0]
+             for fmt, name in (("extxyz", "t.xyz"), ("lammps-dump", "t.dump"), ("vtp", "t.vtp"))}
+    back = dem_formats.read_lammps_dump(files["lammps-dump"])
+    np.testing.assert_array_equal(back.tilt, read.tilt)
+    np.testing.assert_allclose(back.box_hi - back.box_lo, read.box, rtol=0, atol=4e-15)  # the bounding box's round-off
+    seen = ovito_read([files["extxyz"], files["lammps-dump"]])["files"]
+    for fmt in ("extxyz", "lammps-dump"):
+        np.testing.assert_allclose(np.array(seen[files[fmt]]["cell"])[:, :3], read.cell.matrix, rtol=0, atol=1e-12,
+                                   err_msg=fmt)
+
+
+def test_an_axis_with_walls_is_open_in_every_export(mode_file, tmp_path):
+    """A packing whose cell has walls along y (attribute periodic = [True, False] in its results
+    file) is exported open along y, and along z in 2D: extxyz pbc T F F, the dump's pp ff ff, and
+    OVITO's cell pbc (True, False, False)."""
+    import shutil
+
+    import h5py
+
+    walled = tmp_path / "walled.h5"
+    shutil.copyfile(mode_file, walled)
+    with h5py.File(walled, "r+") as f:
+        f["packings"][sorted(f["packings"])[0]].attrs["periodic"] = np.array([True, False])
+    xyz = export.export(str(walled), "extxyz", str(tmp_path / "w.xyz"))[0][0]
+    dump = export.export(str(walled), "lammps-dump", str(tmp_path / "w.dump"))[0][0]
+    with open(dump) as text:
+        assert text.read().splitlines()[4] == "ITEM: BOX BOUNDS pp ff ff"
+    seen = ovito_read([xyz, dump])["files"]
+    assert seen[xyz]["pbc"] == seen[dump]["pbc"] == [True, False, False]

@@ -96,3 +96,26 @@ def test_contact_model_is_the_scenes_law_and_lever(tmp_path):
     with h5py.File(given, "r") as f, h5py.File(bare, "r") as g:
         found = results.contact_model(f), results.contact_model(g)
     assert found == (ContactModel(law="hertz", lever="contact"), ContactModel()), found
+
+
+def test_the_notebook_api_gives_the_cell_and_reads_older_files_as_orthogonal(tmp_path):
+    """``results.packing`` gives the cell next to the box: a packing group's attributes tilt and
+    periodic (what the results writer stores for a tilted cell); the version-1 file, written before
+    tilted cells, reads as orthogonal and periodic."""
+    with results.open_results(str(V1)) as f:
+        old = results.packing(f, 0)
+    dim = old["positions"].shape[1]
+    np.testing.assert_array_equal(old["tilt"], np.zeros(1 if dim == 2 else 3))
+    np.testing.assert_array_equal(old["periodic"], np.ones(dim, dtype=bool))
+    np.testing.assert_array_equal(old["cell"].matrix, np.diag(old["box"]))
+    tilted = tmp_path / "tilted.h5"
+    shutil.copyfile(V1, tilted)
+    with h5py.File(tilted, "r+") as f:
+        group = f["packings"][sorted(f["packings"])[0]]
+        group.attrs["tilt"] = np.array([0.25 * old["box"][0]] + [0.0] * (dim - 2) * 2)
+        group.attrs["periodic"] = np.ones(dim, dtype=bool)
+    with results.open_results(str(tilted)) as f:
+        new = results.packing(f, 0)
+    np.testing.assert_array_equal(new["box"], old["box"])
+    assert new["tilt"][0] == 0.25 * old["box"][0] and new["cell"].tilted
+    assert new["cell"].matrix[0, 1] == 0.25 * old["box"][0]  # edge b = (xy, L_y[, 0])

@@ -135,3 +135,56 @@ def test_the_checks_catch_each_kind_of_defect():
         common.plt.close(fig)
     for what in ("leaves the figure", "points off the axes", "5 pt", "prints a nan", "reaches the frame"):
         assert what in found, found
+
+
+def _tilted_packing(dim: int) -> dict:
+    """A packing dict as ``results.packing`` gives one, in a tilted cell: LAMMPS's triclinic packing
+    (3D) or the 2D LAMMPS packing in its sides tilted by xy = -0.35 L_x, positions wrapped into it."""
+    from conftest import REPO
+
+    from solver.io import dem_formats
+    from solver.packing import geometry
+
+    raw = dem_formats.read(REPO / "tests" / "data" / "dem" / ("lammps_triclinic.data" if dim == 3 else "lammps_2d.data"))
+    sides = raw.box_hi - raw.box_lo
+    cell = geometry.Cell(sides, raw.tilt if dim == 3 else np.array([-0.35 * sides[0]]), np.ones(dim, dtype=bool))
+    n = raw.diameters.size
+    return {"positions": geometry.wrap(raw.positions - raw.box_lo, cell), "diameters": raw.diameters,
+            "rattler": np.arange(n) % 17 == 0, "box": sides, "tilt": cell.tilt, "periodic": cell.periodic,
+            "cell": cell, "phi": 0.8, "z": 4.0}
+
+
+def _mode(packing: dict) -> results.ModeShapes:
+    n, dim = packing["positions"].shape
+    rng = np.random.default_rng(3)
+    rotation = rng.normal(size=(1, n, 1 if dim == 2 else 3))
+    return results.ModeShapes(0.5, 0, np.array([1.0]), np.array([1.01]), rng.normal(size=(1, n, dim)), rotation,
+                              np.full((1, n, 2), 1.0 / n), np.array([2.0]), np.array([1.0]), np.array([0.3]))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_tilted_cell_is_drawn_as_its_parallelogram_with_its_particles_inside(dim):
+    """The packing picture and a mode's picture of a tilted cell: the parallelogram (3D: the section
+    z = L_z/2, shifted by c/2) outlined, the axes its bounding box, every drawn centre inside it."""
+    from matplotlib.collections import EllipseCollection
+    from matplotlib.patches import Polygon
+
+    from solver.plots.modes import plot_mode
+    from solver.plots.packing import plot_packing
+
+    packing = _tilted_packing(dim)
+    h = packing["cell"].matrix
+    origin = 0.5 * h[:2, 2] if dim == 3 else np.zeros(2)
+    corners = origin + np.array([[0, 0], h[:2, 0], h[:2, 0] + h[:2, 1], h[:2, 1]])
+    figures = {"packing": drawn(plot_packing, packing)["fig"], "mode": drawn(plot_mode, packing, _mode(packing), 0)["fig"]}
+    for fig in figures.values():
+        ax = fig.axes[0]
+        (outline,) = [p for p in ax.patches if isinstance(p, Polygon)]
+        np.testing.assert_allclose(outline.get_xy()[:4], corners, rtol=0, atol=1e-12)
+        np.testing.assert_allclose([*ax.get_xlim(), *ax.get_ylim()], [corners[:, 0].min(), corners[:, 0].max(),
+                                                                       corners[:, 1].min(), corners[:, 1].max()],
+                                   rtol=0, atol=1e-12)
+        centres = np.concatenate([c.get_offsets() for c in ax.collections if isinstance(c, EllipseCollection)])
+        inside = np.linalg.solve(h[:2, :2], (centres - origin).T).T  # fractional in the parallelogram
+        assert len(centres) > 20 and np.all((inside > -1e-12) & (inside < 1 + 1e-12)), (inside.min(), inside.max())
+    assert_figures(figures)
