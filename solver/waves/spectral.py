@@ -13,7 +13,7 @@ from .excitation import channel, runs, start_velocity
 from .sampling import WaveSeries
 
 
-def spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: float, times: np.ndarray,
+def spectral(dm, positions, mode: str, run: int, k: float | np.ndarray, *, amplitude: float, times: np.ndarray,
              tol: float = 1e-8, omega_max: float | None = None) -> WaveSeries:
     """One standing wave (run ``run`` of ``excitation.runs(mode, dm.dim)`` at ``k``):
     :func:`spectral_all` of that wave alone. Collective."""
@@ -270,7 +270,7 @@ def _lanczos_pass(A, start, steps: int, floor: float, visit=None) -> tuple[list,
 
 
 @profiling.logged("rsLanczosField")
-def velocity_field(dm, positions, mode: str, run: int, k: float, *, amplitude: float, times: np.ndarray,
+def velocity_field(dm, positions, mode: str, run: int, k: float | np.ndarray, *, amplitude: float, times: np.ndarray,
                    tol: float = 1e-8, omega_max: float | None = None) -> tuple[np.ndarray, float]:
     """The whole velocity field of one standing wave (run ``run`` of ``mode`` at ``k``, as
     :func:`spectral` excites it) at ``times``: v(t) = M^-1/2 cos(sqrt(A) t) M^1/2 v(0), local rows
