@@ -12,7 +12,8 @@ that gather are collective and give the same result on every rank.
 - :func:`dense_eigen`: the full eigendecomposition of A; :func:`dense_eigenvalues`, its eigenvalues
   alone;
 - :func:`modal_weights`, :func:`exact_z_fixed`: one standing-wave run's z(t), exactly, as a sum
-  of cosines over A's modes (PHYSICS.md section 4);
+  of cosines over A's modes (PHYSICS.md section 4); :func:`exact_start_correlation`, the start's
+  own autocorrelation C_a(t) (docs/waves_theory.md);
 - :func:`verlet_eigen`: velocity Verlet's own frequencies, so that :func:`exact_z_fixed` gives
   Verlet's z at the steps exactly;
 - :func:`first_order_flow`: displacements and velocities of M u'' = -D u - C u' from u = 0,
@@ -69,9 +70,10 @@ def _weights(vec: np.ndarray, mass: np.ndarray, start: np.ndarray, phase: np.nda
     return ((phase.ravel() / np.sqrt(mass)) @ vec) * a
 
 
-def modal_weights(p, dm, eig, run, k, amplitude) -> tuple[np.ndarray, np.ndarray]:
+def modal_weights(p, dm, eig, run, k, amplitude, start: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(omega (n,), w (n,)): one standing-wave run's z(t) (r_i(0) in the phase) is exactly
-    sum_j w_j cos(omega_j t), from the full eigendecomposition ``eig`` = :func:`dense_eigen`
+    sum_j w_j cos(omega_j t) (with ``start``, the read-out is M v(0) instead of the channel:
+    v(0)^T M v(t) = sum_j w_j cos(omega_j t)), from the full eigendecomposition ``eig`` = :func:`dense_eigen`
     (PHYSICS.md section 4), 2D or 3D.  ``run`` = (component, axis): the start is the raw amplitude
     sin(k r_a) in the component with its part in A's whole null space removed -- found from the
     eigenvalues (|lam| < 1e-10 max lam), not from ``dm.rigid_modes()``, and in A's
@@ -90,7 +92,16 @@ def modal_weights(p, dm, eig, run, k, amplitude) -> tuple[np.ndarray, np.ndarray
     v0[:, component] = amplitude * np.sin(k * r0[:, axis])
     b = np.zeros((len(r0), dm.dof), complex)
     b[:, component] = np.exp(-1j * k * r0[:, axis])
-    return omega, _weights(vec, mass, v0, b, zero)
+    return omega, _weights(vec, mass, v0, mass.reshape(v0.shape) * v0 if start else b, zero)
+
+
+def exact_start_correlation(p, dm, eig, run, k, t) -> np.ndarray:
+    """C_a(t) (S,) of one standing-wave run (component, axis) at times ``t``: the start's own
+    autocorrelation <v(0), v(t)>_M / <v(0), v(0)>_M = sum_j w_j cos(omega_j t) / sum_j w_j with
+    w_j = (e_j^T M^1/2 v(0))^2 (:func:`modal_weights` with ``start``: the read-out is M v(0)).
+    Collective (gathers M)."""
+    omega, w = modal_weights(p, dm, eig, run, k, 1.0, start=True)
+    return w @ np.cos(np.outer(omega, t)) / w.sum()
 
 
 def exact_z_fixed(p, dm, eig, run, k, t, amplitude) -> np.ndarray:
