@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import parallel
 from ..model.operators import scaled_operator
 from .excitation import runs, start_velocity
 
@@ -109,6 +110,20 @@ class Recurrences:
     def size(self, wave: int) -> int:
         """The steps of T that count for recurrence ``wave``: its closing step, else all."""
         return int(self.length[wave] if self.length[wave] >= 0 else self.steps)
+
+    def converge(self, m_target: int, tol: float, evaluate) -> tuple[list, list[int]]:
+        """Steps from ``m_target``, grown by a fifth, until every recurrence's estimate is below
+        ``tol`` or every Krylov space has closed: ``evaluate(alpha, beta, read_outs, sizes, closed)``
+        (:meth:`tridiagonals`, :meth:`size` of each, :attr:`closed`) -> [(value, estimate)] per
+        recurrence, run on rank 0 and broadcast, so every rank takes the same branch.  Returns
+        (that list, sizes).  Collective."""
+        while True:
+            self.extend(m_target)
+            sizes, closed = [self.size(i) for i in range(self.count)], self.closed
+            results = parallel.owner_compute(self.mpi, [0], lambda _: evaluate(*self.tridiagonals(), sizes, closed))[0]
+            if all(estimate < tol for _, estimate in results) or np.all(closed):
+                return results, sizes
+            m_target = int(1.2 * m_target)
 
     def destroy(self) -> None:
         self.X.destroy()

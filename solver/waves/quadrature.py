@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import parallel
 from ..model.operators import largest_omega
 from .lanczos import Recurrences, operator, scaled_starts, tridiagonal_eigen
 from .spectral import BATCH
@@ -63,22 +62,13 @@ def _side_by_side(dm, positions, waves, *, amplitude: float, times: np.ndarray, 
     a, norm_a = scaled_starts(dm, positions, waves, amplitude, mpi)
     recurrences = Recurrences(operator(dm), a / norm_a, (), 1e-13 * omega_max**2)  # floor: ``spectral``'s
     del a
-    count = len(waves)
-    m_target = gauss_steps(omega_max, times[-1])
+
+    def evaluate(alphas, betas, _, sizes, closed):
+        return [gauss_correlation(alphas[:sizes[i], i], betas[:sizes[i] - 1, i], times, closed[i])
+                for i in range(len(waves))]
+
     try:
-        while True:
-            recurrences.extend(m_target)
-            alphas, betas, _ = recurrences.tridiagonals()
-            sizes, closed = [recurrences.size(i) for i in range(count)], recurrences.closed
-
-            def evaluate(_):
-                return [gauss_correlation(alphas[:sizes[i], i], betas[:sizes[i] - 1, i], times, closed[i])
-                        for i in range(count)]
-
-            results = parallel.owner_compute(mpi, [0], evaluate)[0]
-            if all(estimate < tol for _, estimate in results) or np.all(closed):
-                break
-            m_target = int(1.2 * m_target)
+        results, sizes = recurrences.converge(gauss_steps(omega_max, times[-1]), tol, evaluate)
     finally:
         recurrences.destroy()
     return [StartCorrelation(times, c, float(norm_a[i]**2), sizes[i], float(estimate))

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import parallel, profiling
+from .. import profiling
 from ..model.operators import largest_omega
 from .excitation import channel, runs, start_velocity
 from .lanczos import Recurrences, operator, scaled_starts, tridiagonal_eigen
@@ -82,31 +82,21 @@ def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitu
     floor = 1e-13 * omega_max**2  # |v| at the round-off of A q (~1e-16 ||A||, ||A|| = omega_max^2)
     recurrences = Recurrences(operator(dm), a / norm_a, (b_re, b_im), floor)
     del a  # from here on: q, q_prev, the product and b, five (nloc, W) blocks
-    count = len(waves)
-    m_target = int(np.ceil(0.5 * omega_max * times[-1])) + 40
+    lam_max = omega_max**2 * (1 + 1e-6)  # above the Lanczos estimate's error
+
+    def evaluate(alphas, betas, reads, sizes, closed):
+        ws = reads[0] - 1j * reads[1]
+        return [_z_and_estimate(alphas[:, i], betas[:, i], ws[:, i], norm_a[i], times, sizes[i], closed[i], lam_max)
+                for i in range(len(waves))]
+
     try:
-        while True:
-            recurrences.extend(m_target)
-            alphas, betas, (w_re, w_im) = recurrences.tridiagonals()
-            ws = w_re - 1j * w_im
-            sizes, closed = [recurrences.size(i) for i in range(count)], recurrences.closed
-
-            def evaluate(_):
-                return [_z_and_estimate(alphas[:, i], betas[:, i], ws[:, i], norm_a[i], times, sizes[i], closed[i],
-                                        omega_max**2 * (1 + 1e-6))  # above the Lanczos estimate's error
-                        for i in range(count)]
-
-            # rank 0 evaluates and broadcasts, so every rank takes the same branch below
-            results = parallel.owner_compute(mpi, [0], evaluate)[0]
-            if all(estimate < tol for _, estimate in results) or np.all(closed):
-                break
-            m_target = int(1.2 * m_target)
+        results, sizes = recurrences.converge(int(np.ceil(0.5 * omega_max * times[-1])) + 40, tol, evaluate)
     finally:
         recurrences.destroy()
     out = []
     for i, (z, estimate) in enumerate(results):
         steps = sizes[i]
-        settings = {"method": "lanczos", "tol": tol, "steps": steps, "omega_max": omega_max, "batch": count}
+        settings = {"method": "lanczos", "tol": tol, "steps": steps, "omega_max": omega_max, "batch": len(waves)}
         out.append(WaveSeries(np.asarray(times), z, z, np.full(len(times), energy[i]), steps, float(estimate),
                               settings))
     return out
