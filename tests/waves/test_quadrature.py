@@ -46,8 +46,8 @@ def test_gauss_quadrature_gives_the_exact_start_correlation(case):
 
 def test_gauss_quadrature_takes_at_most_six_tenths_of_the_bilinear_steps(case):
     """Degree 2m - 1 against m - 1 at the same tolerance: about half (here both stop at their first
-    count, omega_max t_end / 4 + 20 and / 2 + 40, each estimate ~1e-14: 0.50; the smallest counts
-    that reach TOL are compared by scripts/benchmarks/bench_quadrature.py)."""
+    count, quadrature.gauss_steps and omega_max t_end / 2 + 40, each estimate ~1e-14: 0.52; the
+    smallest counts that reach TOL are compared by scripts/benchmarks/bench_quadrature.py)."""
     _, _, _, omega_max, waves, gauss, bilinear = case
     ratio = np.array([g.steps / b.steps for g, b in zip(gauss, bilinear)])
     assert_all(np.all(ratio <= 0.6), f"steps quadrature / bilinear: {ratio} (omega_max t_end = {omega_max * TIMES[-1]:.0f})")
