@@ -78,6 +78,7 @@ def case(n: int, referee: bool) -> None:
     from mpi4py import MPI
 
     from solver import references
+    from solver.analysis import fits
     from solver.contact_law import ContactModel
     from solver.model import dynmat, operators
     from solver.waves import correlations, quadrature, spectral
@@ -108,12 +109,16 @@ def case(n: int, referee: bool) -> None:
                                               out["bilinear_steps"])
     out.update(smallest_quadrature=max(smallest_gauss), smallest_bilinear=max(smallest_bilinear),
                smallest_ratio=max(smallest_gauss) / max(smallest_bilinear))
-    rest = []
+    rest, omega_shift, gamma_shift = [], [], []
     for i in range(len(MODES) * len(NS)):
         pair = gauss[2 * i:2 * i + 2]
         start_c = sum(g.weight * g.c for g in pair) / sum(g.weight for g in pair)
-        rest.append(np.abs(correlations.vaf(z[i]) - start_c).max())
-    out["rest"] = float(max(rest))
+        paper = correlations.vaf(z[i])
+        rest.append(np.abs(paper - start_c).max())
+        fit, fit_start = fits.fit_damped_cosine(times, paper), fits.fit_damped_cosine(times, start_c)
+        omega_shift.append(abs(fit_start.omega / fit.omega - 1))
+        gamma_shift.append(abs(fit_start.gamma - fit.gamma) / fit.gamma_err)
+    out.update(rest=float(max(rest)), omega_shift=float(max(omega_shift)), gamma_shift=float(max(gamma_shift)))
     if referee:
         eig = references.dense_eigen(dm)
         flat = z.reshape(len(waves), -1)
