@@ -46,19 +46,19 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
     (P = F.v <= 0) the step is halved, velocities zeroed and x moved back by dt v / 2.  Stops,
     not converged, at the first force that is not finite (NaN or inf), ``max_force`` saying so.
     """
-    from .fire_steps import kick, largest_squared_force, mix_and_move, move  # numba: imported when used
+    from .fire_steps import force_measures, kick, mix_and_move, move  # numba: imported when used
 
     x = np.array(x0, dtype=float)
     v = np.zeros_like(x)
     dt, alpha, positive = params.dt_start, params.alpha_start, 0
     f, energy = forces(x)
     for step in range(max_steps + 1):
-        max_force = float(np.sqrt(largest_squared_force(f)))
+        largest, power, f_squared = force_measures(f, v)
+        max_force = float(np.sqrt(largest))
         if max_force < force_tol:
             return FireResult(x, step, max_force, energy, True)
         if step == max_steps or not np.isfinite(max_force):  # a NaN or infinite force: no step can mend it
             return FireResult(x, step, max_force, energy, False)
-        power = float(np.vdot(f, v))
         if power > 0.0:
             positive += 1
             if positive > params.n_min:
@@ -70,10 +70,9 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
             alpha = params.alpha_start
             x -= 0.5 * dt * v
             v[:] = 0.0
-        kick(v, f, dt)
-        f_norm = np.sqrt(np.vdot(f, f))
-        if f_norm > 0.0:
-            mix_and_move(x, v, f, 1.0 - alpha, alpha * (np.sqrt(np.vdot(v, v)) / f_norm), dt)
+        v_squared = kick(v, f, dt)
+        if f_squared > 0.0:
+            mix_and_move(x, v, f, 1.0 - alpha, alpha * np.sqrt(v_squared / f_squared), dt)
         else:
             move(x, v, dt)
         f, energy = forces(x)
