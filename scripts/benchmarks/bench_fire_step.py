@@ -94,7 +94,7 @@ def parameters(pairs: list[str]) -> fire.FireParameters:
         name, _, value = pair.partition("=")
         if name not in types:
             raise SystemExit(f"--fire {pair}: no FIRE parameter {name} (there are {', '.join(types)})")
-        changed[name] = types[name](value)
+        changed[name] = value in ("1", "true", "True") if types[name] is bool else types[name](value)
     return fire.FireParameters(**changed)
 
 

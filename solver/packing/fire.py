@@ -31,6 +31,7 @@ class FireParameters:
     f_dec: float = 0.5
     alpha_start: float = 0.1
     f_alpha: float = 0.99
+    initial_delay: bool = False  # FIRE 2.0: no dt cut and no alpha reset in the first n_min steps
 
 
 @dataclass(frozen=True)
@@ -53,7 +54,16 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
     (P = F.v <= 0) the step is halved, velocities zeroed and x moved back by dt v / 2.  Stops,
     not converged, at the first force that is not finite (NaN or inf), ``max_force`` saying so.
     """
-    from .fire_steps import force_measures, kick, mix_and_move, move  # numba: imported when used
+    from .fire_steps import threads_for  # numba: imported when used
+
+    with threads_for(len(x0)):
+        return _minimize(x0, forces, force_tol, max_steps, params)
+
+
+def _minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, float]], force_tol: float,
+              max_steps: int, params: FireParameters) -> FireResult:
+    """:func:`minimize`'s loop."""
+    from .fire_steps import force_measures, kick, mix_and_move, move
 
     x = np.array(x0, dtype=float)
     v = np.zeros_like(x)
@@ -73,8 +83,9 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
                 alpha *= params.f_alpha
         else:
             positive = 0
-            dt *= params.f_dec
-            alpha = params.alpha_start
+            if not (params.initial_delay and step < params.n_min):
+                dt *= params.f_dec
+                alpha = params.alpha_start
             x -= 0.5 * dt * v
             v[:] = 0.0
         v_squared = kick(v, f, dt)

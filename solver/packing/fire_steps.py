@@ -9,12 +9,27 @@ caches the machine code (numba ``cache=True``).  Not collective.
 
 from __future__ import annotations
 
+import contextlib
+
 import numba
 import numpy as np
 
 CHUNK = 2048
 """Particles per chunk of this module's reductions: fixed, so that sums do not depend on the
 number of threads."""
+
+
+@contextlib.contextmanager
+def threads_for(n: int):
+    """Within it, numba runs on one thread when ``n`` particles make a single chunk (no thread to
+    start and wait for on every pass, which small packings would mostly spend), else on all it
+    has.  The same bits either way."""
+    before = numba.get_num_threads()
+    numba.set_num_threads(1 if n <= CHUNK else before)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 @numba.njit(cache=True, parallel=True, boundscheck=False)

@@ -103,6 +103,19 @@ def test_the_forces_and_sums_are_the_same_bits_on_1_and_2_threads():
     assert np.array_equal(f1, f2) and e1 == e2 and m1 == m2 and k1 == k2 and np.array_equal(w1, w2)
 
 
+def test_a_single_chunk_runs_on_one_thread_and_the_count_comes_back():
+    """fire.minimize runs small packings (one chunk) on one thread, larger ones on all; either way
+    numba's count is restored after it, also on an error."""
+    before = numba.get_num_threads()
+    with fire_steps.threads_for(fire_steps.CHUNK):
+        assert numba.get_num_threads() == 1
+    with fire_steps.threads_for(fire_steps.CHUNK + 1):
+        assert numba.get_num_threads() == before
+    with pytest.raises(ZeroDivisionError), fire_steps.threads_for(10):
+        1 / 0
+    assert numba.get_num_threads() == before
+
+
 FIRE_STEPS = """
 import sys, json, hashlib, numba, numpy as np
 from solver.packing import fire, jammed, mechanics
