@@ -70,6 +70,7 @@ class FrictionlessForces:
         self.largest = float(diameters.max())
         self.skin = min(skin, (0.5 * float(np.min(box)) - self.largest) / self.REACH)
         self.reference: np.ndarray | None = None
+        self.table: tuple | None = None  # the neighbour table's arrays (pair_forces.neighbour_table), reused
         self.rebuilds = self.refreshes = 0
         from . import pair_forces  # here, not at the top: numba takes 0.5 s
         self.compiled = pair_forces
@@ -90,7 +91,12 @@ class FrictionlessForces:
         """Make the list (pairs sorted by (i, j)) current, and its neighbour table (each particle's
         entries in a fixed order: ``pair_forces.neighbour_table``)."""
         self.i, self.j, self.shift, self.contact, self.reduced = i, j, shift, contact, reduced
-        self.table = self.compiled.neighbour_table(self.diameters.size, i, j, shift, contact, reduced)
+        rows = 2 * i.size
+        if self.table is None or self.table[1].size < rows:  # room for a quarter more: grown rarely
+            rows += rows // 4
+            self.table = (np.empty(self.diameters.size + 1, dtype=np.int64), np.empty(rows, dtype=np.int64),
+                          np.empty((rows, shift.shape[1])), np.empty(rows), np.empty(rows))
+        self.compiled.neighbour_table(self.diameters.size, i, j, shift, contact, reduced, *self.table)
 
     def _rebuild(self, x: np.ndarray) -> None:
         pairs = geometry.candidate_pairs(x, self.box, self.largest + self.skin)  # sorted by (i, j)

@@ -31,31 +31,33 @@ depend on the number of threads (their partial sums are added in chunk order).""
 
 @numba.njit(cache=True, boundscheck=False)
 def neighbour_table(n: int, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray,
-                    reduced: np.ndarray):
-    """The pair list (i, j (P,), shift (P, D), contact (P,), a' (P,)) of ``n`` particles as each
-    particle's entries: (start (n + 1,), partner (2P,), shift (2P, D), contact (2P,), a' (2P,)),
-    particle a's entries at start[a]:start[a + 1], first its pairs as i (shift as listed), then
-    as j (shift negated), each in list order.  Serial, O(P)."""
-    start = np.zeros(n + 1, dtype=np.int64)
+                    reduced: np.ndarray, start: np.ndarray, partner: np.ndarray, table_shift: np.ndarray,
+                    table_contact: np.ndarray, table_reduced: np.ndarray) -> None:
+    """Fill the neighbour table of the pair list (i, j (P,), shift (P, D), contact (P,), a' (P,))
+    of ``n`` particles: start (n + 1,), and each particle's entries partner, shift, contact, a'
+    (at least 2P rows each, reused from one list to the next: fresh arrays cost more in page
+    faults than the filling, measured 15 against 5.5 ms at N = 65536), particle a's at
+    start[a]:start[a + 1], first its pairs as i (shift as listed), then as j (shift negated), each
+    in list order.  Serial, O(P)."""
+    start[:] = 0
     for p in range(i.size):
         start[i[p] + 1] += 1
         start[j[p] + 1] += 1
     for a in range(n):
         start[a + 1] += start[a]
     cursor = start[:-1].copy()
-    partner = np.empty(2 * i.size, dtype=np.int64)
-    table_shift = np.empty((2 * i.size, shift.shape[1]))
-    table_contact, table_reduced = np.empty(2 * i.size), np.empty(2 * i.size)
-    for side in range(2):
-        for p in range(i.size):
-            a, b = (i[p], j[p]) if side == 0 else (j[p], i[p])
-            e = cursor[a]
-            cursor[a] += 1
-            partner[e] = b
-            for d in range(shift.shape[1]):
-                table_shift[e, d] = shift[p, d] if side == 0 else -shift[p, d]
-            table_contact[e], table_reduced[e] = contact[p], reduced[p]
-    return start, partner, table_shift, table_contact, table_reduced
+    for p in range(i.size):  # as i
+        e = cursor[i[p]]
+        cursor[i[p]] = e + 1
+        partner[e], table_contact[e], table_reduced[e] = j[p], contact[p], reduced[p]
+        for d in range(shift.shape[1]):
+            table_shift[e, d] = shift[p, d]
+    for p in range(i.size):  # as j
+        e = cursor[j[p]]
+        cursor[j[p]] = e + 1
+        partner[e], table_contact[e], table_reduced[e] = i[p], contact[p], reduced[p]
+        for d in range(shift.shape[1]):
+            table_shift[e, d] = -shift[p, d]
 
 
 @numba.njit(cache=True, parallel=True, boundscheck=False)
