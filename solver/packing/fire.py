@@ -31,7 +31,7 @@ class FireParameters:
     f_dec: float = 0.5
     alpha_start: float = 0.1
     f_alpha: float = 0.99
-    initial_delay: bool = False  # FIRE 2.0's: no dt cut or alpha reset in the first n_min steps (did not pay)
+    initial_delay: bool = False  # FIRE 2.0's: no dt cut or alpha reset in the first n_min steps (measured mixed)
 
 
 @dataclass(frozen=True)
