@@ -27,7 +27,6 @@ into ``--figures``.  Not MPI (one process; the matrix on PETSc.COMM_SELF).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 
 import numpy as np
@@ -39,6 +38,7 @@ from solver.io import results
 from solver.model import dynmat
 from solver.packing import fire, geometry, jammed, mechanics
 from solver.packing import walls as walling
+from solver.packing.configuration import solid_volume
 from solver.plots.common import DPI, legend, plt
 
 LAYER = 2.0
@@ -132,7 +132,8 @@ def quasistatic_shear(packing, strain: float, step: float = 0.01, force_tol: flo
             raise RuntimeError(f"quasistatic shear: FIRE at strain {gamma:.3f} did not converge "
                                f"(max |F| = {result.max_force:.2e})")
         x, before = result.x, gamma
-    return jammed.from_arrays(x, diameters, cell, info={"phi": packing.info["phi"], "shear": strain})
+    phi = solid_volume(diameters, packing.dim) / cell.volume  # the square's: a shear keeps the volume
+    return jammed.from_arrays(x, diameters, cell, info={"phi": phi, "shear": strain})
 
 
 class WalledForces:
@@ -263,8 +264,7 @@ def sheared_scene(path: str, strain: float, model: ContactModel = ContactModel(r
     phi = float(np.mean([s["phi"] for s in stored]))
     packings, omegas = [], []
     for s in stored:
-        square = configuration(s)
-        sheared = quasistatic_shear(dataclasses.replace(square, info={**square.info, "phi": s["phi"]}), strain)
+        sheared = quasistatic_shear(configuration(s), strain)
         dm = dynmat.assemble(sheared, model, PETSc.COMM_SELF)
         try:
             lam = dense_eigenvalues(dm)

@@ -1,0 +1,105 @@
+"""scripts/tools/boxes_findings.py (docs/boxes.md) on tiny packings: its long-wave speeds against
+the Bloch matrix of the same packing at a tiny wave vector and against a triangular crystal's
+speeds by hand, the quasistatic shear at rest in its tilted cell, the packing between walls at
+rest and the near-wall shares of its modes against a mode-by-mode sum.  Serial."""
+
+import numpy as np
+import pytest
+from conftest import assert_close, jammed_packing
+
+from scripts.tools import boxes_findings as findings
+from solver.contact_law import ContactModel, pair_blocks
+from solver.model import dynmat
+from solver.packing import geometry, jammed, mechanics
+
+pytestmark = pytest.mark.serial_only
+
+
+def _bloch_speeds(packing, model, direction, q=1e-4):
+    """The two lowest omega / q of the Bloch matrix D(q) of ``packing`` (the cell repeated, a
+    plane wave exp(i q r) over the images), q along ``direction``: the long-wave speeds, sorted."""
+    order = dynmat.matrix_order(packing)
+    n_active = order.size
+    contacts = dynmat.local_contacts(packing, order, (0, n_active))
+    h_ii, h_ij, h_jj = pair_blocks(*contacts.geometry_args, model, with_rotation=True)
+    branch = contacts.geometry_args[0] * contacts.geometry_args[1][:, None]
+    phase = np.exp(-1j * q * branch @ direction)  # u_j's phase over u_i's across the contact
+    dof = h_ii.shape[1]
+    size = n_active * dof
+    bloch = np.zeros((size, size), complex)
+    for c, (a, b) in enumerate(zip(contacts.a, contacts.b)):  # a reference built contact by contact
+        i, j = slice(a * dof, (a + 1) * dof), slice(b * dof, (b + 1) * dof)
+        bloch[i, i] += h_ii[c]
+        bloch[j, j] += h_jj[c]
+        bloch[i, j] += h_ij[c] * phase[c]
+        bloch[j, i] += h_ij[c].T * np.conj(phase[c])
+    radius = 0.5 * packing.diameters[order]
+    mass = np.stack([np.ones(n_active), np.ones(n_active), radius ** 2 / 2], axis=1).ravel()  # m = 1, I = m d^2/8
+    scaled = bloch / np.sqrt(np.outer(mass, mass))
+    lowest = np.linalg.eigvalsh(scaled)[:2]
+    return np.sort(np.sqrt(lowest)) / q
+
+
+def test_speeds_are_the_bloch_matrix_long_waves_in_a_sheared_cell():
+    packing = jammed.generate(64, 0.88, np.random.SeedSequence(3), shear=0.2)
+    model = ContactModel(rho=1.0)
+    stiffness, density = findings.elastic_tensor(packing, model)
+    directions = np.array([[1.0, 0.0], [0.0, 1.0], [np.cos(2.0), np.sin(2.0)]])
+    c_l, c_t = findings.speeds(stiffness, density, directions)
+    for k, n in enumerate(directions):
+        assert_close(np.array([c_t[k], c_l[k]]), _bloch_speeds(packing, model, n), rtol=1e-5, atol=0.0,
+                     what=f"speeds along {n}")
+
+
+def test_speeds_of_a_triangular_crystal():
+    """Central springs (rho = 0) on a triangular crystal of spacing a = 1: lambda = mu = sqrt(3) k / 4,
+    density 2 / sqrt(3), so c_L^2 = 9/8 and c_T^2 = 3/8 in every direction (no relaxation: each
+    particle is a centre of symmetry).  Spacing 1 - 1e-7 to make contacts: the prestress shifts
+    c^2 by O(1e-7)."""
+    a, rows = 1.0 - 1e-7, 6
+    i, j = np.meshgrid(np.arange(rows), np.arange(rows), indexing="ij")
+    positions = np.stack((a * (i + 0.5 * (j % 2)), a * np.sqrt(0.75) * j), axis=-1).reshape(-1, 2)
+    packing = jammed.from_arrays(positions, np.ones(rows * rows), np.array([rows * a, rows * a * np.sqrt(0.75)]))
+    stiffness, density = findings.elastic_tensor(packing, ContactModel(rho=0.0))
+    c_l, c_t = findings.speeds(stiffness, density, findings.angles(12)[1])
+    assert_close(c_l, np.full(12, np.sqrt(9 / 8)), rtol=1e-6, atol=0.0, what="c_L")
+    assert_close(c_t, np.full(12, np.sqrt(3 / 8)), rtol=1e-6, atol=0.0, what="c_T")
+
+
+def test_quasistatic_shear_is_at_rest_in_its_tilted_cell():
+    square = jammed_packing(64, 0.88, 5)
+    sheared = findings.quasistatic_shear(square, 0.05, step=0.02)
+    cell = sheared.cell
+    assert_close(cell.tilt, np.array([0.05 * square.box[0]]), rtol=1e-12, atol=0.0, what="tilt")
+    force, _ = mechanics.FrictionlessForces(sheared.diameters, cell)(sheared.positions)
+    assert np.abs(force).max() < 1e-6
+    moved = geometry.minimum_image(sheared.positions - square.positions, cell)
+    assert np.abs(moved).max() > 1e-3  # it did shear (not the square packing back)
+
+
+def test_walled_packing_at_rest_and_its_layer_shares():
+    packing = findings.walled_packing(48, 0.86, 2)
+    assert packing.info["n_wall_contacts"] > 0 and not packing.cell.periodic[1]
+    assert mechanics.net_force(packing) < 1e-5
+    layers = findings.wall_layers(packing, ContactModel(rho=1.0))
+
+    from petsc4py import PETSc
+
+    from solver.references import dense_eigen
+
+    dm = dynmat.assemble(packing, ContactModel(rho=1.0), PETSc.COMM_SELF)
+    lam, vec = dense_eigen(dm)
+    dm.destroy()
+    active = np.flatnonzero(~packing.rattler)
+    y = packing.positions[active, 1]
+    near = (y < findings.LAYER) | (y > packing.box[1] - findings.LAYER)
+    expected = []
+    for q in range(lam.size):  # mode by mode, particle by particle
+        energy = sum(vec[3 * p:3 * p + 3, q] @ vec[3 * p:3 * p + 3, q] for p in range(active.size) if near[p])
+        expected.append(energy)
+    assert lam.min() > 1e-8  # between walls with tangential springs: no zero mode
+    assert_close(layers["share"], np.array(expected), rtol=1e-10, atol=1e-12, what="layer shares")
+    assert layers["layer_fraction"] == pytest.approx(near.mean(), rel=0, abs=0)
+    width = np.diff(layers["edges"])
+    assert_close(np.array([(layers["layer_vdos"] * width).sum(), (layers["bulk_vdos"] * width).sum()]),
+                 np.ones(2), rtol=1e-10, atol=0.0, what="local vDOS areas")
