@@ -57,6 +57,9 @@ dem-data:
 	$(DEM) lmp -in lammps_3d_hooke.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_hertz.in -log none -screen none
 	$(DEM) lmp -in lammps_triclinic.in -log none -screen none
+	$(DEM) lmp -in lammps_3d_walls.in -log none -screen none
+	$(DEM) lmp -in lammps_3d_walls_waves.in -var wave l -log none -screen none
+	$(DEM) lmp -in lammps_3d_walls_waves.in -var wave t -log none -screen none
 	$(DEM) liggghts -in liggghts_triclinic.in -log none > /dev/null
 	$(DEM) liggghts -in liggghts_3d.in -log none > /dev/null
 	$(DEM) liggghts -in liggghts_3d_friction.in -log none > /dev/null

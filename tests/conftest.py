@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import functools
 import gc
+import itertools
 import json
 import os
 import pathlib
@@ -301,6 +302,22 @@ def all_pairs(p):
     return overlap, delta, distance
 
 
+def brute_contacts(positions, diameters, cell):
+    """(i, j, r_i - r_j) of every overlapping pair i < j of ``positions`` (N, D) in ``cell``: the
+    shortest of the separations over the images n in {-1, 0, 1}^D (of fractional coordinates in
+    [0, 1), enough for any pair closer than half the cell's height); no geometry search or reduction."""
+    fractional = np.linalg.solve(cell.matrix, positions.T).T
+    assert np.all((fractional >= 0) & (fractional < 1)), "positions are folded into the cell"
+    shifts = np.array(list(itertools.product([-1, 0, 1], repeat=cell.dim)), dtype=float) @ cell.matrix.T
+    i, j = np.triu_indices(len(positions), 1)
+    images = (positions[i] - positions[j])[:, None, :] + shifts[None]  # (P, 3^D, D)
+    distance = np.sqrt(np.sum(images**2, axis=2))
+    touching = distance < 0.5 * (diameters[i] + diameters[j])[:, None]
+    assert touching.sum(axis=1).max() <= 1, "a pair touches through one image only"
+    pair, image = np.nonzero(touching)
+    return i[pair], j[pair], images[pair, image]
+
+
 def schedule(integrator, dt, t_end, every):
     """The scene's values as a TS schedule (no -waves_ts_* options are set in the tests)."""
     from solver.waves.schedule import resolve_schedule
@@ -328,13 +345,13 @@ def with_random_stored_forces(p, seed, ratio=0.5, zero=False):
 
     from solver.packing import geometry, stressed
 
-    found = geometry.find_contacts(p.positions, p.diameters, p.box, ~p.rattler)
+    found = geometry.find_contacts(p.positions, p.diameters, p.cell, ~p.rattler)
     rng = np.random.default_rng(seed)
     direction = rng.normal(size=found.normal.shape)
     direction -= np.einsum("cd,cd->c", direction, found.normal)[:, None] * found.normal
     direction /= np.linalg.norm(direction, axis=1)[:, None]
     force = 0.0 * direction if zero else ratio * found.overlap[:, None] * direction
-    stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.box,
+    stored = stressed.build(np.stack((found.i, found.j), 1), force, p.positions, p.diameters, p.cell,
                             "harmonic", None, "test")
     return dataclasses.replace(p, tangential=stored)
 

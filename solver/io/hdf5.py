@@ -18,7 +18,7 @@ Packing file format (input from any code, and what rotsound writes under ``/pack
                                  required with model.cohesion, refused without it
                                  (docs/capillary_bridges.md); the packing's attributes
                                  cohesion_law, surface_tension, ... record the law it was made with
-    attribute box   (D,) float64 side lengths (L_x, L_y[, L_z]) of the orthogonal periodic box
+    attribute box   (D,) float64 side lengths (L_x, L_y[, L_z]) of the periodic box (orthogonal, or tilted by tilt)
                                  (origin at 0), each > 2 max(diameters) (a pair then touches
                                  through one image only)
     or attribute box_length float  the side L of a square or cubic box (files written before
@@ -156,9 +156,9 @@ def _cell_of(group, box: np.ndarray, dim: int, where: str):
     if "tilt" in group.attrs:
         tilt = np.atleast_1d(np.asarray(group.attrs["tilt"]))
         if tilt.shape != (len(names),) or not np.issubdtype(tilt.dtype, np.number) or not np.all(np.isfinite(tilt)):
+            plural = "s" if len(names) > 1 else ""
             raise InputError(f"packing file {where}: attribute 'tilt' = {tilt.tolist()}: need {len(names)} finite "
-                             f"number{'s' if len(names) > 1 else ''}, the cell's tilt factor{'s' if len(names) > 1 else ''} "
-                             f"{', '.join(names)} (LAMMPS's) in d0")
+                             f"number{plural}, the cell's tilt factor{plural} {', '.join(names)} (LAMMPS's) in d0")
     if "periodic" in group.attrs:
         periodic = np.atleast_1d(np.asarray(group.attrs["periodic"]))
         if periodic.shape != (dim,) or periodic.dtype != bool:

@@ -126,7 +126,7 @@ class PackingSpec:
                                       "null: the squeeze's box is kept", _range(0.0, 1e2, True), float)
     shear: float = _f(0.0, "generated packings with engine: fire: the shear strain gamma of their periodic cell, its "
                            "tilt xy over its side L (LAMMPS's xy = gamma L; xz = yz = 0): FIRE makes them at rest in "
-                           "the tilted (sheared) cell (docs/packings.md). Between -0.5 and 0.5, LAMMPS's limit; "
+                           "the tilted (sheared) cell (docs/dem_packings.md). Between -0.5 and 0.5, LAMMPS's limit; "
                            "0: the square or cubic box", _range(-0.5, 0.5), float)
     walls: list[dict] | None = _f(None, "with `file`: flat immovable walls, a list of {axis: x, y or z, position: p}, p in "
                                         "the packing file's units and coordinates (as LAMMPS's fix wall/gran xplane/"

@@ -107,14 +107,16 @@ def narrowest(box) -> float:
 
 def wrap(positions: np.ndarray, box) -> np.ndarray:
     """Return ``positions`` (N, D) folded into the cell along its periodic axes: ``[0, L_a)`` along
-    each axis a of an orthogonal cell, fractional coordinates in ``[0, 1)`` in a tilted one."""
+    each axis a of an orthogonal cell, fractional coordinates in ``[0, 1)`` (to round-off) in a tilted
+    one, where a particle inside is left as it is (wrapping twice changes nothing)."""
     cell = Cell.of(box, positions.shape[1])
-    if cell.tilted:
-        fractional = cell.fractional(positions)
-        folded = np.mod(fractional, 1.0)
-        folded[folded >= 1.0] = 0.0  # np.mod can round -tiny up to exactly 1
-        fractional[:, cell.periodic] = folded[:, cell.periodic]
-        return fractional @ cell.matrix.T
+    if cell.tilted:  # whole edge vectors off the particles outside: those inside keep their bits
+        periods = np.floor(cell.fractional(positions))
+        periods[:, ~cell.periodic] = 0.0
+        wrapped = np.array(positions, dtype=float)
+        outside = np.any(periods != 0.0, axis=1)
+        wrapped[outside] -= periods[outside] @ cell.matrix.T
+        return wrapped
     wrapped = np.array(positions, dtype=float)
     axes = cell.periodic
     folded = np.mod(wrapped[:, axes], cell.sides[axes])

@@ -46,12 +46,17 @@ def box_length_for(diameters: np.ndarray, phi: float, dim: int = 2) -> float:
     return float(np.sqrt(volume) if dim == 2 else np.cbrt(volume))
 
 
-def smallest_n(phi: float, dim: int) -> int:
-    """Smallest even N >= ``MIN_N`` whose bidisperse box at ``phi`` exceeds two large diameters."""
+def smallest_n(phi: float, dim: int, shear: float = 0.0) -> int:
+    """Smallest even N >= ``MIN_N`` whose bidisperse box at ``phi``, tilted by ``shear``
+    (:func:`sheared_cell`), is more than two large diameters across."""
     pair = solid_volume(np.array([D_SMALL, D_LARGE]), dim)  # one small and one large particle
     n = int(np.floor(2.0 * phi * (2.0 * D_LARGE) ** dim / pair)) + 1  # L^D = (n/2) pair / phi
     n += n % 2
-    while box_length_for(bidisperse_diameters(n), phi, dim) <= 2.0 * D_LARGE:  # round-off at the edge
+
+    def across(n):
+        return geometry.narrowest(sheared_cell(np.full(dim, box_length_for(bidisperse_diameters(n), phi, dim)), shear))
+
+    while across(n) <= 2.0 * D_LARGE:  # round-off at the edge, and the tilt's narrower height
         n += 2
     return max(MIN_N, n)
 
@@ -89,14 +94,17 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     decision: the particles are wet from the start, so the same seed gives the dry packing of the
     same start]; it keeps its bridged pairs across a gap (``Packing.bridges``).
 
-    With ``shear`` = gamma (``engine`` fire only) the cell is tilted by xy = gamma L
-    (``sheared_cell``; the same random start, uniform in the square, is uniform in the tilted
-    cell too) and FIRE minimises in it: a packing at rest in a sheared periodic cell.
+    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the cell
+    is tilted by xy = gamma L (``sheared_cell``; the same random start, uniform in the square, is
+    uniform in the tilted cell too) and FIRE minimises in it: a packing at rest in a sheared
+    periodic cell.
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the cell would not be more
     than two large diameters across (a pair could touch through two periodic images: tiny N at
     high phi in 3D), and RuntimeError if FIRE does not reach ``force_tol`` within ``max_steps``.
     """
+    if shear and (engine != "fire" or friction is not None):
+        raise ValueError(f"shear = {shear}: rotsound's FIRE (engine fire, no friction) makes sheared packings")
     rng = np.random.default_rng(seed)
     diameters = rng.permutation(bidisperse_diameters(n))  # mixed, so the sort below is safe
     box_length = box_length_for(diameters, phi, dim)
@@ -109,8 +117,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
         raise InputError(f"packing.n = {n}, packing.phi = {phi}: the {dim}D box would have {across}, not more than "
                          f"two large diameters (2 d_L = {2 * D_LARGE:.4g}), so a "
                          f"pair could touch through two periodic images: choose packing.n >= "
-                         f"{smallest_n(phi, dim)} at this phi" + (" (more when sheared)" if shear else "")
-                         + ", or a smaller packing.phi")
+                         f"{smallest_n(phi, dim, shear)} at this phi, or a smaller packing.phi")
     if friction is not None:
         return _frictional(diameters, box, phi, rng, force_tol, max_steps, comm, law, friction, pressure)
     start = rng.uniform(0.0, box_length, size=(n, dim))

@@ -29,8 +29,8 @@ def check_section(spec, where: str) -> None:
                          f"it makes: needs packing.friction with packing.engine: lammps and no packing.file (for a "
                          f"frictionless one in the same protocol, give friction: 0)")
     if spec.shear and (spec.file is not None or spec.engine != "fire"):
-        raise InputError(f"{where}shear = {spec.shear}: the shear of a packing rotsound's FIRE generates (packing.engine: "
-                         f"fire, no packing.file); a packing file's cell carries its own tilt")
+        raise InputError(f"{where}shear = {spec.shear}: the shear of a packing rotsound's FIRE generates "
+                         f"(packing.engine: fire, no packing.file); a packing file's cell carries its own tilt")
     if spec.file is None:
         for name in ("n", "phi"):
             if getattr(spec, name) is None:

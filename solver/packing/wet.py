@@ -16,10 +16,10 @@ from .mechanics import FrictionlessForces
 
 
 def check_box(diameters: np.ndarray, box, cohesion: capillary.Cohesion) -> None:
-    """InputError unless every side of ``box`` (D,) (every height of a tilted ``geometry.Cell``) exceeds 2 (d + s_c) for every pair of the
-    ``diameters``' sizes, d = R_i + R_j the pair's contact distance and s_c its bridge's rupture
-    distance under ``cohesion`` (d0): a bridge must reach its partner through one periodic image
-    only (minimum image on unwrapped positions).  Not collective."""
+    """InputError unless every side of ``box`` (D,) (every height of a tilted ``geometry.Cell``)
+    exceeds 2 (d + s_c) for every pair of the ``diameters``' sizes, d = R_i + R_j the pair's
+    contact distance and s_c its bridge's rupture distance under ``cohesion`` (d0): a bridge must
+    reach its partner through one periodic image only (minimum image on unwrapped positions).  Not collective."""
     radius = np.unique(0.5 * np.asarray(diameters, dtype=float))
     r_i, r_j = np.meshgrid(radius, radius)
     rupture = capillary.rupture_distance(r_i, r_j, cohesion)

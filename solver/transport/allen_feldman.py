@@ -62,8 +62,8 @@ def position_operators(dm, positions: np.ndarray, box: np.ndarray, comm) -> list
     A's sparsity, row layout and block size ``dm.dof``: every entry of A = M^-1/2 D M^-1/2 between
     matrix particles i and j times the minimum-image (r_i - r_j)_a (d0; diagonal blocks are kept
     as explicit zeros).  ``positions`` (N, D) in d0 of every particle in the packing's order,
-    ``box`` (D,) the periodic sides; the matrix's own particle order (``dm.order``) is applied
-    here.  Collective; the caller destroys the Mats (destroyed here if one fails)."""
+    ``box`` the periodic cell (a ``geometry.Cell``, or its (D,) sides); the matrix's own particle
+    order (``dm.order``) is applied here.  Collective; the caller destroys the Mats (destroyed here if one fails)."""
     from petsc4py import PETSc
 
     A = scaled_operator(dm)
@@ -76,7 +76,7 @@ def position_operators(dm, positions: np.ndarray, box: np.ndarray, comm) -> list
     dof = dm.dof
     rows = start + np.repeat(np.arange(stop - start), np.diff(indptr))
     particles = np.asarray(positions, dtype=float)[dm.order]  # matrix particle -> position
-    delta = minimum_image(particles[rows // dof] - particles[indices // dof], box)  # a geometry.Cell or the (D,) sides
+    delta = minimum_image(particles[rows // dof] - particles[indices // dof], box)
     mats = []
     try:
         for axis in range(dm.dim):

@@ -190,11 +190,11 @@ def binned_diffusivity(dm, positions: np.ndarray, box: np.ndarray, edges: np.nda
                        chunk: int = 64, min_count: float = 1.0) -> tuple[dict, dict]:
     """The Allen-Feldman diffusivity per omega bin by KPM (module docstring) as (datasets, attrs).
 
-    ``positions`` (N, D) in d0, every particle in the packing's order, ``box`` (D,) the periodic
-    sides, ``edges`` (B+1,) ascending omega bin edges in 1/t0 (the vDOS's bins); ``moments`` K
-    (None: :func:`auto_moments`), ``probes`` R >= 2 Rademacher probes from ``seed``, taken
-    ``block`` at a time, the bins ``bins_per_pass`` at a time (None: all; each pass repeats the
-    recursions, to bound memory), T_k vectors ``chunk`` at a time.
+    ``positions`` (N, D) in d0, every particle in the packing's order, ``box`` the periodic cell
+    (a ``geometry.Cell``, or its (D,) sides), ``edges`` (B+1,) ascending omega bin edges in 1/t0
+    (the vDOS's bins); ``moments`` K (None: :func:`auto_moments`), ``probes`` R >= 2 Rademacher
+    probes from ``seed``, taken ``block`` at a time, the bins ``bins_per_pass`` at a time (None:
+    all; each pass repeats the recursions, to bound memory), T_k vectors ``chunk`` at a time.
     datasets: edges; count (B,) estimated modes per bin; d (B,) mean d over the bin's modes
     (d0^2/t0), NaN where count < ``min_count``; d_err (B,) its standard error over the probes;
     count_err (B,); total (B,) = count x d, the sum of d^box over the bin's modes (unbiased), and

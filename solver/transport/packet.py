@@ -66,10 +66,11 @@ Decisions, and why:
 
 - **The fit.**  d = slope / (2 D) of a least-squares line through <dr^2>(t) over a window
   [t_a, t_b]; by default t_b is the last sample with <dr^2> below ``SATURATION_FRACTION`` of the
-  box's uniform-spread value sum_a L_a^2 / 12 and t_a = t_b / 2 (after the ballistic start; see
-  the docs page for how these were chosen).  Error estimate: the larger distance of the two
-  half-windows' slopes from the whole window's.  The exact local d(t) = (d<dr^2>/dt) / (2 D) is
-  returned at every sample, so a user can see the plateau and choose the window.
+  box's uniform-spread value sum_a L_a^2 / 12 (a tilted cell's: its edges' sum_a |a|^2 / 12) and
+  t_a = t_b / 2 (after the ballistic start; see the docs page for how these were chosen).  Error
+  estimate: the larger distance of the two half-windows' slopes from the whole window's.  The
+  exact local d(t) = (d<dr^2>/dt) / (2 D) is returned at every sample, so a user can see the
+  plateau and choose the window.
 
 Cost, n DOF, T times, P probes: K ~ omega_max t_max / 2 + (terms of the filter) MatMatMults on
 2 P columns; 2 K n (2 P)(4 T) flops in the dgemms; memory (2 P)(4 T + 4 + chunk) n / p float64
@@ -85,7 +86,7 @@ import numpy as np
 
 from .. import profiling
 from ..model.operators import largest_omega, scaled_operator
-from ..packing.geometry import minimum_image
+from ..packing.geometry import Cell, minimum_image
 from ..spectrum import chebyshev, kpm
 
 MARGIN = 1e-3
@@ -204,7 +205,6 @@ def start_vector(dm, positions: np.ndarray, box: np.ndarray, centre, radius: flo
     (minimum image), the rigid zero modes projected out by ``kpm.project_rigid``) and how many
     particles carry it.  Collective on the matrix's communicator; rank-free."""
     positions = np.asarray(positions, dtype=float)
-    box = np.asarray(box, dtype=float)
     rng = np.random.default_rng(np.random.SeedSequence([seed, 45, probe]))
     every = rng.standard_normal((positions.shape[0], dm.dof))
     inside = np.sum(minimum_image(positions - np.asarray(centre, dtype=float), box) ** 2, axis=1) <= radius**2
@@ -301,8 +301,7 @@ def energy_spread(A, dof: int, starts: list, times: np.ndarray, centre, position
     count = nloc // dof
     h = h.reshape(count, dof, T).sum(axis=1)
     hdot = hdot.reshape(count, dof, T).sum(axis=1)
-    delta = minimum_image(np.asarray(positions, dtype=float) - np.asarray(centre, dtype=float),
-                          np.asarray(box, dtype=float))  # (count, D)
+    delta = minimum_image(np.asarray(positions, dtype=float) - np.asarray(centre, dtype=float), box)  # (count, D)
     f = np.sum(delta**2, axis=1)
     dim = delta.shape[1]
     local = np.concatenate([h.sum(axis=0), (delta.T @ h).ravel(), f @ h, f @ hdot])
@@ -346,7 +345,8 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
     """The spreading packet (module docstring): (datasets, attrs).  Collective on ``comm``, the
     matrix's communicator; every rank returns the same values, equal on 1 and 2 ranks to round-off.
 
-    ``positions`` (N, D) d0 of every particle in the packing's order, ``box`` (D,) its sides;
+    ``positions`` (N, D) d0 of every particle in the packing's order, ``box`` its periodic cell (a
+    ``geometry.Cell``, or its (D,) sides);
     ``band`` = (lo, hi) 1/t0; ``centre`` (D,) and ``radius`` d0 the start region; ``times`` (T,)
     t0, ascending from >= 0; ``seed`` the start's random numbers; ``tol`` each Chebyshev series'
     truncation bound relative to its function's largest value; ``probes`` independent starts
@@ -359,7 +359,8 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
     attrs: ``d``, ``d_error``, ``d_first_half``, ``d_second_half`` (d0^2/t0), ``window`` (t0),
     ``energy_drift`` (max |H(t) - H| / H, H = 1 exactly), ``terms`` (propagation series),
     ``filter_terms``, ``lam_top`` (1/t0^2), ``omega0``, ``sigma`` (1/t0), ``saturation``
-    (sum L_a^2 / 12, d0^2), ``r_c`` (d0; the start's energy-weighted centre, by the minimum image
+    (sum L_a^2 / 12, or a tilted cell's edges' sum |a|^2 / 12, d0^2), ``r_c`` (d0; the start's
+    energy-weighted centre, by the minimum image
     about ``centre``: the fixed centre of every <dr^2>), ``msd0`` (d0^2, the start's <dr^2> about
     r_c), ``start_particles`` (in the region), ``probes``,
     ``t_cross`` (the first sample where local_d reaches half of d: the end of the ballistic start)."""
@@ -374,7 +375,6 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
         raise ValueError("the spreading packet needs a symmetric dynamical matrix (not a stressed packing's)")
     omega0, sigma = band_centre_sigma(band)
     positions = np.asarray(positions, dtype=float)
-    box = np.asarray(box, dtype=float)
     lam_top = (largest_omega(dm) * (1.0 + MARGIN)) ** 2
     A = scaled_operator(dm)
     try:
@@ -392,7 +392,7 @@ def spreading(dm, positions: np.ndarray, box: np.ndarray, *, band: tuple[float, 
     finally:
         A.destroy()
     dim = dm.dim
-    saturation = float(np.sum(box**2) / 12.0)
+    saturation = float(np.sum(Cell.of(box, dim).matrix ** 2) / 12.0)  # sum of the edges' |a|^2 / 12
     if window is None:
         window = default_window(times, spread["msd"], saturation)
     if np.count_nonzero((times >= window[0]) & (times <= window[1])) >= 4:

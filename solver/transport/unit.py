@@ -27,7 +27,8 @@ from .rules import bin_width
 def solve(spec, dm, positions: np.ndarray, box: np.ndarray, rho: float, p_index: int, seed: int, comm, scratch,
           spectrum=None) -> tuple[dict, dict, str]:
     """(datasets, attrs, log line) of the diffusivity of ``dm`` (rho = kt/kn, packing ``p_index``,
-    whose particles sit at ``positions`` (N, D) in ``box`` (D,)) by ``spec.method`` (``METHODS``;
+    whose particles sit at ``positions`` (N, D) in ``box``, the packing's ``geometry.Cell`` or its
+    (D,) sides) by ``spec.method`` (``METHODS``;
     ``seed``: the scene's, kpm's probes draw from ``seed + p_index``; ``scratch``: the folder of
     exact's eigenvectors or None, removed however the unit ends, and its parent if left empty
     (:func:`_remove_scratch`); ``spectrum``: the scene's spectrum section or None, for kpm's

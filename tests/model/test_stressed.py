@@ -282,18 +282,24 @@ def test_a_stressed_dimer_by_hand(law):
     assert np.all(ii[0][:, 2] == 0) and np.all(jj[0][:, 2] == 0), "a rotation column gained a term"
 
 
-def summed_lammps_forces(p, stored, law, rho, x, friction=None):
+def summed_lammps_forces(p, stored, law, rho, x, friction=None, contacts=None):
     """Generalised force (N', dof) on every non-rattler after LAMMPS's one-step update moves all
-    particles by x (N', dof) in the matrix's DOF order, summed over contacts (lammps_step)."""
+    particles by x (N', dof) in the matrix's DOF order, summed over contacts (lammps_step): over
+    ``contacts`` (a, b, r_a - r_b) among the non-rattlers (their indices among them), or, when None,
+    those geometry finds in p's box."""
     from solver.packing import geometry
 
     active = ~p.rattler
-    index = np.cumsum(active) - 1
-    found = geometry.find_contacts(p.positions, p.diameters, p.box, active)
-    a, b = index[found.i], index[found.j]
-    separation = found.normal * found.distance[:, None]
+    if contacts is None:
+        index = np.cumsum(active) - 1
+        found = geometry.find_contacts(p.positions, p.diameters, p.box, active)
+        a, b = index[found.i], index[found.j]
+        separation = found.normal * found.distance[:, None]
+    else:
+        a, b, separation = contacts
+    i, j = np.flatnonzero(active)[a], np.flatnonzero(active)[b]
     radius = 0.5 * p.diameters
-    pair = lammps_step(separation, stored.on(found.i, found.j), radius[found.i], radius[found.j], law, rho,
+    pair = lammps_step(separation, stored.on(i, j), radius[i], radius[j], law, rho,
                        np.concatenate((x[a], x[b]), axis=1), friction)
     dof = x.shape[1]
     out = np.zeros_like(x)

@@ -2,12 +2,11 @@
 brute force over explicit images of the cell, its values against finite differences of the contact
 energy over those contacts, and its rows on 2 ranks against 1."""
 
-import itertools
-
 import numpy as np
 import pytest
-from conftest import TOL, assert_all, assert_close
+from conftest import TOL, assert_all, assert_close, brute_contacts, with_random_stored_forces
 from test_dynmat import finite_difference_matrix, spheres
+from test_stressed import summed_lammps_forces
 
 from solver.contact_law import ContactModel
 from solver.model import damping, dynmat
@@ -29,23 +28,10 @@ def tilted_spheres():
     cube = spheres(cells=3)
     a = cube.box[0] / 3
     cell = geometry.Cell(cube.box, np.array([a, -a, a]), np.ones(3, dtype=bool))
-    return jammed.from_arrays(cube.positions, cube.diameters, cell, rattler=np.zeros(cube.n, dtype=bool))
-
-
-def brute_contacts(positions, diameters, cell):
-    """(i, j, r_i - r_j) of every overlapping pair i < j of ``positions`` (N, D) in ``cell``: the
-    shortest of the separations over the images n in {-1, 0, 1}^D (of fractional coordinates in
-    [0, 1), enough for any pair closer than half the cell's height); no geometry search or reduction."""
-    fractional = np.linalg.solve(cell.matrix, positions.T).T
-    assert np.all((fractional >= 0) & (fractional < 1)), "positions are folded into the cell"
-    shifts = np.array(list(itertools.product([-1, 0, 1], repeat=cell.dim)), dtype=float) @ cell.matrix.T
-    i, j = np.triu_indices(len(positions), 1)
-    images = (positions[i] - positions[j])[:, None, :] + shifts[None]  # (P, 3^D, D)
-    distance = np.sqrt(np.sum(images**2, axis=2))
-    touching = distance < 0.5 * (diameters[i] + diameters[j])[:, None]
-    assert touching.sum(axis=1).max() <= 1, "a pair touches through one image only"
-    pair, image = np.nonzero(touching)
-    return i[pair], j[pair], images[pair, image]
+    # the crystal's own positions (sites in [0, 2.5 a] plus jitter): undo the cube's wrapping, whose
+    # shifts by 3 a along y or z are not periods of the tilted cell
+    crystal = np.where(cube.positions > 2.75 * a, cube.positions - cube.box, cube.positions)
+    return jammed.from_arrays(crystal, cube.diameters, cell, rattler=np.zeros(cube.n, dtype=bool))
 
 
 def test_the_test_packings_are_tilted_and_meet_other_partners_across_the_faces():
@@ -57,6 +43,8 @@ def test_the_test_packings_are_tilted_and_meet_other_partners_across_the_faces()
         tilted = brute_contacts(p.positions, p.diameters, p.cell)
         square = brute_contacts(np.mod(p.positions, p.box), p.diameters, geometry.Cell.of(p.box, p.dim))
         assert_all(set(zip(*tilted[:2])) != set(zip(*square[:2])), "the tilt changes some contacts")
+        overlap = 0.5 * (p.diameters[tilted[0]] + p.diameters[tilted[1]]) - np.linalg.norm(tilted[2], axis=1)
+        assert_all(overlap.max() < 0.1, "overlaps of a packing: no two particles on one site")
 
 
 @pytest.mark.parametrize("dim, springs, law", [(2, (0.0, 0.0, 0.0), "harmonic"), (2, (0.7, 0.3, 0.0), "harmonic"),
@@ -84,6 +72,26 @@ def test_tilted_hessian_matches_finite_differences_over_brute_force_contacts(com
     error = np.abs(dense - fd).max()
     assert_all(error < TOL["fd_hessian"] * np.abs(dense).max(), f"D differs from FD Hessian: {error}")
     assert_all(error < 1e-3 * np.max(overlap), "FD check cannot see f_n/r")
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_tilted_stressed_matrix_is_the_summed_lammps_update_over_brute_force_contacts(comm, dim):
+    """D of a tilted packing with stored tangential forces against central differences of LAMMPS's
+    one-step update summed over the brute-force contacts (test_stressed's check, in the tilted cell)."""
+    p = with_random_stored_forces(sheared_disks() if dim == 2 else tilted_spheres(), 11)
+    active = ~p.rattler
+    contacts = brute_contacts(p.positions[active], p.diameters[active], p.cell)
+    dm = dynmat.assemble(p, ContactModel(0.8), comm)
+    try:
+        dense = dynmat.in_packing_order(dm, dynmat.gather_csr(dm.D).toarray())
+    finally:
+        dm.destroy()
+    x = np.random.default_rng(2).normal(size=(int(active.sum()), dm.dof))
+    h = 1e-6
+    slope = (summed_lammps_forces(p, p.tangential, "harmonic", 0.8, h * x, contacts=contacts)
+             - summed_lammps_forces(p, p.tangential, "harmonic", 0.8, -h * x, contacts=contacts)) / (2 * h)
+    # as test_stressed: central differences, h = 1e-6 on forces of order 1
+    assert_close(slope.ravel(), -dense @ x.ravel(), rtol=0.0, atol=1e-8 * np.abs(dense).max(), what="-D x")
 
 
 @pytest.mark.parametrize("dim", [2, 3])
