@@ -199,10 +199,22 @@ def wall_layers(packing, model: ContactModel, bin_width: float = 0.1) -> dict:
     layer = np.histogram(omega, edges, weights=share)[0] / (near.sum() * bin_width)
     bulk = np.histogram(omega, edges, weights=1.0 - share)[0] / ((~near).sum() * bin_width)
     norm = keep.sum() / active.size  # per particle: both integrate to the modes per particle
+    links = contacts_per_particle(packing)[active]
     return {"omega": omega, "share": share, "layer_fraction": float(near.mean()), "edges": edges,
             "layer_vdos": layer / norm, "bulk_vdos": bulk / norm, "n_layer": int(near.sum()),
             "n_active": int(active.size), "pressure": packing.info["pressure"],
-            "z": packing.info["z"], "n_wall_contacts": packing.info["n_wall_contacts"]}
+            "z": packing.info["z"], "n_wall_contacts": packing.info["n_wall_contacts"],
+            "z_layer": float(links[near].mean()), "z_bulk": float(links[~near].mean())}
+
+
+def contacts_per_particle(packing) -> np.ndarray:
+    """(N,) each particle's contacts with non-rattlers and with the walls (0 for rattlers)."""
+    found = geometry.find_contacts(packing.positions, packing.diameters, packing.cell)
+    active = ~packing.rattler
+    both = active[found.i] & active[found.j]
+    count = np.bincount(found.i[both], minlength=packing.n) + np.bincount(found.j[both], minlength=packing.n)
+    touch = walling.touching(packing.positions, packing.diameters, packing.walls, active)
+    return (count + np.bincount(touch.particle, minlength=packing.n)) * active
 
 
 def summary(name: str, shear: float, phi: float, packings: list, vdos, model: ContactModel) -> dict:
@@ -332,7 +344,7 @@ def walls_scene(n: int, phi: float, seeds: list[int], model: ContactModel = Cont
             "share": np.concatenate([p["share"] / p["layer_fraction"] for p in parts]), "edges": edges,
             "layer_vdos": padded("layer_vdos"), "bulk_vdos": padded("bulk_vdos"),
             **{key: float(np.mean([p[key] for p in parts])) for key in
-               ("layer_fraction", "n_layer", "n_active", "pressure", "z", "n_wall_contacts")}}
+               ("layer_fraction", "n_layer", "n_active", "pressure", "z", "n_wall_contacts", "z_layer", "z_bulk")}}
 
 
 WALL_BINS = np.arange(0.0, 5.0 + 1e-9, 0.25)
@@ -350,7 +362,8 @@ def walls_table(w: dict) -> str:
     return "\n".join(lines) + (f"\n\n{w['seeds']} packings of {w['n']} disks at φ = {w['phi']}, p = {w['pressure']:.2e}, "
                                f"z = {w['z']:.2f}, {w['n_wall_contacts']:.0f} wall contacts each; the layer (centres "
                                f"within {LAYER:g} d0 of a wall) holds {100 * w['layer_fraction']:.1f} % of the "
-                               f"non-rattlers.")
+                               f"non-rattlers, with {w['z_layer']:.2f} contacts each (a wall's counted), the bulk's "
+                               f"{w['z_bulk']:.2f}.")
 
 
 def draw(square: list[dict], tilted: list[dict], sheared: list[dict], walled: dict | None) -> dict:

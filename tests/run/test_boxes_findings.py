@@ -100,6 +100,10 @@ def test_walled_packing_at_rest_and_its_layer_shares():
     assert lam.min() > 1e-8  # between walls with tangential springs: no zero mode
     assert_close(layers["share"], np.array(expected), rtol=1e-10, atol=1e-12, what="layer shares")
     assert layers["layer_fraction"] == pytest.approx(near.mean(), rel=0, abs=0)
+    links = findings.contacts_per_particle(packing)[active]
+    assert links.mean() == pytest.approx(packing.info["z"] + packing.info["n_wall_contacts"] / active.size, rel=1e-12)
+    assert_close(np.array([layers["z_layer"], layers["z_bulk"]]), np.array([links[near].mean(), links[~near].mean()]),
+                 rtol=1e-12, atol=0.0, what="contacts per particle")
     width = np.diff(layers["edges"])
     assert_close(np.array([(layers["layer_vdos"] * width).sum(), (layers["bulk_vdos"] * width).sum()]),
                  np.ones(2), rtol=1e-10, atol=0.0, what="local vDOS areas")
