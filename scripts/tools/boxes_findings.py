@@ -31,10 +31,11 @@ import os
 
 import numpy as np
 import scipy.sparse as sp
+import yaml
 import scipy.sparse.linalg as spl
 
 from solver.contact_law import ContactModel, pair_blocks
-from solver.io import results
+from solver.io import hdf5, results
 from solver.model import dynmat
 from solver.packing import fire, geometry, jammed, mechanics
 from solver.packing import walls as walling
@@ -229,7 +230,8 @@ def summary(name: str, shear: float, phi: float, packings: list, vdos, model: Co
         c_l, c_t = speeds(stiffness, density, directions)
         rows.append({"pressure": float(np.trace(sigma) / packing.dim), "sigma_xy": float(sigma[0, 1]),
                      "z": float(packing.info["z"]), "c_L": c_l, "c_T": c_t})
-    out = {"name": name, "shear": shear, "phi": phi, "count": len(packings), "vdos": vdos, "theta": theta,
+    out = {"name": name, "shear": shear, "phi": phi, "count": len(packings), "n": packings[0].n, "vdos": vdos,
+           "theta": theta,
            "omega_c": vdos.omega_c}
     for key in ("pressure", "sigma_xy", "z"):
         values = np.array([r[key] for r in rows])
@@ -262,10 +264,12 @@ def scene(path: str, model: ContactModel = ContactModel(rho=RHO)) -> dict:
 
 
 def sheared_scene(path: str, strain: float, model: ContactModel = ContactModel(rho=RHO),
-                  bin_width: float = 0.05) -> dict:
+                  bin_width: float = 0.05, save: str | None = None) -> dict:
     """The square configurations of one results file sheared quasi-statically to ``strain``
     (:func:`quasistatic_shear`), their :func:`summary` with their vDOS from every eigenvalue
-    (dense: ``references.dense_eigenvalues``, the same histogram as the pipeline's)."""
+    (dense: ``references.dense_eigenvalues``, the same histogram as the pipeline's); with ``save``
+    (a folder) the sheared packings are written there as a rotsound packing file
+    ``<name>.packing.h5`` (``hdf5.save_packings``: configs/boxes_waves.yaml reads them)."""
     from petsc4py import PETSc
 
     from solver.references import dense_eigenvalues
@@ -288,6 +292,8 @@ def sheared_scene(path: str, strain: float, model: ContactModel = ContactModel(r
     top, spread = modes.cutoff(omegas)
     vdos = results.Vdos(edges, density, top, spread, len(omegas))
     name = os.path.basename(path).removesuffix(".h5").replace("_shear0", f"_quasistatic{strain:g}")
+    if save is not None:
+        hdf5.save_packings(os.path.join(save, f"{name}.packing.h5"), packings)
     return summary(name, strain, phi, packings, vdos, model)
 
 
@@ -326,9 +332,43 @@ def shear_table(rows: list[dict]) -> str:
                      + " | ".join(speeds_) + f" | {100 * r['c_L_aniso']:.1f} % | {100 * r['c_T_aniso']:.1f} % |")
     spread = max(max(r[f"c_{m}_{d}_spread"] for m in "LT" for d in names) for r in rows)
     return "\n".join(lines) + (f"\n\nMeans over each scene's configurations; the speeds' standard deviation between "
-                               f"configurations is at most {spread:.4f}; the spread is (max − min)/mean of c(θ) over "
-                               f"{DIRECTIONS} directions, per configuration, averaged; σ_xy ± its standard deviation "
-                               f"(compressive stress positive: σ = (1/V) Σ r_c ⊗ f_c).")
+                               f"configurations is at most {spread:.4f}; the spread is (max − min)/mean of c(θ) "
+                               f"over {DIRECTIONS} directions, per configuration, averaged; σ_xy ± its standard "
+                               f"deviation (compressive stress positive: σ = (1/V) Σ r_c ⊗ f_c).")
+
+
+def waves_scene(path: str, model: ContactModel = ContactModel(rho=RHO)) -> dict:
+    """One results file of configs/boxes_waves.yaml: the direction of its standing waves (the
+    reciprocal vector b_a of its cell, a its one ``waves.axes``), c_L and c_T of their fits at
+    the smallest k (``results.fits``: configurations pooled) and the long-wave speeds along the
+    same direction from each of its packings' matrix (:func:`elastic_tensor`, mean over them)."""
+    with results.open_results(path) as f:
+        scene_keys = yaml.safe_load(f.attrs["scene"])
+        stored = [results.packing(f, index) for index in range(len(f["packings"]))]
+        fits = results.fits(f)
+    axis = "xyz".index(scene_keys["waves"]["axes"][0])
+    direction = stored[0]["cell"].reciprocal()[axis]
+    direction = direction / np.linalg.norm(direction)
+    predicted = np.array([speeds(*elastic_tensor(configuration(s), model), direction[None, :]) for s in stored])
+    pressure = np.mean([mechanics.stress(configuration(s))["pressure"] for s in stored])
+    return {"name": os.path.basename(path).removesuffix(".h5"), "axis": "xyz"[axis], "pressure": float(pressure),
+            "degrees": float(np.degrees(np.arctan2(direction[1], direction[0])) % 180.0),
+            "k": float(fits[(model.rho, "L")]["k"][0]), "c_L": float(fits[(model.rho, "L")]["c"][0]),
+            "c_T": float(fits[(model.rho, "TR")]["c"][0]), "long_L": float(predicted[:, 0].mean()),
+            "long_T": float(predicted[:, 1].mean())}
+
+
+def waves_table(rows: list[dict]) -> str:
+    """The standing waves' speeds at the smallest k against the long-wave speeds along the same
+    direction."""
+    lines = ["| scene | along | direction (° from x) | p (kn) | k d0 | c_L waves | c_L long-wave | c_T waves | "
+             "c_T long-wave |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['name']} | b_{r['axis']} | {r['degrees']:.1f} | {r['pressure']:.3e} | {r['k']:.3f} | "
+                     f"{r['c_L']:.4f} | {r['long_L']:.4f} | {r['c_T']:.4f} | {r['long_T']:.4f} |")
+    return "\n".join(lines) + ("\n\nWaves: the fits of C(k, t) at the smallest k, the configurations pooled; "
+                               "long-wave: the Christoffel speeds of each packing's relaxed stiffness along the "
+                               "same direction, averaged.")
 
 
 def walls_scene(n: int, phi: float, seeds: list[int], model: ContactModel = ContactModel(rho=RHO)) -> dict:
@@ -358,8 +398,10 @@ def walls_table(w: dict) -> str:
     for b in range(WALL_BINS.size - 1):
         inside = which == b
         if inside.any():
-            lines.append(f"| {WALL_BINS[b]:.2f}–{WALL_BINS[b + 1]:.2f} | {inside.sum()} | {w['share'][inside].mean():.2f} |")
-    return "\n".join(lines) + (f"\n\n{w['seeds']} packings of {w['n']} disks at φ = {w['phi']}, p = {w['pressure']:.2e}, "
+            lines.append(f"| {WALL_BINS[b]:.2f}–{WALL_BINS[b + 1]:.2f} | {inside.sum()} | "
+                         f"{w['share'][inside].mean():.2f} |")
+    return "\n".join(lines) + (f"\n\n{w['seeds']} packings of {w['n']} disks at φ = {w['phi']}, "
+                               f"p = {w['pressure']:.2e}, "
                                f"z = {w['z']:.2f}, {w['n_wall_contacts']:.0f} wall contacts each; the layer (centres "
                                f"within {LAYER:g} d0 of a wall) holds {100 * w['layer_fraction']:.1f} % of the "
                                f"non-rattlers, with {w['z_layer']:.2f} contacts each (a wall's counted), the bulk's "
@@ -383,7 +425,9 @@ def draw(square: list[dict], tilted: list[dict], sheared: list[dict], walled: di
                 axes[0].plot(centres, g, color=colour, label=text)
                 low = centres < 1.5
                 axes[1].plot(centres[low], g[low] / centres[low], color=colour, label=text)
-    axes[0].set(xlabel=r"$\omega\,t_0$", ylabel=r"$g(\omega)\,t_0$", title=rf"vDOS, 1024 disks, $\phi$ = {middle:.2f}, $\rho$ = 1")
+    disks = square[0]["n"]
+    axes[0].set(xlabel=r"$\omega\,t_0$", ylabel=r"$g(\omega)\,t_0$",
+                title=rf"vDOS, {disks} disks, $\phi$ = {middle:.2f}, $\rho$ = 1")
     axes[1].set(xlabel=r"$\omega\,t_0$", ylabel=r"$g(\omega)/\omega$ ($t_0^2$)", title="low frequencies")
     for ax in axes:
         legend(ax, fontsize=7)
@@ -444,6 +488,8 @@ def main(argv=None) -> None:
     parser.add_argument("files", nargs="+", help="results files of configs/boxes.yaml")
     parser.add_argument("--figures", default="docs", help="folder for the PNGs (default docs)")
     parser.add_argument("--strain", type=float, default=0.3, help="quasistatic shear strain (default 0.3)")
+    parser.add_argument("--save", default=None, help="folder for the quasi-statically sheared packings' files")
+    parser.add_argument("--waves", nargs="*", default=[], help="results files of configs/boxes_waves.yaml")
     parser.add_argument("--walls-n", type=int, default=1024, help="disks between the walls (0: no walls part)")
     parser.add_argument("--walls-phi", type=float, default=0.87)
     parser.add_argument("--walls-seeds", type=int, default=3)
@@ -451,9 +497,11 @@ def main(argv=None) -> None:
     rows = [scene(path) for path in sorted(args.files)]
     square = [r for r in rows if r["shear"] == 0.0]
     tilted = [r for r in rows if r["shear"] != 0.0]
-    sheared = [sheared_scene(path, args.strain) for path in sorted(args.files) if path.endswith("_shear0.h5")]
+    sheared = [sheared_scene(path, args.strain, save=args.save) for path in sorted(args.files) if path.endswith("_shear0.h5")]
     print(shear_table(square + tilted + sheared), end="\n\n")
     print(comparison(square, tilted + sheared), end="\n\n")
+    if args.waves:
+        print(waves_table([waves_scene(path) for path in sorted(args.waves)]), end="\n\n")
     walled = walls_scene(args.walls_n, args.walls_phi, list(range(1, args.walls_seeds + 1))) if args.walls_n else None
     if walled is not None:
         print(walls_table(walled), end="\n\n")

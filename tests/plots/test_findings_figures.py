@@ -71,7 +71,7 @@ def _boxes_row(shear: float, phi: float, pressure: float) -> dict:
     density = centres ** 2 / (1 + centres ** 3) + 0.3 * (centres > 2.5)
     density /= (density * 0.05).sum()
     theta, _ = boxes_findings.angles()
-    row = {"name": f"boxes_phi{phi}_shear{shear}", "shear": shear, "phi": phi, "pressure": pressure,
+    row = {"name": f"boxes_phi{phi}_shear{shear}", "shear": shear, "phi": phi, "pressure": pressure, "n": 1024,
            "theta": theta, "vdos": results.Vdos(edges, density, 4.6, 0.01, 4)}
     for mode, c in (("L", 1.0), ("T", 0.68)):
         row[f"c_{mode}_angle"] = c * (1 + 0.1 * shear * np.sin(2 * theta))[None, :].repeat(4, axis=0)
