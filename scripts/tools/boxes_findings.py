@@ -269,7 +269,7 @@ def sheared_scene(path: str, strain: float, model: ContactModel = ContactModel(r
     (:func:`quasistatic_shear`), their :func:`summary` with their vDOS from every eigenvalue
     (dense: ``references.dense_eigenvalues``, the same histogram as the pipeline's); with ``save``
     (a folder) the sheared packings are written there as a rotsound packing file
-    ``<name>.packing.h5`` (``hdf5.save_packings``: configs/boxes_waves.yaml reads them)."""
+    ``packing_<name>.h5`` (``hdf5.save_packings``: configs/boxes_waves.yaml reads them)."""
     from petsc4py import PETSc
 
     from solver.references import dense_eigenvalues
@@ -293,7 +293,7 @@ def sheared_scene(path: str, strain: float, model: ContactModel = ContactModel(r
     vdos = results.Vdos(edges, density, top, spread, len(omegas))
     name = os.path.basename(path).removesuffix(".h5").replace("_shear0", f"_quasistatic{strain:g}")
     if save is not None:
-        hdf5.save_packings(os.path.join(save, f"{name}.packing.h5"), packings)
+        hdf5.save_packings(os.path.join(save, f"packing_{name}.h5"), packings)
     return summary(name, strain, phi, packings, vdos, model)
 
 
