@@ -1,11 +1,12 @@
 """scripts/tools/boxes_findings.py (docs/boxes.md) on tiny packings: its long-wave speeds against
 the Bloch matrix of the same packing at a tiny wave vector and against a triangular crystal's
 speeds by hand, the quasistatic shear at rest in its tilted cell, the packing between walls at
-rest and the near-wall shares of its modes against a mode-by-mode sum.  Serial."""
+rest and the near-wall shares of its modes against a mode-by-mode sum, and the waves' table of
+a tiny sheared scene.  Serial."""
 
 import numpy as np
 import pytest
-from conftest import assert_close, jammed_packing
+from conftest import assert_close, jammed_packing, run_cli, scene_text
 
 from scripts.tools import boxes_findings as findings
 from solver.contact_law import ContactModel, pair_blocks
@@ -107,3 +108,30 @@ def test_walled_packing_at_rest_and_its_layer_shares():
     width = np.diff(layers["edges"])
     assert_close(np.array([(layers["layer_vdos"] * width).sum(), (layers["bulk_vdos"] * width).sum()]),
                  np.ones(2), rtol=1e-10, atol=0.0, what="local vDOS areas")
+
+
+def test_waves_scene_of_a_sheared_cell(tmp_path):
+    """A 64-disk packing FIRE made in a cell tilted by 0.2 L, its L and TR waves along b_x: the
+    table's direction is b_x's (180 - atan 0.2 degrees from x), its c the fit's at the smallest k,
+    and its long-wave speeds the Christoffel speeds along b_x of the file's packing."""
+    from solver.io import results
+
+    output = tmp_path / "waves.h5"
+    (tmp_path / "scene.yaml").write_text(scene_text(
+        output, seed=3, cache="off", packing={"n": 64, "phi": 0.88, "shear": 0.2}, model={"rho": [1.0]},
+        waves={"modes": ["L", "TR"], "n": [1], "axes": ["x"], "t_end": 100.0, "dt": 0.05, "sample_every": 10,
+               "method": "spectral"}))
+    done = run_cli(["run", str(tmp_path / "scene.yaml")])
+    assert done.returncode == 0, done.stderr
+    row = findings.waves_scene(str(output))
+    assert row["axis"] == "x"
+    assert row["degrees"] == pytest.approx(180.0 - np.degrees(np.arctan(0.2)), abs=1e-9)
+    with results.open_results(str(output)) as f:
+        fits = results.fits(f)
+        stored = results.packing(f, 0)
+    assert row["c_L"] == fits[(1.0, "L")]["c"][0] and row["c_T"] == fits[(1.0, "TR")]["c"][0]
+    direction = np.array([[np.cos(np.radians(row["degrees"])), np.sin(np.radians(row["degrees"]))]])
+    long_l, long_t = findings.speeds(*findings.elastic_tensor(findings.configuration(stored), ContactModel(rho=1.0)),
+                                     direction)
+    assert_close(np.array([row["long_L"], row["long_T"]]), np.array([long_l[0], long_t[0]]), rtol=1e-12, atol=0.0,
+                 what="long-wave speeds along b_x")
