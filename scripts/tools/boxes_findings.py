@@ -1,15 +1,20 @@
 """The findings of issue 59 (docs/boxes.md): packings in a sheared cell against the square cell's,
 and the modes of a packing between walls near the walls against the bulk.
 
-    .venv/bin/python -m scripts.tools.boxes_findings results/boxes_*.h5 [--figures docs] [--walls-n 1024]
+    .venv/bin/python -m scripts.tools.boxes_findings results/boxes_phi*.h5 [--save results]
+        [--waves results/boxes_waves_*.h5] [--figures docs] [--walls-n 1024]
 
-Sheared cells.  Each results file of configs/boxes.yaml is one scene: packing.shear (the tilt
-xy over the side), phi, the pressure and the shear stress sigma_xy of its packings
-(``mechanics.stress``: compressive positive), the vDOS (counted: every eigenvalue), and the
-long-wave sound speeds of every configuration from its own matrix (:func:`elastic_tensor`,
-:func:`speeds`): c_L and c_T along x (the shear's direction), along y (across it) and their
-spread over every direction.  Means over each scene's configurations, with the spread between
-them.
+Sheared cells.  Each results file of configs/boxes.yaml is one scene, square or made by FIRE in
+a tilted cell (packing.shear); its square configurations are also sheared quasi-statically to
+``--strain`` (:func:`quasistatic_shear`; ``--save`` writes them as a packing file for
+configs/boxes_waves.yaml).  For each: phi, the pressure and the shear stress sigma_xy
+(``mechanics.stress``: compressive positive), the vDOS (every eigenvalue), and the long-wave
+sound speeds of every configuration from its own matrix (:func:`elastic_tensor`, :func:`speeds`)
+along x (the shear's direction), y (across it), the diagonals, and their spread over every
+direction; means over configurations.  Each sheared scene is compared with the square scenes at
+its pressure (:func:`comparison`).  ``--waves``: the standing waves of configs/boxes_waves.yaml
+at the smallest k against the long-wave speeds along the same reciprocal direction
+(:func:`waves_scene`).
 
 Walls.  :func:`walled_packing` makes 2D packings between two flat walls in y, periodic in x (FIRE
 on the frictionless energy with the walls' harmonic push; rotsound has no walled generator), at
@@ -17,11 +22,11 @@ rho = 1 as the sheared cells; :func:`wall_layers` splits every mode's kinetic en
 particles within ``LAYER`` of a wall and the rest (the full eigendecomposition: dense, a few
 thousand DOF).
 
-Prints Markdown tables; draws ``boxes_vdos.png`` (vDOS, sheared and square, at the pressure
-nearest to each other), ``boxes_speeds.png`` (c_L, c_T along and across the shear against the
-pressure, and c(direction) of one configuration each) and ``boxes_walls.png`` (the layer's share
-of each mode's kinetic energy against omega, and the local vDOS of the layer and of the bulk)
-into ``--figures``.  Not MPI (one process; the matrix on PETSc.COMM_SELF).
+Prints Markdown tables; draws ``boxes_vdos.png`` (the vDOS of the three kinds at the middle phi),
+``boxes_speeds.png`` (c(theta) at the middle phi; c_L, c_T along x and along the compressed
+diagonal against the pressure) and ``boxes_walls.png`` (the layer's share of each mode's kinetic
+energy against omega, and the local vDOS of the layer and of the bulk) into ``--figures``.  Not
+MPI (one process; the matrix on PETSc.COMM_SELF).
 """
 
 from __future__ import annotations
@@ -31,15 +36,15 @@ import os
 
 import numpy as np
 import scipy.sparse as sp
-import yaml
 import scipy.sparse.linalg as spl
+import yaml
 
 from solver.contact_law import ContactModel, pair_blocks
 from solver.io import hdf5, results
 from solver.model import dynmat
 from solver.packing import fire, geometry, jammed, mechanics
 from solver.packing import walls as walling
-from solver.packing.configuration import solid_volume
+from solver.packing.configuration import Packing, solid_volume
 from solver.plots.common import DPI, legend, plt
 
 LAYER = 2.0
@@ -110,7 +115,7 @@ def angles(count: int = DIRECTIONS) -> tuple[np.ndarray, np.ndarray]:
     return theta, np.stack((np.cos(theta), np.sin(theta)), axis=1)
 
 
-def configuration(stored: dict) -> object:
+def configuration(stored: dict) -> Packing:
     """A results file's configuration (``results.packing``) as a Packing in its cell."""
     return jammed.from_arrays(stored["positions"], stored["diameters"], stored["cell"], stored["rattler"])
 
