@@ -154,17 +154,20 @@ def test_wall_stressed_blocks_are_the_linearised_dem_wall_update(dim, law, lever
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-def test_wall_dashpots_are_the_damping_of_the_contact_point_velocity(dim):
-    """C v . v / (s m) = gamma_n (n.v)^2 + gamma_t |v_t|^2 for random velocities (v, w)."""
+@pytest.mark.parametrize("lever", ["radius", "contact"])
+def test_wall_dashpots_are_the_damping_of_the_contact_point_velocity(dim, lever):
+    """C v . v / (s m) = gamma_n (n.v)^2 + gamma_t |v_t|^2 for random velocities (v, w), v_t the
+    velocity of the point at the lever l (R, or R - xi/2: LIGGGHTS's vtr at cr)."""
     normal, overlap, radius, _ = wall_contacts(dim, seed=20)
-    model = ContactModel(0.7, gamma_n=0.3, gamma_t=0.2)
+    model = ContactModel(0.7, gamma_n=0.3, gamma_t=0.2, lever=lever)
     mass = np.linspace(0.5, 2.0, normal.shape[0])
     blocks = contact_law.wall_damping_blocks(normal, overlap, radius, mass, model)
     rng = np.random.default_rng(21)
     x = rng.normal(size=(normal.shape[0], blocks.shape[1]))
     v, w = split(x, dim)
-    spin = (radius * w)[:, None] * np.stack((-normal[:, 1], normal[:, 0]), 1) if dim == 2 else \
-        np.cross(radius[:, None] * w, normal)
+    arm = radius if lever == "radius" else radius - 0.5 * overlap
+    spin = (arm * w)[:, None] * np.stack((-normal[:, 1], normal[:, 0]), 1) if dim == 2 else \
+        np.cross(arm[:, None] * w, normal)
     along = np.einsum("kd,kd->k", v, normal)
     slip = v - along[:, None] * normal - spin
     expected = mass * (0.3 * along**2 + 0.2 * np.einsum("kd,kd->k", slip, slip))

@@ -171,3 +171,32 @@ def test_liggghts_l_wave_between_walls(packing, comm):
     for wrong, wrong_model in ((dataclasses.replace(p, walls=None, wall_contacts=None), model), (p, ContactModel(KT))):
         missed, missed_c = misses(wrong, wrong_model, comm)
         assert missed > 1.0 and missed_c > 1e-3, (wrong_model, len(wrong.walls or ()), missed, missed_c)
+
+
+def test_a_scene_on_the_liggghts_walls_files_makes_the_same_packing(packing, tmp_path):
+    """The same files through a scene's keys (packing.file, contacts, contacts_format, friction, walls,
+    wall_contacts, gravity, model.lever; schema, scene rules, pipeline.make_packings) give the packing
+    read above; the scene without model.lever: contact is refused (a LIGGGHTS contact file)."""
+    from conftest import COMM
+
+    from solver import pipeline
+    from solver.io import coerce, scene_rules, schema
+
+    def scene(model):
+        return coerce.build(schema.Scene, {
+            "packing": {"file": str(DATA / f"{STEM}.data"), "contacts": str(DATA / f"{STEM}.contacts"),
+                        "contacts_format": "liggghts-local", "friction": FRICTION,
+                        "walls": [{"axis": "z", "position": 0.0}, {"axis": "z", "position": upper_wall()}],
+                        "wall_contacts": str(DATA / f"{STEM}.walls"), "gravity": GRAVITY},
+            "model": model, "waves": {"modes": ["L"], "axes": ["x"], "n": [1], "method": "exponential"},
+            "output": str(tmp_path / "out.h5")})
+
+    right = scene({"rho": KT, "lever": "contact"})
+    scene_rules.check_scene(right)
+    p, = pipeline.make_packings(right, COMM)
+    assert np.array_equal(p.positions, packing.positions) and np.array_equal(p.gravity, packing.gravity)
+    assert np.array_equal(p.walls.position, packing.walls.position) and not p.rattler.any()
+    assert np.array_equal(p.wall_contacts.force, packing.wall_contacts.force)
+    assert np.array_equal(p.tangential.force, packing.tangential.force) and p.model.lever == "contact"
+    with pytest.raises(InputError, match="model.lever: contact"):
+        scene_rules.check_scene(scene({"rho": KT}))
