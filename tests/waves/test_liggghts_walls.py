@@ -35,6 +35,7 @@ from solver.model import dynmat
 from solver.packing import mechanics
 from solver.packing import walls as walling
 from solver.references import first_order_flow
+from solver.waves import excitation, exponential
 
 DATA = REPO / "tests" / "data" / "dem"
 STEM = "liggghts_3d_walls"
@@ -154,7 +155,9 @@ def test_liggghts_l_wave_between_walls(packing, comm):
     """LIGGGHTS's L wave follows exp(tJ) of rotsound's stressed matrix with the walls' blocks (lever
     R - xi/2) to 1e-4 of the amplitude over t = 20 (about 26 t0), C(k, t) to 1e-6: measured 1.3e-5,
     C 1.1e-7.  The matrix without the walls misses by 6.3 (C by 0.096; nothing holds the packing
-    up), with LAMMPS's lever R at the pairs and the walls by 1.3 (C by 0.010)."""
+    up), with LAMMPS's lever R at the pairs and the walls by 1.3 (C by 0.010).  rotsound's own run of
+    the wave (its start: every sphere, no zero mode projected out between frictional walls; the MFN
+    of ``waves/exponential.py``) gives LIGGGHTS's z_fixed(t) to 2.4e-7 of |z(0)|."""
     p = packing
     start = liggghts_frames(p.n)[0]
     given = np.zeros_like(start)
@@ -168,6 +171,19 @@ def test_liggghts_l_wave_between_walls(packing, comm):
     for wrong, wrong_model in ((dataclasses.replace(p, walls=None, wall_contacts=None), model), (p, ContactModel(KT))):
         missed, missed_c = misses(wrong, wrong_model, comm)
         assert missed > 1.0 and missed_c > 1e-3, (wrong_model, len(wrong.walls or ()), missed, missed_c)
+    # rotsound's own run of the wave (its start, excitation.start_velocity; the MFN path of
+    # waves/exponential.py) against LIGGGHTS's z_fixed(t) = sum_i v_x,i(t) exp(-i k x_i(0))
+    t0, k = np.sqrt(p.masses.mean()), 2 * np.pi / float(p.box[0])
+    dm = dynmat.assemble(p, model, comm, mass_rule="density")
+    try:
+        (series,) = exponential.exponential_all(dm, p.positions, [("L", excitation.runs("L", p.dim).index((0, 0)), k)],
+                                                amplitude=AMPLITUDE * t0, times=np.arange(FRAMES) * SAMPLE / t0,
+                                                tol=1e-10)
+    finally:
+        dm.destroy()
+    lig_z = liggghts_frames(p.n)[:, :, 0] @ np.exp(-1j * k * p.positions[:, 0])
+    assert_close(np.abs(series.z_fixed / t0 - lig_z).max() / np.abs(lig_z[0]), 0.0, rtol=0.0, atol=1e-6,
+                 what="z_fixed(t) of waves/exponential.py against LIGGGHTS's, over |z(0)|")
 
 
 def test_a_scene_on_the_liggghts_walls_files_makes_the_same_packing(packing, tmp_path):
