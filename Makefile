@@ -68,6 +68,7 @@ dem-data:
 	$(DEM) liggghts -in liggghts_3d_wet.in -log none > /dev/null
 	$(DEM) liggghts -in liggghts_3d_wet_friction.in -log none > /dev/null
 	$(DEM) liggghts -in liggghts_2d_wet.in -log none > /dev/null
+	$(DEM) liggghts -in liggghts_3d_walls.in -log none > /dev/null
 	$(DEM) yade -n -x yade_3d.py > /dev/null
 	$(DEM) yade -n -x yade_3d_friction.py > /dev/null
 	$(DEM) yade -n -x yade_3d_friction.py uniform > /dev/null

@@ -559,19 +559,27 @@ def restitution_damping(restitution: float, m_eff: float = RESTITUTION_M_EFF) ->
 
 
 # --- a particle against a flat immovable wall (docs/walls.md) -------------------------------------
-# The pair law with the other body immovable and of infinite radius: a' = R, the lever R (LAMMPS's
-# fix wall/gran), no geometric term (a flat wall's normal does not turn), the rotations the particle's own.
+# The pair law with the other body immovable and of infinite radius: a' = R, no geometric term (a
+# flat wall's normal does not turn), the rotations the particle's own; the tangential force acts at
+# the lever of ``model.lever`` (``wall_arm``: R, LAMMPS's fix wall/gran; R - xi/2, LIGGGHTS's).
 
-def _wall_maps(normal: np.ndarray, radius: np.ndarray) -> list[tuple[str, np.ndarray]]:
+def wall_arm(radius: np.ndarray, overlap: np.ndarray, lever: str) -> np.ndarray:
+    """(K,) distance from the particle's centre to where a wall's tangential force acts: R
+    (``radius``: LAMMPS's fix wall/gran) or R - xi/2 (``contact``: LIGGGHTS's fix wall/gran
+    primitive walls, its surface model's contact radius; docs/walls.md section 7)."""
+    return lever_arms(radius, radius, overlap, lever)[0]
+
+
+def _wall_maps(normal: np.ndarray, radius: np.ndarray, arm: np.ndarray) -> list[tuple[str, np.ndarray]]:
     """The wall contact's stretches as linear maps of the particle's (u, theta): [(spring, B (K, k, m))]
-    for the tangential s_t = P u - R theta x n, rolling s_r = R theta x n and (3D) twisting
-    s_o = R n . theta, m = D + r."""
+    for the tangential s_t = P u - l theta x n (l = ``arm``, :func:`wall_arm`), rolling
+    s_r = R theta x n and (3D) twisting s_o = R n . theta, m = D + r."""
     count, dim = normal.shape
     c_n = _rotation_map(normal)
     m = dim + c_n.shape[2]
     b_t = np.zeros((count, dim, m))
     b_t[:, :, :dim] = np.eye(dim)[None] - normal[:, :, None] * normal[:, None, :]
-    b_t[:, :, dim:] = -radius[:, None, None] * c_n
+    b_t[:, :, dim:] = -arm[:, None, None] * c_n
     b_r = np.zeros((count, dim, m))
     b_r[:, :, dim:] = radius[:, None, None] * c_n
     maps = [("rho", b_t), ("rho_roll", b_r)]
@@ -592,7 +600,7 @@ def wall_energy(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, mod
     energy = normal_energy(np.maximum(overlap - np.einsum("kd,kd->k", normal, u), 0.0), model.law, radius)
     x = np.concatenate((u, _rotations(theta)), axis=1)
     scale = spring_scale(overlap, model.law, radius)
-    for name, b in _wall_maps(normal, radius):
+    for name, b in _wall_maps(normal, radius, wall_arm(radius, overlap, model.lever)):
         stretch = np.einsum("kij,kj->ki", b, x)
         energy = energy + 0.5 * KN * getattr(model, name) * scale * np.einsum("ki,ki->k", stretch, stretch)
     return energy
@@ -606,7 +614,7 @@ def wall_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, mod
     :func:`wall_energy` (docs/walls.md section 3)."""
     _refuse_twist_in_2d(normal, model)
     count, dim = normal.shape
-    maps = _wall_maps(normal, radius)
+    maps = _wall_maps(normal, radius, wall_arm(radius, overlap, model.lever))
     m = maps[0][1].shape[2]
     full = np.zeros((count, m, m))
     full[:, :dim, :dim] = (normal_stiffness(overlap, model.law, radius)[:, None, None]
@@ -623,10 +631,12 @@ def wall_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, mod
 def wall_stressed_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.ndarray, tangential: np.ndarray,
                          model: ContactModel, with_rotation: bool = True) -> np.ndarray:
     """What stored tangential forces ``tangential`` (K, D) on the particles from their walls add to
-    the self blocks (K, k, k), in LAMMPS's history convention (docs/walls.md section 4): the wall's
-    normal does not turn, so only the Hertz stiffness' growth with the overlap remains, with
-    c = :func:`tangential_growth`: the rows of u gain c f_t n^T, those of theta -R c (n x f_t) n^T
-    on the columns of u; zero under the harmonic law."""
+    the self blocks (K, k, k), in LAMMPS's history convention (docs/walls.md sections 4 and 7): the
+    wall's normal does not turn, so only the Hertz stiffness' growth with the overlap remains, with
+    c = :func:`tangential_growth`: the rows of u gain c f_t n^T, those of theta -l c (n x f_t) n^T
+    on the columns of u (l = :func:`wall_arm`); under ``model.lever`` = contact the lever
+    l = R - xi/2 also grows as the particle leaves the wall, adding (n x f_t) n^T / 2 to those rows.
+    Zero under the harmonic law with the lever R."""
     count, dim = normal.shape
     rot = _rotation_map(normal).shape[2]
     c = tangential_growth(overlap, model.law)[:, None, None]
@@ -634,8 +644,9 @@ def wall_stressed_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.nda
     block = np.zeros((count, m, m))
     block[:, :dim, :dim] = c * tangential[:, :, None] * normal[:, None, :]
     if with_rotation:
-        turn = cross(normal, tangential).reshape(count, rot)
-        block[:, dim:, :dim] = -radius[:, None, None] * c * turn[:, :, None] * normal[:, None, :]
+        turn = cross(normal, tangential).reshape(count, rot)[:, :, None] * normal[:, None, :]  # (n x f_t) n^T
+        lengthen = 0.5 if model.lever == "contact" else 0.0
+        block[:, dim:, :dim] = (lengthen - wall_arm(radius, overlap, model.lever)[:, None, None] * c) * turn
     return block
 
 
@@ -645,7 +656,7 @@ def wall_damping_blocks(normal: np.ndarray, overlap: np.ndarray, radius: np.ndar
     ``mass`` (K,)): s m (gamma_n n n^T + gamma_t B_t^T B_t), B_t the tangential map of
     :func:`_wall_maps`, s = :func:`spring_scale` at a' = R (docs/walls.md section 5)."""
     count, dim = normal.shape
-    b_t = _wall_maps(normal, radius)[0][1]
+    b_t = _wall_maps(normal, radius, wall_arm(radius, overlap, model.lever))[0][1]
     m = b_t.shape[2]
     b_n = np.zeros((count, 1, m))
     b_n[:, 0, :dim] = normal

@@ -143,6 +143,17 @@ def central_gradient(energy, w: np.ndarray, h: float) -> np.ndarray:
     return grad
 
 
+def wave_frames(path, n: int) -> np.ndarray:
+    """(S, N, C): the columns after the id of every frame of a DEM code's wave dump ``path`` (a text
+    ``dump custom`` of id and C columns, sorted by id), each frame checked to list ids 1..N."""
+    import re
+
+    chunks = re.split(r"ITEM: ATOMS[^\n]*\n", pathlib.Path(path).read_text())[1:]
+    frames = np.array([np.loadtxt(chunk.strip().splitlines()[:n]) for chunk in chunks])
+    assert np.array_equal(frames[:, :, 0], np.broadcast_to(np.arange(1, n + 1), frames.shape[:2]))
+    return frames[:, :, 1:]
+
+
 def split_generalised(w: np.ndarray, dim: int):
     """(du, theta_i, theta_j) from generalised displacements w (C, 2m) = (u_i, theta_i, u_j, theta_j)
     of pairs in ``dim`` dimensions: du (C, D); theta (C,) in 2D, (C, 3) in 3D."""

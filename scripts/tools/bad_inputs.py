@@ -57,15 +57,19 @@ def _mercury(keep_data=lambda lines: lines, keep_fstat=lambda lines: lines):
     return make
 
 
-def _walled(flags="pp pp ff", wall_lines=None):
+def _walled(flags="pp pp ff", wall_lines=None, head="# id wall fx fy fz\n"):
     """A maker: the committed 3D LAMMPS dump with boundary ``flags`` at ``path`` and, when given,
-    the wall contact file ``wall_lines`` ('id wall fx fy fz') at ``path.walls``."""
+    the wall contact file ``wall_lines`` ('id wall fx fy fz') after ``head`` at ``path.walls``."""
     def make(path):
         text = (DEM / "lammps_3d.dump").read_text().replace("BOX BOUNDS pp pp pp", f"BOX BOUNDS {flags}")
         pathlib.Path(path).write_text(text)
         if wall_lines is not None:
-            pathlib.Path(f"{path}.walls").write_text("# id wall fx fy fz\n" + wall_lines)
+            pathlib.Path(f"{path}.walls").write_text(head + wall_lines)
     return make
+
+
+WALL_DUMP = ("ITEM: TIMESTEP\n1\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS pp pp ff\n-1.5 4\n2 6.6\n0.25 4.3\n"
+             "ITEM: ATOMS id v_wall v_fx v_fy v_fz\n1 0 0.0 0.0 0.1\n")  # a one-contact wall contact dump
 
 
 def _walled_crystal(path):
@@ -350,6 +354,9 @@ CASES = [
      "atom id 9999 is not in the packing file", _walled(wall_lines="9999 0 0.0 0.0 0.1\n")),
     ("wall contact naming a missing wall", "packing: {file: '{file}', wall_contacts: '{file}.walls'}\n", [],
      "names wall 7, but the packing has 2 wall(s)", _walled(wall_lines="1 7 0.0 0.0 0.1\n")),
+    ("wall contact dump with two frames", "packing: {file: '{file}', wall_contacts: '{file}.walls'}\n", [],
+     "a dump ('ITEM:' lines) with 2 frames; a wall contact dump holds one frame, the step of the packing file",
+     _walled(wall_lines=2 * WALL_DUMP, head="")),
     ("waves along a walled axis", "packing: {file: '{file}'}\nmodel: {rho: [0.5]}\nwaves: {n: [1], axes: [y]}\n", [],
      "configuration 0 is bounded by walls along y, which is not periodic: standing waves run along periodic axes "
      "only; give waves.axes from x", _walled_crystal),

@@ -216,7 +216,8 @@ class ModelSpec:
     lever: str = _f("radius", "where a contact's tangential force acts, for the slip of the contact point and "
                               "the torques: radius (R from each centre, LAMMPS's gran/*/history and rotsound's own "
                               "packings) or contact (R - xi/2, the middle of the overlap, as LIGGGHTS and YADE); a "
-                              "stressed packing balances its torques only with the lever it was made with",
+                              "wall contact's too (docs/walls.md); a stressed packing balances its torques only "
+                              "with the lever it was made with",
                     _one_of(LEVERS), str)
 
     stored_forces: str = _f("keep", "stressed packings: keep their stored tangential forces in the matrix "

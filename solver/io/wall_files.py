@@ -14,10 +14,17 @@ walls a LAMMPS box's f bounds imply: per walled axis x, y, z, its lower then its
 fz = 0), the whole force (normal and tangential, as LAMMPS's ``fix wall/gran`` gives it) or its
 tangential part: rotsound keeps the tangential part as the contact's stored force and takes the
 normal part from the overlap and the normal law.  A file of comments only lists no contact.
+
+The same five columns may come as one frame of a LAMMPS or LIGGGHTS text ``dump custom`` (its
+``ITEM: TIMESTEP``, ``ITEM: NUMBER OF ATOMS``, ``ITEM: BOX BOUNDS`` and ``ITEM: ATOMS ...`` lines,
+whatever the columns' names, then one line per contact): LIGGGHTS 3.8.0's dump has no
+``dump_modify header no``, so its wall contact file is such a dump (``fix wall/gran ... store_force
+yes``; tests/data/dem/liggghts_3d_walls.in, docs/walls.md).
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,10 +47,11 @@ class RawWallContacts:
 
 
 def read(path) -> RawWallContacts:
-    """The wall contact file ``path`` (format above) -> :class:`RawWallContacts`; InputError naming
-    the file and line for a row that is not 5 numbers, an id or wall index that is not a whole
+    """The wall contact file ``path`` (format above, or a one-frame dump of it) -> :class:`RawWallContacts`;
+    InputError naming the file and line for a row that is not 5 numbers, an id or wall index that is not a whole
     number (ids >= 0, walls >= 0)."""
-    lines, first = after_comments(read_text(path, KIND))
+    text = read_text(path, KIND)
+    lines, first = _dump_lines(path, text) if text.lstrip().startswith("ITEM:") else after_comments(text)
     if not lines:
         return RawWallContacts(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)))
     table = number_table(path, lines, first, "the contact lines", LAYOUT, KIND)
@@ -55,6 +63,24 @@ def read(path) -> RawWallContacts:
         raise InputError(f"{KIND} {path}: line {first + bad[0]}: the id and wall columns must hold whole numbers "
                          f">= 0, not {whole[bad[0]].tolist()}; the columns are {LAYOUT}")
     return RawWallContacts(whole[:, 0].astype(np.int64), whole[:, 1].astype(np.int64), table[:, 2:].copy())
+
+
+def _dump_lines(path, text: str) -> tuple[list[str], int]:
+    """(the contact lines, the file line of the first, from 1) of a wall contact file written as a
+    LAMMPS/LIGGGHTS text dump; InputError naming the file unless it is one frame whose ``ITEM: NUMBER
+    OF ATOMS`` counts its lines."""
+    frames = len(re.findall(r"^ITEM: TIMESTEP[ \t]*$", text, re.M))
+    count = re.search(r"^ITEM: NUMBER OF ATOMS[ \t]*\n[ \t]*(\d+)[ \t]*$", text, re.M)
+    atoms = re.search(r"^ITEM: ATOMS[^\n]*(?:\n|\Z)", text, re.M)
+    if frames != 1 or count is None or atoms is None:
+        found = f"{frames} frames" if frames != 1 else "a frame without 'ITEM: NUMBER OF ATOMS' and 'ITEM: ATOMS' lines"
+        raise InputError(f"{KIND} {path}: a dump ('ITEM:' lines) with {found}; a wall contact dump holds one frame, "
+                         f"the step of the packing file, of the columns {LAYOUT}")
+    lines = text[atoms.end():].rstrip().splitlines()
+    if len(lines) != int(count.group(1)):
+        raise InputError(f"{KIND} {path}: the dump lists {len(lines)} contact line(s) where 'ITEM: NUMBER OF ATOMS' "
+                         f"says {count.group(1)} (truncated or damaged file)")
+    return lines, text[:atoms.end()].count("\n") + 1
 
 
 def write(path, particle_ids: np.ndarray, wall: np.ndarray, force: np.ndarray) -> None:

@@ -299,9 +299,9 @@ def net_load(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     for axis in range(rot):
         torque[:, axis] = -(np.bincount(found.i, arm_i * turn[:, axis], minlength=packing.n)
                             + np.bincount(found.j, arm_j * turn[:, axis], minlength=packing.n))
-    if packing.walls is not None:  # the walls push, their stored forces turn (lever R)
+    if packing.walls is not None:  # the walls push, their stored forces turn (at the lever of model.lever)
         touch, push, turn = walling.loads(packing.positions, packing.diameters, packing.walls, packing.wall_contacts,
-                                          packing.model.law, active)
+                                          packing.model.law, active, packing.model.lever)
         for axis in range(packing.dim):
             net[:, axis] += np.bincount(touch.particle, push[:, axis], minlength=packing.n)
         for axis in range(rot):

@@ -8,7 +8,8 @@ it, rotsound's coordinates), as LAMMPS's ``fix wall/gran ... xplane/yplane/zplan
 along the axis): a particle touches it when its centre is closer than its radius, with overlap
 xi = R_i - h (h the centre's distance from the plane) and normal n = facing e_axis, from the wall
 into the particle.  The contact law is the particles' (``contact_law.wall_blocks``): the wall is
-a particle that does not move, of infinite radius (the reduced radius a' = R_i, the lever R_i).
+a particle that does not move, of infinite radius (the reduced radius a' = R_i; the lever R_i, or
+R_i - xi/2 under ``model.lever: contact`` as LIGGGHTS takes it).
 A wall contact's stored tangential force (``WallContacts``, from a file: ``read_wall_contacts``)
 is the force on the particle from the wall that the DEM code's spring history held at rest.
 Gravity (``Packing.gravity``) is a body force per unit mass: m_i g on particle i
@@ -220,11 +221,12 @@ def gravity_problem(gravity: np.ndarray | None, walls: Walls | None, periodic: n
 
 
 def loads(positions: np.ndarray, diameters: np.ndarray, walls: Walls | None, stored: WallContacts | None, law: str,
-          active: np.ndarray | None = None) -> tuple[Touching, np.ndarray, np.ndarray]:
+          active: np.ndarray | None = None, lever: str = "radius") -> tuple[Touching, np.ndarray, np.ndarray]:
     """(the wall contacts of the ``active`` particles, the force (K, D) on each particle from its
     wall, the torque (K, r) it exerts, r = 1 in 2D, 3 in 3D): the normal force of ``law`` with
-    a' = R along n plus the ``stored`` tangential force, whose torque is -R n x f_t (the lever is the
-    full radius, LAMMPS's fix wall/gran).  Units kn d0, kn d0^2."""
+    a' = R along n plus the ``stored`` tangential force, whose torque is -l n x f_t, l the lever of
+    ``lever`` (``contact_law.wall_arm``: R, LAMMPS's fix wall/gran; R - xi/2, LIGGGHTS's).  Units
+    kn d0, kn d0^2."""
     touch = touching(positions, diameters, walls, active)
     radius = 0.5 * diameters[touch.particle]
     force = contact_law.normal_force(touch.overlap, law, radius)[:, None] * touch.normal
@@ -233,7 +235,8 @@ def loads(positions: np.ndarray, diameters: np.ndarray, walls: Walls | None, sto
     if stored is not None:
         tangential = stored.on(touch.particle, touch.wall)
         force = force + tangential
-        torque = -radius[:, None] * contact_law.cross(touch.normal, tangential).reshape(len(touch), rot)
+        arm = contact_law.wall_arm(radius, touch.overlap, lever)
+        torque = -arm[:, None] * contact_law.cross(touch.normal, tangential).reshape(len(touch), rot)
     return touch, force, torque
 
 

@@ -78,26 +78,28 @@ def test_gravity_adds_no_stiffness(comm, dim):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-def test_stored_wall_forces_make_the_hertz_matrix_non_symmetric(comm, dim):
-    """Stored wall forces under hertz add wall_stressed_blocks on the diagonal (their FD check is in
-    test_wall_law.py): the assembled difference is exactly those blocks, and D is flagged non-symmetric;
-    under the harmonic law they add nothing and D stays symmetric."""
+@pytest.mark.parametrize("law, lever", [("hertz", "radius"), ("harmonic", "contact")])
+def test_stored_wall_forces_make_the_matrix_non_symmetric(comm, dim, law, lever):
+    """Stored wall forces under hertz, or at LIGGGHTS's lever R - xi/2, add wall_stressed_blocks on
+    the diagonal (their FD check is in test_wall_law.py): the assembled difference is exactly those
+    blocks, and D is flagged non-symmetric; under the harmonic law with the lever R they add nothing
+    and D stays symmetric."""
     p = settled(dim)
     touch = walls.touching(p.positions, p.diameters, p.walls)
     tangent = np.roll(touch.normal, 1, axis=1)  # along another axis: tangential
     stored = walls.WallContacts(touch.particle, touch.wall, 1e-3 * tangent)
-    for law in ("harmonic", "hertz"):  # the packing's law (Packing.model) is the matrix's
-        p = dataclasses.replace(p, model=ContactModel(law=law))
-        if law == "harmonic":  # a flat wall's normal does not turn: nothing added, still symmetric
-            loaded = dynmat.assemble(dataclasses.replace(p, wall_contacts=stored), ContactModel(0.5), comm)
-            plain = dynmat.assemble(p, ContactModel(0.5), comm)
-            try:
-                same = (dynmat.gather_csr(loaded.D) != dynmat.gather_csr(plain.D)).nnz == 0
-                assert_all(same and loaded.symmetric, "harmonic stored wall forces changed D")
-            finally:
-                loaded.destroy()
-                plain.destroy()
-    model = ContactModel(0.5, law="hertz")
+    # the packing's law (Packing.model) is the matrix's: under the harmonic law with the lever R a flat
+    # wall's normal does not turn and its arm does not change: nothing added, still symmetric
+    loaded = dynmat.assemble(dataclasses.replace(p, wall_contacts=stored), ContactModel(0.5), comm)
+    plain = dynmat.assemble(p, ContactModel(0.5), comm)
+    try:
+        same = (dynmat.gather_csr(loaded.D) != dynmat.gather_csr(plain.D)).nnz == 0
+        assert_all(same and loaded.symmetric, "harmonic stored wall forces changed D")
+    finally:
+        loaded.destroy()
+        plain.destroy()
+    model = ContactModel(0.5, law=law, lever=lever)
+    p = dataclasses.replace(p, model=model.at_rest())
     loaded = dynmat.assemble(dataclasses.replace(p, wall_contacts=stored), model, comm)
     plain = dynmat.assemble(p, model, comm)
     try:
@@ -109,7 +111,9 @@ def test_stored_wall_forces_make_the_hertz_matrix_non_symmetric(comm, dim):
         rows = np.argsort(loaded.order)[touch.particle]  # matrix particle of each contact
         for row, block in zip(rows, blocks):
             expected[row * loaded.dof:(row + 1) * loaded.dof, row * loaded.dof:(row + 1) * loaded.dof] += block
-        assert_all(np.abs(diff - expected).max() <= 1e-15 * np.abs(expected).max(), "stressed wall blocks")
+        # to the round-off of D's own entries (the lever's blocks, 5e-4, sit on entries up to 6)
+        scale = max(np.abs(expected).max(), np.abs(dynmat.gather_csr(plain.D)).max())
+        assert_all(np.abs(diff - expected).max() <= 1e-15 * scale, "stressed wall blocks")
         assert_all(np.abs(expected).max() > 1e-5, "the stored forces added nothing: the test is blind")
     finally:
         loaded.destroy()

@@ -89,6 +89,31 @@ def test_wall_contact_file_round_trip_and_checks(tmp_path):
     assert len(wall_files.read(tmp_path / "none.txt").ids) == 0
 
 
+DUMP_HEAD = "ITEM: TIMESTEP\n5\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS pp pp ff\n0 4\n0 4\n0 6\nITEM: ATOMS id v_wall v_fx v_fy v_fz \n"
+
+
+def test_wall_contact_file_as_a_dump(tmp_path):
+    """A one-frame LAMMPS/LIGGGHTS dump custom of the five columns (LIGGGHTS 3.8.0 cannot leave out a
+    dump's header) reads as the plain file; more frames, or a count that does not match, are refused."""
+    rows = "3 0 1.0 -2.0 0.5 \n1 1 0 0.001 -4 \n"
+    (tmp_path / "walls.dump").write_text(DUMP_HEAD.format(2) + rows)
+    raw = wall_files.read(tmp_path / "walls.dump")
+    assert raw.ids.tolist() == [3, 1] and raw.wall.tolist() == [0, 1]
+    assert np.array_equal(raw.force, [[1.0, -2.0, 0.5], [0.0, 1e-3, -4.0]])
+    (tmp_path / "empty.dump").write_text(DUMP_HEAD.format(0))
+    assert len(wall_files.read(tmp_path / "empty.dump").ids) == 0
+    (tmp_path / "two.dump").write_text(2 * (DUMP_HEAD.format(2) + rows))
+    with pytest.raises(InputError, match=r"two.dump: a dump \('ITEM:' lines\) with 2 frames; a wall contact dump holds "
+                                         r"one frame"):
+        wall_files.read(tmp_path / "two.dump")
+    (tmp_path / "short.dump").write_text(DUMP_HEAD.format(3) + rows)
+    with pytest.raises(InputError, match=r"the dump lists 2 contact line\(s\) where 'ITEM: NUMBER OF ATOMS' says 3"):
+        wall_files.read(tmp_path / "short.dump")
+    (tmp_path / "wide.dump").write_text(DUMP_HEAD.format(1) + "3 0 1.0 -2.0 0.5 7\n")
+    with pytest.raises(InputError, match=r"wide.dump: contact lines have 6 columns; each line holds 5"):
+        wall_files.read(tmp_path / "wide.dump")
+
+
 def test_wall_contacts_keep_the_tangential_part_and_are_checked():
     positions = np.array([[0.5, 0.45], [1.5, 0.8]])
     diameters = np.ones(2)

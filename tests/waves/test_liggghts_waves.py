@@ -23,11 +23,10 @@ same packing that are wrong where LIGGGHTS referees them, and have to miss by fa
 """
 
 import dataclasses
-import re
 
 import numpy as np
 import pytest
-from conftest import REPO, assert_close
+from conftest import REPO, assert_close, wave_frames
 
 from scripts.crosschecks.harness import pooled_c
 from solver.contact_law import Cohesion, ContactModel
@@ -56,10 +55,7 @@ def read(stem: str, cohesion, friction):
 
 def liggghts_frames(path, n: int) -> np.ndarray:
     """(S, N, columns - 1): the dump's columns after the id, every frame sorted by id 1..N."""
-    chunks = re.split(r"ITEM: ATOMS[^\n]*\n", path.read_text())[1:]
-    frames = np.array([np.loadtxt(chunk.strip().splitlines()[:n]) for chunk in chunks])
-    assert np.array_equal(frames[:, :, 0], np.broadcast_to(np.arange(1, n + 1), frames.shape[:2]))
-    return frames[:, :, 1:]
+    return wave_frames(path, n)
 
 
 def misses(p, model, run, frames, amplitude, comm) -> tuple[float, float, float]:

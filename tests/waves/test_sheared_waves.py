@@ -19,11 +19,10 @@ component z(t) = sum_i p . v_i exp(-i k . r_i) against rotsound's exact stressed
 """
 
 import dataclasses
-import re
 
 import numpy as np
 import pytest
-from conftest import REPO, assert_close
+from conftest import REPO, assert_close, wave_frames
 
 from solver.contact_law import ContactModel
 from solver.io import hdf5
@@ -46,10 +45,7 @@ def sheared():
     """(packing read by rotsound, LAMMPS's frames (S, N, 6) in LAMMPS's units)."""
     p = hdf5.read_packings(str(DATA / "lammps_3d_sheared.data"), contacts=str(DATA / "lammps_3d_sheared.contacts"),
                            contacts_format="lammps-local", friction=0.5)[0]
-    chunks = re.split(r"ITEM: ATOMS[^\n]*\n", (DATA / "lammps_3d_sheared.tr").read_text())[1:]
-    frames = np.array([np.loadtxt(chunk.strip().splitlines()[:p.n]) for chunk in chunks])
-    assert np.array_equal(frames[:, :, 0], np.broadcast_to(np.arange(1, p.n + 1), frames.shape[:2]))
-    return p, frames[:, :, 1:]
+    return p, wave_frames(DATA / "lammps_3d_sheared.tr", p.n)
 
 
 def misses(p, frames, comm, cell=None) -> tuple[float, float, float]:

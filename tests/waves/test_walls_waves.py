@@ -30,7 +30,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import REPO, assert_close
+from conftest import REPO, assert_close, wave_frames
 
 from scripts.crosschecks.harness import pooled_c
 from solver.contact_law import ContactModel
@@ -77,10 +77,7 @@ def packing():
 
 def lammps_frames(suffix: str, n: int) -> np.ndarray:
     """(S, N, 6): the wave file's velocities and angular velocities, every frame sorted by id 1..N."""
-    chunks = re.split(r"ITEM: ATOMS[^\n]*\n", (DATA / f"{STEM}.{suffix}").read_text())[1:]
-    frames = np.array([np.loadtxt(chunk.strip().splitlines()[:n]) for chunk in chunks])
-    assert np.array_equal(frames[:, :, 0], np.broadcast_to(np.arange(1, n + 1), frames.shape[:2]))
-    return frames[:, :, 1:]
+    return wave_frames(DATA / f"{STEM}.{suffix}", n)
 
 
 def misses(p, suffix: str, comm) -> tuple[float, float]:
