@@ -352,6 +352,15 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         signal.signal(signal.SIGTERM, previous)
 
 
+def _walls_line(p) -> str:
+    """', walls x = 0, 12.5 (9 wall contacts, their share of the pressure 1.2e-03), g = [0, 0, -0.01]'
+    for the log (docs/walls.md)."""
+    where = ", ".join(f"{'xyz'[a]} = {x:g}" for a, x in zip(p.walls.axis, p.walls.position))
+    share = float(np.trace(p.info["stress_walls"])) / p.dim
+    gravity = "" if p.gravity is None else f", g = {np.asarray(p.gravity).tolist()}"
+    return f", walls {where} ({p.info['n_wall_contacts']} wall contacts, their share of the pressure {share:.3e}){gravity}"
+
+
 def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packings, chosen: str | None
            ) -> tuple[dict, int]:
     """:func:`run` once the units folder is claimed and the packings made or read: solve every unit
@@ -364,7 +373,8 @@ def _solve(scene: Scene, comm, petsc_argv, group_size, store: UnitStore, packing
                   f"pressure = {i['pressure']:.4e}, energy = {i['energy']:.4e}, "
                   f"rattlers = {100 * i['rattler_fraction']:.2f} %"
                   + (f", bridges = {i['n_bridges']} ({len(p.bridges)} apart)" if p.bridges is not None else "")
-                  + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else ""))
+                  + (f", FIRE steps = {i['fire_steps']}" if "fire_steps" in i else "")
+                  + (_walls_line(p) if p.walls is not None else ""))
     if chosen:
         say(comm, chosen)
     if scene.model.damped:

@@ -57,6 +57,29 @@ def _mercury(keep_data=lambda lines: lines, keep_fstat=lambda lines: lines):
     return make
 
 
+def _walled(flags="pp pp ff", wall_lines=None):
+    """A maker: the committed 3D LAMMPS dump with boundary ``flags`` at ``path`` and, when given,
+    the wall contact file ``wall_lines`` ('id wall fx fy fz') at ``path.walls``."""
+    def make(path):
+        text = (DEM / "lammps_3d.dump").read_text().replace("BOX BOUNDS pp pp pp", f"BOX BOUNDS {flags}")
+        pathlib.Path(path).write_text(text)
+        if wall_lines is not None:
+            pathlib.Path(f"{path}.walls").write_text("# id wall fx fy fz\n" + wall_lines)
+    return make
+
+
+def _walled_crystal(path):
+    """A 2D square crystal of 4 x 3 equal disks (spacing 0.99) pressed between walls at y = 0 and
+    y = 2.96 (overlaps 0.01 everywhere): at rest, periodic in x only (docs/walls.md)."""
+    x, y = np.meshgrid(0.99 * np.arange(4), 0.49 + 0.99 * np.arange(3), indexing="ij")
+    with h5py.File(path, "w") as f:
+        f["positions"] = np.column_stack((x.ravel(), y.ravel()))
+        f["diameters"] = np.ones(12)
+        f.attrs["box"] = [3.96, 2.96]
+        f["walls/axis"] = np.array([1, 1])
+        f["walls/position"] = np.array([0.0, 2.96])
+
+
 MERCURY = "packing: {file: '{file}', contacts: '{file}.fstat', contacts_format: mercury-fstat, friction: 0.5}\n"
 
 
@@ -304,6 +327,26 @@ CASES = [
      "waves.axes = ['x', 'z']: axis z needs 3D", None),
     ("waves.axes repeated", GOOD + "waves: {n: [1], axes: [x, x]}\n", [],
      "must be a non-empty list of distinct axes from x, y, z", None),
+    # --- walls and gravity (docs/walls.md)
+    ("walls without a packing file", GOOD.replace("}", ", walls: [{axis: y, position: 0.0}]}"), [],
+     "packing.walls: walls and gravity belong to a packing read from packing.file", None),
+    ("wall not given as axis and position", "packing: {file: '{file}', walls: [{axis: z}]}\n", [],
+     "each wall is a mapping with the keys axis and position", _walled()),
+    ("wall through a particle", "packing: {file: '{file}', walls: [{axis: z, position: 2.0}]}\n", [],
+     "the wall z = 2 goes through the packing", _walled()),
+    ("wall on a periodic axis", "packing: {file: '{file}', walls: [{axis: z, position: 0.25}]}\n", [],
+     "wall 0 (z = 0.25) stands on the periodic axis z", _walled("pp pp pp")),
+    ("gravity along a periodic axis", "packing: {file: '{file}', gravity: [0.1, 0.0, -1.0]}\n", [],
+     "packing.gravity has the component 0.1 along the periodic axis x", _walled()),
+    ("gravity with no wall to hold it", "packing: {file: '{file}', gravity: [0.0, 0.0, 1.0]}\n", [],
+     "packing.gravity pulls along z (1) but no wall on that side holds the packing", _walled("pp pp fm")),
+    ("wall contact naming a missing particle", "packing: {file: '{file}', wall_contacts: '{file}.walls'}\n", [],
+     "atom id 9999 is not in the packing file", _walled(wall_lines="9999 0 0.0 0.0 0.1\n")),
+    ("wall contact naming a missing wall", "packing: {file: '{file}', wall_contacts: '{file}.walls'}\n", [],
+     "names wall 7, but the packing has 2 wall(s)", _walled(wall_lines="1 7 0.0 0.0 0.1\n")),
+    ("waves along a walled axis", "packing: {file: '{file}'}\nmodel: {rho: [0.5]}\nwaves: {n: [1], axes: [y]}\n", [],
+     "configuration 0 is bounded by walls along y, which is not periodic: standing waves run along periodic axes "
+     "only; give waves.axes from x", _walled_crystal),
     # --- packing files of LAMMPS, LIGGGHTS and YADE (tests/data/dem)
     ("unknown packing.format", GOOD.replace("}", ", format: xyz}"), [],
      "packing.format = 'xyz': must be one of rotsound, lammps-data, lammps-dump, yade, mercury, or null", None),

@@ -321,23 +321,24 @@ def _from_dem(path: str, fmt: str, check_equilibrium: bool, model: ContactModel,
     info = {"source": f"{path} ({raw.source})", "length_unit": unit}
     positions, diameters = (raw.positions - raw.box_lo) / unit, raw.diameters / unit
     box = (raw.box_hi - raw.box_lo) / unit
-    if raw.tilt is not None:
-        box = geometry.Cell(box, raw.tilt / unit, np.ones(raw.dim, dtype=bool))
+    walled = _dem_walls(path, raw, positions, diameters, unit, model.law, walls, wall_contacts, gravity)
+    walled_axes = () if walled is None else set(walled[0].axis.tolist())
+    if raw.tilt is not None or walled_axes:  # no images across a wall
+        periodic = np.ones(raw.dim, dtype=bool)
+        periodic[list(walled_axes)] = False
+        tilt = np.zeros(len(geometry.TILTS[raw.dim])) if raw.tilt is None else raw.tilt / unit
+        box = geometry.Cell(box, tilt, periodic)
+        problem = box.tilt_problem() if walled_axes else None  # no tilt may shear across a wall
+        if problem is not None:
+            raise InputError(f"packing file {path}: the triclinic box's {problem} (packing.walls or the file's f "
+                             f"bounds); a tilt may shear only along periodic axes")
     stored = gap = None
     if contacts is not None:
-        _check_box(box, diameters, path, "box")
+        _check_box(box, diameters, path, "box", walled_axes)
         _check_distinct(positions, diameters, box, path)
         stored, gap = _stored_forces(contacts, raw, positions, diameters, box, model, friction, unit,
                                      contacts_format)
         info.update(contacts=contacts)
-    walled = _dem_walls(path, raw, positions, diameters, unit, model.law, walls, wall_contacts, gravity)
-    if walled is not None and isinstance(box, geometry.Cell):  # the scene's walls: no tilt may shear across them
-        periodic = box.periodic.copy()
-        periodic[walled[0].axis[walled[0].axis < raw.dim]] = False
-        problem = geometry.Cell(box.sides, box.tilt, periodic).tilt_problem()
-        if problem is not None:
-            raise InputError(f"packing file {path}: the triclinic box's {problem} (packing.walls or the file's f "
-                             f"bounds); a tilt may shear only along periodic axes")
     return _finish(positions, diameters, box, None, raw.masses, info, path, "box", check_equilibrium, model, stored,
                    gap, walled)
 
@@ -356,38 +357,52 @@ def _dem_walls(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, di
     periodic = np.array([flag == "pp" for flag in flags])
     if walls is not None:
         axis = np.array([walling.AXES.index(w["axis"]) for w in walls], dtype=np.int64)
-        lo = np.append(raw.box_lo, np.zeros(3 - dim))
-        position = np.array([(w["position"] - lo[a]) / unit for w, a in zip(walls, axis)])
+        position = np.array([w["position"] for w in walls], dtype=float)
         if raw.boundary is None:
             periodic[axis[axis < dim]] = False
     else:
-        sides = (raw.box_hi - raw.box_lo) / unit
-        bounds = [(a, end * sides[a]) for a in range(dim) for end, flag in enumerate(flags[a]) if flag == "f"]
+        bounds = [(a, (raw.box_lo, raw.box_hi)[end][a]) for a in range(dim) for end, flag in enumerate(flags[a])
+                  if flag == "f"]
         axis = np.array([a for a, _ in bounds], dtype=np.int64)
         position = np.array([p for _, p in bounds], dtype=float)
     if not axis.size and wall_contacts is None and gravity is None:
         return None
-    built = walling.build(axis, position, positions, diameters, periodic, f"packing file {path} (packing.walls)")
+    in_file = walling.build(axis, position, raw.positions, raw.diameters, periodic,  # messages in the file's terms
+                            f"packing file {path} (packing.walls)")
+    built = walling.Walls(in_file.axis, (in_file.position - raw.box_lo[in_file.axis]) / unit, in_file.facing)
+    _check_gravity(None if gravity is None else np.asarray(gravity, dtype=float), built, periodic,
+                   f"packing file {path}")
     scale = unit if law == "harmonic" else unit ** 2  # kn d0 of the file's units (kn = 1 there)
     g = None if gravity is None else np.asarray(gravity, dtype=float) / scale
-    _check_gravity(g, built, periodic, f"packing file {path}")
     stored = None
     if wall_contacts is not None:
         found = wall_files.read(wall_contacts)
-        at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
-        missing = np.flatnonzero(raw.ids[at] != found.ids)
-        if missing.size:
-            raise InputError(f"wall contact file {wall_contacts}: particle id {found.ids[missing[0]]} is not in the "
-                             f"packing file {path} ({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the "
-                             f"two files must describe the same packing")
-        force = found.force / scale
-        if dim == 2:
-            if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
-                raise InputError(f"wall contact file {wall_contacts}: a force has a z component, but the packing is 2D")
-            force = force[:, :2]
-        stored = walling.build_contacts(at, found.wall, force, positions, diameters, built,
-                                        f"wall contact file {wall_contacts}")
+        where = f"wall contact file {wall_contacts}"
+        force = _in_plane(found.force / scale, dim, where)
+        stored = walling.build_contacts(_indices(raw, found.ids, where), found.wall, force, positions, diameters, built,
+                                        where)
     return built, stored, g
+
+
+def _indices(raw: dem_formats.RawPacking, ids: np.ndarray, where: str) -> np.ndarray:
+    """The particle indices (same shape) of the atom ``ids`` a file (``where``) names; InputError
+    for an id the packing ``raw`` lacks."""
+    at = np.minimum(np.searchsorted(raw.ids, ids), raw.ids.size - 1)
+    missing = np.flatnonzero(raw.ids[at].ravel() != ids.ravel())
+    if missing.size:
+        raise InputError(f"{where}: atom id {ids.ravel()[missing[0]]} is not in the packing file ({raw.ids.size} "
+                         f"atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe the same packing")
+    return at
+
+
+def _in_plane(force: np.ndarray, dim: int, where: str) -> np.ndarray:
+    """Forces (C, 3) as (C, dim): in 2D, InputError naming ``where`` unless every z component is
+    round-off (1e-12 of the largest), then dropped."""
+    if dim == 3:
+        return force
+    if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
+        raise InputError(f"{where}: a force has a z component, but the packing is 2D")
+    return force[:, :2]
 
 
 def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray, diameters: np.ndarray,
@@ -398,20 +413,12 @@ def _stored_forces(path: str, raw: dem_formats.RawPacking, positions: np.ndarray
     pair/gran/local lists every bridged pair, touching or not; None when dry)."""
     law = model.law
     found = contact_files.read(path, fmt)
-    at = np.minimum(np.searchsorted(raw.ids, found.ids), raw.ids.size - 1)
-    missing = np.flatnonzero(raw.ids[at] != found.ids)
-    if missing.size:
-        raise InputError(f"contact file {path}: atom id {found.ids.ravel()[missing[0]]} is not in the packing file "
-                         f"({raw.ids.size} atoms, ids {raw.ids.min()}..{raw.ids.max()}); the two files must describe "
-                         f"the same packing")
+    at = _indices(raw, found.ids, f"contact file {path}")
     if found.source in contact_files.KN_FROM_FILE:  # YADE, MercuryDPM: kn from the file's normal forces
         force = contact_files.KN_FROM_FILE[found.source](path, found, at, positions, diameters, box, unit, law)
     else:
         force = found.force / (unit if law == "harmonic" else unit ** 2)
-    if raw.dim == 2:
-        if np.any(np.abs(force[:, 2]) > 1e-12 * max(np.abs(force).max(), 1e-300)):
-            raise InputError(f"contact file {path}: a tangential force has a z component, but the packing is 2D")
-        force = force[:, :2]
+    force = _in_plane(force, raw.dim, f"contact file {path}")
     gap = None
     if model.cohesion is not None:  # the listed pairs apart are bridged (checks: bridges.build)
         _, _, overlap = geometry.pair_geometry(positions, diameters, box, np.sort(at, axis=1))

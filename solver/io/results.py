@@ -217,7 +217,9 @@ def first_packing(f) -> dict | None:
     attributes box (D,) side lengths, tilt (T,) the cell's tilt factors (``geometry.TILTS``: xy, or
     xy xz yz; zeros when orthogonal), periodic (D,) bool (which axes are periodic), cell (the three as
     a ``geometry.Cell``: ``cell.matrix`` holds the edge vectors), phi, z (mean contact number; NaN if
-    absent: a loaded packing has none), and a wet packing's bridges (B, 2) (its bridged pairs apart);
+    absent: a loaded packing has none), a wet packing's bridges (B, 2) (its bridged pairs apart), and
+    a packing between walls its walls ({axis (W,), position (W,)}), its stress tensor stress (D, D)
+    with the walls' share stress_walls (D, D), and its gravity (D,) when it has one (docs/walls.md);
     None without packings.  A file written before tilted cells (no attributes tilt, periodic) reads
     as orthogonal and periodic."""
     return packing(f, 0) if _groups(f, "packings") else None
@@ -236,9 +238,15 @@ def packing(f, index: int) -> dict:
     if "tilt" in g.attrs or "periodic" in g.attrs:
         cell = geometry.Cell(cell.sides, np.asarray(g.attrs.get("tilt", cell.tilt), dtype=float),
                              np.asarray(g.attrs.get("periodic", cell.periodic), dtype=bool))
+    walled = {}
+    if "walls" in g:  # docs/walls.md
+        walled = {"walls": {"axis": g["walls/axis"][()], "position": g["walls/position"][()]},
+                  "stress": g.attrs["stress"], "stress_walls": g.attrs["stress_walls"]}
+    if "gravity" in g.attrs:
+        walled["gravity"] = g.attrs["gravity"]
     return {"positions": g["positions"][()], "diameters": g["diameters"][()], "rattler": g["rattler"][()],
             "box": cell.sides.copy(), "tilt": cell.tilt.copy(), "periodic": cell.periodic.copy(), "cell": cell,
-            "phi": float(g.attrs["phi"]), "z": float(g.attrs.get("z", np.nan)), **wet}
+            "phi": float(g.attrs["phi"]), "z": float(g.attrs.get("z", np.nan)), **wet, **walled}
 
 
 def mode_shapes(f) -> list[ModeShapes]:

@@ -201,7 +201,8 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
     """Content key of every matrix, spectrum, modes, transport and waves unit of the scene (``task_units``), by unit
     name. Not collective.
 
-    A packing is keyed by its arrays, stored tangential forces included (so a file and a generated
+    A packing is keyed by its arrays, stored tangential forces, walls and wall contacts included
+    (gravity adds no stiffness: not in the keys; so a file and a generated
     packing with equal contents share units, and 2D and 3D never do: the arrays' shapes are
     hashed; a tilted cell's tilt and periodic axes too, an orthogonal periodic one's keys are as before); the
     rolling and twisting ratios join every key when they are not 0, and masses, law,
@@ -227,6 +228,9 @@ def scene_keys(scene, packings, petsc_argv: list[str]) -> dict[str, UnitKey]:
         masses = [] if p.masses is None else [p.masses]  # a file's masses: only then, as before
         stored = [] if p.tangential is None else [p.tangential.pairs, p.tangential.force]  # likewise
         stored += [] if p.bridges is None else [p.bridges]  # a wet packing's bridged pairs apart
+        stored += [] if p.walls is None else [p.walls.axis, p.walls.position, p.walls.facing]  # docs/walls.md
+        stored += [] if p.wall_contacts is None else [p.wall_contacts.particle, p.wall_contacts.wall,
+                                                      p.wall_contacts.force]
         cell = p.cell  # a tilted cell or walls: the cell joins the key (orthogonal periodic keys as before)
         shape = [] if not cell.tilted and cell.periodic.all() else [{"tilt": cell.tilt.tolist(),
                                                                      "periodic": cell.periodic.tolist()}]

@@ -68,10 +68,11 @@ class Packing:
 
     @property
     def stressed(self) -> bool:
-        """Whether some stored tangential force, between particles or on a wall, is not zero (the
-        matrix is then not symmetric)."""
+        """Whether some stored tangential force is not zero between particles, or on a wall under
+        the Hertz law (the matrix is then not symmetric; a wall's stored force adds nothing to it
+        under the harmonic law: docs/walls.md section 4)."""
         return ((self.tangential is not None and self.tangential.nonzero())
-                or (self.wall_contacts is not None and self.wall_contacts.nonzero()))
+                or (self.wall_contacts is not None and self.wall_contacts.nonzero() and self.model.law == "hertz"))
 
     @property
     def n(self) -> int:

@@ -308,9 +308,13 @@ def with_walls(packing: Packing, walls: walling.Walls, wall_contacts: walling.Wa
     """``packing`` between ``walls`` (``walls.build``), with the stored tangential forces of its wall
     contacts and ``gravity`` (D,) (docs/walls.md): the axes of the walls are not periodic, the
     rattlers are found again with the wall contacts as links (:func:`find_rattlers`), and ``info``
-    gains the stress tensor (:func:`stress`).  Not collective."""
+    gains the stress tensor (:func:`stress`).  InputError under ``model.cohesion`` (no bridges to a
+    wall).  Not collective."""
     import dataclasses
 
+    if packing.model.cohesion is not None:
+        raise InputError("walls with model.cohesion: capillary bridges to a wall are not modelled (docs/walls.md); "
+                         "read a wet packing without walls, or a dry one with them")
     periodic = packing.cell.periodic.copy()
     periodic[walls.axis] = False
     walled = dataclasses.replace(packing, walls=walls, wall_contacts=wall_contacts, periodic=periodic,

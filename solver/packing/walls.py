@@ -197,11 +197,10 @@ def build_contacts(particle, wall, force, positions: np.ndarray, diameters: np.n
     return WallContacts(particle, wall, force - along[:, None] * normal)
 
 
-def weights(masses: np.ndarray | None, n: int, gravity: np.ndarray | None) -> np.ndarray:
-    """(N, D) the body force m_i g on each particle (kn d0): ``masses`` the packing's own (its
-    file's, ``Packing.masses``), 1 each when None (rotsound's unit mass); zero without gravity."""
-    if gravity is None:
-        return np.zeros((n, 0))
+def weights(masses: np.ndarray | None, n: int, gravity: np.ndarray) -> np.ndarray:
+    """(N, D) the body force m_i g on each of ``n`` particles (kn d0) under ``gravity`` (D,):
+    ``masses`` the packing's own (its file's, ``Packing.masses``), 1 each when None (rotsound's unit
+    mass)."""
     mass = np.ones(n) if masses is None else masses
     return mass[:, None] * np.asarray(gravity, dtype=float)[None, :]
 

@@ -69,12 +69,24 @@ def check_damping(spec, dashpots: str) -> None:
 
 
 def check_boxes(spec, packings) -> None:
-    """Refuse wave numbers a packing's box does not allow (``excitation.wave_vectors``), for every
-    packing. Not collective."""
+    """Refuse wave numbers a packing's box does not allow (``excitation.wave_vectors``), and waves
+    along an axis a packing's walls close (standing waves run along periodic axes only;
+    docs/walls.md), for every packing. Not collective."""
     if spec is None:
         return
-    for p in packings:
-        excitation.wave_vectors(spec, p.box, excitation.wave_axes(spec, p.dim))
+    for index, p in enumerate(packings):
+        axes = excitation.wave_axes(spec, p.dim)
+        closed = [a for a in axes if p.periodic is not None and not p.periodic[a]]
+        if closed:
+            periodic = [name for a, name in enumerate("xyz"[:p.dim]) if a not in closed and p.periodic[a]]
+            said = f"waves.axes = {spec.axes}" if spec.axes is not None else "waves.axes = null (every axis)"
+            raise InputError(f"{said}: configuration {index} is bounded by walls along {'xyz'[closed[0]]}, which is not "
+                             f"periodic: standing waves run along periodic axes only; give waves.axes from "
+                             f"{', '.join(periodic) or 'its periodic axes (it has none)'}")
+        if p.walls is not None and spec.engine == "lammps":
+            raise InputError(f"waves.engine: lammps: configuration {index} has walls, which rotsound's LAMMPS waves do "
+                             f"not set up; use rotsound's linear waves (waves.engine: rotsound)")
+        excitation.wave_vectors(spec, p.box, axes)
 
 
 def check_engine(spec, packing, model) -> None:

@@ -80,11 +80,23 @@ def test_gravity_adds_no_stiffness(comm, dim):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_stored_wall_forces_make_the_hertz_matrix_non_symmetric(comm, dim):
     """Stored wall forces under hertz add wall_stressed_blocks on the diagonal (their FD check is in
-    test_walls.py): the assembled difference is exactly those blocks, and D is flagged non-symmetric."""
+    test_wall_law.py): the assembled difference is exactly those blocks, and D is flagged non-symmetric;
+    under the harmonic law they add nothing and D stays symmetric."""
     p = settled(dim)
     touch = walls.touching(p.positions, p.diameters, p.walls)
     tangent = np.roll(touch.normal, 1, axis=1)  # along another axis: tangential
     stored = walls.WallContacts(touch.particle, touch.wall, 1e-3 * tangent)
+    for law in ("harmonic", "hertz"):  # the packing's law (Packing.model) is the matrix's
+        p = dataclasses.replace(p, model=ContactModel(law=law))
+        if law == "harmonic":  # a flat wall's normal does not turn: nothing added, still symmetric
+            loaded = dynmat.assemble(dataclasses.replace(p, wall_contacts=stored), ContactModel(0.5), comm)
+            plain = dynmat.assemble(p, ContactModel(0.5), comm)
+            try:
+                same = (dynmat.gather_csr(loaded.D) != dynmat.gather_csr(plain.D)).nnz == 0
+                assert_all(same and loaded.symmetric, "harmonic stored wall forces changed D")
+            finally:
+                loaded.destroy()
+                plain.destroy()
     model = ContactModel(0.5, law="hertz")
     loaded = dynmat.assemble(dataclasses.replace(p, wall_contacts=stored), model, comm)
     plain = dynmat.assemble(p, model, comm)
@@ -129,8 +141,9 @@ def test_parallel_walled_matrix_equals_serial(comm, dim):
 
     p = settled(dim)
     touch = walls.touching(p.positions, p.diameters, p.walls)
-    p = dataclasses.replace(p, wall_contacts=walls.WallContacts(touch.particle, touch.wall,
-                                                                1e-3 * np.roll(touch.normal, 1, axis=1)))
+    p = dataclasses.replace(p, model=ContactModel(law="hertz"),
+                            wall_contacts=walls.WallContacts(touch.particle, touch.wall,
+                                                             1e-3 * np.roll(touch.normal, 1, axis=1)))
     model = ContactModel(0.5, 0.2, 0.1 if dim == 3 else 0.0, law="hertz")
     dm, ref = dynmat.assemble(p, model, comm), dynmat.assemble(p, model, PETSc.COMM_SELF)
     try:

@@ -10,7 +10,7 @@ import pytest
 from walled import GRAVITY, settled
 
 from solver.errors import InputError
-from solver.io import wall_files
+from solver.io import results, wall_files
 from solver.packing import mechanics, walls
 
 pytestmark = pytest.mark.serial_only  # no communicator
@@ -147,6 +147,12 @@ def test_a_lammps_dump_with_f_bounds_reads_between_walls_at_rest(tmp_path):
     again = hdf5.read_packings(str(saved))[0]
     assert np.array_equal(again.walls.position, read.walls.position) and np.array_equal(again.gravity, read.gravity)
     assert np.array_equal(again.info["stress"], read.info["stress"]) and len(again.wall_contacts) == len(touch)
+    out = tmp_path / "results.h5"  # the results file and the notebook API carry them
+    hdf5.write_results(str(out), {}, [read], {})
+    with results.open_results(str(out)) as f:
+        seen = results.packing(f, 0)
+    assert seen["walls"]["axis"].tolist() == [2, 2] and np.array_equal(seen["gravity"], read.gravity)
+    assert np.array_equal(seen["stress_walls"], read.info["stress_walls"])
 
 
 def test_gravity_along_a_periodic_axis_is_refused(tmp_path):
@@ -159,3 +165,63 @@ def test_gravity_along_a_periodic_axis_is_refused(tmp_path):
         hdf5.read_packings(str(dump), gravity=[0.01, -0.01])
     with pytest.raises(InputError, match="packing.gravity pulls along y \\(0.01\\) but no wall on that side"):
         hdf5.read_packings(str(dump), gravity=[0.0, 0.01], walls=[{"axis": "y", "position": 0.0}])
+
+
+def test_walls_and_their_stored_forces_key_the_units(tmp_path):
+    """A matrix unit of a packing between walls is not the same packing's without them (nor with
+    other stored wall forces); gravity, which adds no stiffness, leaves the key alone."""
+    from conftest import scene_of
+    from solver.io import unit_keys
+
+    p = settled(2)
+    scene = scene_of(tmp_path / "out.h5", packing={"file": "walled.h5"}, model={"rho": [0.5]})
+    touch = walls.touching(p.positions, p.diameters, p.walls)
+    loaded = dataclasses.replace(p, wall_contacts=walls.WallContacts(touch.particle, touch.wall,
+                                                                     1e-3 * np.roll(touch.normal, 1, axis=1)))
+    variants = [p, dataclasses.replace(p, walls=None), loaded, dataclasses.replace(p, gravity=None)]
+    keys = [unit_keys.scene_keys(scene, [v], [])["matrices/r00_p0000"].digest for v in variants]
+    assert len(set(keys[:3])) == 3 and keys[3] == keys[0], keys
+
+
+def test_a_lammps_data_file_takes_its_walls_from_the_scene(tmp_path):
+    """A data file records no boundary: packing.walls (file coordinates) makes their axis walled;
+    the 2D settled packing, shifted by lo and scaled by 1.5, reads at rest with its gravity."""
+    from solver.io import hdf5
+
+    p = settled(2)
+    unit, lo = 1.5, np.array([2.0, -1.0])
+    x = p.positions * unit + lo
+    density = 6.0 / (np.pi * (p.diameters * unit) ** 3)  # mass 1 each, LAMMPS's rule
+    atoms = "\n".join(f"{i + 1} 1 {p.diameters[i] * unit:.17g} {density[i]:.17g} {x[i, 0]:.17g} {x[i, 1]:.17g} 0"
+                      for i in range(p.n))
+    hi = lo + p.box * unit
+    path = tmp_path / "walled.data"
+    path.write_text(f"LAMMPS data file\n\n{p.n} atoms\n1 atom types\n\n{lo[0]:.17g} {hi[0]:.17g} xlo xhi\n"
+                    f"{lo[1]:.17g} {hi[1]:.17g} ylo yhi\n-0.5 0.5 zlo zhi\n\nAtoms # sphere\n\n{atoms}\n")
+    scene_walls = [{"axis": "y", "position": float(lo[1])}, {"axis": "y", "position": float(hi[1])}]
+    read = hdf5.read_packings(str(path), walls=scene_walls, gravity=list(p.gravity * unit))[0]
+    assert list(read.periodic) == [True, False]
+    assert np.allclose(read.walls.position, [0.0, p.box[1]], rtol=0, atol=1e-12)
+    assert np.allclose(read.positions, p.positions, rtol=0, atol=1e-12)
+    with pytest.raises(InputError, match="not at rest between its walls"):
+        hdf5.read_packings(str(path), walls=scene_walls)
+
+
+def test_walls_refuse_capillary_bridges():
+    from solver.capillary import Cohesion
+    from solver.contact_law import ContactModel
+
+    p = settled(2)
+    wet = dataclasses.replace(p, model=ContactModel(cohesion=Cohesion("willett", 0.01, 0.0, 0.001, 0.0)))
+    with pytest.raises(InputError, match="capillary bridges to a wall are not modelled"):
+        mechanics.with_walls(wet, p.walls)
+
+
+def test_the_log_line_names_the_walls_their_share_and_gravity():
+    from solver.pipeline import _walls_line
+
+    p = settled(3)
+    share = np.trace(p.info["stress_walls"]) / 3
+    assert _walls_line(p) == (f", walls z = 0, z = {p.walls.position[1]:g} ({p.info['n_wall_contacts']} wall contacts, "
+                              f"their share of the pressure {share:.3e}), g = [0.0, 0.0, -0.01]")
+    assert p.info["n_wall_contacts"] == 18  # 9 on the floor, 9 under the ceiling
