@@ -106,7 +106,10 @@ def test_the_results_file_holds_the_cell_and_rebuilds_at_rest(symmetric):
         raw = dem_formats.read_lammps_data(PACKINGS[kind]["file"])
         sides = (raw.box_hi - raw.box_lo)[[0, 0, 1]]
         assert_close(given["tilt"] / given["box"][[0, 0, 1]], raw.tilt / sides, rtol=1e-14, atol=0, what="xy xz yz")
-    if kind == "walls":
+    if kind == "walls":  # the notebook's walls and gravity are the packing's, which the stored forces hold at rest
+        assert_close(given["walls"]["axis"], [2, 2], rtol=0, atol=0, what="the walls' axes")
+        assert_close(given["walls"]["position"], p.walls.position, rtol=0, atol=0, what="the notebook's walls")
+        assert_close(given["gravity"], p.gravity, rtol=0, atol=0, what="the notebook's gravity")
         assert_all(p.walls is not None and p.wall_contacts is not None and p.gravity is not None,
                    "walls, wall contacts and gravity read back from the results file")
         assert_close(p.walls.position / p.box[2], [0.0, 1.0], rtol=1e-14, atol=1e-14,
