@@ -152,6 +152,7 @@ def test_the_exact_diffusivity_is_the_definition_in_the_cell(symmetric, comm):
     assert_close(got.d, d, rtol=1e-7, atol=0, what=f"{kind}: d_n")
 
 
+@pytest.mark.serial_only  # rank 0's files and figures, and OVITO's process (test_export's reason)
 def test_figures_and_exports_carry_the_cell(symmetric, tmp_path):
     """Every figure of the file passes tests/figures.py's checks; each export of the packing carries
     the cell: the dump read back by rotsound's reader (tilt, boundary flags, positions),
@@ -161,8 +162,6 @@ def test_figures_and_exports_carry_the_cell(symmetric, tmp_path):
     from solver import plots
 
     kind, path = symmetric
-    if COMM.rank != 0:
-        return  # files written by rank 0 alone
     assert_figures(plots.draw_results(path), plots.plot_results(path))
     with results.open_results(path) as f:
         given = results.packing(f, 0)
@@ -238,3 +237,35 @@ def test_waves_across_the_walls_are_refused(axes, shared_tmp):
     with pytest.raises(InputError, match="walls along z"):
         _run(shared_tmp, "refused", "walls", stressed=True, waves={"modes": ["L"], "n": [1], "axes": axes})
     assert_all(not (shared_tmp / "refused.h5").exists(), "no results file")
+
+
+def test_the_packet_between_walls_starts_without_images_across_them(comm):
+    """The spreading packet on the walls' packing (its unstressed springs): the start region holds the
+    non-rattlers within the radius of a centre near the lower wall through the images along x and y
+    only (brute force; with images along z too it would also hold spheres under the upper wall), and
+    the packet's energy is conserved."""
+    import itertools
+
+    from solver.contact_law import ContactModel
+    from solver.transport import packet
+
+    keys = PACKINGS["walls"]
+    p = hdf5.read_packings(keys["file"], contacts=keys["contacts"], friction=keys["friction"], walls=keys["walls"],
+                           wall_contacts=keys["wall_contacts"], gravity=keys["gravity"])[0]
+    centre, radius = np.array([1.0, 1.0, 0.5]), 2.5
+    dm = dynmat.assemble(p, ContactModel(RHO, stored_forces="drop"), comm)
+    try:
+        _, at = packet.spreading(dm, p.positions, p.cell, band=(1.0, 2.0), centre=centre, radius=radius,
+                                 times=np.linspace(0.0, 2.0, 5), seed=5, comm=comm, tol=1e-10)
+    finally:
+        dm.destroy()
+
+    def inside(shifts):
+        images = np.array(list(itertools.product(*shifts)), dtype=float) @ p.cell.matrix.T
+        distance = np.linalg.norm((p.positions - centre)[:, None, :] + images[None], axis=2).min(axis=1)
+        return int(((distance <= radius) & ~p.rattler).sum())
+
+    walled, through = inside([[-1, 0, 1], [-1, 0, 1], [0]]), inside([[-1, 0, 1]] * 3)
+    assert_all(at["start_particles"] == walled != through,
+               f"{at['start_particles']} start particles; brute force {walled} (through the walls {through})")
+    assert_close(at["energy_drift"], 0.0, rtol=0, atol=1e-8, what="the packet's energy drift")
