@@ -275,18 +275,14 @@ def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Sch
                              lammps_dem.record_every(spec.contacts_every), p.tangential) if plan.path == "lammps" \
         else None
     axes = excitation.wave_axes(spec, dm.dim)
-    ns, ks = excitation.wave_vectors(spec, p.box, axes)
-    if spec.kd0 is not None:
-        several = len(set(p.box[axes])) > 1  # sides that differ: one line per axis
-        for column, axis in enumerate(axes if several else axes[:1]):
-            along = f", along {'xyz'[axis]}" if several else ""
-            say(comm, f"waves: k d0 = {', '.join(f'{k:.4f}' for k in ks[:, column])} "
-                      f"(n = {', '.join(map(str, ns[:, column]))}, L = {p.box[axis]:.3f}{along})")
+    ns, ks = excitation.wave_vectors(spec, p.cell, axes)
+    for line in excitation.log_lines(spec, ns, ks, axes, p.cell):
+        say(comm, line)
     for unit in todo:
         check_interrupt(comm)
         t0 = time.perf_counter()
         at = spec if unit.amplitude is None else dataclasses.replace(spec, amplitude=spec.sweep[unit.amplitude])
-        datasets, attrs, summary = mode_unit(dm, p.positions, at, unit.mode, ns, ks, axes, plan, dem)
+        datasets, attrs, summary = mode_unit(dm, p.positions, at, unit.mode, ns, ks, axes, plan, dem, cell=p.cell)
         seconds = parallel.global_max(comm, time.perf_counter() - t0)
         sweep = {} if unit.amplitude is None else {"amplitude_index": unit.amplitude}
         commit(unit, datasets, {**attrs, "packing": unit.p_index, "seconds": seconds, **sweep})

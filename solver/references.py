@@ -12,7 +12,8 @@ that gather are collective and give the same result on every rank.
 - :func:`dense_eigen`: the full eigendecomposition of A; :func:`dense_eigenvalues`, its eigenvalues
   alone;
 - :func:`modal_weights`, :func:`exact_z_fixed`: one standing-wave run's z(t), exactly, as a sum
-  of cosines over A's modes (PHYSICS.md section 4);
+  of cosines over A's modes (PHYSICS.md section 4); :func:`exact_start_correlation`, the start's
+  own autocorrelation C_a(t) (docs/waves_theory.md);
 - :func:`verlet_eigen`: velocity Verlet's own frequencies, so that :func:`exact_z_fixed` gives
   Verlet's z at the steps exactly;
 - :func:`first_order_flow`: displacements and velocities of M u'' = -D u - C u' from u = 0,
@@ -70,11 +71,13 @@ def _weights(vec: np.ndarray, mass: np.ndarray, start: np.ndarray, phase: np.nda
     return ((phase.ravel() / np.sqrt(mass)) @ vec) * a
 
 
-def modal_weights(p, dm, eig, run, k, amplitude) -> tuple[np.ndarray, np.ndarray]:
+def modal_weights(p, dm, eig, run, k, amplitude, start: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(omega (n,), w (n,)): one standing-wave run's z(t) (r_i(0) in the phase) is exactly
-    sum_j w_j cos(omega_j t), from the full eigendecomposition ``eig`` = :func:`dense_eigen`
+    sum_j w_j cos(omega_j t) (with ``start``, the read-out is M v(0) instead of the channel:
+    v(0)^T M v(t) = sum_j w_j cos(omega_j t)), from the full eigendecomposition ``eig`` = :func:`dense_eigen`
     (PHYSICS.md section 4), 2D or 3D.  ``run`` = (component, axis): the start is the raw amplitude
-    sin(k r_a) in the component with its part in A's whole null space removed -- found from the
+    sin(k r_a) in the component (a tilted cell's (D,) wave vector ``k``: sin(k . r) in the
+    polarisation, ``_polarisation``) with its part in A's whole null space removed -- found from the
     eigenvalues (|lam| < 1e-10 max lam), not from ``dm.rigid_modes()``, and in A's
     (mass-weighted) metric, so the reference does not share the code's projection; RuntimeError
     (on every rank: the data are the same everywhere) when the two disagree on the number of zero
@@ -87,11 +90,44 @@ def modal_weights(p, dm, eig, run, k, amplitude) -> tuple[np.ndarray, np.ndarray
     mass = dynmat.in_packing_order(dm, dynmat.gather_vec(dm.M))
     component, axis = run
     r0 = p.positions[~p.rattler]
-    v0 = np.zeros((len(r0), dm.dof))
-    v0[:, component] = amplitude * np.sin(k * r0[:, axis])
-    b = np.zeros((len(r0), dm.dof), complex)
-    b[:, component] = np.exp(-1j * k * r0[:, axis])
-    return omega, _weights(vec, mass, v0, b, zero)
+    if np.ndim(k) == 0:
+        v0 = np.zeros((len(r0), dm.dof))
+        v0[:, component] = amplitude * np.sin(k * r0[:, axis])
+        b = np.zeros((len(r0), dm.dof), complex)
+        b[:, component] = np.exp(-1j * k * r0[:, axis])
+    else:
+        polarisation = _polarisation(component, axis, np.asarray(k, dtype=float), dm.dim, dm.dof)
+        phase = r0 @ np.asarray(k, dtype=float)
+        v0 = amplitude * np.sin(phase)[:, None] * polarisation
+        b = np.exp(-1j * phase)[:, None] * polarisation
+    return omega, _weights(vec, mass, v0, mass.reshape(v0.shape) * v0 if start else b, zero)
+
+
+def exact_start_correlation(p, dm, eig, run, k, t) -> np.ndarray:
+    """C_a(t) (S,) of one standing-wave run (component, axis) at times ``t``: the start's own
+    autocorrelation <v(0), v(t)>_M / <v(0), v(0)>_M = sum_j w_j cos(omega_j t) / sum_j w_j with
+    w_j = (e_j^T M^1/2 v(0))^2 (:func:`modal_weights` with ``start``: the read-out is M v(0)).
+    Collective (gathers M)."""
+    omega, w = modal_weights(p, dm, eig, run, k, 1.0, start=True)
+    return w @ np.cos(np.outer(omega, t)) / w.sum()
+
+
+def _polarisation(component: int, axis: int, k: np.ndarray, dim: int, dof: int) -> np.ndarray:
+    """(dof,) run (``component``, ``axis``)'s polarisation for the wave vector ``k`` (D,) of a tilted
+    cell, as docs/waves.md states it and not by ``waves.excitation``'s Gram-Schmidt: the column of
+    Q (QR of [k, e_c for c != axis], signs made positive on the diagonal of R) of the component's
+    place among them; 2D's angular velocity e_2."""
+    p = np.zeros(dof)
+    if component >= dim and dim == 2:
+        p[component] = 1.0
+        return p
+    first = dim if component >= dim else 0
+    order = [axis] + [c for c in range(dim) if c != axis]
+    columns = np.column_stack([k] + [np.eye(dim)[c] for c in order[1:]])
+    q, r = np.linalg.qr(columns)
+    q = q * np.sign(np.diag(r))
+    p[first:first + dim] = q[:, order.index(component - first)]
+    return p
 
 
 def exact_z_fixed(p, dm, eig, run, k, t, amplitude) -> np.ndarray:

@@ -80,6 +80,12 @@ def _walled_crystal(path):
         f["walls/position"] = np.array([0.0, 2.96])
 
 
+def _sheared(path):
+    """A maker: LAMMPS's sheared frictional packing (lammps_3d_sheared) at ``path``, its contacts at ``path.contacts``."""
+    shutil.copyfile(DEM / "lammps_3d_sheared.data", path)
+    shutil.copyfile(DEM / "lammps_3d_sheared.contacts", f"{path}.contacts")
+
+
 MERCURY = "packing: {file: '{file}', contacts: '{file}.fstat', contacts_format: mercury-fstat, friction: 0.5}\n"
 
 
@@ -420,6 +426,13 @@ CASES = [
      "tilted by packing.shear = 0.5, a height of 2.263, not more than two large diameters", None),
     ("a shear on a packing file", "packing: {file: '{file}', shear: 0.2}\n", [],
      "packing.shear = 0.2: the shear of a packing rotsound's FIRE generates", _valid),
+    ("LAMMPS's waves in a sheared cell", "packing: {n: 64, phi: 0.9, shear: 0.2, friction: 0.5}\n"
+     "waves: {engine: lammps, n: [1], amplitude: 1.0e-4}\n", [],
+     "waves.engine: lammps: packing.shear = 0.2 tilts the cell, and LAMMPS's finite-amplitude waves run in an "
+     "orthogonal box only", None),
+    ("LAMMPS's waves on a triclinic packing file", "packing: {file: '{file}', contacts: '{file}.contacts', "
+     "friction: 0.5}\nwaves: {engine: lammps, n: [1], amplitude: 1.0e-4}\n", [],
+     "waves.engine: lammps: configuration 0 is in a tilted cell (xy = 0.720845, xz = 0, yz = 0)", _sheared),
     ("a packing file whose tilt is beyond half a side", "packing: {file: '{file}'}\n", [],
      "attribute 'tilt' = [9.0]: tilt xy = 9 is beyond half the side L_x",
      lambda path: _valid(path, tilt=np.array([9.0]))),

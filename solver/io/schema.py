@@ -423,7 +423,9 @@ class WavesSpec:
                                        "2 pi n / L (reported)", _kd0, "floats_list")
     axes: list[str] | None = _f(None, "axes along which k runs, from x, y, z (z in 3D only); null: every axis. The "
                                       "runs along them are pooled, so in a box whose sides differ their allowed k "
-                                      "must agree to 1 %", _axes, "strs")
+                                      "must agree to 1 %. In a tilted (sheared) cell axis a means k along the "
+                                      "reciprocal vector b_a, L its height across a (docs/waves_theory.md)",
+                                _axes, "strs")
     amplitude: float | list[float] = _f(1e-3, "initial velocity amplitude A (d0/t0, or 1/t0 for RT); with "
                                                "engine: lammps a list is a sweep, one unit per amplitude",
                                         _range(0.0, 1.0, True), "number_or_list")

@@ -143,7 +143,7 @@ def plan(omega_max: float, damping_max: float, step: float, count: int, tol: flo
 
 
 @profiling.logged("rsChebyshevWave")
-def damped_spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: float, times: np.ndarray,
+def damped_spectral(dm, positions, mode: str, run: int, k: float | np.ndarray, *, amplitude: float, times: np.ndarray,
                     tol: float = 1e-8, omega_max: float | None = None,
                     damping_max: float | None = None) -> WaveSeries:
     """A damped standing wave (dashpots ``dm.C``; symmetric D) without time stepping, for run

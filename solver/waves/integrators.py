@@ -282,7 +282,7 @@ class FirstOrderProblem(_Problem):
         self.u_view.resetArray()
 
 
-def integrate(dm, positions, mode: str, run: int, k: float, *, amplitude: float,
+def integrate(dm, positions, mode: str, run: int, k: float | np.ndarray, *, amplitude: float,
               schedule: Schedule) -> WaveSeries:
     """Integrate one standing wave, run ``run`` of ``excitation.runs(mode, dm.dim)``, with
     ``schedule`` (see ``schedule.resolve_schedule``); return its samples. Collective.
@@ -316,5 +316,5 @@ def integrate(dm, positions, mode: str, run: int, k: float, *, amplitude: float,
         problem.ts.solve(problem.solution)
         taken = problem.ts.getStepNumber()
     if recorder.blown:
-        raise _blown(recorder, f"wave {mode} k = {k:.4f}", schedule)
+        raise _blown(recorder, f"wave {mode} k = {float(np.linalg.norm(k)):.4f}", schedule)
     return recorder.series(taken, used)[0]

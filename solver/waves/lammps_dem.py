@@ -9,6 +9,10 @@ overlap goes, new ones form, and a tangential spring that reaches mu f_n slides 
 it onto the cone).  The start is rotsound's (``excitation.whole_start``: v(0) over the matrix's
 active particles, zero displacement); the particles are the packing's (rattlers below), masses 1,
 radius d/2 (I = m d^2/8 as a disc in 2D, m d^2/10 in 3D), in its periodic box from the origin.
+An orthogonal box only [choice]: a packing in a tilted cell is refused before any run
+(``waves.rules.check_engine`` for ``packing.shear``, ``check_boxes`` for a tilted file), since the
+LAMMPS box, the history velocities' pair geometry and the contacts' records here are orthogonal
+and rotsound's linear waves take the tilted cell (referee: tests/waves/test_sheared_waves.py).
 
 Rattlers [choice]: they stay in LAMMPS's box but touch nothing and do not move, as the matrix
 leaves them out; a rattler pushing through its few contacts would add springs the matrix does

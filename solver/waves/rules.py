@@ -12,6 +12,7 @@ per matrix by ``schedule.plan``.  Pure and not collective: every rank raises the
 from __future__ import annotations
 
 from ..errors import InputError
+from ..packing.geometry import TILTS
 from . import excitation, lammps_dem
 from .schedule import MIN_SAMPLES, SECOND_ORDER
 
@@ -69,16 +70,19 @@ def check_damping(spec, dashpots: str) -> None:
 
 
 def check_boxes(spec, packings) -> None:
-    """Refuse wave numbers a packing's box does not allow (``excitation.wave_vectors``), and waves
-    along an axis a packing's walls close (standing waves run along periodic axes only;
-    docs/walls.md), for every packing. Not collective."""
+    """Refuse wave numbers a packing's cell does not allow (``excitation.wave_vectors``: in a tilted
+    cell along its reciprocal vectors), waves along an axis a packing's walls close (standing waves
+    run along periodic axes only; docs/walls.md), and ``waves.engine: lammps`` on a tilted cell or
+    between walls (its finite-amplitude runs build an orthogonal, periodic LAMMPS box: ``lammps_dem``),
+    for every packing. Not collective."""
     if spec is None:
         return
     for index, p in enumerate(packings):
+        cell = p.cell
         axes = excitation.wave_axes(spec, p.dim)
-        closed = [a for a in axes if p.periodic is not None and not p.periodic[a]]
+        closed = [a for a in axes if not cell.periodic[a]]
         if closed:
-            periodic = [name for a, name in enumerate("xyz"[:p.dim]) if a not in closed and p.periodic[a]]
+            periodic = [name for a, name in enumerate("xyz"[:p.dim]) if a not in closed and cell.periodic[a]]
             said = f"waves.axes = {spec.axes}" if spec.axes is not None else "waves.axes = null (every axis)"
             raise InputError(f"{said}: configuration {index} is bounded by walls along {'xyz'[closed[0]]}, which is not "
                              f"periodic: standing waves run along periodic axes only; give waves.axes from "
@@ -86,11 +90,20 @@ def check_boxes(spec, packings) -> None:
         if p.walls is not None and spec.engine == "lammps":
             raise InputError(f"waves.engine: lammps: configuration {index} has walls, which rotsound's LAMMPS waves do "
                              f"not set up; use rotsound's linear waves (waves.engine: rotsound)")
-        excitation.wave_vectors(spec, p.box, axes)
+        if spec.engine == "lammps" and cell.tilted:
+            tilt = ", ".join(f"{name} = {value:.6g}" for name, value in zip(TILTS[p.dim], cell.tilt))
+            _refuse_tilted_lammps(f"configuration {index} is in a tilted cell ({tilt})")
+        excitation.wave_vectors(spec, cell, axes)
+
+
+def _refuse_tilted_lammps(why: str) -> None:
+    raise InputError(f"waves.engine: lammps: {why}, and LAMMPS's finite-amplitude waves run in an orthogonal box "
+                     "only; use waves.engine: rotsound (the linear waves take the tilted cell)")
 
 
 def check_engine(spec, packing, model) -> None:
-    """Refuse, with ``waves.engine: lammps``, what LAMMPS's waves cannot take: rotsound's own
+    """Refuse, with ``waves.engine: lammps``, what LAMMPS's waves cannot take: a sheared cell
+    (``packing.shear``; a tilted file: ``check_boxes``), rotsound's own
     path or integrator given too (and ``contacts_every`` without it), no Coulomb coefficient (``packing.friction``), a contact model
     gran/*/history lacks (``lammps_dem.unsupported``), masses other than equal.  Not collective."""
     if spec is not None and spec.engine != "lammps" and spec.contacts_every is not None:
@@ -98,6 +111,8 @@ def check_engine(spec, packing, model) -> None:
                          "records of LAMMPS's contacts (waves.engine: lammps); rotsound's linear waves have none")
     if spec is None or spec.engine != "lammps":
         return
+    if packing.shear:
+        _refuse_tilted_lammps(f"packing.shear = {packing.shear:g} tilts the cell")
     if spec.method != "ts" or spec.integrator != "verlet":
         key, value = ("method", spec.method) if spec.method != "ts" else ("integrator", spec.integrator)
         raise InputError(f"waves.{key} = {value!r} with waves.engine: lammps: LAMMPS integrates the waves with its "

@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import parallel, profiling
-from ..model.operators import largest_omega, scaled_operator
+from .. import profiling
+from ..model.operators import largest_omega
 from .excitation import channel, runs, start_velocity
+from .lanczos import Recurrences, operator, scaled_starts, tridiagonal_eigen
 from .sampling import WaveSeries
 
 
-def spectral(dm, positions, mode: str, run: int, k: float, *, amplitude: float, times: np.ndarray,
+def spectral(dm, positions, mode: str, run: int, k: float | np.ndarray, *, amplitude: float, times: np.ndarray,
              tol: float = 1e-8, omega_max: float | None = None) -> WaveSeries:
     """One standing wave (run ``run`` of ``excitation.runs(mode, dm.dim)`` at ``k``):
     :func:`spectral_all` of that wave alone. Collective."""
@@ -70,103 +71,35 @@ def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitu
     Returns samples at ``times`` with z = z_fixed (the r_i(t) phase needs the trajectory) and a
     constant energy (exactly conserved).
     """
-    from mpi4py import MPI
-    from petsc4py import PETSc
-
-    comm = dm.D.getComm()
-    mpi = comm.tompi4py()
+    mpi = dm.D.getComm().tompi4py()
     s = 1.0 / np.sqrt(dm.M.getArray())
-    starts, channels = [], []
-    for mode, run, k in waves:
-        component, axis = runs(mode, dm.dim)[run]
-        starts.append(start_velocity(dm, positions, component, axis, k, amplitude, mpi) / s)
-        channels.append(channel(dm, positions, component, axis, k) * s)  # z = b^H v = (M^-1/2 b)^H (M^1/2 v)
-    a = np.asfortranarray(np.stack(starts, axis=1))  # (nloc, W)
+    a, norm_a = scaled_starts(dm, positions, waves, amplitude, mpi)
+    energy = 0.5 * norm_a**2
+    channels = [channel(dm, positions, *runs(mode, dm.dim)[run], k) * s for mode, run, k in waves]  # z = b^H v = (M^-1/2 b)^H (M^1/2 v)
     b_re = np.asfortranarray(np.stack([c.real for c in channels], axis=1))
     b_im = np.asfortranarray(np.stack([c.imag for c in channels], axis=1))
-    sq = mpi.allreduce(np.einsum("iw,iw->w", a, a), op=MPI.SUM)
-    norm_a, energy = np.sqrt(sq), 0.5 * sq
-    if dm.scaled is None:
-        dm.scaled = scaled_operator(dm)
-    A = dm.scaled
-    nloc, count = a.shape
-    X = PETSc.Mat().createDense(((nloc, A.getSize()[0]), (PETSc.DECIDE, count)),
-                                array=np.zeros((nloc, count), order="F"), comm=comm)
-    X.assemble()
-    q = X.getDenseArray()  # the current vectors, in the product's own storage
-    np.divide(a, norm_a, out=q)
-    del a, starts, channels  # from here on: q, q_prev, the product and b, five (nloc, W) blocks
-    q_prev = np.zeros_like(q, order="F")
-    Y = None
+    del channels
     floor = 1e-13 * omega_max**2  # |v| at the round-off of A q (~1e-16 ||A||, ||A|| = omega_max^2)
-    m_target = int(np.ceil(0.5 * omega_max * times[-1])) + 40
-    alpha, beta, w = [], [], []  # per step: (W,) each
-    length = np.full(count, -1)  # steps of a wave whose Krylov space closed (T exact), -1 while open
+    recurrences = Recurrences(operator(dm), a / norm_a, (b_re, b_im), floor)
+    del a  # from here on: q, q_prev, the product and b, five (nloc, W) blocks
+    lam_max = omega_max**2 * (1 + 1e-6)  # above the Lanczos estimate's error
+
+    def evaluate(alphas, betas, reads, sizes, closed):
+        ws = reads[0] - 1j * reads[1]
+        return [_z_and_estimate(alphas[:, i], betas[:, i], ws[:, i], norm_a[i], times, sizes[i], closed[i], lam_max)
+                for i in range(len(waves))]
+
     try:
-        while True:
-            while len(alpha) < m_target:
-                Y = A.matMult(X) if Y is None else A.matMult(X, Y)  # symbolic once, numeric after
-                v = Y.getDenseArray()
-                if beta:
-                    v -= beta[-1] * q_prev
-                local = np.concatenate([np.einsum("iw,iw->w", q, v), np.einsum("iw,iw->w", b_re, q),
-                                        np.einsum("iw,iw->w", b_im, q)])
-                dots = np.empty_like(local)
-                mpi.Allreduce(local, dots, op=MPI.SUM)  # buffers, not pickles: a step's fixed cost
-                alpha.append(dots[:count])
-                w.append(dots[count:2 * count] - 1j * dots[2 * count:])
-                v -= alpha[-1] * q
-                nrm = np.einsum("iw,iw->w", v, v)
-                mpi.Allreduce(MPI.IN_PLACE, nrm, op=MPI.SUM)
-                np.sqrt(nrm, out=nrm)
-                closed = (nrm < floor) & (length < 0)
-                length[closed] = len(alpha)
-                if np.all(length >= 0):
-                    break
-                done = length >= 0  # a closed wave's vector becomes 0 and stays 0 (beta 0, never read)
-                nrm[done] = 0.0
-                beta.append(nrm)
-                np.copyto(q_prev, q)
-                np.divide(v, np.where(done, 1.0, nrm), out=q)
-                q[:, done] = 0.0
-            m = len(alpha)
-            alphas, betas, ws = np.array(alpha), np.array(beta).reshape(-1, count), np.array(w)
-
-            def evaluate(_):
-                return [_z_and_estimate(alphas[:, i], betas[:, i], ws[:, i], norm_a[i], times,
-                                        m if length[i] < 0 else length[i], length[i] >= 0,
-                                        omega_max**2 * (1 + 1e-6))  # above the Lanczos estimate's error
-                        for i in range(count)]
-
-            # rank 0 evaluates and broadcasts, so every rank takes the same branch below
-            results = parallel.owner_compute(mpi, [0], evaluate)[0]
-            if all(estimate < tol for _, estimate in results) or np.all(length >= 0):
-                break
-            m_target = int(1.2 * m_target)
+        results, sizes = recurrences.converge(int(np.ceil(0.5 * omega_max * times[-1])) + 40, tol, evaluate)
     finally:
-        X.destroy()
-        if Y is not None:
-            Y.destroy()
+        recurrences.destroy()
     out = []
     for i, (z, estimate) in enumerate(results):
-        steps = int(m if length[i] < 0 else length[i])
-        settings = {"method": "lanczos", "tol": tol, "steps": steps, "omega_max": omega_max, "batch": count}
+        steps = sizes[i]
+        settings = {"method": "lanczos", "tol": tol, "steps": steps, "omega_max": omega_max, "batch": len(waves)}
         out.append(WaveSeries(np.asarray(times), z, z, np.full(len(times), energy[i]), steps, float(estimate),
                               settings))
     return out
-
-
-def _tridiagonal_eigen(alpha, beta) -> tuple[np.ndarray, np.ndarray]:
-    """(theta, S): the eigenpairs of the symmetric tridiagonal T with diagonal ``alpha`` (m,) and
-    off-diagonal ``beta`` (m - 1,).  MRRR (O(m^2)); it can fail on the clustered Ritz values that
-    lost orthogonality makes, and T is then diagonalised densely."""
-    from scipy.linalg import eigh_tridiagonal
-
-    alpha, beta = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
-    try:
-        return eigh_tridiagonal(alpha, beta)
-    except np.linalg.LinAlgError:
-        return np.linalg.eigh(np.diag(alpha) + np.diag(beta, 1) + np.diag(beta, -1))
 
 
 def _z_chebyshev(alpha, beta, w, norm_a: float, times, lam_max: float) -> np.ndarray:
@@ -222,7 +155,7 @@ def _z_and_estimate(alpha, beta, w, norm_a: float, times, size: int, exact: bool
 
     def z_of(m):
         if exact:  # a closed Krylov space: T_m is exact at every degree, the eigenpairs are needed
-            theta, S = _tridiagonal_eigen(alpha[:m], beta[:m - 1])
+            theta, S = tridiagonal_eigen(alpha[:m], beta[:m - 1])
         else:
             try:
                 theta, S = eigh_tridiagonal(np.asarray(alpha[:m], dtype=float), np.asarray(beta[:m - 1], dtype=float))
@@ -270,7 +203,7 @@ def _lanczos_pass(A, start, steps: int, floor: float, visit=None) -> tuple[list,
 
 
 @profiling.logged("rsLanczosField")
-def velocity_field(dm, positions, mode: str, run: int, k: float, *, amplitude: float, times: np.ndarray,
+def velocity_field(dm, positions, mode: str, run: int, k: float | np.ndarray, *, amplitude: float, times: np.ndarray,
                    tol: float = 1e-8, omega_max: float | None = None) -> tuple[np.ndarray, float]:
     """The whole velocity field of one standing wave (run ``run`` of ``mode`` at ``k``, as
     :func:`spectral` excites it) at ``times``: v(t) = M^-1/2 cos(sqrt(A) t) M^1/2 v(0), local rows
@@ -292,9 +225,7 @@ def velocity_field(dm, positions, mode: str, run: int, k: float, *, amplitude: f
     a = v0 / s
     norm_a = float(np.sqrt(mpi.allreduce(float(a @ a))))
     largest = mpi.allreduce(float(np.abs(v0).max(initial=0.0)), op=MPI.MAX)
-    if dm.scaled is None:
-        dm.scaled = scaled_operator(dm)
-    A = dm.scaled
+    A = operator(dm)
     start = A.createVecRight()
     start.setArray(a / norm_a)
     omega_max = largest_omega(dm) if omega_max is None else omega_max
@@ -305,7 +236,7 @@ def velocity_field(dm, positions, mode: str, run: int, k: float, *, amplitude: f
             m = len(alpha)
             coefficients = []
             for size in (m, max(m - 10, 1)):
-                theta, S = _tridiagonal_eigen(alpha[:size], beta[:size - 1])
+                theta, S = tridiagonal_eigen(alpha[:size], beta[:size - 1])
                 c = np.zeros((len(times), m))
                 c[:, :size] = norm_a * (np.cos(np.outer(times, np.sqrt(np.clip(theta, 0, None)))) * S[0]) @ S.T
                 coefficients.append(c)

@@ -25,12 +25,13 @@ from ..wording import counted
 
 
 def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, axes: list[int],
-              schedule: Schedule, dem: lammps_dem.Setting | None = None) -> tuple[dict, dict, str]:
+              schedule: Schedule, dem: lammps_dem.Setting | None = None, cell=None) -> tuple[dict, dict, str]:
     """(datasets, attrs, summary) of one mode on ``dm`` for the wave numbers ``ks`` (``ns``), both
     (K, A) over the A ``axes`` used (``excitation.wave_vectors``), every run of the mode in
     ``dm.dim`` dimensions along those axes (R runs: the first axis of z, z_fixed, energy_drift,
     error_estimate; which run is which: datasets ``runs`` (R, 2) and attribute ``run_labels``).
-    A run along axis a uses the k of that axis.
+    A run along axis a uses the k of that axis; in a tilted ``cell`` (``geometry.Cell``; None: an
+    orthogonal one) k runs along the reciprocal vector b_a (``excitation.wave_vector``).
 
     ``spec``: the scene's waves section; ``schedule``: how the runs go (``schedule.plan``: its
     ``path`` picks the function of ``PATHS``; the paths without time steps sample every
@@ -45,7 +46,8 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
     excited = [excitation.runs(mode, dm.dim)[r] for r in chosen]
     column = {r: axes.index(axis) for r, (_, axis) in zip(chosen, excited)}  # the k of the run's axis
     count = len(ks)
-    waves = [(mode, r, k) for r in chosen for k in ks[:, column[r]]]
+    waves = [(mode, r, excitation.wave_vector(k, axis, cell)) for r, (_, axis) in zip(chosen, excited)
+             for k in ks[:, column[r]]]
     run_path = functools.partial(_lammps, dem) if schedule.path == "lammps" else PATHS[schedule.path]
     flat, estimated, path_settings, summary = run_path(dm, positions, spec, waves, schedule)
     series = [flat[i * count:(i + 1) * count] for i in range(len(chosen))]
@@ -75,7 +77,7 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
         attrs["damping_max"] = schedule.damping_max
     if spec.snapshots:  # the schema allows them on the undamped spectral path only
         smallest = float(ks[:, column[chosen[0]]].min())
-        datasets.update(_snapshots(dm, positions, spec, mode, chosen[0], smallest, schedule))
+        datasets.update(_snapshots(dm, positions, spec, mode, chosen[0], excitation.wave_vector(smallest, excited[0][1], cell), schedule))
         attrs.update(snapshot_k=smallest, snapshot_run=excitation.run_label(*excited[0], dm.dim))
     return datasets, attrs, summary
 
