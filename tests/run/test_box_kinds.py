@@ -32,7 +32,8 @@ from solver import pipeline
 from solver.errors import InputError
 from solver.io import coerce, dem_formats, export, hdf5, results, schema
 from solver.model import dynmat
-from solver.references import allen_feldman_dense, dense_eigenvalues
+from solver.references import allen_feldman_dense, dense_eigen, dense_eigenvalues, exact_z_fixed
+from solver.waves import excitation
 
 DATA = REPO / "tests" / "data" / "dem"
 ETA = 0.05  # transport.eta (1/t0): a few level spacings of these few hundred modes
@@ -59,6 +60,8 @@ PACKINGS = {
 MODEL = {"sheared": {}, "triclinic": {}, "walls": {"stored_forces": "drop"},
          "mercury": {"lever": "contact", "stored_forces": "drop"}}  # MercuryDPM's lever: the overlap's middle
 STRESSED = ("walls", "mercury")
+TILTED = ("sheared", "triclinic")
+WAVES = {"modes": ["L", "TR"], "n": [1], "axes": ["x"], "t_end": 5.0}  # k = the reciprocal vector b_x
 PERIODIC = {"sheared": [True, True], "triclinic": [True] * 3, "walls": [True, True, False], "mercury": [True] * 3}
 
 
@@ -74,11 +77,13 @@ def _run(folder, name: str, kind: str, stressed: bool = False, **sections) -> st
 @pytest.fixture(scope="module", params=sorted(PACKINGS))
 def symmetric(request, tmp_path_factory):
     """(kind, results file) of the kind's symmetric scene: spectrum by slicing with energies, a mode
-    near omega = 1 kept whole, the exact Allen-Feldman diffusivity. Collective."""
+    near omega = 1 kept whole, the exact Allen-Feldman diffusivity; the tilted kinds' standing waves
+    (``WAVES``, by Lanczos). Collective."""
     kind = request.param
     folder = pathlib.Path(COMM.bcast(str(tmp_path_factory.mktemp(kind)) if COMM.rank == 0 else None, root=0))
+    waves = {"waves": dict(WAVES, method="spectral")} if kind in TILTED else {}
     return kind, _run(folder, "symmetric", kind, spectrum={"energies": True}, modes={"omega": [1.0]},
-                      transport={"eta": ETA})
+                      transport={"eta": ETA}, **waves)
 
 
 def _stored(path: str):
@@ -152,6 +157,38 @@ def test_the_exact_diffusivity_is_the_definition_in_the_cell(symmetric, comm):
     assert_close(got.d, d, rtol=1e-7, atol=0, what=f"{kind}: d_n")
 
 
+def test_standing_waves_run_along_the_reciprocal_vector(symmetric, comm):
+    """A tilted kind's standing waves have k = b_x, the cell's reciprocal vector of x (one period along
+    x in the cell: |k| = 2 pi / its height across x), and their z(t) is the exact modal sum of the
+    stored packing's matrix for that wave vector (``references.exact_z_fixed``: the start
+    A sin(k . r) along k for L, across it for TR); k along the x axis itself (2 pi / L_x e_x, the
+    orthogonal reading) misses by far more."""
+    kind, path = symmetric
+    if kind not in TILTED:
+        pytest.skip("waves of the tilted kinds (the others': test_a_stressed_file_gives_its_spectrum_and_waves)")
+    p, scene = _stored(path)
+    b = p.cell.reciprocal()[0]
+    with results.open_results(path) as f:
+        waves = results.waves(f)
+    dm = dynmat.assemble(p, scene.model.contact(RHO), comm, scene.model.masses)
+    try:
+        eig = dense_eigen(dm)
+        for mode in WAVES["modes"]:
+            w = waves[(RHO, mode)]
+            assert_close(w.k, [np.linalg.norm(b)], rtol=1e-14, atol=0, what=f"{kind} {mode}: |k| = |b_x|")
+            along_x = [run for run in excitation.runs(mode, p.dim) if run[1] == 0]  # the runs of waves.axes [x]
+            assert_all(w.z.shape[:2] == (len(along_x), 1), f"{kind} {mode}: z of shape {w.z.shape}")
+            for index, run in enumerate(along_x):
+                exact = exact_z_fixed(p, dm, eig, run, b, w.t, scene.waves.amplitude)
+                scale = np.abs(exact).max()
+                assert_close(w.z[index, 0], exact, rtol=0, atol=1e-7 * scale, what=f"{kind} {mode} run {run}: z(t)")
+                orthogonal = exact_z_fixed(p, dm, eig, run, 2 * np.pi / p.box[0], w.t, scene.waves.amplitude)
+                assert_all(np.abs(orthogonal - w.z[index, 0]).max() > 1e-3 * scale,
+                           f"{kind} {mode}: the orthogonal k misses by only {np.abs(orthogonal - w.z[index, 0]).max()}")
+    finally:
+        dm.destroy()
+
+
 @pytest.mark.serial_only  # rank 0's files and figures, and OVITO's process (test_export's reason)
 def test_figures_and_exports_carry_the_cell(symmetric, tmp_path):
     """Every figure of the file passes tests/figures.py's checks; each export of the packing carries
@@ -162,7 +199,8 @@ def test_figures_and_exports_carry_the_cell(symmetric, tmp_path):
     from solver import plots
 
     kind, path = symmetric
-    assert_figures(plots.draw_results(path), plots.plot_results(path))
+    written = plots.plot_results(path)  # before draw_results, which keeps its figures open
+    assert_figures(plots.draw_results(path), written)
     with results.open_results(path) as f:
         given = results.packing(f, 0)
     files = {fmt: export.export(path, fmt, str(tmp_path / name))[0][0]
@@ -227,7 +265,8 @@ def test_a_stressed_file_gives_its_spectrum_and_waves(kind, shared_tmp):
 
         from solver import plots
 
-        assert_figures(plots.draw_results(path), plots.plot_results(path))
+        written = plots.plot_results(path)  # before draw_results, which keeps its figures open
+        assert_figures(plots.draw_results(path), written)
 
 
 @pytest.mark.parametrize("axes", [["z"], None], ids=["z", "every-axis"])
