@@ -56,8 +56,10 @@ PACKINGS = {
               "gravity": GRAVITY},
     "mercury": {"file": str(DATA / "mercury_3d_friction.data"), "contacts": str(DATA / "mercury_3d_friction.fstat"),
                 "contacts_format": "mercury-fstat", "friction": 0.5},
+    "liggghts": {"file": str(DATA / "liggghts_triclinic.dump")},  # LIGGGHTS's dump of the triclinic state
 }
-MODEL = {"sheared": {}, "triclinic": {}, "walls": {"stored_forces": "drop"},
+KINDS = ("mercury", "sheared", "triclinic", "walls")  # through every stage; liggghts: its counted vDOS
+MODEL = {"sheared": {}, "triclinic": {}, "liggghts": {}, "walls": {"stored_forces": "drop"},
          "mercury": {"lever": "contact", "stored_forces": "drop"}}  # MercuryDPM's lever: the overlap's middle
 STRESSED = ("walls", "mercury")
 TILTED = ("sheared", "triclinic")
@@ -74,7 +76,7 @@ def _run(folder, name: str, kind: str, stressed: bool = False, **sections) -> st
     return str(out)
 
 
-@pytest.fixture(scope="module", params=sorted(PACKINGS))
+@pytest.fixture(scope="module", params=KINDS)
 def symmetric(request, tmp_path_factory):
     """(kind, results file) of the kind's symmetric scene: spectrum by slicing with energies, a mode
     near omega = 1 kept whole, the exact Allen-Feldman diffusivity; the tilted kinds' standing waves
@@ -222,10 +224,11 @@ def test_figures_and_exports_carry_the_cell(symmetric, tmp_path):
         np.testing.assert_allclose(back.walls.position, [0.0, given["box"][2]], rtol=0, atol=1e-13)
 
 
-@pytest.mark.parametrize("kind", ["sheared", "walls"])
+@pytest.mark.parametrize("kind", ["sheared", "walls", "liggghts"])
 def test_the_counted_vdos_and_kpm_diffusivity(kind, shared_tmp, comm):
-    """spectrum.method counting gives the sliced spectrum's histogram on the same bins (exact
-    counts by inertia), and transport.method kpm estimates that many modes in all."""
+    """spectrum.method counting gives the dense spectrum's histogram on its bins (exact counts by
+    inertia), and transport.method kpm estimates that many modes in all.  LIGGGHTS's dump of the
+    triclinic state (its bounding box and tilts) reads as LAMMPS's data file of it."""
     path = _run(shared_tmp, "counted", kind, spectrum={"method": "counting"},
                 transport={"method": "kpm", "probes": 4})
     p, scene = _stored(path)
@@ -242,6 +245,9 @@ def test_the_counted_vdos_and_kpm_diffusivity(kind, shared_tmp, comm):
     assert_close(vdos.density * np.diff(vdos.edges) * omega.size, counts, rtol=1e-12, atol=1e-9,
                  what=f"{kind}: counted modes per bin")
     assert_close(d.count.sum(), omega.size, rtol=0.02, atol=0, what="kpm's estimated number of modes")
+    if kind == "liggghts":
+        lammps = hdf5.read_packings(PACKINGS["triclinic"]["file"])[0]
+        assert_close(p.cell.matrix, lammps.cell.matrix, rtol=1e-7, atol=0, what="LIGGGHTS's cell (its %g digits)")
 
 
 @pytest.mark.parametrize("kind", STRESSED)
