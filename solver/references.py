@@ -318,8 +318,8 @@ def allen_feldman_binned_dense(dm, positions: np.ndarray, box, edges: np.ndarray
                                min_count: float = 1.0) -> dict:
     """The Allen-Feldman diffusivity per omega bin of ``dm`` (symmetric) in the trace form of
     docs/diffusivity_trace.md, exactly: {"count", "total", "d"}, each (B,) over the bins ``edges``
-    (B+1,) in 1/t0; ``box`` as :func:`allen_feldman_dense`'s.  Over the modes with omega > ``zero_tol`` (``eigh`` of the gathered A),
-    Y^a = V^T X^a V (X^a dense, as :func:`allen_feldman_dense`):
+    (B+1,) in 1/t0; ``box`` as :func:`allen_feldman_dense`'s.  Over the modes with omega >
+    ``zero_tol`` (``eigh`` of the gathered A), Y^a = V^T X^a V (X^a dense, as :func:`allen_feldman_dense`):
 
         total_b = pi / (4 D Delta_b) sum_a sum_{n, m} |Y^a_nm|^2 w_nm f_b(lambda_n) f_b(lambda_m),
         count_b = sum_n i_b(lambda_n),   d_b = total_b / count_b (NaN where count_b < ``min_count``),

@@ -97,6 +97,18 @@ def _stored(path: str):
     return hdf5.read_packings(path, count=1, model=model)[0], scene
 
 
+def _dense_omega(path: str, comm) -> np.ndarray:
+    """Every non-zero mode's omega (ascending, 1/t0; above spectrum.zero_tol) of the matrix at RHO of
+    results file ``path``'s stored packing (:func:`_stored`), by dense LAPACK. Collective."""
+    p, scene = _stored(path)
+    dm = dynmat.assemble(p, scene.model.contact(RHO), comm, scene.model.masses)
+    try:
+        lam = dense_eigenvalues(dm)
+    finally:
+        dm.destroy()
+    return np.sqrt(lam[lam > scene.spectrum.zero_tol**2])
+
+
 def test_the_results_file_holds_the_cell_and_rebuilds_at_rest(symmetric):
     """The notebook API gives each kind's cell (tilt, periodic axes), and the packing group reads back
     as a packing at rest (the walls' kind: only with its walls, wall contacts and gravity, which the
@@ -127,13 +139,7 @@ def test_the_spectrum_and_modes_are_the_dense_spectrum(symmetric, comm):
     """Slicing's omega of every mode and the kept mode's omega are the dense eigenvalues of the
     matrix rebuilt from the stored packing (its cell, walls and springs as the scene gives them)."""
     kind, path = symmetric
-    p, scene = _stored(path)
-    dm = dynmat.assemble(p, scene.model.contact(RHO), comm, scene.model.masses)
-    try:
-        lam = dense_eigenvalues(dm)
-    finally:
-        dm.destroy()
-    dense = np.sqrt(lam[lam > scene.spectrum.zero_tol**2])
+    dense = _dense_omega(path, comm)
     with results.open_results(path) as f:
         omega, participation = results.participation(f)[RHO]
         (shapes,) = results.mode_shapes(f)
@@ -231,13 +237,8 @@ def test_the_counted_vdos_and_kpm_diffusivity(kind, shared_tmp, comm):
     triclinic state (its bounding box and tilts) reads as LAMMPS's data file of it."""
     path = _run(shared_tmp, "counted", kind, spectrum={"method": "counting"},
                 transport={"method": "kpm", "probes": 4})
-    p, scene = _stored(path)
-    dm = dynmat.assemble(p, scene.model.contact(RHO), comm, scene.model.masses)
-    try:
-        lam = dense_eigenvalues(dm)
-    finally:
-        dm.destroy()
-    omega = np.sqrt(lam[lam > scene.spectrum.zero_tol**2])
+    p, _ = _stored(path)
+    omega = _dense_omega(path, comm)
     with results.open_results(path) as f:
         (vdos,) = results.vdos(f).values()
         d = results.diffusivity(f)[RHO]
