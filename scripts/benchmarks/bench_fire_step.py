@@ -1,29 +1,36 @@
-"""FIRE's cost per disk-step (issue 48 point 3: a 10^6-disk packing): the compiled vector updates
-(``packing.fire_steps``) and Verlet-list check (``pair_forces.largest_squared_move``) against the
-numpy expressions they replaced, in the same run, from the same start, and where a step's time
-goes.  One BLAS thread, as in a run: ``solver`` is
-imported before numpy (records before 2026-11-28T11:10 had OpenBLAS's two threads in FIRE's
-three dot products).
+"""FIRE's cost per disk-step on 1 and 2 threads (issue 60 point 3: a 10^6-disk packing in under 30
+min, both cores, the same packing on any number of threads).
 
     python -m scripts.benchmarks.bench_fire_step [N ...] [--steps S] [--start random|jammed] [--whole]
-    (defaults: N = 262144, S = 400, random; --whole: FIRE until max |F| < 1e-6, jammed.generate's
-    criterion, instead of S steps: a whole minimisation, before and after)
+                                                 [--threads T ...] [--fire NAME=VALUE ...]
+    (defaults: N = 262144, S = 400, random, T = 1 2; --whole: FIRE until max |F| < 1e-6,
+    jammed.generate's criterion, instead of S steps: a whole minimisation; --fire: FIRE's
+    parameters other than ``fire.FireParameters``' defaults, e.g. --fire alpha_start=0.25 n_min=20)
 
 Start ``random``: the start of ``jammed.generate`` (phi = 0.9, seed [1, 0], bidisperse disks),
 where FIRE's first steps move the disks far and the neighbour list is rebuilt often.  Start
 ``jammed``: the steady state of FIRE's long end near jamming, which is most of a large
 minimisation's steps: the jammed 16384-disk packing of ``benchlib.load_packing`` tiled k x k
 times (N = 16384 k^2; a tiling of a force-balanced periodic packing is force-balanced), each disk
-moved by a uniform random vector of up to 0.01 d0 (seed 2).  FIRE for S steps
-(the force tolerance unreachable, so every step is taken) with each version of the code, one
-core, one BLAS thread; the two end positions must be equal bit for bit.  Per version: seconds per
-step, ns per disk-step, and the force engine's share (the pair forces and the neighbour list,
-timed inside the same run).  Writes scripts/benchmarks/records/fire_step.json.
+moved by a uniform random vector of up to 0.01 d0 (seed 2).  Each (N, T) runs FIRE in a fresh
+process with NUMBA_NUM_THREADS = T (numba's pool is made at its first parallel call, with that
+many threads), one BLAS thread, for S steps (the force tolerance unreachable, so every step is
+taken) or to convergence; the end positions of every T must be equal bit for bit (column
+bit_for_bit, against T's first).  Per row: steps, seconds, ns per disk-step, the force engine's
+share (the pair forces and the neighbour list, timed inside the same run), and the process's CPU
+seconds over its wall seconds ("cores_busy": 2 when both cores work all the time).  Writes
+scripts/benchmarks/records/fire_step.json (merged with the rows of before; rows before
+2026-12-06 compared numpy's vector updates with the compiled ones, column "code", a comparison
+the code no longer has).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import hashlib
+import json
+import os
 import sys
 import time
 
@@ -31,52 +38,10 @@ import solver  # noqa: F401  before numpy: one OpenBLAS thread, as in a run (sol
 
 import numpy as np
 
-from scripts.benchmarks.benchlib import load_packing, save
-from solver.packing import fire, fire_steps, geometry, jammed, mechanics
+from scripts.benchmarks.benchlib import PY, load_packing, run_json, save
+from solver.packing import fire, geometry, jammed, mechanics
 
 BENCH = {"order": 25, "args": ["131072", "--steps", "200"]}
-
-
-class NumpySteps:
-    """The numpy expressions ``packing.fire_steps`` replaced (named in its docstrings), put in its
-    place while ``fire.minimize`` runs: the same algorithm, the previous updates."""
-
-    @staticmethod
-    def largest_squared_force(f):
-        return np.max(np.sum(f * f, axis=1))
-
-    @staticmethod
-    def kick(v, f, dt):
-        v += dt * f
-
-    @staticmethod
-    def mix_and_move(x, v, f, keep, push, dt):
-        v[:] = keep * v + push * f
-        x += dt * v
-
-    @staticmethod
-    def move(x, v, dt):
-        x += dt * v
-
-    @staticmethod
-    def largest_squared_move(x, reference):
-        """The Verlet list's check (``pair_forces.largest_squared_move``) as numpy did it."""
-        step = x - reference
-        return np.einsum("nd,nd->n", step, step).max()
-
-
-def numpy_minimize(x0, forces, force_tol, steps):
-    """``fire.minimize`` with :class:`NumpySteps` for the compiled updates and the force engine's
-    (``forces.engine``) compiled list check; its FireResult."""
-    forces.engine.largest_squared_move = NumpySteps.largest_squared_move
-    saved = {name: getattr(fire_steps, name) for name in ("largest_squared_force", "kick", "mix_and_move", "move")}
-    try:
-        for name in saved:
-            setattr(fire_steps, name, getattr(NumpySteps, name))
-        return fire.minimize(x0, forces, force_tol, steps)
-    finally:
-        for name, function in saved.items():
-            setattr(fire_steps, name, function)
 
 
 class Timed:
@@ -121,6 +86,37 @@ def jammed_start(n: int):
     return start[order], diameters[order], box
 
 
+def parameters(pairs: list[str]) -> fire.FireParameters:
+    """FireParameters with the NAME=VALUE ``pairs`` changed (each value of its field's type)."""
+    types = {field.name: type(field.default) for field in dataclasses.fields(fire.FireParameters)}
+    changed = {}
+    for pair in pairs:
+        name, _, value = pair.partition("=")
+        if name not in types:
+            raise SystemExit(f"--fire {pair}: no FIRE parameter {name} (there are {', '.join(types)})")
+        changed[name] = value in ("1", "true", "True") if types[name] is bool else types[name](value)
+    return fire.FireParameters(**changed)
+
+
+def child(n: int, start_name: str, force_tol: float, steps: int, params: fire.FireParameters) -> None:
+    """One FIRE run on this process's threads; prints one JSON line."""
+    import numba
+
+    start, diameters, box = (random_start if start_name == "random" else jammed_start)(n)
+    engine = Timed(mechanics.FrictionlessForces(diameters, box))
+    engine(start)  # the first list and numba's first calls (compiling or loading), outside the timing
+    fire.minimize(start[:TILE], mechanics.FrictionlessForces(diameters[:TILE], box), 0.0, 2, params)
+    engine.seconds = 0.0
+    cpu, t = os.times(), time.perf_counter()
+    result = fire.minimize(start, engine, force_tol, steps, params)
+    seconds, used = time.perf_counter() - t, os.times()
+    print(json.dumps({"threads": numba.get_num_threads(), "steps": result.steps, "converged": result.converged,
+                      "s": seconds, "cores_busy": (used.user + used.system - cpu.user - cpu.system) / seconds,
+                      "neighbour_rebuilds": engine.engine.rebuilds, "neighbour_refreshes": engine.engine.refreshes,
+                      "force_engine_share": engine.seconds / seconds,
+                      "end": hashlib.sha256(result.x.tobytes()).hexdigest()[:16]}))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("n", type=int, nargs="*", default=[262144])
@@ -128,31 +124,30 @@ def main() -> None:
     parser.add_argument("--start", choices=("random", "jammed"), default="random")
     parser.add_argument("--whole", action="store_true",
                         help="FIRE to jammed.generate's force tolerance (1e-6) instead of S steps")
+    parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--fire", nargs="*", default=[], metavar="NAME=VALUE")
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     force_tol, steps = (1e-6, 2_000_000) if args.whole else (0.0, args.steps)
+    params = parameters(args.fire)
+    if args.child:
+        child(args.n[0], args.start, force_tol, steps, params)
+        return
     table = []
     for n in args.n:
-        start, diameters, box = (random_start if args.start == "random" else jammed_start)(n)
-        ends = {}
-        for name, run in (("numpy updates and check (before)", lambda s, e: numpy_minimize(s, e, force_tol, steps)),
-                          ("compiled updates and check", lambda s, e: fire.minimize(s, e, force_tol, steps))):
-            engine = Timed(mechanics.FrictionlessForces(diameters, box))
-            engine(start)  # the first list and numba's first call, outside the timing
-            engine.seconds = 0.0
-            t = time.perf_counter()
-            result = run(start, engine)
-            seconds = time.perf_counter() - t
-            ends[name] = result.x
-            table.append({"N": n, "start": args.start, "code": name, "steps": result.steps,
-                          "converged": result.converged, "s": seconds,
-                          "neighbour_rebuilds": engine.engine.rebuilds, "neighbour_refreshes": engine.engine.refreshes,
-                          "s_per_step": seconds / result.steps, "ns_per_disk_step": 1e9 * seconds / result.steps / n,
-                          "force_engine_share": engine.seconds / seconds})
-        table[-1]["bit_for_bit"] = table[-2]["bit_for_bit"] = bool(np.array_equal(*ends.values()))
-        table[-1]["speedup"] = table[-2]["s_per_step"] / table[-1]["s_per_step"]
+        first = None
+        for threads in args.threads:
+            cmd = [PY, "-m", "scripts.benchmarks.bench_fire_step", str(n), "--steps", str(args.steps), "--start",
+                   args.start, *(["--whole"] if args.whole else []), "--fire", *args.fire, "--child"]
+            out = run_json(cmd, timeout=6 * 3600, env={**os.environ, "NUMBA_NUM_THREADS": str(threads)})
+            end = out.pop("end")
+            first = first or (end, out["s"] / out["steps"])
+            table.append({"N": n, "start": args.start, "fire": " ".join(args.fire) or "defaults", **out,
+                          "s_per_step": out["s"] / out["steps"], "ns_per_disk_step": 1e9 * out["s"] / out["steps"] / n,
+                          "bit_for_bit": end == first[0], "speedup": first[1] / (out["s"] / out["steps"])})
     table = [{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in row.items()} for row in table]
     save("fire_step", "python -m scripts.benchmarks.bench_fire_step " + " ".join(sys.argv[1:]), table,
-         merge_by=("N", "start", "code", "converged"))
+         merge_by=("N", "start", "threads", "fire", "converged"))
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import numpy as np
 
 from .. import __version__
 from .. import options
+from ..packing import fire
 from ..spectrum.plan import probe_seed
 from ..transport.rules import bin_width as transport_bin_width
 from ..waves import lammps_dem
@@ -173,17 +174,19 @@ def packing_key(scene, index: int) -> UnitKey:
     """Key of generated packing ``index`` of ``scene``: its recipe.
 
     ``dim`` joins the settings only in 3D, ``engine`` only when it is lammps, ``law`` only when
-    it is hertz, ``shear`` only when not 0: a 2D harmonic FIRE recipe
-    hashes as it did before these keys existed, so 2D packings already in a units folder or the
-    cache are found again (and a 3D or LAMMPS recipe never matches one).
+    it is hertz, ``shear`` only when not 0, and ``fire``, the version of rotsound's FIRE
+    (``fire.VERSION``), whenever FIRE makes the packing: a packing made by an earlier FIRE, which
+    took other steps, is not found again (and a 3D or LAMMPS recipe never matches a 2D or FIRE one).
     """
     spec = scene.packing
     settings = {"n": spec.n, "phi": spec.phi, "seed": scene.seed, "index": index, "force_tol": spec.force_tol,
                 "max_steps": spec.max_steps}
     if spec.dim == 3:
         settings["dim"] = 3
-    if spec.engine != "fire":  # likewise: rotsound's FIRE keeps the keys of before
+    if spec.engine != "fire":
         settings["engine"] = spec.engine
+    else:  # rotsound's FIRE: its version (fire.VERSION), which changes its packings
+        settings["fire"] = fire.VERSION
     if scene.model.law != "harmonic":  # the normal law FIRE minimises
         settings["law"] = scene.model.law
     if spec.friction is not None and spec.engine == "lammps":  # a frictional packing made by LAMMPS (with FIRE

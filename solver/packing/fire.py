@@ -13,6 +13,13 @@ from typing import Callable
 import numpy as np
 
 
+VERSION = 2
+"""The algorithm's version, part of a generated packing's content key (``unit_keys.packing_key``):
+raised whenever FIRE's steps change a bit (its parameters, the order of its sums), so that a packing
+made before is never taken from a units folder or a cache for one made now.  1: one thread (no
+version in the key); 2: the force pass and the sums threaded, in a fixed order (issue 60)."""
+
+
 @dataclass(frozen=True)
 class FireParameters:
     """FIRE knobs (dimensionless, times in t0)."""
@@ -24,6 +31,7 @@ class FireParameters:
     f_dec: float = 0.5
     alpha_start: float = 0.1
     f_alpha: float = 0.99
+    initial_delay: bool = False  # FIRE 2.0's: no dt cut or alpha reset in the first n_min steps (measured mixed)
 
 
 @dataclass(frozen=True)
@@ -46,19 +54,28 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
     (P = F.v <= 0) the step is halved, velocities zeroed and x moved back by dt v / 2.  Stops,
     not converged, at the first force that is not finite (NaN or inf), ``max_force`` saying so.
     """
-    from .fire_steps import kick, largest_squared_force, mix_and_move, move  # numba: imported when used
+    from .fire_steps import threads_for  # numba: imported when used
+
+    with threads_for(len(x0)):
+        return _minimize(x0, forces, force_tol, max_steps, params)
+
+
+def _minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, float]], force_tol: float,
+              max_steps: int, params: FireParameters) -> FireResult:
+    """:func:`minimize`'s loop."""
+    from .fire_steps import force_measures, kick, mix_and_move, move
 
     x = np.array(x0, dtype=float)
     v = np.zeros_like(x)
     dt, alpha, positive = params.dt_start, params.alpha_start, 0
     f, energy = forces(x)
     for step in range(max_steps + 1):
-        max_force = float(np.sqrt(largest_squared_force(f)))
+        largest, power, f_squared = force_measures(f, v)
+        max_force = float(np.sqrt(largest))
         if max_force < force_tol:
             return FireResult(x, step, max_force, energy, True)
         if step == max_steps or not np.isfinite(max_force):  # a NaN or infinite force: no step can mend it
             return FireResult(x, step, max_force, energy, False)
-        power = float(np.vdot(f, v))
         if power > 0.0:
             positive += 1
             if positive > params.n_min:
@@ -66,14 +83,14 @@ def minimize(x0: np.ndarray, forces: Callable[[np.ndarray], tuple[np.ndarray, fl
                 alpha *= params.f_alpha
         else:
             positive = 0
-            dt *= params.f_dec
-            alpha = params.alpha_start
+            if not (params.initial_delay and step < params.n_min):
+                dt *= params.f_dec
+                alpha = params.alpha_start
             x -= 0.5 * dt * v
             v[:] = 0.0
-        kick(v, f, dt)
-        f_norm = np.sqrt(np.vdot(f, f))
-        if f_norm > 0.0:
-            mix_and_move(x, v, f, 1.0 - alpha, alpha * (np.sqrt(np.vdot(v, v)) / f_norm), dt)
+        v_squared = kick(v, f, dt)
+        if f_squared > 0.0:
+            mix_and_move(x, v, f, 1.0 - alpha, alpha * np.sqrt(v_squared / f_squared), dt)
         else:
             move(x, v, dt)
         f, energy = forces(x)

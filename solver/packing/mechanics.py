@@ -54,10 +54,11 @@ class FrictionlessForces:
     FIRE a few particles, about 1 %, trip the list while the median has moved s/30: measured at
     N = 2048 in 3D.)  The skin is at most (min L_a/2 - max d)/1.25 (in a tilted cell, the smallest
     height for L_a: ``geometry.narrowest``), so that a listed pair touches through its listed image
-    only (tiny 3D boxes).  The pairs stay sorted by (i, j), so each
-    particle's forces are summed in a fixed order; the pass over them is compiled
-    (``pair_forces.net_forces``), and so is each step's check of the largest move
-    (``pair_forces.largest_squared_move``).  Measured at N = 32768 in 3D: a refresh of 1 % of the
+    only (tiny 3D boxes).  The pairs stay sorted by (i, j), and each
+    change of the list remakes its neighbour table, so each particle's force is summed over its
+    neighbours in a fixed order; the pass over them is compiled and threaded, the same bits on any
+    number of threads (``pair_forces.net_forces``), and so is each step's check of the largest
+    move (``pair_forces.largest_squared_move``).  Measured at N = 32768 in 3D: a refresh of 1 % of the
     particles 30 ms against 150 ms for a rebuild; at N = 8192 the refreshes cut the packing's time
     by a fifth.
     """
@@ -70,9 +71,10 @@ class FrictionlessForces:
         self.largest = float(diameters.max())
         self.skin = min(skin, (0.5 * geometry.narrowest(box) - self.largest) / self.REACH)
         self.reference: np.ndarray | None = None
+        self.table: tuple | None = None  # the neighbour table's arrays (pair_forces.neighbour_table), reused
         self.rebuilds = self.refreshes = 0
-        from .pair_forces import largest_squared_move, net_forces  # here, not at the top: numba takes 0.5 s
-        self.net_forces, self.largest_squared_move = net_forces, largest_squared_move
+        from . import pair_forces  # here, not at the top: numba takes 0.5 s
+        self.compiled = pair_forces
 
     def _near(self, x: np.ndarray, i: np.ndarray, j: np.ndarray, reach: float):
         """The pairs among (i, j) closer than their contact distance plus ``reach``, as
@@ -87,13 +89,20 @@ class FrictionlessForces:
 
     def _use(self, i: np.ndarray, j: np.ndarray, shift: np.ndarray, contact: np.ndarray,
              reduced: np.ndarray) -> None:
-        """Make the list (pairs sorted by (i, j)) current."""
+        """Make the list (pairs sorted by (i, j)) current, and its neighbour table (each particle's
+        entries in a fixed order: ``pair_forces.neighbour_table``)."""
         self.i, self.j, self.shift, self.contact, self.reduced = i, j, shift, contact, reduced
+        rows = 2 * i.size
+        if self.table is None or self.table[1].size < rows:  # room for a quarter more: grown rarely
+            rows += rows // 4
+            self.table = (np.empty(self.diameters.size + 1, dtype=np.int64), np.empty(rows, dtype=np.int64),
+                          np.empty((rows, shift.shape[1])), np.empty(rows), np.empty(rows))
+        self.compiled.neighbour_table(self.diameters.size, i, j, shift, contact, reduced, *self.table)
 
     def _rebuild(self, x: np.ndarray) -> None:
         pairs = geometry.candidate_pairs(x, self.box, self.largest + self.skin)  # sorted by (i, j)
         self._use(*self._near(x, pairs[:, 0], pairs[:, 1], self.skin))
-        self.reference, self.scratch = x.copy(), np.empty_like(x)
+        self.reference = x.copy()
         self.relisted = np.zeros(x.shape[0], dtype=bool)
         self.rebuilds += 1
 
@@ -114,7 +123,7 @@ class FrictionlessForces:
         self.refreshes += 1
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, float]:
-        moved = None if self.reference is None else self.largest_squared_move(x, self.reference)  # compiled: every step
+        moved = None if self.reference is None else self.compiled.largest_squared_move(x, self.reference)  # every step
         if moved is None:
             self._rebuild(x)
         elif np.isnan(moved):  # a position is NaN: no list can be made, and no force is known
@@ -127,8 +136,7 @@ class FrictionlessForces:
             else:
                 self._refresh(x, movers)
         force = np.empty_like(x)
-        energy = self.net_forces(x, self.i, self.j, self.shift, self.contact, self.reduced, self.hertz,
-                                 force, self.scratch)
+        energy = self.compiled.net_forces(x, *self.table, self.hertz, force)
         return force, energy  # eq:eij at rho = 0
 
 

@@ -43,18 +43,22 @@ class TangentialForces:
         contact with no stored force (a pair that touched only at the end, or a file that lists
         only the loaded contacts).  ``build`` has checked that every stored pair touches."""
         n = int(max(self.pairs.max(initial=-1), i.max(initial=-1), j.max(initial=-1))) + 1
-        keys = self.pairs[:, 0] * n + self.pairs[:, 1]
-        wanted = i.astype(np.int64) * n + j
-        at = np.searchsorted(keys, wanted)
-        hit = at < keys.size
-        hit[hit] = keys[at[hit]] == wanted[hit]
-        out = np.zeros((i.size, self.force.shape[1]))
-        out[hit] = self.force[at[hit]]
-        return out
+        return stored_at(self.pairs[:, 0] * n + self.pairs[:, 1], self.force, i.astype(np.int64) * n + j)
 
     def nonzero(self) -> bool:
         """Whether any stored force is not zero (then the matrix is not symmetric)."""
         return bool(np.any(self.force != 0.0))
+
+
+def stored_at(keys: np.ndarray, force: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """The rows of ``force`` (K, D) whose sorted integer ``keys`` (K,) are ``wanted`` (W,), zero rows
+    where a wanted key is not among them: (W, D).  The stored forces' lookup by contact."""
+    at = np.searchsorted(keys, wanted)
+    hit = at < keys.size
+    hit[hit] = keys[at[hit]] == wanted[hit]
+    out = np.zeros((wanted.size, force.shape[1]))
+    out[hit] = force[at[hit]]
+    return out
 
 
 def build(pairs: np.ndarray, force: np.ndarray, positions: np.ndarray, diameters: np.ndarray, box,

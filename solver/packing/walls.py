@@ -25,6 +25,7 @@ import numpy as np
 
 from .. import contact_law
 from ..errors import InputError
+from . import stressed
 
 AXES = "xyz"
 
@@ -66,14 +67,7 @@ class WallContacts:
         """Stored force (len(particle), D) on each wall contact (particle, wall): zero for a contact
         the file does not list."""
         count = int(max(self.wall.max(initial=-1), wall.max(initial=-1))) + 1
-        keys = self.particle * count + self.wall
-        wanted = particle.astype(np.int64) * count + wall
-        at = np.searchsorted(keys, wanted)
-        hit = at < keys.size
-        hit[hit] = keys[at[hit]] == wanted[hit]
-        out = np.zeros((particle.size, self.force.shape[1]))
-        out[hit] = self.force[at[hit]]
-        return out
+        return stressed.stored_at(self.particle * count + self.wall, self.force, particle.astype(np.int64) * count + wall)
 
     def nonzero(self) -> bool:
         """Whether any stored force is not zero."""

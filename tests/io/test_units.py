@@ -91,6 +91,28 @@ def test_stored_key_parts_say_what_changed():
     assert new.changes(None) == "no content key stored (written by an older rotsound)"
 
 
+def test_a_packing_of_an_earlier_fire_is_recomputed_not_resumed(shared_tmp, capsys, small_packing):
+    """A packing stored under its recipe's key of before FIRE had a version (issue 60: FIRE on
+    every core changed its steps, so its packings) is recomputed, not resumed, and the log says
+    why; the same before the key had the version (it would have been resumed)."""
+    from solver.packing import fire
+
+    scene = make(shared_tmp, "fire_version")
+    store = unit_store.UnitStore(scene.output, "scene: fire version\n", "d3", COMM)
+    now = unit_keys.packing_key(scene, 0)
+    before = unit_keys.UnitKey.of(**{**now.parts, "settings": {k: v for k, v in now.parts["settings"].items()
+                                                               if k != "fire"}})
+    store.save("packings/0000", *unit_store.packing_unit(small_packing), key=before)
+    store.counts.clear()  # that save counted as computed
+    capsys.readouterr()
+    made = pipeline.make_packings(scene, COMM, store)
+    log = COMM.bcast(capsys.readouterr().out, root=0)
+    assert_all(f"packings/0000: recomputing: packing settings changed (fire none -> {fire.VERSION})"
+               in log.splitlines(), log)
+    assert_all(store.counts["packings"] == {"resumed": 0, "cache": 0, "computed": 1}, store.counts)
+    assert_all(made[0].n == 32, "the stored 64-disk packing was taken")
+
+
 def test_window_checkpoint_of_other_options_is_discarded(shared_tmp, capsys, monkeypatch):
     """A spectrum stopped after two windows, resumed with an option acting on spectra: the
     saved plan and windows are recomputed (never mixed in), and the log says why once."""

@@ -137,11 +137,10 @@ def test_sphere_file_round_trip(shared_tmp, spheres):
 
 
 def test_packing_key_gets_dim_only_in_3d():
-    """2D recipes hash as before packing.dim existed (their stored packings are found again);
-    3D recipes differ from them."""
+    """2D recipes carry no dim (as before packing.dim existed); 3D recipes differ from them."""
     keys = {dim: unit_keys.packing_key(coerce.build(schema.Scene, {"packing": {"n": 64, "phi": 0.9, "dim": dim}}), 0)
             for dim in (2, 3)}
-    assert set(keys[2].parts["settings"]) == {"n", "phi", "seed", "index", "force_tol", "max_steps"}
+    assert set(keys[2].parts["settings"]) == {"n", "phi", "seed", "index", "force_tol", "max_steps", "fire"}
     assert keys[3].parts["settings"]["dim"] == 3 and keys[2].digest != keys[3].digest
 
 

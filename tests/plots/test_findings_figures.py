@@ -60,3 +60,38 @@ def test_diffusivity_spheres_figure_passes_the_checks():
     figures = diffusivity_findings.draw(rows, None)
     assert list(figures) == ["diffusivity_spheres"]
     assert_figures(figures)
+
+
+def _boxes_row(shear: float, phi: float, pressure: float) -> dict:
+    """A made-up scene of scripts/tools/boxes_findings.py: a vDOS, c(theta) with a cos(2 theta) part."""
+    from scripts.tools import boxes_findings
+
+    edges = np.arange(0.0, 4.65, 0.05)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    density = centres ** 2 / (1 + centres ** 3) + 0.3 * (centres > 2.5)
+    density /= (density * 0.05).sum()
+    theta, _ = boxes_findings.angles()
+    row = {"name": f"boxes_phi{phi}_shear{shear}", "shear": shear, "phi": phi, "pressure": pressure, "n": 1024,
+           "theta": theta, "vdos": results.Vdos(edges, density, 4.6, 0.01, 4)}
+    for mode, c in (("L", 1.0), ("T", 0.68)):
+        row[f"c_{mode}_angle"] = c * (1 + 0.1 * shear * np.sin(2 * theta))[None, :].repeat(4, axis=0)
+        for label, degrees in boxes_findings.DIRECTION_NAMES.items():
+            row[f"c_{mode}_{label}"] = c * (1 + 0.1 * shear * np.sin(np.radians(2 * degrees)))
+    return row
+
+
+def test_boxes_figures_pass_the_checks():
+    """scripts/tools/boxes_findings.py's three figures on made-up scenes and walls."""
+    from scripts.tools import boxes_findings
+
+    square = [_boxes_row(0.0, phi, p) for phi, p in ((0.85, 4e-3), (0.87, 1.3e-2), (0.89, 2.4e-2))]
+    tilted = [_boxes_row(0.3, phi, 1.05 * p) for phi, p in ((0.85, 4e-3), (0.87, 1.3e-2), (0.89, 2.4e-2))]
+    sheared = [_boxes_row(0.3, phi, 0.9 * p) for phi, p in ((0.85, 4e-3), (0.87, 1.3e-2), (0.89, 2.4e-2))]
+    omega = np.linspace(0.05, 4.6, 300)
+    edges = np.arange(0.0, 4.7, 0.1)
+    flat = np.full(edges.size - 1, 1 / 4.6)
+    walled = {"n": 1024, "phi": 0.87, "omega": omega, "share": 1 + 0.2 * np.sin(omega), "edges": edges,
+              "layer_vdos": flat, "bulk_vdos": flat}
+    figures = boxes_findings.draw(square, tilted, sheared, walled)
+    assert set(figures) == {"boxes_vdos", "boxes_speeds", "boxes_walls"}
+    assert_figures(figures)
