@@ -165,6 +165,7 @@ def test_the_exact_diffusivity_is_the_definition_in_the_cell(symmetric, comm):
     assert_close(got.d, d, rtol=1e-7, atol=0, what=f"{kind}: d_n")
 
 
+@pytest.mark.parametrize("symmetric", TILTED, indirect=True)
 def test_standing_waves_run_along_the_reciprocal_vector(symmetric, comm):
     """A tilted kind's standing waves have k = b_x, the cell's reciprocal vector of x (one period along
     x in the cell: |k| = 2 pi / its height across x), and their z(t) is the exact modal sum of the
@@ -172,8 +173,6 @@ def test_standing_waves_run_along_the_reciprocal_vector(symmetric, comm):
     A sin(k . r) along k for L, across it for TR); k along the x axis itself (2 pi / L_x e_x, the
     orthogonal reading) misses by far more."""
     kind, path = symmetric
-    if kind not in TILTED:
-        pytest.skip("waves of the tilted kinds (the others': test_a_stressed_file_gives_its_spectrum_and_waves)")
     p, scene = _stored(path)
     b = p.cell.reciprocal()[0]
     with results.open_results(path) as f:
