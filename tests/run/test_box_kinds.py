@@ -12,13 +12,14 @@ The kinds (tests/data/dem/README.md for the files):
 
 Each kind's symmetric scene (the frictional files with ``model.stored_forces: drop``, which the
 modes and the Allen-Feldman diffusivity need) asks for the spectrum by slicing with energies, a mode
-kept whole and the exact diffusivity; the frictional files' stressed scene for the non-symmetric
-spectrum and standing waves (along x between the walls, the walled z refused).  The references: the
-dense eigenvalues and Allen-Feldman sum (``solver.references``) of the matrix rebuilt from the
-packing the results file holds (read back as a packing file: at rest, so its stored forces, walls
-and gravity are all there), the counted vDOS against the sliced spectrum, the exports read back by
-rotsound's dump reader and by OVITO.  Standing waves in a tilted cell wait for tri-waves (wave
-vectors along the reciprocal directions)."""
+kept whole, the exact diffusivity and, in a tilted cell, standing waves along the reciprocal vector
+of x; the frictional files' stressed scene for the non-symmetric spectrum and standing waves (between
+the walls along x, the walled z refused); the sheared and walled kinds and LIGGGHTS's dump of the
+triclinic state a counted vDOS with the KPM diffusivity.  The references: the dense eigenvalues, the
+Allen-Feldman sum and the exact modal sum of a standing wave (``solver.references``) of the matrix
+rebuilt from the packing the results file holds (read back as a packing file: at rest, so its stored
+forces, walls and gravity are all there); the exports read back by rotsound's dump reader and by
+OVITO; brute force over the images for the packet's start between walls."""
 
 import pathlib
 import re
