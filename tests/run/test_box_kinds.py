@@ -199,18 +199,23 @@ def test_standing_waves_run_along_the_reciprocal_vector(symmetric, comm):
 
 @pytest.mark.serial_only  # rank 0's files and figures, and OVITO's process (test_export's reason)
 def test_figures_and_exports_carry_the_cell(symmetric, tmp_path):
-    """Every figure of the file passes tests/figures.py's checks; each export of the packing carries
+    """Every figure of the file passes tests/figures.py's checks; rotsound report takes the file (its
+    phi and N among the sources; the paper's claims are not measured on one rho); each export of the packing carries
     the cell: the dump read back by rotsound's reader (tilt, boundary flags, positions),
     extxyz and the dump by OVITO (its cell matrix and periodic flags)."""
     from figures import assert_figures
 
-    from solver import plots
+    from solver import plots, report
 
     kind, path = symmetric
     written = plots.plot_results(path)  # before draw_results, which keeps its figures open
     assert_figures(plots.draw_results(path), written)
     with results.open_results(path) as f:
         given = results.packing(f, 0)
+    written, _ = report.write([path], str(tmp_path / "report.md"))  # rotsound report: the file among its sources
+    with open(written, encoding="utf-8") as text:
+        source = f"symmetric.h5` | {given['phi']:.3f} | {len(given['diameters'])} |"  # its path relative to the report
+        assert source in text.read(), source
     files = {fmt: export.export(path, fmt, str(tmp_path / name))[0][0]
              for fmt, name in (("extxyz", "e.xyz"), ("lammps-dump", "e.dump"), ("vtp", "e.vtp"))}
     raw = dem_formats.read_lammps_dump(files["lammps-dump"])
