@@ -35,6 +35,7 @@ import numpy as np
 
 from .model import dynmat
 from .model.operators import scaled_operator
+from .packing import geometry
 
 
 def dense_eigenvalues(dm) -> np.ndarray:
@@ -220,13 +221,14 @@ def exact_l_wave(p, dm, k: float, times: np.ndarray) -> np.ndarray:
     return _weights(vec, mass, v0, b) @ np.cos(np.outer(omega, times))
 
 
-def allen_feldman_dense(dm, positions: np.ndarray, box: np.ndarray, eta: float, zero_tol: float = 1e-4
+def allen_feldman_dense(dm, positions: np.ndarray, box, eta: float, zero_tol: float = 1e-4
                         ) -> tuple[np.ndarray, np.ndarray]:
     """(omega (M,) ascending in 1/t0, d (M,) in d0^2/t0): the Allen-Feldman diffusivity of every
     mode of ``dm`` (symmetric) with omega^2 > ``zero_tol``^2 (the spectrum's rule for zero modes),
     by the definition (docs/diffusivity.md): A = M^-1/2 D M^-1/2 gathered dense in the packing's
     order, ``eigh``; X^a = A times (r_i - r_j)_a per particle block, from ``positions`` (N, D,
-    every particle in packing order) and the minimum image in ``box`` (D,), built here densely;
+    every particle in packing order) and the minimum image in ``box`` (a ``geometry.Cell``: tilted,
+    or with walled axes, which have no images; or its (D,) sides, orthogonal periodic), built here densely;
     Y^a = V^T X^a V; d_n = pi / (4 D omega_n^2) sum_{m != n} sum_a |Y^a_nm|^2 (omega_n + omega_m)^2
     / (4 omega_n omega_m) (eta / pi) / ((omega_n - omega_m)^2 + eta^2).  n^2 memory, n^3 time.
     Collective (gathers A)."""
@@ -239,9 +241,7 @@ def allen_feldman_dense(dm, positions: np.ndarray, box: np.ndarray, eta: float, 
     keep = lam > zero_tol**2
     omega, vec = np.sqrt(lam[keep]), vec[:, keep]
     r = np.asarray(positions, dtype=float)[dm.active]  # the non-rattlers, in packing order
-    sides = np.asarray(box, dtype=float)
-    delta = r[:, None, :] - r[None, :, :]
-    delta -= sides * np.round(delta / sides)  # nearest image of each pair of centres
+    delta = _pair_separations(r, box)
     dim = r.shape[1]
     square = np.zeros((omega.size, omega.size))
     for a in range(dim):
@@ -307,13 +307,19 @@ def _binned_filters(lam: np.ndarray, edges: np.ndarray, lam_max: float, moments:
     return series @ (norm[:, None] * f_coef), series @ (norm[:, None] * i_coef)
 
 
-def allen_feldman_binned_dense(dm, positions: np.ndarray, box: np.ndarray, edges: np.ndarray, lam_max: float,
+def _pair_separations(r: np.ndarray, box) -> np.ndarray:
+    """(n, n, D) r_i - r_j of every pair of ``r`` (n, D), each its nearest image in ``box`` (a
+    ``geometry.Cell`` or its (D,) sides; ``geometry.minimum_image``: exact for the contacts' separations)."""
+    return geometry.minimum_image(r[:, None, :] - r[None, :, :], box)
+
+
+def allen_feldman_binned_dense(dm, positions: np.ndarray, box, edges: np.ndarray, lam_max: float,
                                moments: int | None = None, weight: str = "trace", zero_tol: float = 1e-4,
                                min_count: float = 1.0) -> dict:
     """The Allen-Feldman diffusivity per omega bin of ``dm`` (symmetric) in the trace form of
     docs/diffusivity_trace.md, exactly: {"count", "total", "d"}, each (B,) over the bins ``edges``
-    (B+1,) in 1/t0.  Over the modes with omega > ``zero_tol`` (``eigh`` of the gathered A),
-    Y^a = V^T X^a V (X^a dense, as :func:`allen_feldman_dense`):
+    (B+1,) in 1/t0; ``box`` as :func:`allen_feldman_dense`'s.  Over the modes with omega >
+    ``zero_tol`` (``eigh`` of the gathered A), Y^a = V^T X^a V (X^a dense, as :func:`allen_feldman_dense`):
 
         total_b = pi / (4 D Delta_b) sum_a sum_{n, m} |Y^a_nm|^2 w_nm f_b(lambda_n) f_b(lambda_m),
         count_b = sum_n i_b(lambda_n),   d_b = total_b / count_b (NaN where count_b < ``min_count``),
@@ -336,9 +342,7 @@ def allen_feldman_binned_dense(dm, positions: np.ndarray, box: np.ndarray, edges
     lam, vec = lam[keep], vec[:, keep]
     omega = np.sqrt(lam)
     r = np.asarray(positions, dtype=float)[dm.active]
-    sides = np.asarray(box, dtype=float)
-    delta = r[:, None, :] - r[None, :, :]
-    delta -= sides * np.round(delta / sides)
+    delta = _pair_separations(r, box)
     dim = r.shape[1]
     square = np.zeros((lam.size, lam.size))
     for a in range(dim):
