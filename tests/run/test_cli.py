@@ -7,7 +7,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
-from conftest import REPO, run_cli, scene_text
+from conftest import REPO, main_here, run_cli, scene_text
 
 pytestmark = pytest.mark.serial_only  # these tests launch their own (mpirun) processes
 
@@ -274,30 +274,31 @@ def test_multi_document_scene_runs_each_in_order(tmp_path):
     assert proc.returncode == 0 and "first_vdos.png" in proc.stdout and "second_vdos.png" in proc.stdout
 
 
-def test_cache_reuses_units_across_scenes_by_content(tmp_path):
+def test_cache_reuses_units_across_scenes_by_content(tmp_path, capsys):
     """Scene b shares packings and rho = 1 with scene a: those units come from the cache and equal
-    what b computes alone; a PETSc option that can change a solve, or --fresh, recomputes."""
+    what b computes alone; a PETSc option that can change a solve, or --fresh, recomputes.  In
+    this process (the cache, not the process, is checked here)."""
     text = ("output: {out}\ncache: {cache}\nseed: 3\npacking: {{n: 64, phi: 0.9, count: 2}}\n"
             "model: {{rho: {rho}}}\nspectrum: {{energies: true}}\nwaves: {{n: [1], method: spectral, t_end: 10}}\n")
     cache = tmp_path / "cache"
     a = write(tmp_path, text.format(out=tmp_path / "a.h5", cache=cache, rho="[0.5, 1.0]"), "a.yaml")
-    assert run_cli(["run", a]).returncode == 0
+    assert main_here(["run", a], capsys)[0] == 0
     b = write(tmp_path, text.format(out=tmp_path / "b.h5", cache=cache, rho="[1.0, 2.0]"), "b.yaml")
-    proc = run_cli(["run", b])
-    assert proc.returncode == 0, proc.stderr
-    assert ("packings 2 from the cache" in proc.stdout and "spectra 2 computed, 2 from the cache" in proc.stdout
-            and "waves 6 computed, 6 from the cache" in proc.stdout), proc.stdout
+    code, out, err = main_here(["run", b], capsys)
+    assert code == 0, err
+    assert ("packings 2 from the cache" in out and "spectra 2 computed, 2 from the cache" in out
+            and "waves 6 computed, 6 from the cache" in out), out
     alone = write(tmp_path, text.format(out=tmp_path / "alone.h5", cache="off", rho="[1.0, 2.0]"), "alone.yaml")
-    assert run_cli(["run", alone]).returncode == 0
+    assert main_here(["run", alone], capsys)[0] == 0
     with h5py.File(tmp_path / "b.h5") as f, h5py.File(tmp_path / "alone.h5") as g:
         for group in ("spectra", "waves", "packings"):
             for name in g[group]:
                 for key in g[group][name]:
                     assert np.array_equal(f[group][name][key][()], g[group][name][key][()]), (group, name, key)
-    proc = run_cli(["run", b, "--set", "output=" + str(tmp_path / "c.h5"), "-spectrum_eps_tol", "1e-10"])
-    assert "packings 2 from the cache" in proc.stdout and "spectra 4 computed" in proc.stdout, proc.stdout
-    proc = run_cli(["run", b, "--fresh"])
-    assert "from the cache" not in proc.stdout and "spectra 4 computed" in proc.stdout, proc.stdout
+    _, out, _ = main_here(["run", b, "--set", "output=" + str(tmp_path / "c.h5"), "-spectrum_eps_tol", "1e-10"], capsys)
+    assert "packings 2 from the cache" in out and "spectra 4 computed" in out, out
+    _, out, _ = main_here(["run", b, "--fresh"], capsys)
+    assert "from the cache" not in out and "spectra 4 computed" in out, out
 
 
 def test_version_names_rotsound_petsc_slepc_without_starting_mpi():
