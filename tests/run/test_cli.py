@@ -27,8 +27,7 @@ def write(tmp_path, text, name="scene.yaml"):
     return str(path)
 
 
-@pytest.mark.spawns_ranks
-@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.spawns_ranks)])  # 1: a process, no mpirun
 def test_run_writes_results_and_reports_unused_options(tmp_path, ranks):
     out = tmp_path / "r.h5"
     scene = write(tmp_path, SCENE.format(out=out))
@@ -242,12 +241,12 @@ def _without_output(scene):
     return [line for line in str(scene).splitlines() if not line.startswith("output:")]
 
 
-def test_plot_overlays_several_results(tmp_path):
+def test_plot_overlays_several_results(tmp_path, capsys):
     outs = []
-    for phi in (0.86, 0.92):
+    for phi in (0.86, 0.92):  # the results files made in this process; the plot is the command's
         out = tmp_path / f"phi{phi}.h5"
         text = scene_text(out, packing={"n": 64, "phi": phi}, model={"rho": 1}, spectrum={})
-        assert run_cli(["run", write(tmp_path, text, f"s{phi}.yaml")]).returncode == 0
+        assert main_here(["run", write(tmp_path, text, f"s{phi}.yaml")], capsys)[0] == 0
         outs.append(str(out))
     proc = run_cli(["plot", *outs])
     assert proc.returncode == 0, proc.stderr
@@ -260,7 +259,7 @@ def test_keys_prints_reference():
 
 
 @pytest.mark.spawns_ranks
-def test_multi_document_scene_runs_each_in_order(tmp_path):
+def test_multi_document_scene_runs_each_in_order(tmp_path, capsys):
     doc = "output: {out}\npacking: {{n: 32, phi: 0.9}}\nmodel: {{rho: 1}}\nspectrum: {{}}\n"
     outs = [tmp_path / "first.h5", tmp_path / "second.h5"]
     path = write(tmp_path, doc.format(out=outs[0]) + "---\n" + doc.format(out=outs[1]), "multi.yaml")
@@ -270,8 +269,8 @@ def test_multi_document_scene_runs_each_in_order(tmp_path):
     for out in outs:
         with h5py.File(out) as f:
             assert "seed: 5" in f.attrs["scene"]
-    proc = run_cli(["plot", path])
-    assert proc.returncode == 0 and "first_vdos.png" in proc.stdout and "second_vdos.png" in proc.stdout
+    code, said, err = main_here(["plot", path], capsys)  # in this process: no second process start
+    assert code == 0 and "first_vdos.png" in said and "second_vdos.png" in said, err
 
 
 def test_cache_reuses_units_across_scenes_by_content(tmp_path, capsys):
