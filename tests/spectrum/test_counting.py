@@ -133,8 +133,6 @@ if comm.rank == 0:
 """
 
 
-@pytest.mark.spawns_ranks
-@pytest.mark.serial_only
 def _pickled(path, *packings):
     """``path`` holding ``packings`` (pickled): each child process or rank reads them instead of
     running FIRE again (the 4096 disks: seconds each)."""
@@ -145,6 +143,8 @@ def _pickled(path, *packings):
     return str(path)
 
 
+@pytest.mark.spawns_ranks
+@pytest.mark.serial_only
 def test_four_ranks_count_alike_in_every_layout(tmp_path):
     """4 ranks (oversubscribed): factors per rank, shared by pairs, shared by all four: the same
     integers as the dense histogram (128 spheres with rolling and twisting)."""
