@@ -198,6 +198,23 @@ def run_cli(args: list[str], ranks: int = 1, timeout: float = 120, cwd=None):
                           cwd=cwd or REPO)
 
 
+def main_here(args: list[str], capsys) -> tuple[int, str, str]:
+    """``rotsound ARGS`` run in this process (``solver.__main__.main``): (exit code, stdout,
+    stderr).  For the tests of what a command does, not of the process (a child process costs
+    ~2 s of imports); the PETSc options it puts in the database (a scene's ``petsc:`` block, the
+    command line's words) are taken out again.  Collective for ``run``."""
+    from solver import __main__ as cli, options
+
+    capsys.readouterr()
+    before = options.snapshot()
+    try:
+        code = cli.main(args)
+    finally:
+        options.restore(before)  # a run's options must not reach the tests after it
+    said = capsys.readouterr()
+    return code, said.out, said.err
+
+
 def run_stopped_after_windows(monkeypatch, scene, windows: int = 2, solver=None, name: str = "_solve_window") -> list:
     """Run ``scene`` in-process until ``windows`` spectrum windows are solved, then stop it as
     SIGTERM would (pipeline raises Interrupted on every rank); the windows stay on disk.  Returns

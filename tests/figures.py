@@ -45,15 +45,17 @@ RHO_VALUES = re.compile(r"\\rho\$ = ([-+.\de]+(?:(?:, | to )[-+.\de]+)*)")
 """The numbers after '$\\rho$ = ': one, a list or 'a to b'."""
 
 
-def capture(monkeypatch) -> dict:
+def capture(monkeypatch, stems: bool = False) -> dict:
     """{file name of the PNG: figure} of every figure drawn from now on (``common.save`` wherever a
     module of ``solver.plots`` took it); each is still written (and closed by pyplot) as usual, and
-    can be drawn again for the checks."""
+    can be drawn again for the checks.  With ``stems``: {path without .png/.pdf: figure}, as
+    ``plots.draw_results`` gives them, so that :func:`assert_figures` checks the figures
+    ``plots.plot_results`` drew and wrote without drawing them all again first."""
     figures = {}
     write = common.save
 
     def keep(fig, stem):
-        figures[os.path.basename(stem) + ".png"] = fig
+        figures[stem if stems else os.path.basename(stem) + ".png"] = fig
         return write(fig, stem)
 
     for info in pkgutil.iter_modules(plots.__path__):

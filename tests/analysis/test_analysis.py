@@ -12,7 +12,7 @@ from solver.analysis import dispersion
 from solver.analysis import lattice
 from solver.io.schema import AnalysisSpec
 from solver.io.unit_keys import Unit, vdos_name
-from conftest import assert_close, run_cli, scene_text
+from conftest import assert_close, main_here, scene_text
 
 pytestmark = pytest.mark.serial_only
 
@@ -118,21 +118,23 @@ def test_claims_pass_and_fail_on_their_tolerance():
     assert any(r.status == "NOT MEASURED" for r in rows.values())  # no waves given
 
 
-def test_report_from_a_tiny_run(tmp_path):
+def test_report_from_a_tiny_run(tmp_path, capsys):
+    """``rotsound run`` and ``report`` in this process (the report's claims, not the process, are
+    checked here; test_cli runs the commands as processes)."""
     out = tmp_path / "tiny.h5"
     scene = tmp_path / "tiny.yaml"
     scene.write_text(scene_text(out, seed=4, packing={"n": 128, "phi": 0.9, "count": 1},
                                 model={"rho": [0.0, 0.2, 0.4, 1.0, 2.0]}, spectrum={"energies": True},
                                 waves={"n": [1, 2, 3, 4, 5], "method": "spectral", "t_end": 40.0, "dt": 0.05,
                                        "sample_every": 2}))
-    proc = run_cli(["run", str(scene)], timeout=300)
-    assert proc.returncode == 0, proc.stderr
+    code, _, err = main_here(["run", str(scene)], capsys)
+    assert code == 0, err
     with h5py.File(out) as f:
         assert {"lattice", "bands", "rho1_RT", "rho0_L"} <= set(f["analysis"])
         assert "rho0_RT" not in f["analysis"]
     md = tmp_path / "REPRODUCTION.md"
-    proc = run_cli(["report", str(scene), "--output", str(md)])
-    assert proc.returncode == 0, proc.stderr
+    code, _, err = main_here(["report", str(scene), "--output", str(md)], capsys)
+    assert code == 0, err
     text = md.read_text()
     rows = [line for line in text.splitlines() if line.startswith("| ") and line.split("|")[1].strip().isdigit()]
     table = {}  # claim -> (measured, result); cells split on unescaped '|'
@@ -166,21 +168,21 @@ def test_report_from_a_tiny_run(tmp_path):
     for png in ("fig1_vdos", "fig4_dispersion_rt", "fig5_transition", "fig6_energies", "fig7_bands"):
         assert (tmp_path / "reproduction" / f"{png}.png").exists(), png
         assert f"reproduction/{png}.png" in text
-    bad = run_cli(["report", str(tmp_path / "missing.h5")])
-    assert bad.returncode == 2 and "missing.h5: not found" in bad.stderr
+    code, _, err = main_here(["report", str(tmp_path / "missing.h5")], capsys)
+    assert code == 2 and "missing.h5: not found" in err
 
 
-def test_report_and_plot_of_a_kpm_file_with_energies(tmp_path):
+def test_report_and_plot_of_a_kpm_file_with_energies(tmp_path, capsys):
     """A KPM spectrum stores bin averages of K and Q, not per-mode values: the report reads only
     per-mode energies for its claims (it died on the missing 'omega' before), and the Fig. 6 plot
-    draws the bin averages."""
+    draws the bin averages.  ``rotsound run``, ``report`` and ``plot`` in this process."""
     out = tmp_path / "kpm.h5"
     scene = tmp_path / "kpm.yaml"
     scene.write_text(scene_text(out, cache="off", packing={"n": 64, "phi": 0.9}, model={"rho": 1.0},
                                 spectrum={"method": "kpm", "energies": True, "probes": 4}))
-    assert run_cli(["run", str(scene)]).returncode == 0
-    proc = run_cli(["report", str(out), "--output", str(tmp_path / "R.md")])
-    assert proc.returncode == 0, proc.stderr
+    assert main_here(["run", str(scene)], capsys)[0] == 0
+    code, _, err = main_here(["report", str(out), "--output", str(tmp_path / "R.md")], capsys)
+    assert code == 0, err
     assert "Energy partition at rho = 1 (Fig. 6a) | K > Q low, Q > K high | - |" in (tmp_path / "R.md").read_text()
-    proc = run_cli(["plot", str(out)])
-    assert proc.returncode == 0 and (tmp_path / "kpm_energies.png").exists(), proc.stderr
+    code, _, err = main_here(["plot", str(out)], capsys)
+    assert code == 0 and (tmp_path / "kpm_energies.png").exists(), err

@@ -5,6 +5,8 @@ import pytest
 
 from solver.analysis import attenuation
 
+pytestmark = pytest.mark.serial_only  # arrays and figures, no communicator: nothing to gain from a second rank
+
 
 def test_resolved_is_gamma_t_end_at_least_one():
     gamma = np.array([1e-4, 1e-3, 2e-3, np.nan, -1e-2, 0.0, 0.5])

@@ -9,6 +9,8 @@ from conftest import assert_close, jammed_packing
 from solver.analysis import thresholds
 from solver.packing import geometry
 
+pytestmark = pytest.mark.serial_only  # arrays only, no communicator: nothing to gain from a second rank
+
 
 def one_contact(normal):
     """A Slacks of one contact of branch length 1 along ``normal``, opening 0.01, sliding 0.002."""

@@ -158,6 +158,7 @@ def test_net_force_of_a_sphere_file_counts_z(spheres):
     assert_close(mechanics.net_force(shaken), expected, rtol=1e-12, what="largest net force")
 
 
+@pytest.mark.serial_only  # one figure of arrays, no communicator
 def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypatch, spheres):
     """The packing figure of a 3D results file draws the spheres cut by z = L/2 (a (N, 3) array
     handed to matplotlib's 2D offsets raised ValueError), each as the disk of its section."""

@@ -4,11 +4,14 @@ than EQUILIBRIUM_TOL.  A contact file's reader always builds a tangential-force 
 every stored force zero (issue 62): that object must not switch the count off."""
 
 import numpy as np
+import pytest
 from scipy.optimize import brentq
 
 from solver.capillary import Cohesion, bridge_force
 from solver.packing import geometry, mechanics
 from solver.packing.stressed import TangentialForces
+
+pytestmark = pytest.mark.serial_only  # arrays only, no communicator: nothing to gain from a second rank
 
 COHESION = Cohesion("willett", surface_tension=0.01, contact_angle=0.2, volume=1e-3)
 

@@ -7,7 +7,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
-from conftest import REPO, run_cli, scene_text
+from conftest import REPO, main_here, run_cli, scene_text
 
 pytestmark = pytest.mark.serial_only  # these tests launch their own (mpirun) processes
 
@@ -27,8 +27,7 @@ def write(tmp_path, text, name="scene.yaml"):
     return str(path)
 
 
-@pytest.mark.spawns_ranks
-@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.spawns_ranks)])  # 1: a process, no mpirun
 def test_run_writes_results_and_reports_unused_options(tmp_path, ranks):
     out = tmp_path / "r.h5"
     scene = write(tmp_path, SCENE.format(out=out))
@@ -242,12 +241,12 @@ def _without_output(scene):
     return [line for line in str(scene).splitlines() if not line.startswith("output:")]
 
 
-def test_plot_overlays_several_results(tmp_path):
+def test_plot_overlays_several_results(tmp_path, capsys):
     outs = []
-    for phi in (0.86, 0.92):
+    for phi in (0.86, 0.92):  # the results files made in this process; the plot is the command's
         out = tmp_path / f"phi{phi}.h5"
         text = scene_text(out, packing={"n": 64, "phi": phi}, model={"rho": 1}, spectrum={})
-        assert run_cli(["run", write(tmp_path, text, f"s{phi}.yaml")]).returncode == 0
+        assert main_here(["run", write(tmp_path, text, f"s{phi}.yaml")], capsys)[0] == 0
         outs.append(str(out))
     proc = run_cli(["plot", *outs])
     assert proc.returncode == 0, proc.stderr
@@ -260,7 +259,7 @@ def test_keys_prints_reference():
 
 
 @pytest.mark.spawns_ranks
-def test_multi_document_scene_runs_each_in_order(tmp_path):
+def test_multi_document_scene_runs_each_in_order(tmp_path, capsys):
     doc = "output: {out}\npacking: {{n: 32, phi: 0.9}}\nmodel: {{rho: 1}}\nspectrum: {{}}\n"
     outs = [tmp_path / "first.h5", tmp_path / "second.h5"]
     path = write(tmp_path, doc.format(out=outs[0]) + "---\n" + doc.format(out=outs[1]), "multi.yaml")
@@ -270,34 +269,35 @@ def test_multi_document_scene_runs_each_in_order(tmp_path):
     for out in outs:
         with h5py.File(out) as f:
             assert "seed: 5" in f.attrs["scene"]
-    proc = run_cli(["plot", path])
-    assert proc.returncode == 0 and "first_vdos.png" in proc.stdout and "second_vdos.png" in proc.stdout
+    code, said, err = main_here(["plot", path], capsys)  # in this process: no second process start
+    assert code == 0 and "first_vdos.png" in said and "second_vdos.png" in said, err
 
 
-def test_cache_reuses_units_across_scenes_by_content(tmp_path):
+def test_cache_reuses_units_across_scenes_by_content(tmp_path, capsys):
     """Scene b shares packings and rho = 1 with scene a: those units come from the cache and equal
-    what b computes alone; a PETSc option that can change a solve, or --fresh, recomputes."""
+    what b computes alone; a PETSc option that can change a solve, or --fresh, recomputes.  In
+    this process (the cache, not the process, is checked here)."""
     text = ("output: {out}\ncache: {cache}\nseed: 3\npacking: {{n: 64, phi: 0.9, count: 2}}\n"
             "model: {{rho: {rho}}}\nspectrum: {{energies: true}}\nwaves: {{n: [1], method: spectral, t_end: 10}}\n")
     cache = tmp_path / "cache"
     a = write(tmp_path, text.format(out=tmp_path / "a.h5", cache=cache, rho="[0.5, 1.0]"), "a.yaml")
-    assert run_cli(["run", a]).returncode == 0
+    assert main_here(["run", a], capsys)[0] == 0
     b = write(tmp_path, text.format(out=tmp_path / "b.h5", cache=cache, rho="[1.0, 2.0]"), "b.yaml")
-    proc = run_cli(["run", b])
-    assert proc.returncode == 0, proc.stderr
-    assert ("packings 2 from the cache" in proc.stdout and "spectra 2 computed, 2 from the cache" in proc.stdout
-            and "waves 6 computed, 6 from the cache" in proc.stdout), proc.stdout
+    code, out, err = main_here(["run", b], capsys)
+    assert code == 0, err
+    assert ("packings 2 from the cache" in out and "spectra 2 computed, 2 from the cache" in out
+            and "waves 6 computed, 6 from the cache" in out), out
     alone = write(tmp_path, text.format(out=tmp_path / "alone.h5", cache="off", rho="[1.0, 2.0]"), "alone.yaml")
-    assert run_cli(["run", alone]).returncode == 0
+    assert main_here(["run", alone], capsys)[0] == 0
     with h5py.File(tmp_path / "b.h5") as f, h5py.File(tmp_path / "alone.h5") as g:
         for group in ("spectra", "waves", "packings"):
             for name in g[group]:
                 for key in g[group][name]:
                     assert np.array_equal(f[group][name][key][()], g[group][name][key][()]), (group, name, key)
-    proc = run_cli(["run", b, "--set", "output=" + str(tmp_path / "c.h5"), "-spectrum_eps_tol", "1e-10"])
-    assert "packings 2 from the cache" in proc.stdout and "spectra 4 computed" in proc.stdout, proc.stdout
-    proc = run_cli(["run", b, "--fresh"])
-    assert "from the cache" not in proc.stdout and "spectra 4 computed" in proc.stdout, proc.stdout
+    _, out, _ = main_here(["run", b, "--set", "output=" + str(tmp_path / "c.h5"), "-spectrum_eps_tol", "1e-10"], capsys)
+    assert "packings 2 from the cache" in out and "spectra 4 computed" in out, out
+    _, out, _ = main_here(["run", b, "--fresh"], capsys)
+    assert "from the cache" not in out and "spectra 4 computed" in out, out
 
 
 def test_version_names_rotsound_petsc_slepc_without_starting_mpi():

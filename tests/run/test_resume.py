@@ -2,6 +2,7 @@
 
 import os
 import random
+import shutil
 import signal
 import subprocess
 import sys
@@ -10,7 +11,7 @@ import time
 import h5py
 import numpy as np
 import pytest
-from conftest import COMM, REPO, child_env, mpirun, run_cli, run_stopped_after_windows, scene_of, scene_text
+from conftest import COMM, REPO, child_env, main_here, mpirun, run_cli, run_stopped_after_windows, scene_of, scene_text
 
 pytestmark = pytest.mark.serial_only  # these tests launch and kill their own mpirun jobs
 
@@ -28,6 +29,16 @@ TIMING = {"seconds", "assembly_seconds"}
 WINDOWED = dict(cache="off", seed=5, packing={"n": 64, "phi": 0.9, "count": 1}, model={"rho": [1.0]},
                 spectrum={"energies": True, "max_window_modes": 40})
 """A spectrum of several windows (scene_of's sections), for the window-checkpoint tests."""
+
+
+@pytest.fixture(scope="module")
+def windowed(tmp_path_factory):
+    """(datasets, attrs) of WINDOWED's spectrum run uninterrupted in this process, shared by the
+    window-checkpoint tests."""
+    from solver import pipeline
+
+    out = tmp_path_factory.mktemp("windowed") / "ref.h5"
+    return pipeline.run(scene_of(out, **WINDOWED), COMM, [])["units"]["spectra/r00_p0000"]
 
 
 def scene(tmp_path, name):
@@ -130,24 +141,25 @@ def test_sigterm_stops_cleanly_and_resumes(tmp_path, reference):
 
 @pytest.mark.spawns_ranks
 def test_damaged_unit_is_recomputed(tmp_path, reference):
+    """The reference run's units (the same scene: its digest leaves the output out), one of them
+    cut short: the rerun recomputes it and equals the uninterrupted run."""
     path, out = scene(tmp_path, "damaged")
-    assert run_cli(["run", path], ranks=2, timeout=300).returncode == 0
+    shutil.copytree(str(reference) + ".units", str(out) + ".units")
     unit = sorted(p for p in os.listdir(str(out) + ".units") if p.startswith("spectra"))[0]
     with open(os.path.join(str(out) + ".units", unit), "r+b") as f:
         f.truncate(100)
-    out.unlink()
     rerun = run_cli(["run", path], ranks=2, timeout=300)
     assert rerun.returncode == 0, rerun.stderr
     assert f"{unit} is damaged or incomplete: recomputing it" in rerun.stdout
     assert_same(out, reference)
 
 
-def test_different_scene_same_output_is_refused(tmp_path):
+def test_different_scene_same_output_is_refused(tmp_path, capsys):
     small = "output: {out}\ncache: off\nseed: 5\npacking: {{n: 64, phi: 0.9}}\nmodel: {{rho: [0.5]}}\nspectrum: {{}}\n"
     out = tmp_path / "first.h5"
     path = tmp_path / "first.yaml"
     path.write_text(small.format(out=out))
-    assert run_cli(["run", str(path)]).returncode == 0
+    assert main_here(["run", str(path)], capsys)[0] == 0  # the first results, made in this process
     other = tmp_path / "other.yaml"
     other.write_text(small.format(out=out).replace("seed: 5", "seed: 6"))
     proc = run_cli(["run", str(other)], ranks=2)
@@ -157,14 +169,14 @@ def test_different_scene_same_output_is_refused(tmp_path):
     assert fresh.returncode == 0 and "resumed" not in fresh.stdout, fresh.stderr
 
 
-def test_sigterm_mid_spectrum_keeps_finished_windows(tmp_path, monkeypatch, capsys):
+def test_sigterm_mid_spectrum_keeps_finished_windows(tmp_path, monkeypatch, capsys, windowed):
     """SIGTERM during a many-window spectrum stops after the window in flight; the rerun takes
     the plan and the finished windows from the units folder and equals an uninterrupted run."""
 
     from solver import pipeline
 
     make = lambda name: scene_of(tmp_path / name, **WINDOWED)  # noqa: E731
-    reference = pipeline.run(make("ref.h5"), COMM, [])["units"]["spectra/r00_p0000"][0]
+    reference = windowed[0]
     calls = run_stopped_after_windows(monkeypatch, make("cut.h5"))
     assert len(calls) == 2
     capsys.readouterr()
@@ -201,16 +213,14 @@ sys.exit(main())
 
 @pytest.mark.spawns_ranks
 @pytest.mark.parametrize("first, then", [(2, 1), (1, 2)])
-def test_spectrum_stopped_after_one_window_resumes_on_another_rank_count(tmp_path, first, then):
+def test_spectrum_stopped_after_one_window_resumes_on_another_rank_count(tmp_path, first, then, windowed):
     """`rotsound run` of a many-window spectrum stopped after its first window (as by SIGTERM)
     on 2 ranks resumes on 1, and 1 -> 2: the plan and the first window come from the units
     folder (the plan once held one sub-interval per rank of the first run, and Krylov-Schur
     refused more partitions than ranks), the result equals an uninterrupted run."""
     from conftest import assert_close
 
-    from solver import pipeline
-
-    reference = pipeline.run(scene_of(tmp_path / "ref.h5", **WINDOWED), COMM, [])["units"]["spectra/r00_p0000"]
+    reference = windowed
     path, out, driver = tmp_path / "cut.yaml", tmp_path / "cut.h5", tmp_path / "stop_after_one_window.py"
     path.write_text(scene_text(out, **WINDOWED))
     driver.write_text(STOP_AFTER_ONE_WINDOW)

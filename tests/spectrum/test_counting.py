@@ -114,16 +114,16 @@ def test_shared_factorisations_count_like_dense(comm, small_packing, dim):
 
 
 FOUR_RANKS = """
-import json, numpy as np
+import json, pickle, sys, numpy as np
 from solver import petscenv
 PETSc = petscenv.init([])
 from solver.contact_law import ContactModel
 from solver.model import dynmat
-from solver.packing import jammed
 from solver.references import dense_eigenvalues
 from solver.spectrum import counting
 comm = PETSc.COMM_WORLD
-p = jammed.generate(128, 0.7, np.random.SeedSequence([5, 0]), dim=3)
+with open(sys.argv[1], "rb") as stream:
+    p = pickle.load(stream)[0]
 dm = dynmat.assemble(p, ContactModel(0.5, rho_roll=0.3, rho_twist=0.2), comm)
 counts = {r: counting.solve(dm, bin_width=0.2, zero_tol=1e-4, factor_ranks=r)[0]["counts"].tolist() for r in (1, 2, 4)}
 lam = dense_eigenvalues(dm)
@@ -133,9 +133,19 @@ if comm.rank == 0:
 """
 
 
+def _pickled(path, *packings):
+    """``path`` holding ``packings`` (pickled): each child process or rank reads them instead of
+    running FIRE again (the 4096 disks: seconds each)."""
+    import pickle
+
+    with open(path, "wb") as stream:
+        pickle.dump(packings, stream)
+    return str(path)
+
+
 @pytest.mark.spawns_ranks
 @pytest.mark.serial_only
-def test_four_ranks_count_alike_in_every_layout():
+def test_four_ranks_count_alike_in_every_layout(tmp_path):
     """4 ranks (oversubscribed): factors per rank, shared by pairs, shared by all four: the same
     integers as the dense histogram (128 spheres with rolling and twisting)."""
     import json
@@ -145,7 +155,8 @@ def test_four_ranks_count_alike_in_every_layout():
     from conftest import mpirun
 
     env = child_env()
-    done = subprocess.run(mpirun(4) + [sys.executable, "-c", FOUR_RANKS], capture_output=True, text=True,
+    packings = _pickled(tmp_path / "packings.pickle", jammed_packing(128, 0.7, 5, dim=3))
+    done = subprocess.run(mpirun(4) + [sys.executable, "-c", FOUR_RANKS, packings], capture_output=True, text=True,
                           timeout=180, env=env)
     assert done.returncode == 0, done.stderr[-3000:]
     out = json.loads(done.stdout.strip().splitlines()[-1])
@@ -154,20 +165,20 @@ def test_four_ranks_count_alike_in_every_layout():
 
 
 BUILD = """
-import json, numpy as np
+import json, pickle, sys, numpy as np
 from solver import petscenv
 PETSc = petscenv.init([])
 from solver.contact_law import ContactModel
 from solver.model import dynmat
-from solver.packing import jammed
 from solver.references import dense_eigenvalues
 from solver.model import operators
 from solver.spectrum import counting
-p = jammed.generate(128, 0.7, np.random.SeedSequence([5, 0]), dim=3)
+with open(sys.argv[1], "rb") as stream:
+    p, large = pickle.load(stream)
 dm = dynmat.assemble(p, ContactModel(0.5, rho_roll=0.3, rho_twist=0.2), PETSc.COMM_WORLD)
 datasets, _, settings = counting.solve(dm, bin_width=0.2, zero_tol=1e-4)
 lam = dense_eigenvalues(dm)
-big = dynmat.assemble(jammed.generate(4096, 0.9, np.random.SeedSequence([5, 0])), ContactModel(1.0), PETSc.COMM_WORLD)
+big = dynmat.assemble(large, ContactModel(1.0), PETSc.COMM_WORLD)
 counts, large = counting.counts_below(operators.scaled_operator(big), np.array([0.5, 2.0, 8.0]), PETSc.COMM_WORLD.tompi4py())
 print(json.dumps({"counts": datasets["counts"].tolist(), "build": settings["inertia"]["mumps_build"],
                   "dense": np.histogram(np.sqrt(lam[np.abs(lam) >= 1e-8]), datasets["edges"])[0].tolist(),
@@ -176,7 +187,7 @@ print(json.dumps({"counts": datasets["counts"].tolist(), "build": settings["iner
 
 
 @pytest.mark.serial_only  # starts processes of its own
-def test_both_mumps_builds_count_like_dense():
+def test_both_mumps_builds_count_like_dense(tmp_path):
     """Debian's PT-Scotch build of MUMPS (the default) and Debian's own build (ROTSOUND_MUMPS=debian)
     count the same integers as the dense histogram (128 spheres with rolling and twisting), and the
     same at three shifts of 4096 disks (12,288 DOF), which MUMPS orders with SCOTCH (INFOG 7 = 3)
@@ -186,8 +197,10 @@ def test_both_mumps_builds_count_like_dense():
     import sys
 
     runs = {}
+    packings = _pickled(tmp_path / "packings.pickle", jammed_packing(128, 0.7, 5, dim=3),
+                        jammed_packing(4096, 0.9, 5))
     for build in ("ptscotch", "debian"):
-        done = subprocess.run([sys.executable, "-c", BUILD], capture_output=True, text=True, timeout=180,
+        done = subprocess.run([sys.executable, "-c", BUILD, packings], capture_output=True, text=True, timeout=180,
                               env={**child_env(), "ROTSOUND_MUMPS": build})
         assert done.returncode == 0, done.stderr[-3000:]
         runs[build] = json.loads(done.stdout.strip().splitlines()[-1])

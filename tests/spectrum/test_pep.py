@@ -173,11 +173,11 @@ def test_a_damped_scene_stores_lambda_and_its_vdos(shared_tmp, monkeypatch):
     edges, density = units["vdos/r00"][0]["edges"], units["vdos/r00"][0]["density"]
     counts, _ = np.histogram(lam.imag[lam.imag > 0], bins=edges)
     assert_close(density, counts / (counts.sum() * np.diff(edges)), rtol=1e-12, atol=0.0, what="damped vDOS")
-    figures = capture(monkeypatch)
-    written = COMM.bcast(plots.plot_results(str(scene.output)) if COMM.rank == 0 else None, root=0)
-    assert_all(any(path.endswith("_damped_modes.png") for path in written)
-               and any(path.endswith("_damped_vdos.png") for path in written), written)
-    if COMM.rank == 0:
+    if COMM.size == 1:  # drawing is rank 0's alone, from a file the same on 1 or 2 ranks: once, in the 1-rank pass
+        figures = capture(monkeypatch)
+        written = plots.plot_results(str(scene.output))
+        assert any(path.endswith("_damped_modes.png") for path in written) \
+            and any(path.endswith("_damped_vdos.png") for path in written), written
         assert_readable(figures)
         titles = {name: [ax.get_title() for ax in fig.axes if ax.get_title()] for name, fig in figures.items()}
         assert all(r"$\rho$ = 0.5" in title for name in ("damped_damped_modes.png", "damped_damped_vdos.png")

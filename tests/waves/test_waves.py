@@ -146,6 +146,7 @@ def test_tapered_spectrum_of_a_tone_has_no_side_band_zeros():
         assert np.max(scaled / upper) <= 1 + 1e-3, f"S above its upper bound by {np.max(scaled / upper) - 1:.1e}"
 
 
+@pytest.mark.serial_only  # one figure of arrays, no communicator
 def test_spectrum_maps_draw_the_tapered_records(tmp_path, monkeypatch):
     """plot_spectra of a tone at one k: the drawn column of log10 S has no zero of the cut record:
     beyond the main lobe S dw^2 stays within a factor 2 of 1 (the bounds above)."""

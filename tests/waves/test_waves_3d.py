@@ -253,12 +253,12 @@ waves: {{modes: [L, TR, RT, R], n: [1, 2], t_end: 20, dt: 0.02, sample_every: 10
 
 @pytest.mark.spawns_ranks
 @pytest.mark.serial_only  # launches its own (mpirun) processes
-def test_cli_runs_a_3d_scene_with_every_mode_on_1_and_2_ranks(tmp_path):
+def test_cli_runs_a_3d_scene_with_every_mode_on_1_and_2_ranks(tmp_path, capsys):
     """``rotsound run`` end to end on 32 spheres with L, TR, RT and R: each waves group has one row
     per run (3, 6, 6, 3) labelled in the file, the analysis fits all four modes, and 2 ranks give
     the 1-rank z to 1e-12 of max |z| (round-off of the MatMult sums, as in 2D)."""
     import h5py
-    from conftest import run_cli
+    from conftest import main_here, run_cli
 
     files = []
     for ranks in (1, 2):
@@ -281,7 +281,7 @@ def test_cli_runs_a_3d_scene_with_every_mode_on_1_and_2_ranks(tmp_path):
             assert_close(z2, z, rtol=0.0, atol=1e-12 * np.abs(z).max(), what=f"{mode}: 2 ranks vs 1")
         assert sorted(name for name in one["analysis"] if name.startswith("rho")) == \
             sorted(f"rho1_{mode}" for mode in MODES)
-    proc = run_cli(["plot", str(files[0])])  # the four-mode figures of a 3D file
-    assert proc.returncode == 0, proc.stderr
+    code, out, err = main_here(["plot", str(files[0])], capsys)  # the four-mode figures of a 3D file
+    assert code == 0, err
     for figure in ("packing", "vaf", "spectrum_rho1", "dispersion"):
-        assert (tmp_path / f"s1_{figure}.png").exists(), (figure, proc.stdout)
+        assert (tmp_path / f"s1_{figure}.png").exists(), (figure, out)
