@@ -22,6 +22,7 @@ from .. import profiling
 from ..capillary import Cohesion
 from ..contact_law import ContactModel
 from . import bridges, fire, geometry, lammps_engine, mechanics, stressed, wet
+from . import shear as shearing
 from .configuration import Packing, solid_volume
 from .stressed import TangentialForces
 
@@ -77,7 +78,7 @@ def spatial_order(positions: np.ndarray, box) -> np.ndarray:
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
              max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
              law: str = "harmonic", friction: float | None = None, pressure: float | None = None,
-             cohesion: Cohesion | None = None, shear: float = 0.0) -> Packing:
+             cohesion: Cohesion | None = None, shear: float = 0.0, shear_step: float = 0.01) -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
     fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``:
     rotsound's FIRE (not collective) or LAMMPS's
@@ -94,10 +95,11 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     decision: the particles are wet from the start, so the same seed gives the dry packing of the
     same start]; it keeps its bridged pairs across a gap (``Packing.bridges``).
 
-    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the cell
-    is tilted by xy = gamma L (``sheared_cell``; the same random start, uniform in the square, is
-    uniform in the tilted cell too) and FIRE minimises in it: a packing at rest in a sheared
-    periodic cell.
+    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the packing
+    made at shear 0 (the same one, bit for bit) is sheared quasi-statically to gamma in steps of
+    ``shear_step`` (``shear.quasistatic``): a sheared packing at rest in the cell tilted by
+    xy = gamma L (``sheared_cell``), its info with the shear's record (``shear``, ``shear_step``,
+    ``shear_steps``, ``shear_fire_steps``, ``sigma_xy``) and ``fire_steps`` the square's FIRE.
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the cell would not be more
     than two large diameters across (a pair could touch through two periodic images: tiny N at
@@ -120,8 +122,23 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
                          f"{smallest_n(phi, dim, shear)} at this phi, or a smaller packing.phi")
     if friction is not None:
         return _frictional(diameters, box, phi, rng, force_tol, max_steps, comm, law, friction, pressure)
-    start = rng.uniform(0.0, box_length, size=(n, dim))
-    start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers (the square's, also when sheared)
+    square = _minimized(diameters, box, phi, rng, force_tol, max_steps, engine, comm, law, cohesion)
+    if not shear:
+        return square
+    sheared = shearing.quasistatic(square, shear, shear_step, force_tol, max_steps)
+    sheared.info.update({key: square.info[key] for key in ("fire_steps", "neighbour_rebuilds", "neighbour_refreshes",
+                                                           "bridges_broken") if key in square.info})
+    return sheared
+
+
+def _minimized(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_tol: float, max_steps: int, engine: str, comm,
+               law: str, cohesion: Cohesion | None) -> Packing:
+    """:func:`generate`'s frictionless packing in the square or cubic ``box`` (D,) at ``phi``: a uniform
+    start from ``rng``, minimised by ``engine``, renumbered in spatial order, its rattlers and statistics."""
+    n, dim = diameters.size, box.size
+    cell = sheared_cell(box, 0.0)
+    start = rng.uniform(0.0, box[0], size=(n, dim))
+    start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
     if engine == "lammps":
         x, steps, max_force = lammps_engine.minimize(start, diameters, box, force_tol, max_steps, comm, law=law)
         stats = {"engine": "lammps"}
@@ -147,10 +164,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     rattler = mechanics.find_rattlers(positions, diameters, cell, law=law, cohesion=cohesion, bridges=gap)
     info = mechanics.describe(positions, diameters, cell, rattler, law, cohesion, gap)
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
-    if shear:
-        info.update(shear=shear)
     return Packing(positions, diameters, box, rattler, info, model=ContactModel(law=law, cohesion=cohesion),
-                   bridges=gap, tilt=cell.tilt if cell.tilted else None)
+                   bridges=gap)
 
 
 def sheared_cell(box: np.ndarray, shear: float) -> geometry.Cell:
