@@ -8,7 +8,7 @@ import dataclasses
 import h5py
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close, brute_contacts, scene_of, with_random_stored_forces
+from conftest import assert_all, assert_close, brute_contacts, jammed_packing, scene_of, with_random_stored_forces
 
 from solver import contact_law
 from solver.errors import InputError
@@ -87,6 +87,20 @@ def test_a_sheared_packing_starts_from_the_square_packing_of_its_seed():
     affine = square.positions + 0.01 * square.positions[:, 1:2] * np.eye(2)[0]
     moved = np.linalg.norm(geometry.minimum_image(first.positions - affine, first.cell), axis=1)
     assert_all(moved.max() < 0.1, f"one step from the square packing: off the affine shear by {moved.max():.3g} d0")
+
+
+def test_quasistatic_shear_of_a_square_packing_is_at_rest_in_its_tilted_cell():
+    """shear.quasistatic to 0.05 in steps of 0.02 (0.02, 0.04, then 0.01 to 0.05): at rest in the
+    cell tilted by 0.05 L (FIRE's forces recomputed), and moved (not the square packing back)."""
+    square = jammed_packing(64, 0.88, 5)
+    p = shear.quasistatic(square, 0.05, step=0.02)
+    assert_close(p.cell.tilt, np.array([0.05 * square.box[0]]), rtol=1e-12, atol=0.0, what="tilt")
+    assert_close(shear.strains(0.05, 0.02), np.array([0.02, 0.04, 0.05]), rtol=1e-12, atol=0.0, what="strains")
+    assert_all(p.info["shear_steps"] == 3 and p.info["shear_step"] == 0.02, "three steps recorded")
+    force, _ = mechanics.FrictionlessForces(p.diameters, p.cell)(p.positions)
+    assert_all(np.abs(force).max() < FORCE_TOL, "at rest")
+    moved = geometry.minimum_image(p.positions - square.positions, p.cell)
+    assert_all(np.abs(moved).max() > 1e-3, "it did shear (not the square packing back)")
 
 
 SEEDS = (1, 2, 3)
