@@ -98,8 +98,9 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the packing
     made at shear 0 (the same one, bit for bit) is sheared quasi-statically to gamma in steps of
     ``shear_step`` (``shear.quasistatic``): a sheared packing at rest in the cell tilted by
-    xy = gamma L (``sheared_cell``), its info with the shear's record (``shear``, ``shear_step``,
-    ``shear_steps``, ``shear_fire_steps``, ``sigma_xy``) and ``fire_steps`` the square's FIRE.
+    xy = gamma L (``sheared_cell``), its info the sheared state's with the shear's record (``shear``,
+    ``shear_step``, ``shear_steps``, ``shear_fire_steps``, ``sigma_xy``) and the square's FIRE record
+    (``fire_steps``, ...).
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the cell would not be more
     than two large diameters across (a pair could touch through two periodic images: tiny N at
@@ -126,8 +127,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     if not shear:
         return square
     sheared = shearing.quasistatic(square, shear, shear_step, force_tol, max_steps)
-    sheared.info.update({key: square.info[key] for key in ("fire_steps", "neighbour_rebuilds", "neighbour_refreshes",
-                                                           "bridges_broken") if key in square.info})
+    for key, value in square.info.items():  # the square's FIRE record (fire_steps, ...) and wet, its cohesion's
+        sheared.info.setdefault(key, value)
     return sheared
 
 

@@ -208,7 +208,7 @@ def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_ima
     from solver.capillary import Cohesion
 
     cohesion = Cohesion("willett", surface_tension=0.002, volume=1e-3)
-    p = jammed.generate(128, 0.86, np.random.SeedSequence(5), cohesion=cohesion, shear=0.4)
+    p = jammed.generate(128, 0.86, np.random.SeedSequence(5), cohesion=cohesion, shear=0.4, shear_step=0.05)
     assert_all(p.tilt is not None and len(p.bridges) > 0, "tilted, with bridges apart")
     i, j = p.bridges[:, 0], p.bridges[:, 1]
     images = np.stack(np.meshgrid(*[[-1, 0, 1]] * 2, indexing="ij"), -1).reshape(-1, 2) @ p.cell.matrix.T
@@ -221,6 +221,8 @@ def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_ima
     hdf5.save_packings(path, [p])
     (read,) = hdf5.read_packings(path, model=p.model)  # its bridges checked in the tilted cell, and its rest
     assert_all(np.array_equal(read.bridges, p.bridges) and np.array_equal(read.positions, p.positions), "read back")
+    cached = unit_store.packing_from_unit(unit_store.packing_unit(p))  # the cache rebuilds the model from the info
+    assert_all(cached.model.cohesion == cohesion and np.array_equal(cached.bridges, p.bridges), "wet in the cache")
 
 
 def test_a_tilted_packings_stored_tangential_forces_are_read_through_the_cells_images(tmp_path):
