@@ -49,13 +49,13 @@ def box_length_for(diameters: np.ndarray, phi: float, dim: int = 2) -> float:
 
 def smallest_n(phi: float, dim: int, shear: float = 0.0) -> int:
     """Smallest even N >= ``MIN_N`` whose bidisperse box at ``phi``, tilted by ``shear``
-    (:func:`sheared_cell`), is more than two large diameters across."""
+    (``shear.sheared_cell``), is more than two large diameters across."""
     pair = solid_volume(np.array([D_SMALL, D_LARGE]), dim)  # one small and one large particle
     n = int(np.floor(2.0 * phi * (2.0 * D_LARGE) ** dim / pair)) + 1  # L^D = (n/2) pair / phi
     n += n % 2
 
     def across(n):
-        return geometry.narrowest(sheared_cell(np.full(dim, box_length_for(bidisperse_diameters(n), phi, dim)), shear))
+        return geometry.narrowest(shearing.sheared_cell(np.full(dim, box_length_for(bidisperse_diameters(n), phi, dim)), shear))
 
     while across(n) <= 2.0 * D_LARGE:  # round-off at the edge, and the tilt's narrower height
         n += 2
@@ -98,7 +98,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the packing
     made at shear 0 (the same one, bit for bit) is sheared quasi-statically to gamma in steps of
     ``shear_step`` (``shear.quasistatic``): a sheared packing at rest in the cell tilted by
-    xy = gamma L (``sheared_cell``), its info the sheared state's with the shear's record (``shear``,
+    xy = gamma L (``shear.sheared_cell``), its info the sheared state's with the shear's record (``shear``,
     ``shear_step``, ``shear_steps``, ``shear_fire_steps``, ``sigma_xy``) and the square's FIRE record
     (``fire_steps``, ...).
 
@@ -112,7 +112,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     diameters = rng.permutation(bidisperse_diameters(n))  # mixed, so the sort below is safe
     box_length = box_length_for(diameters, phi, dim)
     box = np.full(dim, box_length)
-    cell = sheared_cell(box, shear)
+    cell = shearing.sheared_cell(box, shear)
     if geometry.narrowest(cell) <= 2.0 * D_LARGE:
         across = (f"side L = {box_length:.4g}" if not shear else
                   f"side L = {box_length:.4g} and, tilted by packing.shear = {shear}, a height of "
@@ -137,7 +137,7 @@ def _minimized(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_to
     """:func:`generate`'s frictionless packing in the square or cubic ``box`` (D,) at ``phi``: a uniform
     start from ``rng``, minimised by ``engine``, renumbered in spatial order, its rattlers and statistics."""
     n, dim = diameters.size, box.size
-    cell = sheared_cell(box, 0.0)
+    cell = shearing.sheared_cell(box, 0.0)
     start = rng.uniform(0.0, box[0], size=(n, dim))
     start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
     if engine == "lammps":
@@ -167,14 +167,6 @@ def _minimized(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_to
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
     return Packing(positions, diameters, box, rattler, info, model=ContactModel(law=law, cohesion=cohesion),
                    bridges=gap)
-
-
-def sheared_cell(box: np.ndarray, shear: float) -> geometry.Cell:
-    """The periodic cell of sides ``box`` (D,) tilted by xy = ``shear`` L_x (``packing.shear``: the tilt
-    over the side, |shear| <= 1/2), xz = yz = 0; orthogonal at shear 0."""
-    tilt = np.zeros(len(geometry.TILTS[box.size]))
-    tilt[0] = shear * box[0]
-    return geometry.Cell(box, tilt, np.ones(box.size, dtype=bool))
 
 
 SQUEEZE_FROM = 0.75  # a frictional packing's start: phi_start = 0.75 phi, squeezed to phi

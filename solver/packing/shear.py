@@ -2,7 +2,7 @@
 docs/dem_packings.md).
 
 Simple shear along x with the gradient along y at fixed volume: the cell's tilt xy grows from 0 to
-gamma L_x (``jammed.sheared_cell``; xz = yz = 0) in steps of ``step`` (the last one shorter);
+gamma L_x (:func:`sheared_cell`; xz = yz = 0) in steps of ``step`` (the last one shorter);
 at each step every particle moves with the cell (x += d_gamma y, an affine shear that maps the
 cell's periodic images onto the new cell's), then FIRE on the packing's normal energy (and, wet,
 its capillary bridges, carried from step to step) brings it to rest in the new cell.  The result
@@ -14,8 +14,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import bridges, fire, jammed, mechanics, wet
+from . import bridges, fire, geometry, mechanics, wet
 from .configuration import Packing
+
+
+def sheared_cell(box: np.ndarray, shear: float) -> geometry.Cell:
+    """The periodic cell of sides ``box`` (D,) tilted by xy = ``shear`` L_x (``packing.shear``: the tilt
+    over the side, |shear| <= 1/2), xz = yz = 0; orthogonal at shear 0."""
+    tilt = np.zeros(len(geometry.TILTS[box.size]))
+    tilt[0] = shear * box[0]
+    return geometry.Cell(box, tilt, np.ones(box.size, dtype=bool))
 
 
 def strains(strain: float, step: float) -> np.ndarray:
@@ -46,7 +54,7 @@ def quasistatic(packing: Packing, strain: float, step: float = 0.01, force_tol: 
     before, fire_steps, rebuilds, refreshes = 0.0, 0, 0, 0
     for gamma in strains(strain, step):
         x[:, 0] += (gamma - before) * x[:, 1]
-        cell = jammed.sheared_cell(packing.box, gamma)
+        cell = sheared_cell(packing.box, gamma)
         if cohesion is None:
             forces = mechanics.FrictionlessForces(diameters, cell, law=law)
         else:
@@ -64,6 +72,10 @@ def quasistatic(packing: Packing, strain: float, step: float = 0.01, force_tol: 
     info = {key: packing.info[key] for key in ("force_tol", "law") if key in packing.info}
     info.update(shear=strain, shear_step=step, shear_steps=len(strains(strain, step)), shear_fire_steps=fire_steps,
                 shear_neighbour_rebuilds=rebuilds, shear_neighbour_refreshes=refreshes, max_force=result.max_force)
-    sheared = jammed.from_arrays(x, diameters, cell, None, info, packing.masses, packing.model, bridges=gap)
+    positions = geometry.wrap(x, cell)
+    rattler = mechanics.find_rattlers(positions, diameters, cell, law=law, cohesion=cohesion, bridges=gap)
+    stats = mechanics.describe(positions, diameters, cell, rattler, law, cohesion, gap)
+    sheared = Packing(positions, diameters, packing.box, rattler, {**stats, **info}, packing.masses,
+                      model=packing.model.at_rest(), bridges=gap, tilt=cell.tilt)
     sheared.info["sigma_xy"] = float(mechanics.stress(sheared)["stress"][0, 1])
     return sheared
