@@ -9,7 +9,8 @@ Rattlers are flagged by ``mechanics.find_rattlers`` (fewer than D + 1 contacts, 
 none is new) and stay in the packing. After minimisation particles are renumbered in a spatial
 order (2D: horizontal strips by y, x inside a strip; 3D: slabs by z, strips by y inside a slab,
 x inside a strip) so that contiguous rank blocks are compact in space; the renumbering depends
-only on the packing, never on the number of ranks.
+only on the packing, never on the number of ranks.  With ``packing.shear`` that packing is then
+sheared quasi-statically (``shear.quasistatic``), keeping its numbering.
 Not collective.
 """
 
@@ -55,7 +56,8 @@ def smallest_n(phi: float, dim: int, shear: float = 0.0) -> int:
     n += n % 2
 
     def across(n):
-        return geometry.narrowest(shearing.sheared_cell(np.full(dim, box_length_for(bidisperse_diameters(n), phi, dim)), shear))
+        side = box_length_for(bidisperse_diameters(n), phi, dim)
+        return geometry.narrowest(shearing.sheared_cell(np.full(dim, side), shear))
 
     while across(n) <= 2.0 * D_LARGE:  # round-off at the edge, and the tilt's narrower height
         n += 2
@@ -132,8 +134,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     return sheared
 
 
-def _minimized(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_tol: float, max_steps: int, engine: str, comm,
-               law: str, cohesion: Cohesion | None) -> Packing:
+def _minimized(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_tol: float, max_steps: int,
+               engine: str, comm, law: str, cohesion: Cohesion | None) -> Packing:
     """:func:`generate`'s frictionless packing in the square or cubic ``box`` (D,) at ``phi``: a uniform
     start from ``rng``, minimised by ``engine``, renumbered in spatial order, its rattlers and statistics."""
     n, dim = diameters.size, box.size
