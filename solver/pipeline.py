@@ -101,7 +101,7 @@ def make_packings(scene: Scene, comm, store: UnitStore | None = None) -> list[Pa
     else:
         made = parallel.owner_compute(comm, seeds, lambda s: jammed.generate(
             spec.n, spec.phi, s, spec.force_tol, spec.max_steps, dim=spec.dim, law=scene.model.law,
-            cohesion=scene.model.bridges, shear=spec.shear))
+            cohesion=scene.model.bridges, shear=spec.shear, shear_step=spec.shear_step))
     for i, p in zip(missing, made):
         if store:
             store.save(f"packings/{i:04d}", *packing_unit(p), key=recipe[i])

@@ -429,6 +429,8 @@ CASES = [
      "packing.pressure = 0.01: the pressure at which LAMMPS holds a frictional packing", None),
     ("a shear beyond LAMMPS's limit", "packing: {n: 64, phi: 0.9, shear: 0.7}\n", [],
      "packing.shear = 0.7: must be in [-0.5, 0.5]", None),
+    ("a shear step beyond its limit", "packing: {n: 64, phi: 0.9, shear: 0.2, shear_step: 0.1}\n", [],
+     "packing.shear_step = 0.1: must be in (0.0, 0.05]", None),
     ("a sheared cell too narrow for its particles", "packing: {n: 20, phi: 0.7, dim: 3, shear: 0.5}\n", [],
      "tilted by packing.shear = 0.5, a height of 2.263, not more than two large diameters", None),
     ("a shear on a packing file", "packing: {file: '{file}', shear: 0.2}\n", [],

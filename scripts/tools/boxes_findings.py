@@ -4,9 +4,10 @@ and the modes of a packing between walls near the walls against the bulk.
     .venv/bin/python -m scripts.tools.boxes_findings results/boxes_phi*.h5 [--save results]
         [--waves results/boxes_waves_*.h5] [--figures docs] [--walls-n 1024]
 
-Sheared cells.  Each results file of configs/boxes.yaml is one scene, square or made by FIRE in
-a tilted cell (packing.shear); its square configurations are also sheared quasi-statically to
-``--strain`` (:func:`quasistatic_shear`; ``--save`` writes them as a packing file for
+Sheared cells.  Each results file of configs/boxes.yaml is one scene, square or with
+packing.shear (made, before rotsound sheared quasi-statically, by FIRE in the tilted cell); its
+square configurations are also sheared quasi-statically to ``--strain``
+(``solver.packing.shear.quasistatic``; ``--save`` writes them as a packing file for
 configs/boxes_waves.yaml).  For each: phi, the pressure and the shear stress sigma_xy
 (``mechanics.stress``: compressive positive), the vDOS (every eigenvalue), and the long-wave
 sound speeds of every configuration from its own matrix (:func:`elastic_tensor`, :func:`speeds`)
@@ -42,9 +43,9 @@ import yaml
 from solver.contact_law import ContactModel, pair_blocks
 from solver.io import hdf5, results
 from solver.model import dynmat
-from solver.packing import fire, geometry, jammed, mechanics
+from solver.packing import fire, geometry, jammed, mechanics, shear
 from solver.packing import walls as walling
-from solver.packing.configuration import Packing, solid_volume
+from solver.packing.configuration import Packing
 from solver.plots.common import DPI, legend, plt
 
 LAYER = 2.0
@@ -118,28 +119,6 @@ def angles(count: int = DIRECTIONS) -> tuple[np.ndarray, np.ndarray]:
 def configuration(stored: dict) -> Packing:
     """A results file's configuration (``results.packing``) as a Packing in its cell."""
     return jammed.from_arrays(stored["positions"], stored["diameters"], stored["cell"], stored["rattler"])
-
-
-def quasistatic_shear(packing, strain: float, step: float = 0.01, force_tol: float = 1e-6,
-                      max_steps: int = 200_000):
-    """``packing`` (square periodic cell) sheared quasi-statically to the shear strain ``strain``
-    at fixed volume: ``step`` by ``step`` the cell's tilt grows by step L and every particle moves
-    with it (x += step y), then FIRE (on the frictionless energy, as the packing was made) brings it
-    to rest in the new cell -- athermal quasistatic shear.  Returned at rest in the cell tilted by
-    xy = strain L.  RuntimeError if a FIRE does not converge."""
-    x, diameters, box = packing.positions.copy(), packing.diameters, packing.box
-    strains = np.append(np.arange(step, strain, step), strain)
-    before = 0.0
-    for gamma in strains:
-        x[:, 0] += (gamma - before) * x[:, 1]
-        cell = jammed.sheared_cell(box, gamma)
-        result = fire.minimize(x, mechanics.FrictionlessForces(diameters, cell), force_tol, max_steps)
-        if not result.converged:
-            raise RuntimeError(f"quasistatic shear: FIRE at strain {gamma:.3f} did not converge "
-                               f"(max |F| = {result.max_force:.2e})")
-        x, before = result.x, gamma
-    phi = solid_volume(diameters, packing.dim) / cell.volume  # the square's: a shear keeps the volume
-    return jammed.from_arrays(x, diameters, cell, info={"phi": phi, "shear": strain})
 
 
 class WalledForces:
@@ -271,7 +250,7 @@ def scene(path: str, model: ContactModel = ContactModel(rho=RHO)) -> dict:
 def sheared_scene(path: str, strain: float, model: ContactModel = ContactModel(rho=RHO),
                   bin_width: float = 0.05, save: str | None = None) -> dict:
     """The square configurations of one results file sheared quasi-statically to ``strain``
-    (:func:`quasistatic_shear`), their :func:`summary` with their vDOS from every eigenvalue
+    (``shear.quasistatic``), their :func:`summary` with their vDOS from every eigenvalue
     (dense: ``references.dense_eigenvalues``, the same histogram as the pipeline's); with ``save``
     (a folder) the sheared packings are written there as a rotsound packing file
     ``packing_<name>.h5`` (``hdf5.save_packings``: configs/boxes_waves.yaml reads them)."""
@@ -285,7 +264,7 @@ def sheared_scene(path: str, strain: float, model: ContactModel = ContactModel(r
     phi = float(np.mean([s["phi"] for s in stored]))
     packings, omegas = [], []
     for s in stored:
-        sheared = quasistatic_shear(configuration(s), strain)
+        sheared = shear.quasistatic(configuration(s), strain)
         dm = dynmat.assemble(sheared, model, PETSc.COMM_SELF)
         try:
             lam = dense_eigenvalues(dm)

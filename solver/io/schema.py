@@ -125,9 +125,14 @@ class PackingSpec:
                                       "phi is then where the squeeze ends and the packing's own phi is reported. "
                                       "null: the squeeze's box is kept", _range(0.0, 1e2, True), float)
     shear: float = _f(0.0, "generated packings with engine: fire: the shear strain gamma of their periodic cell, its "
-                           "tilt xy over its side L (LAMMPS's xy = gamma L; xz = yz = 0): FIRE makes them at rest in "
-                           "the tilted (sheared) cell (docs/dem_packings.md). Between -0.5 and 0.5, LAMMPS's limit; "
-                           "0: the square or cubic box", _range(-0.5, 0.5), float)
+                           "tilt xy over its side L (LAMMPS's xy = gamma L; xz = yz = 0): the packing made at shear 0 "
+                           "is sheared quasi-statically to gamma at fixed volume (steps of shear_step, each an affine "
+                           "shear of particles and cell, then FIRE to rest), so it carries a shear stress sigma_xy "
+                           "(docs/dem_packings.md). Between -0.5 and 0.5, LAMMPS's limit; 0: the square or cubic box",
+                      _range(-0.5, 0.5), float)
+    shear_step: float = _f(0.01, "with shear: the strain step of the quasistatic shear (the last step shorter when it "
+                                 "does not divide shear); smaller steps follow the path more closely at more FIRE runs",
+                           _range(0.0, 0.05, lo_open=True), float)
     walls: list[dict] | None = _f(None, "with `file`: flat immovable walls, a list of {axis: x, y or z, position: p}, p in "
                                         "the packing file's units and coordinates (as LAMMPS's fix wall/gran xplane/"
                                         "yplane/zplane takes them), on axes the file does not make periodic; each faces "

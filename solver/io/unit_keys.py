@@ -174,8 +174,9 @@ def packing_key(scene, index: int) -> UnitKey:
     """Key of generated packing ``index`` of ``scene``: its recipe.
 
     ``dim`` joins the settings only in 3D, ``engine`` only when it is lammps, ``law`` only when
-    it is hertz, ``shear`` only when not 0, and ``fire``, the version of rotsound's FIRE
-    (``fire.VERSION``), whenever FIRE makes the packing: a packing made by an earlier FIRE, which
+    it is hertz, ``shear`` with ``shear_method`` (quasistatic: the packings of earlier versions,
+    made by FIRE in the tilted cell, are not found again) and ``shear_step`` only when the shear is
+    not 0, and ``fire``, the version of rotsound's FIRE (``fire.VERSION``), whenever FIRE makes the packing: a packing made by an earlier FIRE, which
     took other steps, is not found again (and a 3D or LAMMPS recipe never matches a 2D or FIRE one).
     """
     spec = scene.packing
@@ -195,8 +196,8 @@ def packing_key(scene, index: int) -> UnitKey:
         settings["pressure"] = spec.pressure
     if scene.model.cohesion is not None:  # wet: FIRE runs with the bridges
         settings["cohesion"] = dataclasses.asdict(scene.model.cohesion)
-    if spec.shear:  # FIRE in a sheared cell; unsheared recipes keep the keys of before
-        settings["shear"] = spec.shear
+    if spec.shear:  # sheared quasi-statically (not the FIRE in a tilted cell of before); unsheared keys as before
+        settings.update(shear=spec.shear, shear_method="quasistatic", shear_step=spec.shear_step)
     return UnitKey.of(unit="packing", section="packing", version=__version__, settings=settings)
 
 

@@ -9,7 +9,8 @@ Rattlers are flagged by ``mechanics.find_rattlers`` (fewer than D + 1 contacts, 
 none is new) and stay in the packing. After minimisation particles are renumbered in a spatial
 order (2D: horizontal strips by y, x inside a strip; 3D: slabs by z, strips by y inside a slab,
 x inside a strip) so that contiguous rank blocks are compact in space; the renumbering depends
-only on the packing, never on the number of ranks.
+only on the packing, never on the number of ranks.  With ``packing.shear`` that packing is then
+sheared quasi-statically (``shear.quasistatic``), keeping its numbering.
 Not collective.
 """
 
@@ -22,6 +23,7 @@ from .. import profiling
 from ..capillary import Cohesion
 from ..contact_law import ContactModel
 from . import bridges, fire, geometry, lammps_engine, mechanics, stressed, wet
+from . import shear as shearing
 from .configuration import Packing, solid_volume
 from .stressed import TangentialForces
 
@@ -48,13 +50,14 @@ def box_length_for(diameters: np.ndarray, phi: float, dim: int = 2) -> float:
 
 def smallest_n(phi: float, dim: int, shear: float = 0.0) -> int:
     """Smallest even N >= ``MIN_N`` whose bidisperse box at ``phi``, tilted by ``shear``
-    (:func:`sheared_cell`), is more than two large diameters across."""
+    (``shear.sheared_cell``), is more than two large diameters across."""
     pair = solid_volume(np.array([D_SMALL, D_LARGE]), dim)  # one small and one large particle
     n = int(np.floor(2.0 * phi * (2.0 * D_LARGE) ** dim / pair)) + 1  # L^D = (n/2) pair / phi
     n += n % 2
 
     def across(n):
-        return geometry.narrowest(sheared_cell(np.full(dim, box_length_for(bidisperse_diameters(n), phi, dim)), shear))
+        side = box_length_for(bidisperse_diameters(n), phi, dim)
+        return geometry.narrowest(shearing.sheared_cell(np.full(dim, side), shear))
 
     while across(n) <= 2.0 * D_LARGE:  # round-off at the edge, and the tilt's narrower height
         n += 2
@@ -77,7 +80,7 @@ def spatial_order(positions: np.ndarray, box) -> np.ndarray:
 def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float = 1e-6,
              max_steps: int = 2_000_000, dim: int = 2, engine: str = "fire", comm=None,
              law: str = "harmonic", friction: float | None = None, pressure: float | None = None,
-             cohesion: Cohesion | None = None, shear: float = 0.0) -> Packing:
+             cohesion: Cohesion | None = None, shear: float = 0.0, shear_step: float = 0.01) -> Packing:
     """Make one jammed packing of ``n`` disks (``dim`` = 2) or spheres (3) at area or volume
     fraction ``phi`` under the normal ``law`` (harmonic or hertz), minimised by ``engine``:
     rotsound's FIRE (not collective) or LAMMPS's
@@ -94,10 +97,12 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     decision: the particles are wet from the start, so the same seed gives the dry packing of the
     same start]; it keeps its bridged pairs across a gap (``Packing.bridges``).
 
-    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the cell
-    is tilted by xy = gamma L (``sheared_cell``; the same random start, uniform in the square, is
-    uniform in the tilted cell too) and FIRE minimises in it: a packing at rest in a sheared
-    periodic cell.
+    With ``shear`` = gamma (``engine`` fire without friction only: ValueError otherwise) the packing
+    made at shear 0 (the same one, bit for bit) is sheared quasi-statically to gamma in steps of
+    ``shear_step`` (``shear.quasistatic``): a sheared packing at rest in the cell tilted by
+    xy = gamma L (``shear.sheared_cell``), its info the sheared state's with the shear's record (``shear``,
+    ``shear_step``, ``shear_steps``, ``shear_fire_steps``, ``sigma_xy``) and the square's FIRE record
+    (``fire_steps``, ...).
 
     Raises InputError (naming packing.n and packing.phi) before FIRE if the cell would not be more
     than two large diameters across (a pair could touch through two periodic images: tiny N at
@@ -109,7 +114,7 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     diameters = rng.permutation(bidisperse_diameters(n))  # mixed, so the sort below is safe
     box_length = box_length_for(diameters, phi, dim)
     box = np.full(dim, box_length)
-    cell = sheared_cell(box, shear)
+    cell = shearing.sheared_cell(box, shear)
     if geometry.narrowest(cell) <= 2.0 * D_LARGE:
         across = (f"side L = {box_length:.4g}" if not shear else
                   f"side L = {box_length:.4g} and, tilted by packing.shear = {shear}, a height of "
@@ -120,8 +125,23 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
                          f"{smallest_n(phi, dim, shear)} at this phi, or a smaller packing.phi")
     if friction is not None:
         return _frictional(diameters, box, phi, rng, force_tol, max_steps, comm, law, friction, pressure)
-    start = rng.uniform(0.0, box_length, size=(n, dim))
-    start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers (the square's, also when sheared)
+    square = _minimized(diameters, box, phi, rng, force_tol, max_steps, engine, comm, law, cohesion)
+    if not shear:
+        return square
+    sheared = shearing.quasistatic(square, shear, shear_step, force_tol, max_steps)
+    for key, value in square.info.items():  # the square's FIRE record (fire_steps, ...) and wet, its cohesion's
+        sheared.info.setdefault(key, value)
+    return sheared
+
+
+def _minimized(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_tol: float, max_steps: int,
+               engine: str, comm, law: str, cohesion: Cohesion | None) -> Packing:
+    """:func:`generate`'s frictionless packing in the square or cubic ``box`` (D,) at ``phi``: a uniform
+    start from ``rng``, minimised by ``engine``, renumbered in spatial order, its rattlers and statistics."""
+    n, dim = diameters.size, box.size
+    cell = shearing.sheared_cell(box, 0.0)
+    start = rng.uniform(0.0, box[0], size=(n, dim))
+    start = start[spatial_order(start, box)]  # spatial order: cache-friendly gathers
     if engine == "lammps":
         x, steps, max_force = lammps_engine.minimize(start, diameters, box, force_tol, max_steps, comm, law=law)
         stats = {"engine": "lammps"}
@@ -147,18 +167,8 @@ def generate(n: int, phi: float, seed: np.random.SeedSequence, force_tol: float 
     rattler = mechanics.find_rattlers(positions, diameters, cell, law=law, cohesion=cohesion, bridges=gap)
     info = mechanics.describe(positions, diameters, cell, rattler, law, cohesion, gap)
     info.update(fire_steps=steps, max_force=max_force, force_tol=force_tol, law=law, **stats)
-    if shear:
-        info.update(shear=shear)
     return Packing(positions, diameters, box, rattler, info, model=ContactModel(law=law, cohesion=cohesion),
-                   bridges=gap, tilt=cell.tilt if cell.tilted else None)
-
-
-def sheared_cell(box: np.ndarray, shear: float) -> geometry.Cell:
-    """The periodic cell of sides ``box`` (D,) tilted by xy = ``shear`` L_x (``packing.shear``: the tilt
-    over the side, |shear| <= 1/2), xz = yz = 0; orthogonal at shear 0."""
-    tilt = np.zeros(len(geometry.TILTS[box.size]))
-    tilt[0] = shear * box[0]
-    return geometry.Cell(box, tilt, np.ones(box.size, dtype=bool))
+                   bridges=gap)
 
 
 SQUEEZE_FROM = 0.75  # a frictional packing's start: phi_start = 0.75 phi, squeezed to phi

@@ -37,7 +37,8 @@ def check_box(diameters: np.ndarray, box, cohesion: capillary.Cohesion) -> None:
 class WetForces:
     """Forces (N, D) and energy of a wet packing for ``fire.minimize``, and its bridged pairs.
 
-    diameters (N,), box (D,) sides or a ``geometry.Cell``, ``cohesion`` the bridges' law, ``law`` the normal law.  The
+    diameters (N,), box (D,) sides or a ``geometry.Cell``, ``cohesion`` the bridges' law, ``law`` the normal law,
+    ``bridged`` the pairs (B, 2) bridged at the start (a wet packing's bridges carried on; None: none).  The
     bridged pairs are kept as sorted keys i N + j (i < j); each call adds the pairs its contact
     list finds touching and drops those apart by s_c or more, then adds their pull (the whole pass
     vectorised over the bridges).  The box must exceed twice the largest contact distance plus
@@ -45,11 +46,13 @@ class WetForces:
     InputError otherwise (:func:`check_box`), before any force is computed.
     """
 
-    def __init__(self, diameters: np.ndarray, box, cohesion: capillary.Cohesion, law: str = "harmonic"):
+    def __init__(self, diameters: np.ndarray, box, cohesion: capillary.Cohesion, law: str = "harmonic",
+                 bridged: np.ndarray | None = None):
         check_box(diameters, box, cohesion)
         self.dry = FrictionlessForces(diameters, box, law=law)
         self.box, self.cohesion, self.radius = box, cohesion, 0.5 * diameters
-        self.keys = np.zeros(0, dtype=np.int64)
+        pairs = np.sort(np.zeros((0, 2)) if bridged is None else bridged, axis=1).astype(np.int64)
+        self.keys = np.unique(pairs[:, 0] * diameters.size + pairs[:, 1])
         self.broken = 0
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, float]:

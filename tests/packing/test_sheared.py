@@ -1,18 +1,19 @@
-"""Packings in a tilted (sheared) periodic cell: FIRE's sheared packings at rest (forces by brute
-force over the cell's images), their rattlers and pressure, the cell kept by ``from_arrays``, the
-packing file and the unit store, and the cell in the content keys."""
+"""Packings in a tilted (sheared) periodic cell: the quasi-statically sheared packings of
+``packing.shear`` at rest (forces by brute force over the cell's images), their rattlers and
+pressure, their start (the square packing) and their shear stress, the cell kept by
+``from_arrays``, the packing file and the unit store, and the cell and the shear in the content keys."""
 
 import dataclasses
 
 import h5py
 import numpy as np
 import pytest
-from conftest import assert_all, assert_close, brute_contacts, scene_of, with_random_stored_forces
+from conftest import assert_all, assert_close, brute_contacts, jammed_packing, scene_of, with_random_stored_forces
 
 from solver import contact_law
 from solver.errors import InputError
 from solver.io import hdf5, unit_keys, unit_store
-from solver.packing import geometry, jammed, mechanics
+from solver.packing import geometry, jammed, mechanics, shear
 
 pytestmark = pytest.mark.serial_only  # FIRE and files on one process: no communicator
 
@@ -38,11 +39,13 @@ def brute_net_forces(p):
     return net, (i, j, delta, along)
 
 
-@pytest.mark.parametrize("dim, shear", [(2, 0.3), (2, -0.5), (3, 0.45)])
-def test_fire_with_shear_makes_a_packing_at_rest_in_the_tilted_cell(dim, shear):
-    p = sheared(dim, shear)
-    assert_close(p.tilt, np.eye(len(geometry.TILTS[dim]))[0] * shear * p.box[0], rtol=0, atol=0, what="xy = shear L")
-    assert_all(p.cell.tilt_problem() is None and p.info["shear"] == shear, "a valid tilt, recorded")
+@pytest.mark.parametrize("dim, strain", [(2, 0.3), (2, -0.5), (3, 0.45)])
+def test_a_sheared_packing_is_at_rest_in_the_tilted_cell(dim, strain):
+    p = sheared(dim, strain)
+    assert_close(p.tilt, np.eye(len(geometry.TILTS[dim]))[0] * strain * p.box[0], rtol=0, atol=0, what="xy = shear L")
+    assert_all(p.cell.tilt_problem() is None and p.info["shear"] == strain, "a valid tilt, recorded")
+    assert_all(p.info["shear_steps"] == round(abs(strain) / 0.01) and p.info["shear_fire_steps"] > 0,
+               "sheared in steps of 0.01, each relaxed by FIRE")
     net, (i, j, delta, along) = brute_net_forces(p)
     assert_all(np.linalg.norm(net, axis=1).max() < FORCE_TOL, "every particle at rest in the tilted cell")
     assert_all(i.size > dim * p.n and along.max() > 1e-3, "a jammed packing: contacts carry load")
@@ -65,10 +68,72 @@ def test_fire_with_shear_makes_a_packing_at_rest_in_the_tilted_cell(dim, shear):
 
 
 def test_fire_refreshes_its_verlet_list_in_a_tilted_cell():
-    """The 3D sheared packing's FIRE re-listed movers (``geometry.pairs_with`` in the tilted cell)
+    """The 3D sheared packing's FIREs re-listed movers (``geometry.pairs_with`` in the tilted cells)
     and still ended at rest (the test above): the partial refreshes found every new contact."""
     p = sheared(3, 0.45)
-    assert_all(p.info["neighbour_refreshes"] > 0, "the partial refresh ran")
+    assert_all(p.info["shear_neighbour_refreshes"] > 0, "the partial refresh ran while shearing")
+
+
+def test_a_sheared_packing_starts_from_the_square_packing_of_its_seed():
+    """packing.shear shears the packing packing.shear: 0 makes (not a new random start): the same
+    particles, and the same bits as shearing that packing by hand; at the first step it has moved
+    with the cell (affinely, plus a small relaxation), not to a new packing."""
+    square = sheared(2, 0.0)
+    p = sheared(2, 0.3)
+    by_hand = shear.quasistatic(square, 0.3, 0.01, FORCE_TOL)
+    assert_all(np.array_equal(p.positions, by_hand.positions) and np.array_equal(p.diameters, square.diameters),
+               "generate shears the square packing")
+    first = sheared(2, 0.01)
+    affine = square.positions + 0.01 * square.positions[:, 1:2] * np.eye(2)[0]
+    moved = np.linalg.norm(geometry.minimum_image(first.positions - affine, first.cell), axis=1)
+    assert_all(moved.max() < 0.1, f"one step from the square packing: off the affine shear by {moved.max():.3g} d0")
+
+
+def test_quasistatic_shear_of_a_square_packing_is_at_rest_in_its_tilted_cell():
+    """shear.quasistatic to 0.05 in steps of 0.02 (0.02, 0.04, then 0.01 to 0.05): at rest in the
+    cell tilted by 0.05 L (FIRE's forces recomputed), and moved (not the square packing back)."""
+    square = jammed_packing(64, 0.88, 5)
+    p = shear.quasistatic(square, 0.05, step=0.02)
+    assert_close(p.cell.tilt, np.array([0.05 * square.box[0]]), rtol=1e-12, atol=0.0, what="tilt")
+    assert_close(shear.strains(0.05, 0.02), np.array([0.02, 0.04, 0.05]), rtol=1e-12, atol=0.0, what="strains")
+    assert_all(p.info["shear_steps"] == 3 and p.info["shear_step"] == 0.02, "three steps recorded")
+    force, _ = mechanics.FrictionlessForces(p.diameters, p.cell)(p.positions)
+    assert_all(np.abs(force).max() < FORCE_TOL, "at rest")
+    moved = geometry.minimum_image(p.positions - square.positions, p.cell)
+    assert_all(np.abs(moved).max() > 1e-3, "it did shear (not the square packing back)")
+
+
+SEEDS = (1, 2, 3)
+
+
+@pytest.fixture(scope="module")
+def stress_ratios():
+    """sigma_xy / p (R, 3) of 256 disks at phi = 0.9 for each of ``SEEDS``: the square packing, and it
+    sheared to gamma = +0.2 and -0.2."""
+    ratios = []
+    for seed in SEEDS:
+        row = []
+        for strain in (0.0, 0.2, -0.2):
+            p = jammed.generate(256, 0.9, np.random.SeedSequence([seed, 0]), force_tol=FORCE_TOL, shear=strain)
+            sigma = mechanics.stress(p)["stress"]
+            if strain:
+                assert_close(p.info["sigma_xy"], sigma[0, 1], rtol=1e-12, atol=0, what="sigma_xy recorded")
+            row.append(sigma[0, 1] / p.info["pressure"])
+        ratios.append(row)
+    return np.array(ratios)
+
+
+def test_a_sheared_packing_carries_the_shear_stress_of_its_sign(stress_ratios):
+    """Sheared by +gamma every packing has a smaller sigma_xy (compressive positive: it resists a
+    positive shear) than sheared by -gamma; on average the +gamma packings lie below their square
+    packings (the negative control: a finite packing's residual sigma_xy, noise of either sign,
+    a few % of p at N = 256) and the -gamma ones above, by well over 2 % of p.  FIRE from a random
+    start in the tilted cell (the method before) had no such order: its sigma_xy was noise of
+    either sign (docs/boxes.md; on these seeds +0.2 gave the larger sigma_xy in two of three)."""
+    square, plus, minus = stress_ratios.T
+    assert_all(np.all(plus < minus), f"sigma_xy / p per seed (square, +0.2, -0.2): {stress_ratios}")
+    assert_all(plus.mean() < square.mean() < minus.mean(), f"the square packings between: {stress_ratios}")
+    assert_all(np.mean(minus - plus) / 2 > 0.02, f"a shear stress over the noise: {stress_ratios}")
 
 
 def test_shear_zero_is_the_square_packing():
@@ -136,13 +201,14 @@ def test_a_bad_cell_in_a_packing_file_is_named(tmp_path, attrs, fragment):
 
 
 def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_images(tmp_path):
-    """FIRE with capillary bridges in the tilted cell: every bridged pair apart is within its rupture
-    distance through the cell's nearest image (brute force), and the packing is at rest with them."""
+    """A wet packing sheared with its capillary bridges carried from step to step: every bridged
+    pair apart is within its rupture distance through the tilted cell's nearest image (brute
+    force), and the packing is at rest with them."""
     from solver import capillary
     from solver.capillary import Cohesion
 
     cohesion = Cohesion("willett", surface_tension=0.002, volume=1e-3)
-    p = jammed.generate(128, 0.86, np.random.SeedSequence(5), cohesion=cohesion, shear=0.4)
+    p = jammed.generate(128, 0.86, np.random.SeedSequence(5), cohesion=cohesion, shear=0.4, shear_step=0.05)
     assert_all(p.tilt is not None and len(p.bridges) > 0, "tilted, with bridges apart")
     i, j = p.bridges[:, 0], p.bridges[:, 1]
     images = np.stack(np.meshgrid(*[[-1, 0, 1]] * 2, indexing="ij"), -1).reshape(-1, 2) @ p.cell.matrix.T
@@ -155,6 +221,8 @@ def test_a_wet_sheared_packing_is_at_rest_with_its_bridges_through_the_cells_ima
     hdf5.save_packings(path, [p])
     (read,) = hdf5.read_packings(path, model=p.model)  # its bridges checked in the tilted cell, and its rest
     assert_all(np.array_equal(read.bridges, p.bridges) and np.array_equal(read.positions, p.positions), "read back")
+    cached = unit_store.packing_from_unit(unit_store.packing_unit(p))  # the cache rebuilds the model from the info
+    assert_all(cached.model.cohesion == cohesion and np.array_equal(cached.bridges, p.bridges), "wet in the cache")
 
 
 def test_a_tilted_packings_stored_tangential_forces_are_read_through_the_cells_images(tmp_path):
@@ -173,9 +241,15 @@ def test_a_tilted_packings_stored_tangential_forces_are_read_through_the_cells_i
 
 
 def test_the_recipe_key_of_a_generated_packing_holds_its_shear():
-    keys = [unit_keys.packing_key(scene_of("out.h5", packing={"n": 64, "phi": 0.9, **shear}), 0).digest
-            for shear in ({}, {"shear": 0.0}, {"shear": 0.3}, {"shear": -0.3})]
-    assert_all(keys[0] == keys[1] and len(set(keys)) == 3, "shear 0 keeps the key of before; others differ")
+    keys = [unit_keys.packing_key(scene_of("out.h5", packing={"n": 64, "phi": 0.9, **strain}), 0)
+            for strain in ({}, {"shear": 0.0}, {"shear": 0.3}, {"shear": -0.3}, {"shear": 0.3, "shear_step": 0.02},
+                           {"shear_step": 0.02})]
+    digests = [key.digest for key in keys]
+    assert_all(digests[0] == digests[1] == digests[5] and len(set(digests)) == 4,
+               "shear 0 keeps the key of before whatever the step; the shear and its step change it")
+    before = keys[0].parts  # the key FIRE in the tilted cell had: the square's settings and the shear
+    before["settings"]["shear"] = 0.3
+    assert_all(unit_keys.UnitKey.of(**before).digest != digests[2], "the packings made before are not found again")
 
 
 def test_a_tilted_cell_narrower_than_two_diameters_is_refused(tmp_path):

@@ -42,6 +42,24 @@ def test_fire_forces_are_minus_the_gradient_of_its_energy():
         assert_close(-gradient.reshape(n, 2), force, rtol=0, atol=1e-8, what=f"F = -dE/dx, h = {h}")
 
 
+def test_bridges_given_at_the_start_are_kept_until_they_rupture():
+    """WetForces(bridged=) carries a packing's bridges on (the quasistatic shear's steps): a pair
+    apart within its rupture distance pulls only when it was bridged at the start, and a given
+    bridge beyond its rupture distance breaks."""
+    diameters, box = np.ones(3), np.full(2, 10.0)
+    s_c = float(rupture_distance(0.5, 0.5, COHESION))
+    x = np.array([[1.0, 1.0], [2.0 + 0.5 * s_c, 1.0], [5.0, 5.0]])  # 0 and 1 apart by s_c / 2, 2 alone
+    for bridged, pulled in ((None, False), (np.array([[1, 0]]), True)):
+        forces = wet.WetForces(diameters, box, COHESION, bridged=bridged)
+        force, _ = forces(x)
+        assert (force[0, 0] > 0 and force[1, 0] < 0) == pulled and np.all(force[2] == 0)
+        assert forces.bridged(3).tolist() == ([[0, 1]] if pulled else [])
+    x[1, 0] = 2.0 + 1.5 * s_c
+    forces = wet.WetForces(diameters, box, COHESION, bridged=np.array([[0, 1]]))
+    force, _ = forces(x)
+    assert np.all(force == 0) and forces.bridged(3).size == 0 and forces.broken == 1
+
+
 def test_a_wet_packing_is_at_rest_with_the_pull_and_not_without(wet_2d):
     p = wet_2d
     assert p.model.cohesion == COHESION and p.info["n_bridges"] > p.info["n_contacts"]

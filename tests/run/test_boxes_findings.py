@@ -1,6 +1,6 @@
 """scripts/tools/boxes_findings.py (docs/boxes.md) on tiny packings: its long-wave speeds against
 the Bloch matrix of the same packing at a tiny wave vector and against a triangular crystal's
-speeds by hand, the quasistatic shear at rest in its tilted cell, the packing between walls at
+speeds by hand, the packing between walls at
 rest and the near-wall shares of its modes against a mode-by-mode sum, and the waves' table of
 a tiny sheared scene.  Serial."""
 
@@ -11,7 +11,7 @@ from conftest import assert_close, jammed_packing, run_cli, scene_text
 from scripts.tools import boxes_findings as findings
 from solver.contact_law import ContactModel, pair_blocks
 from solver.model import dynmat
-from solver.packing import geometry, jammed, mechanics
+from solver.packing import jammed, mechanics
 
 pytestmark = pytest.mark.serial_only
 
@@ -67,17 +67,6 @@ def test_speeds_of_a_triangular_crystal():
     assert_close(c_t, np.full(12, np.sqrt(3 / 8)), rtol=1e-6, atol=0.0, what="c_T")
 
 
-def test_quasistatic_shear_is_at_rest_in_its_tilted_cell():
-    square = jammed_packing(64, 0.88, 5)
-    sheared = findings.quasistatic_shear(square, 0.05, step=0.02)
-    cell = sheared.cell
-    assert_close(cell.tilt, np.array([0.05 * square.box[0]]), rtol=1e-12, atol=0.0, what="tilt")
-    force, _ = mechanics.FrictionlessForces(sheared.diameters, cell)(sheared.positions)
-    assert np.abs(force).max() < 1e-6
-    moved = geometry.minimum_image(sheared.positions - square.positions, cell)
-    assert np.abs(moved).max() > 1e-3  # it did shear (not the square packing back)
-
-
 def test_walled_packing_at_rest_and_its_layer_shares():
     packing = findings.walled_packing(48, 0.86, 2)
     assert packing.info["n_wall_contacts"] > 0 and not packing.cell.periodic[1]
@@ -111,7 +100,7 @@ def test_walled_packing_at_rest_and_its_layer_shares():
 
 
 def test_waves_scene_of_a_sheared_cell(tmp_path):
-    """A 64-disk packing FIRE made in a cell tilted by 0.2 L, its L and TR waves along b_x: the
+    """A 64-disk packing sheared quasi-statically to 0.2 (packing.shear), its L and TR waves along b_x: the
     table's direction is b_x's (180 - atan 0.2 degrees from x), its c the fit's at the smallest k,
     and its long-wave speeds the Christoffel speeds along b_x of the file's packing."""
     from solver.io import results
