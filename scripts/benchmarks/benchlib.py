@@ -18,7 +18,7 @@ import numpy as np
 from solver.io.atomic import atomic_write
 
 REPO = Path(__file__).resolve().parents[2]
-RECORDS = REPO / "benchmarks" / "records"  # the JSON records BENCHMARKS.md is rendered from (committed)
+RECORDS = REPO / "scripts" / "benchmarks" / "records"  # the JSON records BENCHMARKS.md is rendered from (committed)
 SCRATCH = REPO / "results" / "bench"  # logs, progress files and other by-products (not committed)
 PY = sys.executable
 
