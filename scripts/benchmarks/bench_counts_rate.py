@@ -3,7 +3,7 @@ counting path against a dense dgemm rate measured in the same run on the same co
 
     python -m scripts.benchmarks.bench_counts_rate [N] [--edges K] [--dgemm-n M]
         [--cases RANKS:GROUP:BLAS[:CNTL1] ...]
-    (defaults: N = 4096, K = 8, M = 2000, cases 2:1:1 2:2:1 1:1:2 2:1:1:1e-6; RANKS MPI ranks,
+    (defaults: N = 4096, K = 8, M = 2000, cases 2:1:1 2:2:1 1:1:2 1:1:1 2:1:1:1e-6 2:1:1:0; RANKS MPI ranks,
     GROUP ranks sharing one factor (counting's factor_ranks: 1 a factor per rank, as
     ``--group-size 1`` runs it; RANKS one factor shared by all), BLAS OpenBLAS threads per rank,
     CNTL1 MUMPS's relative pivot threshold, -inertia_mat_mumps_cntl_1, default 0.01)
@@ -105,7 +105,7 @@ def main() -> None:
     parser.add_argument("n", type=int, nargs="?", default=4096)
     parser.add_argument("--edges", type=int, default=8)
     parser.add_argument("--dgemm-n", type=int, default=2000)
-    parser.add_argument("--cases", nargs="+", default=["2:1:1", "2:2:1", "1:1:2", "2:1:1:1e-6"])
+    parser.add_argument("--cases", nargs="+", default=["2:1:1", "2:2:1", "1:1:2", "1:1:1", "2:1:1:1e-6", "2:1:1:0"])
     parser.add_argument("--case", nargs=5, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.case:
@@ -130,11 +130,11 @@ def main() -> None:
         out = run_json(cmd, timeout=4 * 3600, env=env)
         counts = out.pop("counts")
         first = counts if first is None else first
-        table.append({"N": args.n, "case": text, "ranks": int(ranks), "factor_ranks": int(group),
+        table.append({"N": args.n, "edges": args.edges, "case": text, "ranks": int(ranks), "factor_ranks": int(group),
                       "blas_threads": int(blas), "cntl1": float(cntl1[0]) if cntl1 else 0.01,
                       **{k: float(f"{v:.4g}") if isinstance(v, float) else v for k, v in out.items()},
                       "counts_equal": counts == first})
-        save("counts_rate", command, table, merge_by=("N", "case"))
+        save("counts_rate", command, table, merge_by=("N", "edges", "case"))
 
 
 if __name__ == "__main__":
