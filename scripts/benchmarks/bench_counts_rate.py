@@ -22,7 +22,9 @@ every rank at once, summed over ranks; measured just before and just after the c
 kept) and their ratio: the time of the counts over the floor K x flops / dgemm rate.  The rate
 RATIO is the reading: measured within a minute in one process on the same cores, it holds when
 other jobs load the machine, which inflates both absolute rates alike (the 1-minute load average
-before and after is recorded).  The counts must be the same in every case (column counts_equal).
+before and after is recorded).  The same per CPU second (``refactor_cpu_seconds``; the dgemm's
+flops over its processes' CPU time): cpu_over_floor, the ratio that a varying share of loaded
+cores does not blur (a thread spinning idle, OpenBLAS's or MPI's, counts as used).  The counts must be the same in every case (column counts_equal).
 Writes scripts/benchmarks/records/counts_rate.json after every case.
 """
 
@@ -43,20 +45,21 @@ BENCH = {"order": 132, "args": ["4096"]}
 ME = ["-m", __spec__.name]
 
 
-def dgemm_gflops(mpi, m: int, seconds: float = 4.0) -> float:
-    """GFlop/s of numpy's float64 matmul of two ``m`` x ``m`` matrices, run on every rank of
-    ``mpi`` at once for about ``seconds`` (after one untimed product), summed over the ranks.
-    Collective."""
+def dgemm_gflops(mpi, m: int, seconds: float = 4.0) -> tuple[float, float]:
+    """(GFlop/s, GFlop per CPU second) of numpy's float64 matmul of two ``m`` x ``m`` matrices,
+    run on every rank of ``mpi`` at once for about ``seconds`` (after one untimed product): the
+    ranks' rates summed, and all ranks' flops over all their processes' CPU time.  Collective."""
     rng = np.random.default_rng(mpi.rank)
     a, b = rng.standard_normal((m, m)), rng.standard_normal((m, m))
     a @ b
     mpi.Barrier()
-    start, products = time.perf_counter(), 0
+    start, cpu, products = time.perf_counter(), time.process_time(), 0
     while time.perf_counter() - start < seconds:
         a @ b
         products += 1
-    rate = 2.0 * m**3 * products / (time.perf_counter() - start) / 1e9
-    return mpi.allreduce(rate)
+    flops = 2.0 * m**3 * products / 1e9
+    rate = flops / (time.perf_counter() - start)
+    return mpi.allreduce(rate), mpi.allreduce(flops) / mpi.allreduce(time.process_time() - cpu)
 
 
 def case(n: int, edges: int, group: int, m: int, cntl1: str) -> None:
@@ -87,13 +90,14 @@ def case(n: int, edges: int, group: int, m: int, cntl1: str) -> None:
         A.destroy()
         dm.destroy()
     flops, refactor_s = settings["refactor_flops"], settings["refactor_seconds"]
-    rate = flops / refactor_s / 1e9
-    dgemm = 0.5 * (dgemm_before + dgemm_after)
+    rate, cpu_rate = flops / refactor_s / 1e9, flops / settings["refactor_cpu_seconds"] / 1e9
+    dgemm, dgemm_cpu = 0.5 * (dgemm_before[0] + dgemm_after[0]), 0.5 * (dgemm_before[1] + dgemm_after[1])
     row = {"dof": dm.size, "omega_max": omega_max, "refactorisations": settings["refactorisations"],
            "gflop_per_refactorisation": flops / settings["refactorisations"] / 1e9,
            "s_per_refactorisation_per_group": refactor_s / (settings["refactorisations"] * group / mpi.size),
            "mumps_gflops": rate, "dgemm_gflops": dgemm, "time_over_floor": dgemm / rate,
-           "dgemm_before": dgemm_before, "dgemm_after": dgemm_after, "counts_s": seconds,
+           "mumps_gflop_per_cpu_s": cpu_rate, "dgemm_gflop_per_cpu_s": dgemm_cpu, "cpu_over_floor": dgemm_cpu / cpu_rate,
+           "dgemm_before": dgemm_before[0], "dgemm_after": dgemm_after[0], "counts_s": seconds,
            "ordering_infog7": settings["mumps_ordering_infog7"], "load_before": load_before,
            "load_after": os.getloadavg()[0], "counts": [int(c) for c in below[mpi.size // group:]]}
     if mpi.rank == 0:

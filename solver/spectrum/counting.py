@@ -105,15 +105,17 @@ def group_copy(A, groups):
 def refactor_work(counter, groups) -> dict:
     """The numeric refactorisations of every group's ``counter`` (:class:`ShiftedInertia`):
     ``refactorisations`` (all groups'), ``refactor_flops`` (their MUMPS flops, RINFOG 3, each
-    group's once) and ``refactor_seconds`` (the longest time one rank spent in them); the flops
-    over the seconds are the rate at which the groups factorised together (BENCHMARKS
-    "counts_rate").  Collective on ``groups.comm``."""
+    group's once), ``refactor_seconds`` (the longest time one rank spent in them) and
+    ``refactor_cpu_seconds`` (the CPU time all ranks' processes spent in them); the flops over the
+    seconds are the rate at which the groups factorised together, over the CPU seconds the rate
+    per core they were given (BENCHMARKS "counts_rate").  Collective on ``groups.comm``."""
     from mpi4py import MPI
 
     first = groups.local.rank == 0
     return {"refactorisations": groups.comm.allreduce(max(counter.factorisations - 1, 0) if first else 0),
             "refactor_flops": groups.comm.allreduce(counter.refactor_flops if first else 0.0),
-            "refactor_seconds": groups.comm.allreduce(counter.refactor_seconds, op=MPI.MAX)}
+            "refactor_seconds": groups.comm.allreduce(counter.refactor_seconds, op=MPI.MAX),
+            "refactor_cpu_seconds": groups.comm.allreduce(counter.refactor_cpu_seconds)}
 
 
 def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.ndarray, dict]:
