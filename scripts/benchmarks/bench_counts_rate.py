@@ -24,7 +24,8 @@ RATIO is the reading: measured within a minute in one process on the same cores,
 other jobs load the machine, which inflates both absolute rates alike (the 1-minute load average
 before and after is recorded).  The same per CPU second (``refactor_cpu_seconds``; the dgemm's
 flops over its processes' CPU time): cpu_over_floor, the ratio that a varying share of loaded
-cores does not blur (a thread spinning idle, OpenBLAS's or MPI's, counts as used).  The counts must be the same in every case (column counts_equal).
+cores does not blur (a thread spinning idle, OpenBLAS's or MPI's, counts as used).  The counts
+must be the same in every case (column counts_equal).
 Writes scripts/benchmarks/records/counts_rate.json after every case.
 """
 
@@ -96,7 +97,8 @@ def case(n: int, edges: int, group: int, m: int, cntl1: str) -> None:
            "gflop_per_refactorisation": flops / settings["refactorisations"] / 1e9,
            "s_per_refactorisation_per_group": refactor_s / (settings["refactorisations"] * group / mpi.size),
            "mumps_gflops": rate, "dgemm_gflops": dgemm, "time_over_floor": dgemm / rate,
-           "mumps_gflop_per_cpu_s": cpu_rate, "dgemm_gflop_per_cpu_s": dgemm_cpu, "cpu_over_floor": dgemm_cpu / cpu_rate,
+           "mumps_gflop_per_cpu_s": cpu_rate, "dgemm_gflop_per_cpu_s": dgemm_cpu,
+           "cpu_over_floor": dgemm_cpu / cpu_rate,
            "dgemm_before": dgemm_before[0], "dgemm_after": dgemm_after[0], "counts_s": seconds,
            "ordering_infog7": settings["mumps_ordering_infog7"], "load_before": load_before,
            "load_after": os.getloadavg()[0], "counts": [int(c) for c in below[mpi.size // group:]]}
