@@ -102,6 +102,22 @@ def group_copy(A, groups):
     return A.getRedundantMatrix(groups.count, PETSc.Comm(groups.local))
 
 
+def refactor_work(counter, groups) -> dict:
+    """The numeric refactorisations of every group's ``counter`` (:class:`ShiftedInertia`):
+    ``refactorisations`` (all groups'), ``refactor_flops`` (their MUMPS flops, RINFOG 3, each
+    group's once), ``refactor_seconds`` (the longest time one rank spent in them) and
+    ``refactor_cpu_seconds`` (the CPU time all ranks' processes spent in them); the flops over the
+    seconds are the rate at which the groups factorised together, over the CPU seconds the rate
+    per core they were given (BENCHMARKS "counts_rate").  Collective on ``groups.comm``."""
+    from mpi4py import MPI
+
+    first = groups.local.rank == 0
+    return {"refactorisations": groups.comm.allreduce(max(counter.factorisations - 1, 0) if first else 0),
+            "refactor_flops": groups.comm.allreduce(counter.refactor_flops if first else 0.0),
+            "refactor_seconds": groups.comm.allreduce(counter.refactor_seconds, op=MPI.MAX),
+            "refactor_cpu_seconds": groups.comm.allreduce(counter.refactor_cpu_seconds)}
+
+
 def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.ndarray, dict]:
     """(number of eigenvalues of A below each of ``shifts`` (S,) int64, factorisation settings).
 
@@ -109,7 +125,8 @@ def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.
     ``parallel.Groups``) to the G groups of ``factor_ranks`` consecutive ranks (a divisor of ``comm.size``, or "auto":
     :func:`auto_factor_ranks`), on the group's copy of A with a reused :class:`ShiftedInertia`;
     every rank gets every count, and an error on any rank is raised on all.  The settings add
-    ``factor_ranks`` and ``factor_groups`` (and with auto, its estimate and budget, GiB).
+    ``factor_ranks`` and ``factor_groups`` (and with auto, its estimate and budget, GiB), and the
+    work of the refactorisations (:func:`refactor_work`; not auto's first count).
     """
     chosen, known = {}, {}
     if factor_ranks == "auto" and comm.size == 1:
@@ -134,6 +151,7 @@ def counts_below(A, shifts, comm, factor_ranks: int | str = "auto") -> tuple[np.
             parallel.agree(comm, error)
             counts = groups.share(mine, {index: groups.owner(index) for index in range(len(shifts))})
             settings = comm.bcast(counter.settings(), root=0)  # group 0 always counts shift 0
+            settings.update(refactor_work(counter, groups))
         finally:
             if counter is not None:
                 counter.destroy()

@@ -36,6 +36,7 @@ Units: omega in 1/t0.  Collective on the matrix's communicator.
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -109,6 +110,12 @@ class ShiftedInertia:
     the symbolic analysis is done at the first shift, later shifts refactorise numerically only
     (same pattern: A's values copied in place, then the diagonal shifted).  PC options prefix
     ``inertia_`` (MUMPS Cholesky with ICNTL 13 and 24 by default, :func:`_mumps_defaults`).
+    ``refactor_flops``, ``refactor_seconds`` and ``refactor_cpu_seconds`` add up, over the numeric
+    refactorisations (every count after the first, whose time includes the analysis), MUMPS's
+    flops of the elimination (RINFOG 3, the whole factor's on its communicator; 0 for another
+    package), this rank's wall time in them and its process's CPU time (all its threads): flops
+    over time is the factorisation's rate (BENCHMARKS "counts_rate"), over CPU time the rate per
+    core actually given, which other jobs on the node do not dilute.
     Collective on A's communicator; call :meth:`destroy` when done."""
 
     def __init__(self, A):
@@ -125,6 +132,7 @@ class ShiftedInertia:
         self.pc.setFromOptions()
         _mumps_defaults(self.pc)
         self.factorisations = 0
+        self.refactor_flops, self.refactor_seconds, self.refactor_cpu_seconds = 0.0, 0.0, 0.0
 
     @profiling.logged("rsInertia")
     def count_below(self, sigma: float) -> int:
@@ -133,11 +141,18 @@ class ShiftedInertia:
 
         self.A.copy(self.shifted, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         self.shifted.shift(-sigma)
+        start, cpu = time.perf_counter(), time.process_time()
         self.pc.setUp()  # same nonzero pattern: numeric factorisation only after the first
+        seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
         factor = self.pc.getFactorMatrix()
         try:
             _check_mumps(factor, self.pc, sigma)
             negative = int(factor.getInertia()[0])
+            if self.factorisations:
+                self.refactor_seconds += seconds
+                self.refactor_cpu_seconds += cpu
+                if self.pc.getFactorSolverType() == "mumps":
+                    self.refactor_flops += factor.getMumpsRinfog(3)
         finally:
             factor.destroy()  # drops the wrapper's reference only; the PC keeps its factor
         self.factorisations += 1

@@ -332,3 +332,34 @@ def test_a_failed_factorisation_raises_instead_of_counting_zero(comm, shared):
         assert_all(int(below[0]) == int(np.sum(lam < 1.0)), f"{below} against {np.sum(lam < 1.0)}")
     finally:
         A.destroy()
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_refactorisation_work_is_the_dense_ldlt_flop_count(comm, shared):
+    """The work counts_below reports (``refactor_work``, the rate's numerator and denominator):
+    on a dense symmetric positive definite matrix of order n = 400, whose LDL^T costs n^3/3 flops
+    plus O(n^2) (MUMPS's RINFOG 3 then counts one front of n fully summed rows), every numeric
+    refactorisation is counted once per group, whichever layout; the first count of each group (with
+    the analysis) is not.  Rows split over ``comm``; the counts are the dense eigvalsh ones."""
+    from petsc4py import PETSc
+
+    mpi, n = comm.tompi4py(), 400
+    root = np.random.default_rng(3).standard_normal((n, n))
+    dense = root @ root.T / n
+    lo, hi = n * mpi.rank // mpi.size, n * (mpi.rank + 1) // mpi.size
+    A = PETSc.Mat().createAIJ(size=((hi - lo, None), (hi - lo, None)), nnz=(n, n), comm=comm)
+    A.setValues(range(lo, hi), range(n), dense[lo:hi].ravel())
+    A.assemble()
+    lam = np.linalg.eigvalsh(dense)
+    shifts = np.quantile(lam, [0.1, 0.3, 0.5, 0.7, 0.9])
+    ranks = mpi.size if shared else 1
+    try:
+        below, settings = counting.counts_below(A, shifts, mpi, factor_ranks=ranks)
+    finally:
+        A.destroy()
+    assert_all(list(below) == [int(np.sum(lam < s)) for s in shifts], f"{below}")
+    refactorisations = shifts.size - mpi.size // ranks
+    assert_all(settings["refactorisations"] == refactorisations, str(settings))
+    assert_close(settings["refactor_flops"] / refactorisations, n**3 / 3, rtol=0.01, atol=0.0,
+                 what="MUMPS flops per dense LDL^T (n^3/3 + O(n^2): 0.4 % at n = 400)")
+    assert_all(settings["refactor_seconds"] > 0 and settings["refactor_cpu_seconds"] > 0, str(settings))
