@@ -26,10 +26,12 @@ bash scripts/tools/apt_install.sh "${PKGS[@]}"
 if [ ! -x .venv/bin/python ]; then
   /usr/bin/python3 -m venv --system-site-packages .venv
 fi
+# The stamp holds the checkout the editable install points at: a venv moved, or shared with another
+# checkout (a git worktree), is pointed back at this one.
 stamp=.venv/.rotsound-installed
-if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$(cat "$stamp")" != "$PWD" ]; then
   .venv/bin/python -m pip install -q --no-deps --no-build-isolation --disable-pip-version-check -e . >/dev/null
-  touch "$stamp"
+  echo "$PWD" > "$stamp"
 fi
 
 # Debian's petsc4py/slepc4py live under /usr/lib/{petsc,slepc}dir/<version>/<arch>-real; the .pth

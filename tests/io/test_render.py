@@ -40,7 +40,9 @@ def drawn(tmp_path_factory):
     out = folder / "modes.h5"
     pipeline.run(scene_of(out, cache="off", seed=7, packing={"n": 64, "phi": 0.9}, model={"rho": [0.5]},
                           modes={"omega": [0.3], "count": 1}), COMM, [])
-    (path,), _ = export.export(str(out), "vtp", str(folder / "mode.vtp"), rho=0.5, mode=0, frames=1)
+    paths, _ = export.export(str(out), "vtp", str(folder / "mode.vtp"), rho=0.5, mode=0, frames=1)
+    path = paths[0]  # the particles; then the cell's outline and the frame's .vtm (export._vtp)
+    assert path == str(folder / "mode.vtp") and paths[1:] == [str(folder / "mode.cell.vtp"), str(folder / "mode.vtm")]
     png, where = folder / "mode.png", folder / "where.npy"
     code = DRAW.format(where=str(where), vtp=path, png=str(png), size=SIZE)
     subprocess.run(["xvfb-run", "-a", sys.executable, "-c", code], check=True, timeout=120, cwd=REPO)
