@@ -63,6 +63,8 @@ class ContactModel:
     code's update of the tangential spring, ``lammps`` (projected onto the turning tangent plane,
     slip taken at the lever: LAMMPS, LIGGGHTS) or ``yade`` (YADE's ScGeom: also turned about the
     normal with the pair's mean spin, :func:`stressed_blocks`, and its own slip,
+    :func:`slip_blocks`) or ``granular`` (LAMMPS's pair granular: projected as ``lammps``, to first
+    order, but the slip taken at the radii R while the torques act at the lever,
     :func:`slip_blocks`).  The scene gives one per
     rho (``ModelSpec.contact``).  ``gamma_n``, ``gamma_t``: the contact dashpots (1/t0), in
     LAMMPS's gran/*/history convention (:func:`damping_blocks`; 0: none).  ``cohesion``: the
@@ -106,7 +108,7 @@ class ContactModel:
 LEVERS = ("radius", "contact")      # ContactModel.lever
 MOBILISED = ("stick", "slide")      # ContactModel.mobilised
 STORED_FORCES = ("keep", "drop")    # ContactModel.stored_forces
-HISTORIES = ("lammps", "yade")      # ContactModel.history
+HISTORIES = ("lammps", "yade", "granular")  # ContactModel.history
 
 
 def lever_arms(radius_i: np.ndarray, radius_j: np.ndarray, overlap: np.ndarray, lever: str
@@ -122,9 +124,10 @@ def lever_arms(radius_i: np.ndarray, radius_j: np.ndarray, overlap: np.ndarray, 
 
 def slip_differs(model: ContactModel) -> bool:
     """Whether the tangential spring's slip is not the transpose of its force's action (YADE's
-    history with a tangential spring): it then adds :func:`slip_blocks`, which are not symmetric.
-    Not collective."""
-    return model.history == "yade" and model.rho > 0.0
+    history, or LAMMPS's pair granular under the lever R - xi/2, with a tangential spring): it
+    then adds :func:`slip_blocks`, which are not symmetric.  Not collective."""
+    granular = model.history == "granular" and model.lever != "radius"
+    return (model.history == "yade" or granular) and model.rho > 0.0
 
 
 def reduced_radius(d_i: np.ndarray, d_j: np.ndarray) -> np.ndarray:
@@ -388,7 +391,10 @@ def _slip_map(normal: np.ndarray, c_n: np.ndarray, distance: np.ndarray, overlap
     theta_j): B_t with the torques' :func:`lever_arms` under ``history: lammps``; under ``yade``
     (Debian's YADE 2023.02a, measured: docs/stressed_contacts.md section 2) the arms R and the
     relative translation scaled by alpha = (R_i + R_j) / r: alpha P (u_i - u_j) - (R_i theta_i +
-    R_j theta_j) x n."""
+    R_j theta_j) x n; under ``granular`` (LAMMPS's pair granular, Debian's 2022 LAMMPS, measured:
+    docs/finite_amplitude.md section 7) the radii R, whatever the torques' lever."""
+    if model.history == "granular":
+        return _tangential_map(normal, c_n, radius_i, radius_j)
     if model.history != "yade":
         return _tangential_map(normal, c_n, *lever_arms(radius_i, radius_j, overlap, model.lever))
     b_t = _tangential_map(normal, c_n, radius_i, radius_j)

@@ -599,7 +599,12 @@ CASES = [
      "waves: {engine: lammps, n: [1]}\n", [], "mu > 0 of the contacts LAMMPS moves (packing.friction: 0)", None),
     ("the LAMMPS engine with rolling springs", "packing: {n: 64, phi: 0.7, dim: 3, friction: 0.3}\n"
      "model: {rho_roll: 0.1}\nwaves: {engine: lammps, n: [1]}\n", [],
-     "rolling and twisting springs (rho_roll = 0.1, rho_twist = 0) need LAMMPS's pair granular", None),
+     "rolling and twisting springs (rho_roll = 0.1, rho_twist = 0) need LAMMPS's pair granular: set "
+     "model.history: granular and model.lever: contact", None),
+    ("the LAMMPS engine's pair granular under the hertz law", "packing: {n: 64, phi: 0.7, dim: 3, friction: 0.3}\n"
+     "model: {rho_roll: 0.1, law: hertz, lever: contact, history: granular}\nwaves: {engine: lammps, n: [1]}\n", [],
+     "model.law = 'hertz' with model.history: granular: LAMMPS's pair granular keeps its rolling and twisting "
+     "stiffnesses", None),
     ("the LAMMPS engine with YADE's history", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
      "model: {history: yade}\nwaves: {engine: lammps, n: [1]}\n", [],
      "LAMMPS's gran/*/history takes the tangential force at the radius, with its own history", None),

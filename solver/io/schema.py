@@ -234,7 +234,10 @@ class ModelSpec:
     history: str = _f("lammps", "stressed packings: the DEM code's update of a stored tangential force, which the "
                                 "matrix linearises: lammps (projected onto the tangent plane as the contact turns: "
                                 "LAMMPS's gran/*/history, LIGGGHTS, rotsound's own packings) or yade (YADE's ScGeom: "
-                                "also turned about the normal by the pair's mean spin); the two differ in 3D only",
+                                "also turned about the normal by the pair's mean spin; the two differ in 3D only) or "
+                                "granular (LAMMPS's pair granular, which waves.engine: lammps runs with rolling and "
+                                "twisting springs: projected as lammps, the slip taken at the radius while the "
+                                "torques act at model.lever)",
                       _one_of(HISTORIES), str)
 
     damping: DampingSpec | None = _f(None, "contact dashpots (docs/damping.md); absent or null: none. Damped "

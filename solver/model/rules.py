@@ -64,11 +64,15 @@ def asymmetry(model, which: str | None) -> str | None:
     """Why the dynamical matrix of the model section ``model`` is not symmetric, as a clause, or
     None: the stored tangential forces ``which`` says the packings carry (None: none) when
     ``model.stored_forces`` keeps them, or YADE's slip (``model.history: yade`` with a tangential
-    spring; docs/stressed_contacts.md). Not collective."""
+    spring; docs/stressed_contacts.md), or LAMMPS's pair granular's (``model.history: granular`` under
+    the lever contact; docs/finite_amplitude.md). Not collective."""
     if which is not None and model.stored_forces == "keep":
         return which
     if model.history == "yade" and any(r > 0 for r in model.rho):
         return "model.history: yade takes YADE's tangential slip, which is not the transpose of its forces' action"
+    if model.history == "granular" and model.lever != "radius" and any(r > 0 for r in model.rho):
+        return ("model.history: granular takes the tangential slip at the radius while the torques act at "
+                f"model.lever: {model.lever} (LAMMPS's pair granular), which is not symmetric")
     return None
 
 

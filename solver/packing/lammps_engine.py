@@ -90,10 +90,13 @@ def open_lammps(comm, screen: bool, key: str = "packing.engine: lammps"):
 PAIR_STYLES = {"harmonic": "gran/hooke", "hertz": "gran/hertz/history"}  # per contact_law.LAWS
 
 
-def create_particles(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray):
+def create_particles(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray,
+                     types: np.ndarray | None = None):
     """LAMMPS units lj, the periodic box (D,) from the origin (2D: z in [-0.5, 0.5]), and the
-    particles: ids 1..N in input order, ``atom_style sphere`` with radius d/2 and mass 1.
+    particles: ids 1..N in input order, ``atom_style sphere`` with radius d/2 and mass 1, of
+    atom type ``types`` (N,) (1..T; None: all 1).
     Returns the ids this rank owns (None if none).  Collective (also for scripts/crosschecks/crosscheck_lammps.py)."""
+    types = np.ones(len(diameters), dtype=int) if types is None else np.asarray(types, dtype=int)
     n, dim = positions.shape
     sides = " ".join(f"0 {float(side)!r}" for side in box) + (" -0.5 0.5" if dim == 2 else "")
     lmp.commands_string(f"""
@@ -104,11 +107,11 @@ def create_particles(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.
         atom_modify map yes
         comm_modify vel yes
         region box block {sides}
-        create_box 1 box
+        create_box {int(types.max())} box
     """)
     x = np.zeros((n, 3))
     x[:, :dim] = geometry.wrap(positions, box)
-    lmp.create_atoms(n, np.arange(1, n + 1).tolist(), [1] * n, x.ravel().tolist())
+    lmp.create_atoms(n, np.arange(1, n + 1).tolist(), types.tolist(), x.ravel().tolist())
     if lmp.get_natoms() != n:  # the same count on every rank
         raise RuntimeError(f"LAMMPS created {lmp.get_natoms()} of {n} particles")
     ids = lmp.numpy.extract_atom("id")

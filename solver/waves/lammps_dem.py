@@ -54,7 +54,8 @@ from ..errors import InputError
 from ..packing import geometry, lammps_engine
 
 PAIR_STYLES = lammps_engine.FRICTIONAL_STYLES  # the normal law -> LAMMPS's pair style with a shear history
-MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this
+MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this; also the rolling and twisting limits' default
+RECORDS = ("sliding", "opened", "formed", "opening", "coulomb", "energy", "rolling", "rolling_coulomb")  # Contacts
 KEY = "waves.engine: lammps"  # the scene key, in messages
 CALLBACK = "rotsound_lammps_sample"  # the name of LAMMPS's python function that samples a run
 TORQUE_CALLBACK = "rotsound_lammps_hold_torques"  # ... and of the one that holds a stressed packing's torques
@@ -72,8 +73,10 @@ class Setting:
     """What a scene's LAMMPS waves need beyond the matrix: the packing's ``diameters`` (N,) and
     ``box`` (D,), the Coulomb coefficient ``friction`` (packing.friction), ``rest_tol``
     (packing.force_tol: the largest force LAMMPS may find on the packing at rest) and
-    ``record_every`` (samples between contact records: :func:`record_every`) and the stored
-    tangential forces ``tangential`` (``stressed.TangentialForces``, or None)."""
+    ``record_every`` (samples between contact records: :func:`record_every`), the stored
+    tangential forces ``tangential`` (``stressed.TangentialForces``, or None) and, under pair
+    granular, the rolling and twisting Coulomb limits ``rolling_friction`` (mu_roll, of the
+    normal force) and ``twisting_friction`` (mu_twist, d0: a torque per normal force)."""
 
     diameters: np.ndarray
     box: np.ndarray
@@ -81,6 +84,8 @@ class Setting:
     rest_tol: float
     record_every: int = 1
     tangential: object = None
+    rolling_friction: float = MAX_FRICTION
+    twisting_friction: float = MAX_FRICTION
 
 
 @dataclass
@@ -93,16 +98,23 @@ class Contacts:
     opening: np.ndarray
     coulomb: np.ndarray
     energy: np.ndarray
+    rolling: np.ndarray
+    rolling_coulomb: np.ndarray
 
     def as_datasets(self) -> dict[str, np.ndarray]:
         """The series under their results-file names (``contacts_<name>``)."""
-        return {f"contacts_{name}": getattr(self, name) for name in
-                ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
+        return {f"contacts_{name}": getattr(self, name) for name in RECORDS}
 
 
 def record_every(contacts_every: int | None) -> int:
     """Samples between contact records: ``waves.contacts_every``, or ``RECORD_EVERY`` when null."""
     return RECORD_EVERY if contacts_every is None else int(contacts_every)
+
+
+def pair_style(model) -> str:
+    """LAMMPS's pair style that runs ``model`` (a ``ContactModel``): ``granular`` under
+    ``history: granular``, else gran/hooke/history or gran/hertz/history.  Not collective."""
+    return "granular" if model.history == "granular" else PAIR_STYLES[model.law]
 
 
 def require(comm) -> None:
@@ -112,11 +124,25 @@ def require(comm) -> None:
 
 
 def unsupported(model) -> str | None:
-    """Why LAMMPS's gran/*/history cannot run ``model`` (a ``ContactModel``), as a clause naming
-    what it lacks, or None.  Not collective."""
+    """Why LAMMPS cannot run ``model`` (a ``ContactModel``) as rotsound's matrix has it, as a
+    clause naming what it lacks, or None: ``history: granular`` runs LAMMPS's pair granular
+    (:func:`granular_coefficients`; rolling and twisting springs need it), any other history its
+    gran/*/history.  Not collective."""
+    if model.history == "granular":
+        if model.law != "harmonic":
+            return (f"model.law = {model.law!r} with model.history: granular: LAMMPS's pair granular keeps its "
+                    "rolling and twisting stiffnesses (rolling sds, twisting sds) as the overlap changes, while "
+                    "rotsound's hertz law scales them by sqrt(a' xi); use law: harmonic")
+        if model.lever != "contact":
+            return (f"model.lever = {model.lever!r} with model.history: granular: LAMMPS's pair granular puts the "
+                    "tangential force's torque at R - xi/2 (lever: contact)")
+        if model.damped:
+            return (f"contact dashpots (gamma_n = {model.gamma_n:g}, gamma_t = {model.gamma_t:g}) with "
+                    "model.history: granular: the engine drives pair granular without dashpots")
+        return None
     if model.rho_roll > 0.0 or model.rho_twist > 0.0:
         return (f"rolling and twisting springs (rho_roll = {model.rho_roll:g}, rho_twist = {model.rho_twist:g}) "
-                f"need LAMMPS's pair granular, which this engine does not drive yet")
+                f"need LAMMPS's pair granular: set model.history: granular and model.lever: contact")
     if model.lever != "radius" or model.history != "lammps":
         return (f"model.lever = {model.lever!r}, model.history = {model.history!r}: LAMMPS's gran/*/history "
                 "takes the tangential force at the radius, with its own history (lever: radius, history: lammps)")
@@ -126,7 +152,8 @@ def unsupported(model) -> str | None:
 def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: np.ndarray, model,
         friction: float, start: np.ndarray, dt: float, steps: int, every: int, rest_tol: float,
         channel: tuple[int, np.ndarray], comm, record_every: int = 1,
-        tangential=None) -> tuple[np.ndarray, Contacts]:
+        tangential=None, rolling_friction: float = MAX_FRICTION,
+        twisting_friction: float = MAX_FRICTION) -> tuple[np.ndarray, Contacts]:
     """One standing wave integrated by LAMMPS from v(0) = ``start`` (N', dof), zero displacement.
 
     ``positions`` (N, D), ``diameters`` (N,): the packing, in the periodic ``box`` (D,) from the
@@ -142,6 +169,9 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
 
     ``tangential``: the packing's stored tangential forces (``stressed.TangentialForces``), put
     into LAMMPS's contact history first (:func:`_load_history`); None: unstressed springs.
+    ``rolling_friction`` (mu_roll) and ``twisting_friction`` (mu_twist, d0): the rolling and
+    twisting springs' Coulomb limits under pair granular (:func:`granular_coefficients`); the
+    rolling and twisting springs start unstressed.
 
     Before the wave starts, LAMMPS's own forces and torques on the whole packing at rest must all
     be below ``REST_FACTOR`` ``rest_tol`` (the packing's force tolerance): InputError on every rank naming the
@@ -158,13 +188,14 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     """
     n, dim = positions.shape
     active = np.asarray(active, dtype=bool)
-    _check_arguments(n, dim, active, start, model, friction, dt, steps, every, record_every)
+    limits = (friction, rolling_friction, twisting_friction)
+    _check_arguments(n, dim, active, start, model, limits, dt, steps, every, record_every)
     positions = geometry.wrap(np.asarray(positions, dtype=float), box)
     lmp = lammps_engine.open_lammps(comm, False, KEY)
     try:
-        _create_packing(lmp, positions, diameters, box, model, friction, dt)
+        _create_packing(lmp, positions, diameters, box, model, limits, dt)
         if tangential is not None:
-            _load_history(lmp, positions, diameters, box, model, tangential, dt, comm)
+            _load_history(lmp, positions, diameters, box, model, tangential, limits, dt, comm)
         lmp.command("run 0")
         _check_rest(lmp, n, rest_tol)
         held = _start_moving(lmp, active, dim)
@@ -173,7 +204,7 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
         component, phase = channel
         weights = np.zeros(n, dtype=complex)
         weights[active] = phase
-        sampler = _Sampler(lmp, positions, diameters, box, model, friction, held, component, weights, comm,
+        sampler = _Sampler(lmp, positions, diameters, box, model, limits, held, component, weights, comm,
                            record_every)
         whole = np.zeros((n, start.shape[1]))
         whole[active] = start
@@ -188,36 +219,77 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     return np.array(sampler.z), sampler.contacts()
 
 
-def _check_arguments(n: int, dim: int, active: np.ndarray, start: np.ndarray, model, friction: float, dt: float,
+def _check_arguments(n: int, dim: int, active: np.ndarray, start: np.ndarray, model, limits: tuple, dt: float,
                      steps: int, every: int, record_every: int) -> None:
-    """ValueError unless :func:`run`'s arguments fit together (shapes, ranges, a model LAMMPS's
-    gran/*/history can run), before LAMMPS starts.  Not collective (the same on every rank)."""
+    """ValueError unless :func:`run`'s arguments fit together (shapes, ranges, the Coulomb
+    ``limits`` (mu, mu_roll, mu_twist), a model LAMMPS can run: :func:`unsupported`), before
+    LAMMPS starts.  Not collective (the same on every rank)."""
     dof = start.shape[1]
     if active.shape != (n,) or start.shape[0] != active.sum() or dof not in (dim, dim + (1 if dim == 2 else 3)):
         raise ValueError(f"start of shape {start.shape} for {active.sum()} of {n} particles moving in {dim}D")
-    if not (0 < friction <= MAX_FRICTION and 0 < every <= steps and dt > 0 and record_every >= 1):
-        raise ValueError(f"friction {friction} in (0, {MAX_FRICTION:g}], every {every} in [1, steps = {steps}], "
+    if not (all(0 < mu <= MAX_FRICTION for mu in limits) and 0 < every <= steps and dt > 0 and record_every >= 1):
+        raise ValueError(f"friction {limits} in (0, {MAX_FRICTION:g}], every {every} in [1, steps = {steps}], "
                          f"dt {dt} > 0, record_every {record_every} >= 1")
     why = unsupported(model)
     if why is not None:
         raise ValueError(why)
 
 
-def _create_packing(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, model, friction: float,
+def _create_packing(lmp, positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, model, limits: tuple,
                     dt: float) -> None:
-    """The packing's particles in LAMMPS with the model's pair style (kn, rho, dashpots, mu), its
+    """The packing's particles in LAMMPS with the model's pair style (kn, rho, dashpots, the
+    Coulomb ``limits`` (mu, mu_roll, mu_twist); pair granular: :func:`granular_coefficients`), its
     neighbour lists, time step ``dt`` and the two per-contact computes every record reads
-    (:func:`_local_contacts`).  Collective."""
-    lammps_engine.create_particles(lmp, positions, diameters, box)
+    (:func:`_local_contacts`; under pair granular also the rolling force).  Collective."""
+    friction = limits[0]
+    if model.history == "granular":
+        types, coefficients = granular_coefficients(diameters, model, limits)
+        lammps_engine.create_particles(lmp, positions, diameters, box, types)
+        lmp.command("pair_style granular")
+        lmp.commands_list(coefficients)
+        extra = "p1 p2 p3 p4 p5 p6 p7 p8"
+    else:
+        lammps_engine.create_particles(lmp, positions, diameters, box)
+        lmp.commands_string(f"""
+            pair_style {PAIR_STYLES[model.law]} {lammps_engine.KN!r} {float(model.rho)!r} {float(model.gamma_n)!r} {float(model.gamma_t)!r} {float(friction)!r} {int(model.gamma_t > 0)}
+            pair_coeff * *
+        """)
+        extra = "p1 p2 p3 p4"
     lmp.commands_string(f"""
-        pair_style {PAIR_STYLES[model.law]} {lammps_engine.KN!r} {float(model.rho)!r} {float(model.gamma_n)!r} {float(model.gamma_t)!r} {float(friction)!r} {int(model.gamma_t > 0)}
-        pair_coeff * *
         neighbor {lammps_engine.SKIN!r} bin
         neigh_modify every 1 delay 0 check yes
         timestep {float(dt)!r}
         compute pairs all property/local patom1 patom2 cutoff radius
-        compute forces all pair/local dist force p1 p2 p3 p4 cutoff radius
+        compute forces all pair/local dist force {extra} cutoff radius
     """)
+
+
+def granular_coefficients(diameters: np.ndarray, model, limits: tuple) -> tuple[np.ndarray, list[str]]:
+    """LAMMPS's pair granular for rotsound's harmonic ``model`` (``history: granular``,
+    docs/finite_amplitude.md section 7): each pair of atom types gets ``hooke`` kn, ``tangential
+    linear_history`` kt = rho kn with mu, ``rolling sds`` k_roll = rho_roll kn with mu_roll and
+    ``twisting sds`` k_twist = rho_twist kn a'^2 with mu_twist (a' the pair's reduced radius: LAMMPS's
+    twisting spring is a torque per angle, rotsound's a force per length at the lever a'), no
+    dashpots; ``limits`` = (mu, mu_roll, mu_twist).  One atom type per distinct diameter when
+    twisting springs are on (else one).  Returns the types (N,) 1..T and the pair_coeff commands.
+    Not collective."""
+    friction, rolling, twisting = (float(mu) for mu in limits)
+    if model.rho_twist > 0.0:
+        sizes, inverse = np.unique(diameters, return_inverse=True)
+    else:
+        sizes, inverse = np.ones(1), np.zeros(len(diameters), dtype=int)
+    commands = []
+    for a in range(sizes.size):
+        for b in range(a, sizes.size):
+            reduced = float(contact_law.reduced_radius(sizes[a], sizes[b]))
+            line = (f"pair_coeff {a + 1} {b + 1} hooke {lammps_engine.KN!r} 0.0 "
+                    f"tangential linear_history {float(model.rho) * lammps_engine.KN!r} 0.0 {friction!r}")
+            if model.rho_roll > 0.0:
+                line += f" rolling sds {float(model.rho_roll) * lammps_engine.KN!r} 0.0 {rolling!r}"
+            if model.rho_twist > 0.0:
+                line += f" twisting sds {float(model.rho_twist) * lammps_engine.KN * reduced**2!r} 0.0 {twisting!r}"
+            commands.append(line)
+    return inverse + 1, commands
 
 
 def _start_moving(lmp, active: np.ndarray, dim: int) -> np.ndarray:
@@ -314,24 +386,32 @@ def history_velocities(positions, diameters, box, model, tangential) -> np.ndarr
     return solution.reshape(n, width)
 
 
-def _load_history(lmp, positions, diameters, box, model, tangential, dt: float, comm) -> None:
+def _load_history(lmp, positions, diameters, box, model, tangential, limits: tuple, dt: float, comm) -> None:
     """Put the stored tangential forces f_t (on i from j) into LAMMPS's shear history, which no
     command or library call sets (and a restart read by a second LAMMPS instance of a process
     loses: docs/finite_amplitude.md): one step of ``HISTORY_STEP`` with no integrator (nothing
     moves) at the velocities of :func:`history_velocities` leaves s = -f_t / k_t on every
     contact.  The step is long so that the velocities, and the dashpots' forces in that step,
-    are negligible.  Then the velocities are zeroed and LAMMPS's tangential forces are compared
+    are negligible.  Under pair granular the step's spins would stretch the rolling and twisting
+    springs too: their Coulomb limits are 0 for that step, so that LAMMPS's rescaling leaves their
+    history at zero, and the ``limits`` (mu, mu_roll, mu_twist) are set again after it.
+    Then the velocities are zeroed and LAMMPS's tangential forces are compared
     with the stored ones: InputError on every rank if they differ by more than ``HISTORY_TOL``
     of the largest.  Collective (every rank solves the same small system; one allgather)."""
     velocities = history_velocities(positions, diameters, box, model, tangential)
     dim = positions.shape[1]
     set_velocities(lmp, velocities, dim)
+    granular = model.history == "granular"
+    if granular:
+        lmp.commands_list(granular_coefficients(diameters, model, (limits[0], 0.0, 0.0))[1])
     lmp.commands_string(f"""
         timestep {HISTORY_STEP!r}
         run 1 post no
         timestep {float(dt)!r}
         reset_timestep 0
     """)  # step 0 again: fix python/invoke samples at multiples of its period
+    if granular:
+        lmp.commands_list(granular_coefficients(diameters, model, limits)[1])
     set_velocities(lmp, np.zeros_like(velocities), dim)
     lmp.command("run 0 post no")
     _compare_history(lmp, tangential, dim, comm)
@@ -444,14 +524,17 @@ def velocities(lmp, n: int, dim: int, dof: int) -> np.ndarray:
 
 
 def _local_contacts(lmp) -> tuple[np.ndarray, np.ndarray]:
-    """This rank's contacts: pairs (c, 2) 0-based and (r, f_n, f_t x, y, z, |f_t|) (c, 6): the
-    distance, the normal force with its dashpot (``compute pair/local force``: r times the
-    pair style's ccel) and the tangential force after LAMMPS's Coulomb rescaling.  Not collective."""
-    from lammps import LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
+    """This rank's contacts: pairs (c, 2) 0-based and (r, f_n, f_t x, y, z, |f_t|) (c, 6), under
+    pair granular also (f_r x, y, z, |f_r|) (c, 10): the distance, the normal force with its
+    dashpot (``compute pair/local force``: r times the pair style's ccel), the tangential force
+    after LAMMPS's Coulomb rescaling and the rolling force after its own.  (LAMMPS's pair
+    granular reports no twisting torque there: its p9 is 0, measured.)  Not collective."""
+    from lammps import LMP_SIZE_COLS, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY
 
+    columns = lmp.extract_compute("forces", LMP_STYLE_LOCAL, LMP_SIZE_COLS)
     arrays = [lmp.numpy.extract_compute(name, LMP_STYLE_LOCAL, LMP_TYPE_ARRAY) for name in ("pairs", "forces")]
     pairs, values = (np.zeros((0, width)) if a is None else np.array(a, dtype=float).reshape(-1, width)
-                     for a, width in zip(arrays, (2, 6)))
+                     for a, width in zip(arrays, (2, columns)))
     return pairs.astype(np.int64) - 1, values
 
 
@@ -464,9 +547,10 @@ class _Sampler:
     costs LAMMPS's ``compute pair/local`` and numpy over every contact (about 4 ms at N = 8192 on
     two ranks, more than ten steps: BENCHMARKS "lammps_waves"); z costs 0.1-0.2 ms.  Collective."""
 
-    def __init__(self, lmp, positions, diameters, box, model, friction, held, component, weights, comm,
+    def __init__(self, lmp, positions, diameters, box, model, limits, held, component, weights, comm,
                  record_every: int = 1):
-        self.lmp, self.model, self.friction, self.comm = lmp, model, friction, comm
+        self.lmp, self.model, self.comm = lmp, model, comm
+        self.friction, self.rolling_friction = limits[0], limits[1]
         self.record_every, self.count = record_every, 0
         self.box, self.diameters, self.x0, self.held = box, diameters, positions, held
         self.n, self.dim = positions.shape
@@ -477,7 +561,7 @@ class _Sampler:
         overlaps = np.concatenate(comm.allgather(self._overlaps(pairs, values[:, 0])))
         order = np.argsort(keys)
         self.keys, self.overlap0 = keys[order], overlaps[order]  # the start's contacts, every rank
-        self.z, self.rows = [], {name: [] for name in ("sliding", "opened", "formed", "opening", "coulomb", "energy")}
+        self.z, self.rows = [], {name: [] for name in RECORDS}
         self.rest = self._sums()[3]  # the springs' energy at rest, before the start's velocities
 
     def _keys(self, pairs: np.ndarray) -> np.ndarray:
@@ -489,8 +573,10 @@ class _Sampler:
         return 0.5 * (self.diameters[pairs[:, 0]] + self.diameters[pairs[:, 1]]) - distance
 
     def _sums(self) -> np.ndarray:
-        """This sample's [Re z, Im z, kinetic, potential, sliding, touching, of the start's] summed
-        over the ranks, and [coulomb, opening] maximised (appended).  Collective."""
+        """This sample's [Re z, Im z, kinetic, potential, sliding, touching, of the start's,
+        rolling] summed over the ranks, and [coulomb, opening, rolling coulomb] maximised
+        (appended).  The potential is NaN with twisting springs, whose torques LAMMPS does not
+        report per contact.  Collective."""
         lmp, dim = self.lmp, self.dim
         nlocal = lmp.extract_global("nlocal")
         ids = lmp.numpy.extract_atom("id")[:nlocal] - 1 if nlocal else np.zeros(0, dtype=np.int64)
@@ -506,12 +592,18 @@ class _Sampler:
         if self.model.rho > 0.0:
             kt = self.model.rho * contact_law.spring_scale(overlap, self.model.law, reduced)
             potential += (tangential**2 / (2.0 * kt)).sum()
+        rolling = values[:, 9] if values.shape[1] > 6 else np.zeros(len(values))
+        if self.model.rho_roll > 0.0:
+            potential += (rolling**2 / (2.0 * self.model.rho_roll * contact_law.KN)).sum()
+        if self.model.rho_twist > 0.0:
+            potential = np.nan
         moved = geometry.minimum_image(x - self.x0[ids], self.box)
         potential -= np.einsum("nd,nd->", self.held[ids], moved)  # the hold force's work
         channel = (v[:, self.component] if self.component < dim else w[:, self.component - dim]) @ self.weights[ids]
         kinetic = 0.5 * (np.einsum("nd,nd->", v, v) + np.einsum("n,nr,nr->", self.inertia[ids], w, w))
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(normal > 0, tangential / (self.friction * normal), 0.0)
+            rolled = np.where(normal > 0, rolling / (self.rolling_friction * normal), 0.0)
         keys = self._keys(pairs)
         at = np.minimum(np.searchsorted(self.keys, keys), self.keys.size - 1)
         held = self.keys[at] == keys  # the start's contacts still touching
@@ -520,8 +612,9 @@ class _Sampler:
         from mpi4py import MPI  # here, not at the top: importing mpi4py starts MPI (rotsound keys must not)
 
         sums = np.array([channel.real, channel.imag, kinetic, potential,
-                         np.count_nonzero(ratio >= 1.0 - LIMIT_SLACK), keys.size, held.sum()], dtype=float)
-        maxima = np.array([ratio.max(initial=0.0), opening], dtype=float)
+                         np.count_nonzero(ratio >= 1.0 - LIMIT_SLACK), keys.size, held.sum(),
+                         np.count_nonzero(rolled >= 1.0 - LIMIT_SLACK)], dtype=float)
+        maxima = np.array([ratio.max(initial=0.0), opening, rolled.max(initial=0.0)], dtype=float)
         self.comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
         self.comm.Allreduce(MPI.IN_PLACE, maxima, op=MPI.MAX)
         return np.concatenate((sums, maxima))
@@ -549,7 +642,7 @@ class _Sampler:
         if (self.count - 1) % self.record_every:
             self.z.append(self._z())
             return
-        re, im, kinetic, potential, sliding, touching, kept, coulomb, opening = self._sums()
+        re, im, kinetic, potential, sliding, touching, kept, rolling, coulomb, opening, rolled = self._sums()
         opened = self.keys.size - int(kept)
         row = self.rows
         self.z.append(re + 1j * im)
@@ -559,7 +652,9 @@ class _Sampler:
         row["opening"].append(1.0 if opened else float(opening))
         row["coulomb"].append(float(coulomb))
         row["energy"].append(float(kinetic + potential - self.rest))
+        row["rolling"].append(int(rolling))
+        row["rolling_coulomb"].append(float(rolled))
 
     def contacts(self) -> Contacts:
-        kinds = {"sliding": np.int64, "opened": np.int64, "formed": np.int64}
+        kinds = {"sliding": np.int64, "opened": np.int64, "formed": np.int64, "rolling": np.int64}
         return Contacts(**{name: np.array(values, dtype=kinds.get(name, float)) for name, values in self.rows.items()})

@@ -148,12 +148,12 @@ def _lammps(dem: lammps_dem.Setting, dm, positions, spec, waves, schedule: Sched
         z, contacts = lammps_dem.run(positions, dem.diameters, dem.box, dm.active, dm.model, dem.friction, start,
                                      schedule.dt, schedule.steps, schedule.sample_every, dem.rest_tol,
                                      (component, np.exp(-1j * k * x[:, axis])), mpi, dem.record_every,
-                                     dem.tangential)
+                                     dem.tangential, dem.rolling_friction, dem.twisting_friction)
         flat.append(WaveSeries(t, z, z, contacts.energy, schedule.steps,
                                contacts={"contacts_t": t[::dem.record_every], **contacts.as_datasets()}))
     settings = {"dt": schedule.dt, "steps": schedule.steps, "sample_every": schedule.sample_every,
                 "contacts_every": dem.record_every, "friction": dem.friction,
-                "pair_style": lammps_dem.PAIR_STYLES[dm.model.law]}
+                "pair_style": lammps_dem.pair_style(dm.model)}
     energy = np.array([r.energy for r in flat])
     gain = "velocity Verlet's O(dt^2) error" + (", and the Mindlin springs' stiffness following the overlap"
                                                if dm.model.law == "hertz" else "") + \
