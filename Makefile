@@ -56,6 +56,7 @@ dem-data:
 	$(DEM) lmp -in lammps_2d_friction.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_hooke.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_hertz.in -log none -screen none
+	$(DEM) lmp -in lammps_3d_granular.in -log none -screen none
 	$(DEM) lmp -in lammps_triclinic.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_sheared.in -log none -screen none
 	$(DEM) lmp -in lammps_3d_walls.in -log none -screen none

@@ -196,6 +196,15 @@ def test_stored_forces_beyond_the_particles_freedoms_are_refused():
         lammps_dem.history_velocities(x, d, box, ContactModel(1.0), forces)
 
 
+def dem_packing(name: str, model):
+    """A committed LAMMPS packing with its contact file (tests/data/dem/<name>.data, .contacts)
+    read under ``model``'s lever and history, with equal masses (the LAMMPS waves give every
+    particle mass 1) and its stored forces' mu unknown (the matrix counts none as mobilised)."""
+    data = REPO / "tests" / "data" / "dem"
+    p = hdf5.read_packings(str(data / f"{name}.data"), model=model, contacts=str(data / f"{name}.contacts"))[0]
+    return dataclasses.replace(p, masses=None, tangential=dataclasses.replace(p.tangential, friction=None))
+
+
 @functools.lru_cache(maxsize=None)
 def lammps_3d_file():
     """The committed frictionless 3D packing LAMMPS made (tests/data/dem/lammps_3d.data: 128
@@ -247,3 +256,53 @@ def test_rolling_and_twisting_springs_under_pair_granular_are_the_matrix_at_smal
     for _, c in runs:
         assert_all(c.rolling.max() == 0 and c.sliding.max() == 0 and 0 < c.rolling_coulomb.max() < 1e-2
                    and np.isnan(c.energy).all(), f"{c}")
+
+
+@pytest.mark.serial_only  # six LAMMPS runs and four dense exp(tJ); LAMMPS on 2 ranks: the gran/*/history tests
+@pytest.mark.parametrize("mode", ["R", "TR"])
+def test_pair_granular_with_stored_forces_is_the_stressed_matrix_at_small_amplitude(lammps_present, comm, mode):
+    """The committed 3D packing LAMMPS settled under pair granular (tests/data/dem/lammps_3d_granular:
+    mu = 0.5, its stored tangential forces balancing torques at R - xi/2) with rolling and twisting
+    springs switched on unstressed (kt = 2/7, k_roll = kt/2, k_twist-ratio 0.3 kt; LAMMPS at mu = 1,
+    so that nothing slides): the stored forces go into pair granular's history (the rolling and
+    twisting springs' Coulomb limits 0 for that step, ``_load_history``), and the wave at
+    A = 1e-5 converges at second order in dt to exp(tJ) of the stressed matrix under
+    ``history: granular``, ``lever: contact`` (R: 6.4e-4, 1.6e-4; TR: 3.2e-5, 7.8e-6 of max |z|
+    at dt = 0.02, 0.01).  Negative controls, each more than ten times the finer error away: the
+    matrix without the stored forces (R 2.3e-3, TR 2.8e-3), without rolling and twisting springs
+    (R 0.080, TR 0.56) and with them under the lever R (R 0.041, TR 3.3e-3).  At mu = 1e4 the R
+    wave stops converging near 5e-4: LAMMPS turns a spring with the contact only when
+    |f_t . n| > 1e-10 mu |f_n| (docs/finite_amplitude.md section 7)."""
+    kt = 2.0 / 7.0
+    model = ContactModel(kt, 0.5 * kt, 0.3 * kt, lever="contact", history="granular")
+    p = dem_packing("lammps_3d_granular", model)
+    controls = [(model, dataclasses.replace(p, tangential=None)),
+                (ContactModel(kt, lever="contact", history="granular"), p), (ContactModel(kt, 0.5 * kt, 0.3 * kt), p)]
+    k = 2 * np.pi / float(p.box[0])
+    component, axis = excitation.runs(mode, 3)[0]
+    mpi = comm.tompi4py()
+    count = int(round(T_END / SAMPLE)) + 1
+    exact = []
+    for which, (m, packing) in enumerate([(model, p)] + controls):
+        dm = dynmat.assemble(packing, m, comm)
+        try:
+            if which == 0:
+                active = dm.active
+                start = excitation.whole_start(dm, p.positions, component, axis, k, 1e-5, mpi)
+                phase = np.exp(-1j * k * p.positions[active, axis])
+            exact.append(references.first_order_flow(dm, start, SAMPLE, count)[:, 1, :, component] @ phase)
+        finally:
+            dm.destroy()
+
+    def lammps(dt):
+        return lammps_dem.run(p.positions, p.diameters, p.box, active, model, 1.0, start, dt, int(round(T_END / dt)),
+                              int(round(SAMPLE / dt)), 1e-9, (component, phase), mpi, tangential=p.tangential)
+
+    scale = np.abs(exact[0]).max()
+    runs = [lammps(dt) for dt in (0.02, 0.01)]
+    errors = [np.abs(z - exact[0]).max() / scale for z, _ in runs]
+    missed = [np.abs(runs[1][0] - other).max() / scale for other in exact[1:]]
+    assert_all(3.6 < errors[0] / errors[1] < 4.4 and min(missed) > 10 * errors[1],
+               f"errors {errors}; unstressed, without rolling and twisting, lever R: {missed}")
+    assert_all(all(c.sliding.max() == 0 and c.rolling.max() == 0 and c.opened.max() == 0 for _, c in runs),
+               f"{[c for _, c in runs]}")
