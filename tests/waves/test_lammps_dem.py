@@ -223,7 +223,7 @@ def test_rolling_and_twisting_springs_under_pair_granular_are_the_matrix_at_smal
     ``history: granular``, ``lever: contact`` (measured 9.7e-3, 2.4e-3 of max |z| at dt = 0.02,
     0.01: ratio 4.0).  Negative controls, each more than ten times that error away: the matrix
     without rolling and twisting springs (measured 0.27), and the symmetric one with the torque's
-    lever R (``history: lammps``, lever radius), whose torques differ by xi/2 n x f_t."""
+    lever R (``history: lammps``, lever radius), whose torques differ by xi/2 n x f_t (0.079)."""
     p = lammps_3d_file()
     model = ContactModel(1.0, 0.5, 0.3, lever="contact", history="granular")
     others = [ContactModel(1.0, lever="contact", history="granular"), ContactModel(1.0, 0.5, 0.3)]
