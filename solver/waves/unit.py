@@ -84,8 +84,9 @@ def mode_unit(dm, positions, spec, mode: str, ns: np.ndarray, ks: np.ndarray, ax
 
 def _drift(energy: np.ndarray) -> np.ndarray:
     """max |E - E(0)| / E(0) of each run's energy samples ``energy`` (..., S) (the damped spectral
-    path leaves NaN between its blocks)."""
-    return np.nanmax(np.abs(energy - energy[..., :1]), axis=-1) / energy[..., 0]
+    path leaves NaN between its blocks; NaN where every sample is: LAMMPS's waves with twisting
+    springs, whose energy is not recorded)."""
+    return np.fmax.reduce(np.abs(energy - energy[..., :1]), axis=-1) / energy[..., 0]
 
 
 def _time_steps(dm, positions, spec, waves, schedule: Schedule):
@@ -194,6 +195,8 @@ def _loss_words(energy: np.ndarray, gain: str) -> str:
     followed by ``gain``, a clause saying what made it (the energy's takers cannot give).  Not
     collective."""
     lost = 100.0 * (1.0 - energy[..., -1] / energy[..., 0])
+    if np.isnan(lost).all():  # LAMMPS's waves with twisting springs (lammps_dem.Contacts.energy)
+        return "not recorded (LAMMPS reports no twisting torque per contact)"
     fell, rose = lost[lost >= 0.0], -lost[lost < 0.0]
     words = []
     if fell.size:
