@@ -214,6 +214,38 @@ def lammps_3d_file():
                                masses=None)
 
 
+def granular_waves(comm, cases: list, mode: str, friction: float):
+    """LAMMPS's pair granular against exact waves: ``cases`` [(ContactModel, packing)], the first
+    the one LAMMPS runs (with its packing's stored forces, if any) and whose matrix it must match,
+    the others negative controls; the first run of ``mode`` at k = 2 pi / L, A = 1e-5, to T_END,
+    LAMMPS at the Coulomb coefficient ``friction`` (rolling and twisting unlimited).  Returns
+    (LAMMPS's errors at dt = 0.02 and 0.01 against exp(tJ) of the first case, relative to its max
+    |z|; the finer run's distance from every other case's exact wave; the two runs' contacts)."""
+    model, p = cases[0]
+    k = 2 * np.pi / float(p.box[0])
+    component, axis = excitation.runs(mode, 3)[0]
+    mpi = comm.tompi4py()
+    count = int(round(T_END / SAMPLE)) + 1
+    exact = []
+    for which, (m, packing) in enumerate(cases):
+        dm = dynmat.assemble(packing, m, comm)
+        try:
+            if which == 0:
+                active = dm.active
+                start = excitation.whole_start(dm, p.positions, component, axis, k, 1e-5, mpi)
+                phase = np.exp(-1j * k * p.positions[active, axis])
+            exact.append(references.first_order_flow(dm, start, SAMPLE, count)[:, 1, :, component] @ phase)
+        finally:
+            dm.destroy()
+    runs = [lammps_dem.run(p.positions, p.diameters, p.box, active, model, friction, start, dt, int(round(T_END / dt)),
+                           int(round(SAMPLE / dt)), 1e-9, (component, phase), mpi, tangential=p.tangential)
+            for dt in (0.02, 0.01)]
+    scale = np.abs(exact[0]).max()
+    errors = [np.abs(z - exact[0]).max() / scale for z, _ in runs]
+    missed = [np.abs(runs[1][0] - other).max() / scale for other in exact[1:]]
+    return errors, missed, [c for _, c in runs]
+
+
 @pytest.mark.serial_only  # three LAMMPS runs and a dense exp(tJ) each; LAMMPS on 2 ranks: the gran/*/history tests
 def test_rolling_and_twisting_springs_under_pair_granular_are_the_matrix_at_small_amplitude(lammps_present, comm):
     """LAMMPS's pair granular (hooke, linear_history, rolling sds, twisting sds with k_twist =
@@ -226,34 +258,11 @@ def test_rolling_and_twisting_springs_under_pair_granular_are_the_matrix_at_smal
     lever R (``history: lammps``, lever radius), whose torques differ by xi/2 n x f_t (0.079)."""
     p = lammps_3d_file()
     model = ContactModel(1.0, 0.5, 0.3, lever="contact", history="granular")
-    others = [ContactModel(1.0, lever="contact", history="granular"), ContactModel(1.0, 0.5, 0.3)]
-    k = 2 * np.pi / float(p.box[0])
-    component, axis = excitation.runs("R", 3)[0]
-    mpi = comm.tompi4py()
-    count = int(round(T_END / SAMPLE)) + 1
-    exact = {}
-    for which, m in enumerate([model] + others):
-        dm = dynmat.assemble(p, m, comm)
-        try:
-            if which == 0:
-                active = dm.active
-                start = excitation.whole_start(dm, p.positions, component, axis, k, 1e-5, mpi)
-                phase = np.exp(-1j * k * p.positions[active, axis])
-            exact[which] = references.first_order_flow(dm, start, SAMPLE, count)[:, 1, :, component] @ phase
-        finally:
-            dm.destroy()
-
-    def lammps(dt):
-        return lammps_dem.run(p.positions, p.diameters, p.box, active, model, 1e4, start, dt, int(round(T_END / dt)),
-                              int(round(SAMPLE / dt)), 1e-9, (component, phase), mpi)
-
-    scale = np.abs(exact[0]).max()
-    runs = [lammps(dt) for dt in (0.02, 0.01)]
-    errors = [np.abs(z - exact[0]).max() / scale for z, _ in runs]
-    missed = [np.abs(runs[1][0] - exact[which]).max() / scale for which in (1, 2)]
+    cases = [(model, p), (ContactModel(1.0, lever="contact", history="granular"), p), (ContactModel(1.0, 0.5, 0.3), p)]
+    errors, missed, records = granular_waves(comm, cases, "R", 1e4)
     assert_all(3.6 < errors[0] / errors[1] < 4.4 and min(missed) > 10 * errors[1],
                f"errors {errors}, without rolling and twisting / with the lever R {missed}")
-    for _, c in runs:
+    for c in records:
         assert_all(c.rolling.max() == 0 and c.sliding.max() == 0 and 0 < c.rolling_coulomb.max() < 1e-2
                    and np.isnan(c.energy).all(), f"{c}")
 
@@ -276,33 +285,10 @@ def test_pair_granular_with_stored_forces_is_the_stressed_matrix_at_small_amplit
     kt = 2.0 / 7.0
     model = ContactModel(kt, 0.5 * kt, 0.3 * kt, lever="contact", history="granular")
     p = dem_packing("lammps_3d_granular", model)
-    controls = [(model, dataclasses.replace(p, tangential=None)),
-                (ContactModel(kt, lever="contact", history="granular"), p), (ContactModel(kt, 0.5 * kt, 0.3 * kt), p)]
-    k = 2 * np.pi / float(p.box[0])
-    component, axis = excitation.runs(mode, 3)[0]
-    mpi = comm.tompi4py()
-    count = int(round(T_END / SAMPLE)) + 1
-    exact = []
-    for which, (m, packing) in enumerate([(model, p)] + controls):
-        dm = dynmat.assemble(packing, m, comm)
-        try:
-            if which == 0:
-                active = dm.active
-                start = excitation.whole_start(dm, p.positions, component, axis, k, 1e-5, mpi)
-                phase = np.exp(-1j * k * p.positions[active, axis])
-            exact.append(references.first_order_flow(dm, start, SAMPLE, count)[:, 1, :, component] @ phase)
-        finally:
-            dm.destroy()
-
-    def lammps(dt):
-        return lammps_dem.run(p.positions, p.diameters, p.box, active, model, 1.0, start, dt, int(round(T_END / dt)),
-                              int(round(SAMPLE / dt)), 1e-9, (component, phase), mpi, tangential=p.tangential)
-
-    scale = np.abs(exact[0]).max()
-    runs = [lammps(dt) for dt in (0.02, 0.01)]
-    errors = [np.abs(z - exact[0]).max() / scale for z, _ in runs]
-    missed = [np.abs(runs[1][0] - other).max() / scale for other in exact[1:]]
+    cases = [(model, p), (model, dataclasses.replace(p, tangential=None)),
+             (ContactModel(kt, lever="contact", history="granular"), p), (ContactModel(kt, 0.5 * kt, 0.3 * kt), p)]
+    errors, missed, records = granular_waves(comm, cases, mode, 1.0)
     assert_all(3.6 < errors[0] / errors[1] < 4.4 and min(missed) > 10 * errors[1],
                f"errors {errors}; unstressed, without rolling and twisting, lever R: {missed}")
-    assert_all(all(c.sliding.max() == 0 and c.rolling.max() == 0 and c.opened.max() == 0 for _, c in runs),
-               f"{[c for _, c in runs]}")
+    assert_all(all(c.sliding.max() == 0 and c.rolling.max() == 0 and c.opened.max() == 0 for c in records),
+               f"{records}")
