@@ -272,8 +272,8 @@ def _wave_units(scene, dm, p, todo: list[Unit], commit, comm, plan: schedule.Sch
     ``plan``: how they run (``schedule.plan``).  Collective."""
     spec = scene.waves
     dem = lammps_dem.Setting(p.diameters, p.box, scene.packing.friction, scene.packing.force_tol,
-                             lammps_dem.record_every(spec.contacts_every), p.tangential) if plan.path == "lammps" \
-        else None
+                             lammps_dem.record_every(spec.contacts_every), p.tangential,
+                             *lammps_dem.rolling_limits(spec)) if plan.path == "lammps" else None
     axes = excitation.wave_axes(spec, dm.dim)
     ns, ks = excitation.wave_vectors(spec, p.cell, axes)
     for line in excitation.log_lines(spec, ns, ks, axes, p.cell):

@@ -605,6 +605,13 @@ CASES = [
      "model: {rho_roll: 0.1, law: hertz, lever: contact, history: granular}\nwaves: {engine: lammps, n: [1]}\n", [],
      "model.law = 'hertz' with model.history: granular: LAMMPS's pair granular keeps its rolling and twisting "
      "stiffnesses", None),
+    ("a rolling limit without pair granular", "packing: {n: 64, phi: 0.7, dim: 3, friction: 0.3}\n"
+     "waves: {engine: lammps, n: [1], rolling_friction: 0.1}\n", [],
+     "waves.rolling_friction = 0.1 with waves.engine: lammps and model.history: lammps: it limits LAMMPS's rolling "
+     "and twisting springs", None),
+    ("a twisting limit of 0", "packing: {n: 64, phi: 0.7, dim: 3, friction: 0.3}\n"
+     "model: {rho_twist: 0.1, lever: contact, history: granular}\nwaves: {engine: lammps, n: [1], "
+     "twisting_friction: 0}\n", [], "waves.twisting_friction = 0: must be in (0.0, 10000.0]", None),
     ("the LAMMPS engine with YADE's history", "packing: {n: 64, phi: 0.9, friction: 0.3}\n"
      "model: {history: yade}\nwaves: {engine: lammps, n: [1]}\n", [],
      "LAMMPS's gran/*/history takes the tangential force at the radius, with its own history", None),

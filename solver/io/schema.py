@@ -458,6 +458,13 @@ class WavesSpec:
     contacts_every: int | None = _f(None, "engine: lammps: samples between records of the contacts' series (the "
                                           "Fourier components are kept every sample); null: 10. A record costs "
                                           "more than ten of LAMMPS's steps (BENCHMARKS)", _range(1, 10**6), int)
+    rolling_friction: float | None = _f(None, "engine: lammps with model.history: granular: the rolling springs' "
+                                              "Coulomb limit mu_roll (|f_r| <= mu_roll |f_n|; LAMMPS's rolling sds); "
+                                              "null: 1e4, no limit (docs/finite_amplitude.md section 7)",
+                                        _range(0.0, 1e4, True), float)
+    twisting_friction: float | None = _f(None, "engine: lammps with model.history: granular: the twisting springs' "
+                                               "Coulomb limit mu_twist in d0 (|torque| <= mu_twist |f_n|; LAMMPS's "
+                                               "twisting sds); null: 1e4, no limit", _range(0.0, 1e4, True), float)
     snapshots: list[float] | None = _f(None, "times (t0, up to t_end) at which the whole velocity field of the "
                                              "mode's first run at the smallest k is kept, for pictures (method "
                                              "spectral without dashpots); null: none", _times, "floats_list")

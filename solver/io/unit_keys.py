@@ -284,7 +284,8 @@ def _key(scene, unit: Unit, base: dict, petsc_argv: list[str]) -> UnitKey:
                           options=options.acting_on(petsc_argv, "transport", scene.transport.method), **base)
     settings = {k: v for k, v in dataclasses.asdict(scene.waves).items()  # one mode's unit does not depend on
                 if k != "modes" and not (k in ("axes", "snapshots") and v is None)  # the others; keys of before
-                and not (k == "engine" and v == "rotsound") and not (k == "contacts_every" and v is None)}
+                and not (k == "engine" and v == "rotsound")
+                and not (k in ("contacts_every", "rolling_friction", "twisting_friction") and v is None)}
     if unit.amplitude is not None:  # a sweep's unit: its own amplitude
         settings["amplitude"] = scene.waves.sweep[unit.amplitude]
     if scene.waves.engine == "lammps":  # LAMMPS's contacts slide at packing.friction; its rest check

@@ -106,6 +106,12 @@ class Contacts:
         return {f"contacts_{name}": getattr(self, name) for name in RECORDS}
 
 
+def rolling_limits(spec) -> tuple[float, float]:
+    """(mu_roll, mu_twist d0) of the waves section ``spec``: ``rolling_friction`` and
+    ``twisting_friction``, ``MAX_FRICTION`` (no limit) where null.  Not collective."""
+    return tuple(MAX_FRICTION if mu is None else float(mu) for mu in (spec.rolling_friction, spec.twisting_friction))
+
+
 def record_every(contacts_every: int | None) -> int:
     """Samples between contact records: ``waves.contacts_every``, or ``RECORD_EVERY`` when null."""
     return RECORD_EVERY if contacts_every is None else int(contacts_every)

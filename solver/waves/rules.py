@@ -104,11 +104,19 @@ def _refuse_tilted_lammps(why: str) -> None:
 def check_engine(spec, packing, model) -> None:
     """Refuse, with ``waves.engine: lammps``, what LAMMPS's waves cannot take: a sheared cell
     (``packing.shear``; a tilted file: ``check_boxes``), rotsound's own
-    path or integrator given too (and ``contacts_every`` without it), no Coulomb coefficient (``packing.friction``), a contact model
-    gran/*/history lacks (``lammps_dem.unsupported``), masses other than equal.  Not collective."""
+    path or integrator given too (and ``contacts_every`` without it, the rolling and twisting
+    limits without pair granular), no Coulomb coefficient (``packing.friction``), a contact model
+    LAMMPS cannot run (``lammps_dem.unsupported``), masses other than equal.  Not collective."""
     if spec is not None and spec.engine != "lammps" and spec.contacts_every is not None:
         raise InputError(f"waves.contacts_every = {spec.contacts_every} with waves.engine: {spec.engine}: it spaces the "
                          "records of LAMMPS's contacts (waves.engine: lammps); rotsound's linear waves have none")
+    limits = [] if spec is None else [(key, getattr(spec, key)) for key in ("rolling_friction", "twisting_friction")
+                                      if getattr(spec, key) is not None]
+    if limits and (spec.engine != "lammps" or model.history != "granular"):
+        key, value = limits[0]
+        raise InputError(f"waves.{key} = {value:g} with waves.engine: {spec.engine} and model.history: "
+                         f"{model.history}: it limits LAMMPS's rolling and twisting springs (waves.engine: lammps with "
+                         "model.history: granular, LAMMPS's pair granular); drop it or run those")
     if spec is None or spec.engine != "lammps":
         return
     if packing.shear:

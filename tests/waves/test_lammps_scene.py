@@ -142,13 +142,16 @@ def test_an_amplitude_sweep_is_one_unit_per_amplitude_read_back_in_order(lammps_
 @pytest.mark.serial_only  # LAMMPS on 2 ranks: the 2D scene tests above
 def test_rolling_and_twisting_scene_runs_pair_granular_as_its_verlet_waves(lammps_present, shared_tmp):
     """3D, rho = 1, rho_roll = 0.5, rho_twist = 0.3 under model.history: granular, lever: contact
-    (LAMMPS's pair granular, docs/finite_amplitude.md section 7), the twist wave R at A = 1e-5:
+    (LAMMPS's pair granular, docs/finite_amplitude.md section 7; mu_roll = 0.1, mu_twist = 0.05 d0
+    by waves.rolling_friction, twisting_friction), the twist wave R at A = 1e-5:
     z_fixed equals the same scene's Verlet waves on its (non-symmetric) matrix to 1e-5 of its
-    largest value; the rolling records are there and nothing reaches a limit; the energy record is
+    largest value; the rolling records are there and nothing reaches a limit (the largest
+    |f_r| / (mu_roll |f_n|) is 0.020 at mu_roll = 0.1: 1e4 would leave 2e-7); the energy record is
     NaN (LAMMPS reports no twisting torque per contact), and the scene's plot reads it."""
     model = {"rho": [1.0], "rho_roll": 0.5, "rho_twist": 0.3, "lever": "contact", "history": "granular"}
     groups = []
-    for name, extra in (("granular_lammps", {"engine": "lammps", "contacts_every": 1}), ("granular_linear", {})):
+    lammps = {"engine": "lammps", "contacts_every": 1, "rolling_friction": 0.1, "twisting_friction": 0.05}
+    for name, extra in (("granular_lammps", lammps), ("granular_linear", {})):
         packing = {"n": 64, "phi": 0.7, "dim": 3, **({"friction": 1.0} if extra else {})}
         scene = scene_of(shared_tmp / f"{name}.h5", cache=str(shared_tmp / "cache"), seed=1, packing=packing,
                          model=model, waves={"n": [1], "modes": ["R"], "t_end": 10.0, "dt": 0.02, "amplitude": 1e-5,
@@ -161,8 +164,9 @@ def test_rolling_and_twisting_scene_runs_pair_granular_as_its_verlet_waves(lammp
     scale = np.abs(linear["z_fixed"]).max()
     assert_close(lammps["z_fixed"], linear["z_fixed"], rtol=0.0, atol=1e-5 * scale, what="z_fixed against Verlet")
     assert_all(lammps["contacts_rolling"].shape == lammps["contacts_sliding"].shape
-               and lammps["contacts_rolling"].max() == 0 and lammps["contacts_sliding"].max() == 0
-               and np.isnan(lammps["contacts_energy"]).all(), f"{lammps['contacts_rolling'].max()}")
+               and lammps["contacts_rolling"].max() == 0 and 1e-3 < lammps["contacts_rolling_coulomb"].max() < 0.1 and lammps["contacts_sliding"].max() == 0
+               and np.isnan(lammps["contacts_energy"]).all(),
+               f"{lammps['contacts_rolling'].max()}, {lammps['contacts_rolling_coulomb'].max()}")
     from solver import plots
 
     assert plots.plot_results(str(shared_tmp / "granular_lammps.h5"))  # draws a NaN energy record
