@@ -4,7 +4,9 @@ docs/finite_amplitude.md).
 rotsound's other wave paths integrate the linear equations M u'' = -D u.  Here LAMMPS moves the
 particles themselves (``fix nve/sphere``: velocity Verlet; 2D ``disc`` and ``enforce2d``) under
 ``gran/hooke/history`` (harmonic) or ``gran/hertz/history`` (hertz) with kn = 1, kt = rho kn,
-the model's dashpots gamma_n, gamma_t, and the Coulomb coefficient mu: contacts open when their
+the model's dashpots gamma_n, gamma_t, and the Coulomb coefficient mu, or, under ``model.history:
+granular``, ``pair granular`` with rolling and twisting springs too (:func:`granular_coefficients`;
+docs/finite_amplitude.md section 7): contacts open when their
 overlap goes, new ones form, and a tangential spring that reaches mu f_n slides (LAMMPS rescales
 it onto the cone).  The start is rotsound's (``excitation.whole_start``: v(0) over the matrix's
 active particles, zero displacement); the particles are the packing's (rattlers below), masses 1,

@@ -214,16 +214,17 @@ def lammps_3d_file():
                                masses=None)
 
 
-def granular_waves(comm, cases: list, mode: str, friction: float):
+def granular_waves(comm, cases: list, mode: str, friction: float, rest_tol: float = 1e-9):
     """LAMMPS's pair granular against exact waves: ``cases`` [(ContactModel, packing)], the first
     the one LAMMPS runs (with its packing's stored forces, if any) and whose matrix it must match,
     the others negative controls; the first run of ``mode`` at k = 2 pi / L, A = 1e-5, to T_END,
-    LAMMPS at the Coulomb coefficient ``friction`` (rolling and twisting unlimited).  Returns
+    LAMMPS at the Coulomb coefficient ``friction`` (rolling and twisting unlimited), its rest check
+    at ``rest_tol`` (the packing's force tolerance).  Returns
     (LAMMPS's errors at dt = 0.02 and 0.01 against exp(tJ) of the first case, relative to its max
     |z|; the finer run's distance from every other case's exact wave; the two runs' contacts)."""
     model, p = cases[0]
     k = 2 * np.pi / float(p.box[0])
-    component, axis = excitation.runs(mode, 3)[0]
+    component, axis = excitation.runs(mode, p.dim)[0]
     mpi = comm.tompi4py()
     count = int(round(T_END / SAMPLE)) + 1
     exact = []
@@ -238,12 +239,27 @@ def granular_waves(comm, cases: list, mode: str, friction: float):
         finally:
             dm.destroy()
     runs = [lammps_dem.run(p.positions, p.diameters, p.box, active, model, friction, start, dt, int(round(T_END / dt)),
-                           int(round(SAMPLE / dt)), 1e-9, (component, phase), mpi, tangential=p.tangential)
+                           int(round(SAMPLE / dt)), rest_tol, (component, phase), mpi, tangential=p.tangential)
             for dt in (0.02, 0.01)]
     scale = np.abs(exact[0]).max()
     errors = [np.abs(z - exact[0]).max() / scale for z, _ in runs]
     missed = [np.abs(runs[1][0] - other).max() / scale for other in exact[1:]]
     return errors, missed, [c for _, c in runs]
+
+
+def test_rolling_springs_under_pair_granular_in_2d_are_the_matrix_at_small_amplitude(lammps_present, comm):
+    """2D (64 disks, phi = 0.9), rho = 1, rho_roll = 0.5 under pair granular: the RT wave at
+    A = 1e-5 converges at second order in dt to the exact wave of the matrix under ``history:
+    granular`` (1.37e-2, 3.4e-3 of max |z| at dt = 0.02, 0.01, one rank); the matrix without the
+    rolling springs misses by 0.31, the one with the lever R by 0.53.  On 1 and 2 ranks."""
+    p = jammed_packing(*PACKINGS[2], 1)
+    model = ContactModel(1.0, 0.5, lever="contact", history="granular")
+    cases = [(model, p), (ContactModel(1.0, lever="contact", history="granular"), p), (ContactModel(1.0, 0.5), p)]
+    errors, missed, records = granular_waves(comm, cases, "RT", 1e4, rest_tol=1e-6)
+    assert_all(3.6 < errors[0] / errors[1] < 4.4 and min(missed) > 10 * errors[1],
+               f"errors {errors}, without rolling springs / with the lever R {missed}")
+    assert_all(all(c.rolling.max() == 0 and c.sliding.max() == 0 and np.isfinite(c.energy).all() for c in records),
+               f"{records}")
 
 
 @pytest.mark.serial_only  # three LAMMPS runs and a dense exp(tJ) each; LAMMPS on 2 ranks: the gran/*/history tests
