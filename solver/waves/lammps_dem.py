@@ -57,6 +57,8 @@ from ..packing import geometry, lammps_engine
 
 PAIR_STYLES = lammps_engine.FRICTIONAL_STYLES  # the normal law -> LAMMPS's pair style with a shear history
 MAX_FRICTION = 1e4  # Debian's LAMMPS (29 Sep 2021) refuses xmu above this; also the rolling and twisting limits' default
+MAX_TYPES = 256  # pair granular's atom types, one per distinct diameter under twisting springs: T (T + 1) / 2 pair_coeff
+# lines (128 types: 8256 lines in 0.4 s; 256: 32896)
 RECORDS = ("sliding", "opened", "formed", "opening", "coulomb", "energy", "rolling", "rolling_coulomb")  # Contacts
 KEY = "waves.engine: lammps"  # the scene key, in messages
 CALLBACK = "rotsound_lammps_sample"  # the name of LAMMPS's python function that samples a run
@@ -198,6 +200,7 @@ def run(positions: np.ndarray, diameters: np.ndarray, box: np.ndarray, active: n
     active = np.asarray(active, dtype=bool)
     limits = (friction, rolling_friction, twisting_friction)
     _check_arguments(n, dim, active, start, model, limits, dt, steps, every, record_every)
+    atom_types(diameters, model)  # its ValueError before LAMMPS starts
     positions = geometry.wrap(np.asarray(positions, dtype=float), box)
     lmp = lammps_engine.open_lammps(comm, False, KEY)
     try:
@@ -282,10 +285,7 @@ def granular_coefficients(diameters: np.ndarray, model, limits: tuple) -> tuple[
     twisting springs are on (else one).  Returns the types (N,) 1..T and the pair_coeff commands.
     Not collective."""
     friction, rolling, twisting = (float(mu) for mu in limits)
-    if model.rho_twist > 0.0:
-        sizes, inverse = np.unique(diameters, return_inverse=True)
-    else:
-        sizes, inverse = np.ones(1), np.zeros(len(diameters), dtype=int)
+    sizes, types = atom_types(diameters, model)
     commands = []
     for a in range(sizes.size):
         for b in range(a, sizes.size):
@@ -297,7 +297,22 @@ def granular_coefficients(diameters: np.ndarray, model, limits: tuple) -> tuple[
             if model.rho_twist > 0.0:
                 line += f" twisting sds {float(model.rho_twist) * lammps_engine.KN * reduced**2!r} 0.0 {twisting!r}"
             commands.append(line)
-    return inverse + 1, commands
+    return types, commands
+
+
+def atom_types(diameters: np.ndarray, model) -> tuple[np.ndarray, np.ndarray]:
+    """pair granular's atom types: (the diameter of each type (T,), each particle's type 1..T (N,));
+    one type per distinct diameter under twisting springs (their k_twist depends on the pair's
+    a'), else one.  ValueError naming the count when more than ``MAX_TYPES`` would be needed (a
+    polydisperse packing: T (T + 1) / 2 pair coefficients).  Not collective."""
+    if model.history != "granular" or model.rho_twist <= 0.0:
+        return np.ones(1), np.ones(len(diameters), dtype=int)
+    sizes, inverse = np.unique(diameters, return_inverse=True)
+    if sizes.size > MAX_TYPES:
+        raise ValueError(f"twisting springs under LAMMPS's pair granular need one atom type per distinct diameter "
+                         f"(k_twist = rho_twist kn a'^2 per pair), and the packing has {sizes.size} distinct "
+                         f"diameters, more than {MAX_TYPES}: use fewer sizes, or model.rho_twist: 0")
+    return sizes, inverse + 1
 
 
 def _start_moving(lmp, active: np.ndarray, dim: int) -> np.ndarray:

@@ -142,10 +142,16 @@ def check_engine(spec, packing, model) -> None:
 def check_history(spec, model, packings: list) -> None:
     """Refuse ``waves.engine: lammps`` on a packing whose stored tangential forces LAMMPS's
     contact history cannot be given (``lammps_dem.history_velocities``: more contacts than the
-    particles' freedoms reach), naming the configuration, before any wave runs.  Not collective."""
+    particles' freedoms reach), or with more distinct diameters than pair granular's twisting
+    springs take atom types for (``lammps_dem.atom_types``), naming the configuration, before
+    any wave runs.  Not collective."""
     if spec is None or spec.engine != "lammps":
         return
     for index, p in enumerate(packings):
+        try:
+            lammps_dem.atom_types(p.diameters, model.contact(model.rho[0]))
+        except ValueError as error:
+            raise InputError(f"waves.engine: lammps: configuration {index}: {error}") from None
         if p.stressed:
             try:
                 lammps_dem.history_velocities(p.positions, p.diameters, p.box, model.contact(model.rho[0]),

@@ -308,3 +308,23 @@ def test_pair_granular_with_stored_forces_is_the_stressed_matrix_at_small_amplit
                f"errors {errors}; unstressed, without rolling and twisting, lever R: {missed}")
     assert_all(all(c.sliding.max() == 0 and c.rolling.max() == 0 and c.opened.max() == 0 for c in records),
                f"{records}")
+
+
+@pytest.mark.serial_only  # numpy only
+def test_pair_granular_types_follow_the_diameters_and_are_refused_beyond_the_cap():
+    """Twisting springs under pair granular: one atom type per distinct diameter (k_twist =
+    rho_twist kn a'^2 per pair), whose coefficients follow a' of each type pair; without twisting
+    one type; more than MAX_TYPES distinct diameters refused, naming the count."""
+    diameters = np.array([1.2, 0.8, 1.2, 1.0])
+    model = ContactModel(1.0, 0.5, 0.3, lever="contact", history="granular")
+    types, lines = lammps_dem.granular_coefficients(diameters, model, (0.5, 0.1, 0.05))
+    assert_all(np.array_equal(types, [3, 1, 3, 2]) and len(lines) == 6, f"{types}, {lines}")
+    twist = {line.split()[1] + line.split()[2]: float(line.split()[-3]) for line in lines}
+    assert_all(np.isclose(twist["13"], 0.3 * (0.4 * 0.6 / 1.0) ** 2, rtol=1e-15, atol=0.0)
+               and np.isclose(twist["33"], 0.3 * 0.3**2, rtol=1e-15, atol=0.0), f"{twist}")
+    plain, _ = lammps_dem.granular_coefficients(diameters, ContactModel(1.0, 0.5, lever="contact",
+                                                                       history="granular"), (0.5, 0.1, 0.05))
+    assert_all(np.array_equal(plain, [1, 1, 1, 1]), f"{plain}")
+    many = np.linspace(0.8, 1.2, lammps_dem.MAX_TYPES + 1)
+    with pytest.raises(ValueError, match=f"has {lammps_dem.MAX_TYPES + 1} distinct diameters, more than"):
+        lammps_dem.atom_types(many, model)
