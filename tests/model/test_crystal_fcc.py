@@ -202,6 +202,7 @@ def pair_along_100(a, positions, box, p):
     return np.linalg.eigvalsh(reduced), leak
 
 
+@pytest.mark.serial_only  # a 6x6 Bloch matrix in numpy, no communicator
 @pytest.mark.parametrize("rho", [0.1, 1 / 7, 0.5, 2.0])
 def test_lattice_model_is_the_fcc_pair_at_contact(rho):
     """The derivation in the module docstring: at xi = 0 the (u_y, theta_z) block of the Bloch

@@ -34,6 +34,7 @@ def tilted_spheres():
     return jammed.from_arrays(crystal, cube.diameters, cell, rattler=np.zeros(cube.n, dtype=bool))
 
 
+@pytest.mark.serial_only  # contacts on arrays, no communicator
 def test_the_test_packings_are_tilted_and_meet_other_partners_across_the_faces():
     """The matrix tests below see the tilt: the contacts of the tilted packings are not those of the
     same positions in the orthogonal box, and the sheared disks' FIRE tilt is 0.3 L."""

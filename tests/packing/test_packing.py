@@ -228,6 +228,7 @@ def test_an_unbalanced_file_is_refused_and_relax_re_minimises_it(small_packing, 
     assert_all(relaxed.info["relaxed"] and mechanics.jamming_failure(relaxed) is None, "not a jammed packing")
 
 
+@pytest.mark.serial_only  # FIRE and forces on one process, no communicator
 @pytest.mark.parametrize("dim", [2, 3])
 def test_hertz_packings_balance_under_hertz_forces_only(dim):
     """model.law: hertz makes FIRE minimise the Hertz normal energy: the packing is jammed and in

@@ -198,18 +198,19 @@ def test_standing_waves_run_along_the_reciprocal_vector(symmetric, comm):
 
 
 @pytest.mark.serial_only  # rank 0's files and figures, and OVITO's process (test_export's reason)
-def test_figures_and_exports_carry_the_cell(symmetric, tmp_path):
+def test_figures_and_exports_carry_the_cell(symmetric, tmp_path, monkeypatch):
     """Every figure of the file passes tests/figures.py's checks; rotsound report takes the file (its
     phi and N among the sources; the paper's claims are not measured on one rho); each export of the packing carries
     the cell: the dump read back by rotsound's reader (tilt, boundary flags, positions),
     extxyz and the dump by OVITO (its cell matrix and periodic flags)."""
-    from figures import assert_figures
+    from figures import assert_figures, capture
 
     from solver import plots, report
 
     kind, path = symmetric
-    written = plots.plot_results(path)  # before draw_results, which keeps its figures open
-    assert_figures(plots.draw_results(path), written)
+    figures = capture(monkeypatch, stems=True)  # what plot_results draws and writes, checked without a second draw
+    written = plots.plot_results(path)
+    assert_figures(figures, written)
     with results.open_results(path) as f:
         given = results.packing(f, 0)
     written, _ = report.write([path], str(tmp_path / "report.md"))  # rotsound report: the file among its sources
@@ -257,7 +258,7 @@ def test_the_counted_vdos_and_kpm_diffusivity(kind, shared_tmp, comm):
 
 
 @pytest.mark.parametrize("kind", STRESSED)
-def test_a_stressed_file_gives_its_spectrum_and_waves(kind, shared_tmp):
+def test_a_stressed_file_gives_its_spectrum_and_waves(kind, shared_tmp, monkeypatch):
     """With their stored forces kept, the frictional files give the non-symmetric spectrum (every
     eigenvalue: stable, zero and unstable add up to the DOF) and their standing waves (between the
     walls along x, k = 2 pi / L_x), and their figures pass tests/figures.py's checks."""
@@ -273,12 +274,13 @@ def test_a_stressed_file_gives_its_spectrum_and_waves(kind, shared_tmp):
         assert_close(w.k, [2 * np.pi / p.box[0]], rtol=1e-14, atol=0, what=f"{mode}'s k")
         assert_all(np.all(np.isfinite(w.z)) and np.abs(w.z[:, :, 0]).min() > 0, f"{mode}: z(t) from its start")
     if COMM.rank == 0:
-        from figures import assert_figures
+        from figures import assert_figures, capture
 
         from solver import plots
 
-        written = plots.plot_results(path)  # before draw_results, which keeps its figures open
-        assert_figures(plots.draw_results(path), written)
+        figures = capture(monkeypatch, stems=True)  # as in test_figures_and_exports_carry_the_cell
+        written = plots.plot_results(path)
+        assert_figures(figures, written)
 
 
 @pytest.mark.parametrize("axes", [["z"], None], ids=["z", "every-axis"])

@@ -11,6 +11,8 @@ import sys
 import pytest
 from conftest import REPO
 
+pytestmark = pytest.mark.serial_only  # source text and child processes, no communicator
+
 NO_PETSC = ("solver", "solver.io.schema", "solver.io.scenes", "solver.io.results", "solver.waves.correlations",
             "solver.analysis.fits", "solver.analysis.lattice", "solver.analysis.claims", "solver.analysis.dispersion",
             "solver.spectrum.modes", "solver.plots", "solver.plots.common", "solver.plots.packing",
@@ -25,12 +27,10 @@ def _loaded_after_import(modules, watched) -> str:
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
 
 
-@pytest.mark.serial_only
 def test_analysis_modules_do_not_import_petsc_or_mpi():
     assert _loaded_after_import(NO_PETSC, ("petsc4py", "slepc4py", "mpi4py")) == "[]"
 
 
-@pytest.mark.serial_only
 def test_claims_and_lattice_model_do_not_import_h5py():
     assert _loaded_after_import(NO_FILES, ("h5py", "petsc4py", "mpi4py")) == "[]"
 
@@ -122,7 +122,6 @@ def _siblings(path: pathlib.Path) -> set[str]:
     return found
 
 
-@pytest.mark.serial_only
 @pytest.mark.parametrize("name", sorted(p.stem for p in PLOTS.glob("*.py") if p.stem != "__init__"))
 def test_figure_modules_import_only_common(name):
     """A stage's figure module imports ``common`` and no other figure module (the entry,

@@ -5,9 +5,11 @@ two exact cases C = beta D (every mode on the circle |lambda + 1/beta| = 1/beta)
 (every rate gamma/2) built from slicing's undamped frequencies, the classification's count, and
 a scene's datasets, vDOS and resume."""
 
+import functools
+
 import numpy as np
 import pytest
-from conftest import COMM, assert_all, assert_close, jammed_packing, run_stopped_after_windows, scene_of
+from conftest import COMM, PETSc, assert_all, assert_close, jammed_packing, run_stopped_after_windows, scene_of
 from figures import assert_readable, capture
 
 from solver import pipeline, plots
@@ -38,20 +40,32 @@ def _assert_same_spectrum(a: pep.Result, b: pep.Result, rtol: float, what: str) 
     assert_all(error <= rtol, f"{what}: eigenvalues differ by {error:.2e} (relative), allowed {rtol:g}")
 
 
+@functools.cache
+def _windows_and_dense(gamma_t: float, dim: int) -> tuple[pep.Result, pep.Result]:
+    """(windows, dense) with vectors, windows of 40 eigenvalues, of the damped packing of
+    test_windows_equal_the_dense_first_order_solve on the suite's communicator.  Collective;
+    cached: test_windows_do_not_depend_on_the_rank_count compares the 2D thin band's windows on
+    2 ranks with rank 0's alone, and need not solve them again."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(quadratic_windows, "NEV", 40)
+        dm = _damped(PETSc.COMM_WORLD, 64 if dim == 2 else 48, 0.86 if dim == 2 else 0.7, 3, gamma_t, dim)
+        try:
+            return pep.solve(dm, ZERO_TOL, vectors=True, solver="windows"), pep.solve(dm, ZERO_TOL, vectors=True,
+                                                                                      solver="dense")
+        finally:
+            dm.destroy()
+
+
 # on 2 ranks: the first case (and test_windows_do_not_depend_on_the_rank_count); the others vary the
 # damping and the dimension, not the layout
 @pytest.mark.parametrize("gamma_t, dim", [(0.15, 2), pytest.param(0.9, 2, marks=pytest.mark.serial_only),
                                           pytest.param(0.15, 3, marks=pytest.mark.serial_only)])
-def test_windows_equal_the_dense_first_order_solve(comm, monkeypatch, gamma_t, dim):
+def test_windows_equal_the_dense_first_order_solve(gamma_t, dim):
     """gamma_t = 0.15 puts the rates on a thin band sigma(omega) (C close to 0.15 D), 0.9 spreads
     them from 0.01 to 2.3 at one frequency, with overdamped roots: one disk per column, then many.
     Windows of 40 eigenvalues, so that the march crosses many; every lambda to 1e-8 relative,
     the energies of each mode to 1e-8 (from eigenvectors of two different solvers)."""
-    monkeypatch.setattr(quadratic_windows, "NEV", 40)
-    dm = _damped(comm, 64 if dim == 2 else 48, 0.86 if dim == 2 else 0.7, 3, gamma_t, dim)
-    dense = pep.solve(dm, ZERO_TOL, vectors=True, solver="dense")
-    windows = pep.solve(dm, ZERO_TOL, vectors=True, solver="windows")
-    dm.destroy()
+    windows, dense = _windows_and_dense(gamma_t, dim)
     _assert_same_spectrum(windows, dense, 1e-8, "windows vs dense")
     checks = windows.checks
     assert_all(checks["windows"] > 3 and checks["max_residual"] < 1e-9, f"{checks['windows']} windows, "
@@ -144,15 +158,18 @@ def test_c_proportional_to_m_damps_every_mode_at_gamma_over_2(comm, monkeypatch,
 
 
 @pytest.mark.mpi
-def test_windows_do_not_depend_on_the_rank_count(comm, monkeypatch):
-    """The same damped spectrum on 2 ranks as on 1 (rank 0 alone, on COMM_SELF), to 1e-10."""
-    from petsc4py import PETSc
-
+def test_windows_do_not_depend_on_the_rank_count(monkeypatch):
+    """The same damped spectrum on 2 ranks (test_windows_equal_the_dense_first_order_solve's thin
+    band) as on 1 (rank 0 alone, on COMM_SELF), to 1e-10."""
     monkeypatch.setattr(quadratic_windows, "NEV", 40)
-    both = pep.solve(_damped(comm, 64, 0.86, 3, 0.15), ZERO_TOL, solver="windows")
+    both, _ = _windows_and_dense(0.15, 2)
     alone = None
     if COMM.rank == 0:
-        alone = pep.solve(_damped(PETSc.COMM_SELF, 64, 0.86, 3, 0.15), ZERO_TOL, solver="windows")
+        dm = _damped(PETSc.COMM_SELF, 64, 0.86, 3, 0.15)
+        try:
+            alone = pep.solve(dm, ZERO_TOL, solver="windows")
+        finally:
+            dm.destroy()
     alone = COMM.bcast(alone, root=0)
     _assert_same_spectrum(both, alone, 1e-10, "2 ranks vs 1")
 

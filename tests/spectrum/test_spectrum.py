@@ -331,6 +331,7 @@ def test_vdos_pools_configurations_and_cutoff():
     assert empty.shape == (2,) and np.isnan(empty).all()
 
 
+@pytest.mark.serial_only  # arrays written by hand, no communicator
 def test_pooled_vdos_of_kpm_units_of_different_reach():
     """KPM units share bins but reach different tops: the pooled density is their mean on the
     longest grid (zero beyond a shorter one's top), omega_c the mean of their omega_max; slicing

@@ -80,6 +80,7 @@ def test_the_bound_follows_tol_and_holds(comm):
     assert_all(products[0] < products[1] < products[2], f"products per sample {products}")
 
 
+@pytest.mark.serial_only  # closed forms on numbers, no communicator
 def test_the_ellipse_holds_the_numerical_range_rectangle():
     """The ellipses of chebyshev.ellipse pass through the rectangle's corner (-c_max, omega_max)
     (up to MARGIN) for every focal stretch and reduce to the segment (rho = 1) without dashpots; the coefficients at

@@ -223,6 +223,7 @@ def test_bare_solver_options_are_refused_with_the_prefixed_name():
     options.refuse_bare_solver_options(["log_view", "spectrum_eps_tol", "waves_ts_dt"])
 
 
+@pytest.mark.serial_only  # the plan's arithmetic, no communicator
 def test_plan_decides_the_method_once():
     """plan: spectral gives the sample grid alone (no step, no limit); ts gives the TS schedule with
     the Verlet limit 2 / omega_max, and refuses a step above it; both carry omega_max."""
