@@ -55,6 +55,12 @@ EXEMPT = {
         "rank 0's files and figures, and OVITO's process (test_export's reason)",
     "tests/waves/test_lammps_dem.py::test_stored_forces_go_into_lammps_history_and_the_linear_limit_is_the_stressed_matrix":
         "four LAMMPS runs and a dense exp(tJ) each; on 2 ranks: the stored-forces scene test of test_lammps_scene",
+    "tests/waves/test_lammps_dem.py::test_rolling_and_twisting_springs_under_pair_granular_are_the_matrix_at_small_amplitude":
+        "three LAMMPS runs and a dense exp(tJ) each; LAMMPS on 2 ranks: the gran/*/history tests",
+    "tests/waves/test_lammps_dem.py::test_pair_granular_with_stored_forces_is_the_stressed_matrix_at_small_amplitude":
+        "six LAMMPS runs and four dense exp(tJ); LAMMPS on 2 ranks: the gran/*/history tests",
+    "tests/waves/test_lammps_scene.py::test_rolling_and_twisting_scene_runs_pair_granular_as_its_verlet_waves":
+        "a 3D pair granular scene; LAMMPS's scenes on 2 ranks: the 2D scene tests of its module",
 }
 """Modules (and single tests, ``path::test``) left out of the MPI pass although they name a
 communicator, and why."""
