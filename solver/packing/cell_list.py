@@ -20,7 +20,9 @@ import numba
 import numpy as np
 
 CELLS = 256
-"""Cells per chunk of the parallel loops (each chunk's scratch arrays made once)."""
+"""Cells per chunk of the parallel loops over cells (each chunk's small arrays made once)."""
+CHUNK = 2048
+"""Particles per chunk of the parallel loop over particles."""
 
 
 @numba.njit(cache=True, boundscheck=False)
@@ -91,12 +93,11 @@ def _neighbour_cells(cell: int, per_axis: np.ndarray, out: np.ndarray, wraps: np
 
 
 @numba.njit(cache=True, boundscheck=False)
-def _partners(at, cells, block, wraps, folded, radius, sides, reach, small, first, members, image, found,
-              keep) -> tuple:
-    """(how many particles are listed with the one at ``at`` in cell order, how many of them have
-    a larger index); with ``keep``, they are written into ``found``, sorted.  ``cells``, ``block``,
-    ``wraps``: its cell's block (:func:`_neighbour_cells`); ``small``: an axis has fewer than 3
-    cells (minimum images instead of the wraps)."""
+def _partners(at, cells, block, wraps, folded, radius, sides, reach, small, first, members, image, found) -> tuple:
+    """Write the particles listed with the one at ``at`` in cell order into ``found``, sorted;
+    return (how many, how many of them have a larger index).  ``cells``, ``block``, ``wraps``: its
+    cell's block (:func:`_neighbour_cells`); ``small``: an axis has fewer than 3 cells (minimum
+    images instead of the wraps)."""
     dim = folded.shape[1]
     a = members[at]
     count = above = 0
@@ -111,11 +112,7 @@ def _partners(at, cells, block, wraps, folded, radius, sides, reach, small, firs
                     separation -= sides[d] * np.rint(separation / sides[d])
                 squared += separation * separation
             limit = radius[at] + radius[e] + reach
-            near = squared < limit * limit and e != at
-            if not keep:  # counted without a branch
-                count += near
-                above += near and members[e] > a
-            elif near:
+            if squared < limit * limit and e != at:
                 b = members[e]
                 k = count  # insertion sort: a row is a few tens of partners
                 while k > 0 and found[k - 1] > b:
@@ -128,13 +125,28 @@ def _partners(at, cells, block, wraps, folded, radius, sides, reach, small, firs
 
 
 @numba.njit(cache=True, parallel=True, boundscheck=False)
-def _scan(x, diameters, folded, radius, sides, reach, per_axis, first, members, widest, fill, above, below,
-          pair_start, row_start, i, j, shift, contact, reduced, partner, table_shift, table_contact, table_reduced):
-    """Each particle's listed partners (:func:`_partners`; chunks of cells spread over threads):
-    without ``fill``, their numbers above and below it (``above``, ``below``); with, its pairs as
-    i and its table entries (partners above it, then below) from ``pair_start`` and ``row_start``.
-    ``folded``, ``radius``: positions in the box and radii in cell order."""
-    dim = x.shape[1]
+def _room(per_axis, first, room):
+    """Write into ``room`` (cells,) an upper bound of the partners of a cell's particles in all:
+    its particles times those of its block."""
+    dim = per_axis.size
+    total = first.size - 1
+    for chunk in numba.prange((total + CELLS - 1) // CELLS):
+        block = np.empty(3 ** dim, dtype=np.int64)
+        wraps = np.empty((3 ** dim, dim), dtype=np.int64)
+        for c in range(chunk * CELLS, min(total, (chunk + 1) * CELLS)):
+            near = 0
+            for m in range(_neighbour_cells(c, per_axis, block, wraps)):
+                near += first[block[m] + 1] - first[block[m]]
+            room[c] = (first[c + 1] - first[c]) * near
+
+
+@numba.njit(cache=True, parallel=True, boundscheck=False)
+def _search(folded, radius, sides, reach, per_axis, first, members, offset, scratch, where, above, below):
+    """Each particle's listed partners (:func:`_partners`; chunks of cells spread over threads),
+    sorted, into ``scratch`` from ``where`` (its cell's ``offset`` and its place in the cell), and
+    their numbers above and below it.  ``folded``, ``radius``: positions in the box and radii in
+    cell order."""
+    dim = folded.shape[1]
     small = False
     for d in range(dim):
         small = small or per_axis[d] < 3
@@ -143,18 +155,30 @@ def _scan(x, diameters, folded, radius, sides, reach, per_axis, first, members, 
         block = np.empty(3 ** dim, dtype=np.int64)
         wraps = np.empty((3 ** dim, dim), dtype=np.int64)
         image = np.empty(dim)
-        found = np.empty(widest, dtype=np.int64)
         for c in range(chunk * CELLS, min(total, (chunk + 1) * CELLS)):
             cells = _neighbour_cells(c, per_axis, block, wraps)
+            near = 0
+            for m in range(cells):
+                near += first[block[m] + 1] - first[block[m]]
             for at in range(first[c], first[c + 1]):
                 a = members[at]
+                start = offset[c] + (at - first[c]) * near
                 count, up = _partners(at, cells, block, wraps, folded, radius, sides, reach, small, first, members,
-                                      image, found, fill)
-                if fill:
-                    _write(a, found, count, count - up, x, diameters, sides, pair_start[a], row_start[a], i, j, shift,
-                           contact, reduced, partner, table_shift, table_contact, table_reduced)
-                else:
-                    above[a], below[a] = up, count - up
+                                      image, scratch[start:start + near])
+                where[a], above[a], below[a] = start, up, count - up
+
+
+@numba.njit(cache=True, parallel=True, boundscheck=False)
+def _fill(x, diameters, sides, scratch, where, above, below, pair_start, row_start, i, j, shift, contact, reduced,
+          partner, table_shift, table_contact, table_reduced):
+    """Write each particle's pairs and table entries (:func:`_write`) from its partners in
+    ``scratch`` (:func:`_search`), chunks of particles spread over threads."""
+    n = x.shape[0]
+    for chunk in numba.prange((n + CHUNK - 1) // CHUNK):
+        for a in range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK)):
+            count = above[a] + below[a]
+            _write(a, scratch[where[a]:where[a] + count], count, below[a], x, diameters, sides, pair_start[a],
+                   row_start[a], i, j, shift, contact, reduced, partner, table_shift, table_contact, table_reduced)
 
 
 @numba.njit(cache=True, boundscheck=False)
@@ -184,23 +208,37 @@ def verlet_list(x: np.ndarray, diameters: np.ndarray, sides: np.ndarray, reach: 
     ((i, j (P,), shift (P, D), contact (P,), a' (P,)), (start (N + 1,), partner, shift, contact,
     a' (2P rows)), room), pairs sorted by (i, j), i < j, a' = R_i R_j / (R_i + R_j).  The arrays
     are views of ``room`` (the last call's, reused when large enough: fresh arrays cost more in
-    page faults than the filling) or of new ones a quarter larger than needed."""
+    page faults than the filling) or of new ones a quarter larger than needed; ``room[0]`` holds
+    each particle's partners found by the search (at most its block's particles), which the
+    second pass places once the rows' lengths are known, without searching again."""
     n, dim = x.shape
     folded, radius = np.empty_like(x), np.empty(n)
     per_axis, first, members = _cells(x, diameters, sides, float(diameters.max()) + reach, folded, radius)
-    widest = int(np.diff(first).max()) * 3 ** dim  # no row is longer than its block's particles
-    above, below = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
-    cells = (x, diameters, folded, radius, sides, reach, per_axis, first, members, widest)
-    unused = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), np.empty((0, dim)), np.empty(0), np.empty(0))
-    _scan(*cells, False, above, below, above, above, *unused, *unused[1:])
+    offset = np.zeros(first.size, dtype=np.int64)
+    _room(per_axis, first, offset[1:])
+    np.cumsum(offset, out=offset)
+    room = _grown(room, 0, int(offset[-1]), (), np.int64)
+    where, above, below = (np.empty(n, dtype=np.int64) for _ in range(3))
+    _search(folded, radius, sides, reach, per_axis, first, members, offset, room[0], where, above, below)
     pair_start = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(above, out=pair_start[1:])
     row_start = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(above + below, out=row_start[1:])
     pairs, rows = int(pair_start[-1]), int(row_start[-1])
-    if not room or room[0].size < pairs or room[5].size < rows:
-        room = tuple(np.empty((size + size // 4, *shape), dtype=kind) for size in (pairs, rows)
-                     for shape, kind in (((), np.int64), ((), np.int64), ((dim,), float), ((), float), ((), float)))
-    listed, table = tuple(a[:pairs] for a in room[:5]), (row_start, *(a[:rows] for a in room[6:]))
-    _scan(*cells, True, above, below, pair_start, row_start, *listed, *table[1:])
+    kinds = (((), np.int64), ((), np.int64), ((dim,), float), ((), float), ((), float))  # i, j, shift, contact, a'
+    for size, first_slot, wanted in ((pairs, 1, kinds), (rows, 6, kinds[1:])):
+        for slot, (shape, kind) in enumerate(wanted):
+            room = _grown(room, first_slot + slot, size, shape, kind)
+    listed = tuple(a[:pairs] for a in room[1:6])
+    table = (row_start, *(a[:rows] for a in room[6:10]))
+    _fill(x, diameters, sides, room[0], where, above, below, pair_start, row_start, *listed, *table[1:])
     return listed, table, room
+
+
+def _grown(room: tuple, slot: int, size: int, shape: tuple, kind) -> tuple:
+    """``room`` with an array of at least ``size`` rows of ``shape`` at ``slot`` (a quarter more
+    than asked when made anew)."""
+    room = room + (None,) * (slot + 1 - len(room))
+    if room[slot] is None or room[slot].shape[0] < size:
+        room = room[:slot] + (np.empty((size + size // 4, *shape), dtype=kind),) + room[slot + 1:]
+    return room

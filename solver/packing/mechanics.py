@@ -48,9 +48,9 @@ class FrictionlessForces:
     moves more than s/2 from it.  In an orthogonal periodic box (jammed.generate's) the whole list,
     out to contact plus s, and its neighbour table are made afresh when one would, compiled and on
     every thread (``cell_list.verlet_list``; the same pairs, shifts and order as the search below,
-    so the same packings; at N = 65536 from the random start, on one thread, 89 ms of CPU per list
-    against 58 for the mean rebuild or refresh below, 115 lists against 148 in the first 1000
-    steps: +20 % of list time on one thread, and the list on two threads where those run on one).
+    so the same packings; CPU per list on one thread at the random start: 55 ms against 91 for a
+    rebuild by the search below at N = 65536 (whose refreshes averaged 58), 1.0 s against 2.5 s at
+    N = 1048576; and on every thread where those run on one).
     In a tilted or walled cell the list is kept valid by cheap partial refreshes: when one would,
     the particles that moved more than s/4 are re-listed from where they are now, against
     everybody, out to their contact distance plus 1.25 s, and their references reset (a full rebuild, out to contact plus s, when more than
