@@ -64,16 +64,18 @@ def _cells(x: np.ndarray, diameters: np.ndarray, sides: np.ndarray, cutoff: floa
 
 
 @numba.njit(cache=True, boundscheck=False)
-def _neighbour_cells(cell: int, per_axis: np.ndarray, out: np.ndarray, wraps: np.ndarray) -> int:
+def _neighbour_cells(cell: int, per_axis: np.ndarray, out: np.ndarray, wraps: np.ndarray, coords: np.ndarray) -> int:
     """Write the distinct cells of the 3^D block around ``cell`` (periodic) into ``out`` and into
     ``wraps`` (3^D, D) how many sides each lies across the box (-1, 0 or 1 per axis); return how
-    many cells (fewer than 3^D when an axis has fewer than 3 cells: the wraps are then not used)."""
+    many cells (fewer than 3^D when an axis has fewer than 3 cells: the wraps are then not used).
+    ``coords`` (D,): scratch."""
     dim = per_axis.size
-    coords = np.empty(dim, dtype=np.int64)
+    small = False
     rest = cell
     for d in range(dim - 1, -1, -1):
         coords[d] = rest % per_axis[d]
         rest //= per_axis[d]
+        small = small or per_axis[d] < 3
     count = 0
     for code in range(3 ** dim):
         flat, digits = 0, code
@@ -84,7 +86,7 @@ def _neighbour_cells(cell: int, per_axis: np.ndarray, out: np.ndarray, wraps: np
             wraps[count, d] = (k - inside) // per_axis[d]
             flat = flat * per_axis[d] + inside
         seen = False
-        for m in range(count):
+        for m in range(count if small else 0):  # only an axis of fewer than 3 cells repeats a cell
             seen = seen or out[m] == flat
         if not seen:
             out[count] = flat
@@ -133,9 +135,10 @@ def _room(per_axis, first, room):
     for chunk in numba.prange((total + CELLS - 1) // CELLS):
         block = np.empty(3 ** dim, dtype=np.int64)
         wraps = np.empty((3 ** dim, dim), dtype=np.int64)
+        coords = np.empty(dim, dtype=np.int64)
         for c in range(chunk * CELLS, min(total, (chunk + 1) * CELLS)):
             near = 0
-            for m in range(_neighbour_cells(c, per_axis, block, wraps)):
+            for m in range(_neighbour_cells(c, per_axis, block, wraps, coords)):
                 near += first[block[m] + 1] - first[block[m]]
             room[c] = (first[c + 1] - first[c]) * near
 
@@ -154,9 +157,10 @@ def _search(folded, radius, sides, reach, per_axis, first, members, offset, scra
     for chunk in numba.prange((total + CELLS - 1) // CELLS):
         block = np.empty(3 ** dim, dtype=np.int64)
         wraps = np.empty((3 ** dim, dim), dtype=np.int64)
+        coords = np.empty(dim, dtype=np.int64)
         image = np.empty(dim)
         for c in range(chunk * CELLS, min(total, (chunk + 1) * CELLS)):
-            cells = _neighbour_cells(c, per_axis, block, wraps)
+            cells = _neighbour_cells(c, per_axis, block, wraps, coords)
             near = 0
             for m in range(cells):
                 near += first[block[m] + 1] - first[block[m]]
