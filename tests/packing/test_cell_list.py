@@ -1,6 +1,7 @@
 """FIRE's compiled Verlet list (``packing.cell_list``): every pair within reach and no other, by
 brute force, in the list's order with its neighbour table (``pair_forces.neighbour_table``'s), in
-boxes of 3 cells or more a side and of fewer; and FIRE's forces independent of the list's reach."""
+boxes of 3 cells or more a side and of fewer, the same on 1 and 2 threads; and FIRE's forces
+independent of the list's reach and the same as with the cKDTree list."""
 
 import numpy as np
 import pytest
@@ -85,3 +86,25 @@ def test_fire_moves_the_same_bits_as_with_the_searched_list(n, phi, dim, law, st
     ends = [fire.minimize(start, forces, 0.0, steps).x for forces in (compiled, searched)]
     assert compiled.refreshes == 0 and searched.refreshes > 0 and compiled.rebuilds > 1
     assert np.array_equal(ends[0], ends[1])
+
+
+def test_the_list_is_the_same_on_1_and_2_threads():
+    """verlet_list with numba.set_num_threads(1), then 2 (needs a pool of 2, skipped otherwise): every
+    array the same bit for bit.  20000 disks: about 80 chunks of cells."""
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread here (NUMBA_NUM_THREADS = 1)")
+    rng = np.random.default_rng(11)
+    diameters = rng.permutation(jammed.bidisperse_diameters(20000))
+    sides = np.full(2, jammed.box_length_for(diameters, 0.9, 2))
+    x = rng.uniform(0.0, sides[0], size=(20000, 2))
+    got = []
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(threads)
+            listed, table, _ = cell_list.verlet_list(x, diameters, sides, 0.3)
+            got.append([array.copy() for array in (*listed, *table)])
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert all(np.array_equal(one, two) for one, two in zip(*got))
