@@ -6,8 +6,11 @@ images, in the order of :class:`mechanics.FrictionlessForces`' list (sorted by (
 at the same time its neighbour table (``pair_forces.neighbour_table``'s layout: particle a's
 entries, first the pairs where it is i, then those where it is j, each in list order).  Each
 particle's row is found from its own 3^D cells and sorted by partner, so a row does not depend on
-which thread makes it; the rows are placed by a prefix sum of their lengths.  The image shift of a
-pair is -L rint(delta / L) per axis, delta = x_i - x_j: a whole number of sides, the same bits
+which thread makes it; the rows, kept meanwhile in scratch rows bounded by their blocks' particles,
+are placed by a prefix sum of their lengths.  The search compares positions folded into the box,
+so a pair within round-off of the reach's edge may be listed here and not by the cKDTree search of
+``mechanics`` or the reverse: such a pair is apart by the skin and carries no force.  The image
+shift of a pair is -L rint(delta / L) per axis, delta = x_i - x_j: a whole number of sides, the same bits
 whenever the pair is listed and exactly negated from j's side, so that the forces
 (``pair_forces.net_forces``) do not depend on when the list was made nor on its reach (a listed
 pair apart adds +-0 to a sum, which changes no bit).  The first call compiles and caches the
