@@ -47,10 +47,11 @@ class FrictionlessForces:
     image shift found when it was listed.  Every particle has a reference position, and none
     moves more than s/2 from it.  In an orthogonal periodic box (jammed.generate's) the whole list,
     out to contact plus s, and its neighbour table are made afresh when one would, compiled and on
-    every thread (``cell_list.verlet_list``; the same pairs, shifts and order as the search below,
-    so the same packings; CPU per list on one thread at the random start: 55 ms against 91 for a
-    rebuild by the search below at N = 65536 (whose refreshes averaged 58), 1.0 s against 2.5 s at
-    N = 1048576; and on every thread where those run on one).
+    every thread (``cell_list.verlet_list``; the same pairs (to round-off at the skin's edge, where
+    no force is), shifts and order as the search below, so the same packings; CPU per list on one
+    thread at the random start: 55 ms against 91 for a rebuild by the search below at N = 65536
+    (whose refreshes averaged 58), 1.0 s against 2.5 s at N = 1048576; and on every thread where
+    those run on one).
     In a tilted or walled cell the list is kept valid by cheap partial refreshes: when one would,
     the particles that moved more than s/4 are re-listed from where they are now, against
     everybody, out to their contact distance plus 1.25 s, and their references reset (a full rebuild, out to contact plus s, when more than
