@@ -191,8 +191,8 @@ def test_sphere_packing_figure_is_the_section_at_half_height(tmp_path, monkeypat
     (1.10, [(0.0, 0.14), (-0.16, 0.0), (0.149, -0.14 - 0.149)], 0.962, 2),
 ])
 def test_neighbour_list_refresh_keeps_every_pair_that_can_touch(start, moves, gap, refreshes):
-    """FIRE's Verlet list (skin s = 0.3) on the worst cases of its partial refresh; spheres a and b
-    (d = 1) on a line, moves (a, b) along it.  First: b moves 0.07425 (just under s/4: not
+    """FIRE's Verlet list (skin s = 0.3) on the worst cases of its partial refresh (a cell walled
+    along z: a periodic box's list is made whole, cell_list); spheres a and b (d = 1) on a line, moves (a, b) along it.  First: b moves 0.07425 (just under s/4: not
     re-listed) away from a, a moves 0.16 (over s/2) away, which re-lists a at distance 1.36 =
     d + 1.2 s; then a moves 0.149 back and b 0.149 past its start, both under s/2, to 0.98775:
     touching.  A refresh reaching d + s, not d + 1.25 s, dropped that pair and its force.
@@ -203,7 +203,8 @@ def test_neighbour_list_refresh_keeps_every_pair_that_can_touch(start, moves, ga
     every stage the forces equal the two-sphere formula."""
     far = [[1, 1, 1], [1, 1, 8], [1, 8, 1], [8, 1, 1], [1, 8, 8], [8, 8, 8]]
     x = np.array([[5.0, 5.0, 5.0], [5.0 + start, 5.0, 5.0]] + far, dtype=float)
-    forces = mechanics.FrictionlessForces(np.ones(len(x)), 10.0)
+    walled = geometry.Cell(np.full(3, 10.0), np.zeros(3), np.array([True, True, False]))  # refreshes: not periodic
+    forces = mechanics.FrictionlessForces(np.ones(len(x)), walled)
     assert forces.skin == 0.3
     for move in [(0.0, 0.0)] + moves:
         x[:2, 0] += move
