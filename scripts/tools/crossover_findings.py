@@ -22,7 +22,8 @@ Per packing (one transport unit, its modes up to omega_top):
 - the boson peak omega_BP: the maximum of D(omega) / omega^2 (D: the window's modes per bin over
   the matrix's DOF and the bin width) over bins of ``BP_BINS`` of the scene's bins merged, above
   the two lowest shells of plane waves (omega > 2 omega_1: below, a finite box has single
-  degenerate shells, whose spikes in D / omega^2 are no boson peak).
+  degenerate shells, whose spikes in D / omega^2 are no boson peak); NaN (not resolved) when the
+  maximum is the lowest bin held.
 
 Fits, with errors from the spread over packings: log omega* = log a + beta log Delta z by least
 squares over every packing (errors of a, beta from the residuals' scatter, np.polyfit's
@@ -65,7 +66,7 @@ def unit_row(d_group, packing_group, edges: np.ndarray, path: str) -> dict:
     return {"file": path.split("/")[-1], "phi": float(packing_group.attrs["phi"]), "packing": int(attrs["packing"]),
             "rho": rho, "N": int(attrs["n_disks"]), "z": z, "dz": z - (dim + 1 if rho > 0 else 2 * dim),
             "pressure": float(packing_group.attrs.get("pressure", np.nan)), "eta": float(attrs["eta"]),
-            "omega_top": top, "omega_1": float(omega.min(initial=np.nan)), "modes": int(omega.size),
+            "omega_top": top, "omega_1": float(omega.min()) if omega.size else float("nan"), "modes": int(omega.size),
             "d_p": plateau, "omega_star": crossover_below(edges, mean, count, top / 2, plateau),
             "omega_bp": boson_peak(omega, edges, int(attrs["dof"])), "seconds": float(attrs["seconds"]),
             "bins": (edges, mean, count)}
@@ -74,13 +75,16 @@ def unit_row(d_group, packing_group, edges: np.ndarray, path: str) -> dict:
 def boson_peak(omega: np.ndarray, edges: np.ndarray, dof: int) -> float:
     """omega_BP (module docstring) of the modes ``omega`` (1/t0) of a matrix of ``dof`` DOF on the
     bins ``edges`` merged by :data:`BP_BINS`: the centre of the bin of largest D(omega) / omega^2
-    above 2 omega_1; NaN without such a bin."""
+    above 2 omega_1; NaN without such a bin, or when the largest is the lowest bin held (D / omega^2
+    still rising towards the box's lowest modes: the peak is not resolved)."""
     coarse = edges[::BP_BINS]
     count = np.histogram(omega, bins=coarse)[0]
     centres = 0.5 * (coarse[1:] + coarse[:-1])
     ratio = count / (dof * np.diff(coarse)) / centres**2
-    held = coarse[:-1] > 2 * omega.min(initial=np.inf)
-    return float(centres[held][np.argmax(ratio[held])]) if held.any() else float("nan")
+    held = np.flatnonzero(coarse[:-1] > 2 * omega.min(initial=np.inf))
+    if held.size == 0 or np.argmax(ratio[held]) == 0:
+        return float("nan")
+    return float(centres[held][np.argmax(ratio[held])])
 
 
 def measure(path: str) -> list[dict]:

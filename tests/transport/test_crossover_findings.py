@@ -16,14 +16,13 @@ WIDTH = 0.01  # the scene's bins (1/t0)
 
 def _unit(omega0: float, top: float, plateau: float = 0.2):
     """An in-memory (file, unit group, packing group, edges) whose modes up to ``top`` (per bin of
-    WIDTH from 0.02: 3 below omega0, 30 in the two bins from omega0, 10 above) have d = plateau
-    (1 + (omega0 / omega)^4), which doubles the plateau at omega0, and a D / omega^2 that peaks in
-    the merged bin [omega0, omega0 + 2 WIDTH) (omega0 a multiple of 2 WIDTH)."""
+    WIDTH: 3 below omega0, 10 above) have d = plateau (1 + (omega0 / omega)^4), which doubles the
+    plateau at omega0."""
     f = h5py.File(f"unit{omega0}.h5", "w", driver="core", backing_store=False)
     edges = np.arange(0.0, 1.0 + WIDTH / 2, WIDTH)
     centres = 0.5 * (edges[1:] + edges[:-1])
-    held = (centres > 0.02) & (centres < top)
-    counts = np.select([centres < omega0, centres < omega0 + 2 * WIDTH], [3, 30], 10)[held]
+    held = centres < top
+    counts = np.where(centres < omega0, 3, 10)[held]
     omega = np.repeat(centres[held], counts)
     g = f.create_group("diffusivity/r00_p0000")
     g["omega"], g["d"] = omega, plateau * (1 + (omega0 / omega) ** 4)
@@ -37,14 +36,32 @@ def _unit(omega0: float, top: float, plateau: float = 0.2):
 def test_crossover_and_boson_peak_of_a_known_window(omega0):
     """d = d_p (1 + (omega0/omega)^4) reaches 2 d_p at omega0: omega* within a bin of it; the
     plateau is the median d of the window's upper half (within 0.1 % of d_p: (omega0 / omega)^4
-    < 5e-4 at its median omega, 0.675); D / omega^2 peaks in the merged bin starting at omega0."""
+    < 5e-4 at its median omega, 0.675)."""
     f, g, p, edges = _unit(omega0, top=0.9)
     with f:
         row = findings.unit_row(g, p, edges, "x.h5")
     assert_close(row["omega_star"], omega0, rtol=0.0, atol=WIDTH, what="omega* within a bin")
     assert_close(row["d_p"], 0.2, rtol=1e-3, atol=0.0, what="plateau")
-    assert_close(row["omega_bp"], omega0 + WIDTH, rtol=0.0, atol=1e-12, what="boson peak: the merged bin's centre")
     assert_all(row["dz"] == pytest.approx(0.9) and row["omega_top"] == 0.9, f"{row}")
+
+
+@pytest.mark.parametrize("omega0", [0.06, 0.1])
+def test_boson_peak_of_a_known_vdos(omega0):
+    """Modes per bin of WIDTH growing as omega^3 below omega0 (D / omega^2 rising as omega) and
+    constant above (D / omega^2 falling as omega^-2): the peak lies in the merged bin of 2 WIDTH
+    at omega0, whose centre is within 2 WIDTH of it."""
+    edges = np.arange(0.0, 0.5001, WIDTH)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    counts = np.rint(1000 * np.minimum(centres / omega0, 1.0) ** 3).astype(int)
+    omega = np.repeat(centres, counts)
+    assert_close(findings.boson_peak(omega, edges, 3000), omega0, rtol=0.0, atol=2 * WIDTH, what="omega_BP")
+
+
+def test_a_boson_peak_at_the_lowest_bin_held_is_not_resolved():
+    """D / omega^2 rising down to the lowest bin above 2 omega_1 (10 modes per bin everywhere):
+    no peak is resolved (NaN), not the lowest bin."""
+    omega = np.repeat(np.arange(0.015, 0.5, WIDTH), 10)
+    assert_all(np.isnan(findings.boson_peak(omega, np.arange(0.0, 0.5001, WIDTH), 300)), "a boundary maximum")
 
 
 def test_a_crossover_above_half_the_window_is_not_measured():
