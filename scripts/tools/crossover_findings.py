@@ -34,6 +34,7 @@ all.  Prints Markdown; draws the figures.  Reads only: no MPI, no PETSc.
 from __future__ import annotations
 
 import argparse
+import pathlib
 
 import numpy as np
 
@@ -213,14 +214,15 @@ def main(argv=None) -> None:
     parser.add_argument("--figures", help="folder to draw the figures into (with results files)")
     args = parser.parse_args(argv)
     rows = read_table(args.table) if args.table else [row for path in args.paths for row in measure(path)]
-    print("# The diffusivity crossover near jamming: findings from configs/crossover.yaml\n")
+    print("# The diffusivity crossover near jamming: findings (scripts/tools/crossover_findings.py)\n")
     print_rows(rows)
     print_fits(rows)
     if args.figures and not args.table:
         for name, fig in draw([r for r in rows if r["rho"] == 0]).items():
-            fig.savefig(f"{args.figures}/{name}.png", dpi=DPI)
+            path = pathlib.Path(args.figures) / f"{name}.png"
+            fig.savefig(path, dpi=DPI)
             plt.close(fig)
-            print(f"\nfigure: {args.figures}/{name}.png")
+            print(f"\nfigure: {path}")
 
 
 if __name__ == "__main__":
