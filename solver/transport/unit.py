@@ -139,11 +139,12 @@ def binned(spec, spectrum, rho: float, units: list[tuple[dict, dict]], edges: np
     d = np.concatenate([datasets["d"] for datasets, _ in units])
     if edges is None:
         edges = modes.vdos([omega], bin_width(spec, spectrum))[0]
-    last = np.searchsorted(edges, np.inf if spec.omega_top is None else spec.omega_top, side="right") - 1
-    if last < edges.size - 1:  # the bin that straddles omega_top holds only some of its modes: dropped
-        kept = omega < edges[last]
-        omega, d = omega[kept], d[kept]
+    if spec.omega_top is not None:
         attrs["omega_top"] = spec.omega_top
+        last = np.searchsorted(edges, spec.omega_top, side="right") - 1
+        if last < edges.size - 1:  # the bin that straddles omega_top holds only some of its modes: dropped
+            kept = omega < edges[last]
+            omega, d = omega[kept], d[kept]
     count = np.histogram(omega, bins=edges)[0]
     mean = modes.bin_average(omega, d, edges)
     spread = np.sqrt(np.maximum(modes.bin_average(omega, d**2, edges) - mean**2, 0.0))
