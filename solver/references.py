@@ -221,8 +221,8 @@ def exact_l_wave(p, dm, k: float, times: np.ndarray) -> np.ndarray:
     return _weights(vec, mass, v0, b) @ np.cos(np.outer(omega, times))
 
 
-def allen_feldman_dense(dm, positions: np.ndarray, box, eta: float, zero_tol: float = 1e-4
-                        ) -> tuple[np.ndarray, np.ndarray]:
+def allen_feldman_dense(dm, positions: np.ndarray, box, eta: float, zero_tol: float = 1e-4,
+                        partners_to: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
     """(omega (M,) ascending in 1/t0, d (M,) in d0^2/t0): the Allen-Feldman diffusivity of every
     mode of ``dm`` (symmetric) with omega^2 > ``zero_tol``^2 (the spectrum's rule for zero modes),
     by the definition (docs/diffusivity.md): A = M^-1/2 D M^-1/2 gathered dense in the packing's
@@ -230,7 +230,8 @@ def allen_feldman_dense(dm, positions: np.ndarray, box, eta: float, zero_tol: fl
     every particle in packing order) and the minimum image in ``box`` (a ``geometry.Cell``: tilted,
     or with walled axes, which have no images; or its (D,) sides, orthogonal periodic), built here densely;
     Y^a = V^T X^a V; d_n = pi / (4 D omega_n^2) sum_{m != n} sum_a |Y^a_nm|^2 (omega_n + omega_m)^2
-    / (4 omega_n omega_m) (eta / pi) / ((omega_n - omega_m)^2 + eta^2).  n^2 memory, n^3 time.
+    / (4 omega_n omega_m) (eta / pi) / ((omega_n - omega_m)^2 + eta^2), the partners m limited to
+    omega_m <= ``partners_to`` (1/t0; the low-frequency window's sum).  n^2 memory, n^3 time.
     Collective (gathers A)."""
     import scipy.linalg as sl
 
@@ -251,6 +252,7 @@ def allen_feldman_dense(dm, positions: np.ndarray, box, eta: float, zero_tol: fl
     wn, wm = omega[:, None], omega[None, :]
     weight = (wn + wm) ** 2 / (4 * wn * wm) * (eta / np.pi) / ((wn - wm) ** 2 + eta**2)
     np.fill_diagonal(weight, 0.0)  # m != n
+    weight[:, omega > partners_to] = 0.0
     return omega, np.pi / (4 * dim * omega**2) * (square * weight).sum(axis=1)
 
 

@@ -47,12 +47,21 @@ LOCALISED = 0.01      # the fraction of modes of lowest participation
 def crossover(g, plateau: float) -> float:
     """omega* of one rho's ``results.Diffusivity`` ``g`` (module docstring); NaN if d never rises
     to 2 d_p below the plateau."""
-    centres = 0.5 * (g.edges[1:] + g.edges[:-1])
-    lower = np.quantile(g.omega, PLATEAU[0])
-    below = np.flatnonzero((centres < lower) & np.isfinite(g.d_binned) & (g.count >= 3))[::-1]
+    return crossover_below(g.edges, g.d_binned, g.count, np.quantile(g.omega, PLATEAU[0]), plateau)
+
+
+def crossover_below(edges: np.ndarray, d_binned: np.ndarray, count: np.ndarray, lower: float, plateau: float) -> float:
+    """Scanning the bins ``edges`` (B+1,) whose centres lie below ``lower`` downwards, the first
+    whose mean d (``d_binned`` (B,), from ``count`` (B,) modes; bins of fewer than 3 modes skipped)
+    exceeds 2 ``plateau``: omega* by linear interpolation in log d between it and the bin above;
+    NaN if none does, or if the first bin scanned does already (omega* would lie above ``lower``)."""
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    below = np.flatnonzero((centres < lower) & np.isfinite(d_binned) & (count >= 3))[::-1]
+    if below.size and d_binned[below[0]] > 2 * plateau:
+        return float("nan")
     for i, j in zip(below[:-1], below[1:]):  # i above j
-        if g.d_binned[j] > 2 * plateau:
-            x = (np.log(2 * plateau) - np.log(g.d_binned[i])) / (np.log(g.d_binned[j]) - np.log(g.d_binned[i]))
+        if d_binned[j] > 2 * plateau:
+            x = (np.log(2 * plateau) - np.log(d_binned[i])) / (np.log(d_binned[j]) - np.log(d_binned[i]))
             return float(centres[i] + x * (centres[j] - centres[i]))
     return float("nan")
 

@@ -498,6 +498,10 @@ class TransportSpec:
     bin_width: float | None = _f(None, "width (1/t0) of the omega bins of d(omega), the mean d of the modes in each "
                                        "bin; null: spectrum.bin_width (the vDOS's bins), 0.05 without a spectrum "
                                        "section", _range(0.0, 10.0, True), float)
+    omega_top: float | None = _f(None, "exact: the low-frequency window (1/t0): slice and sum only the modes up to "
+                                       "omega_top + 20 eta, and report d(omega) for those up to omega_top, in the bins "
+                                       "wholly below it; null: every mode (docs/diffusivity.md, section 5)",
+                                 _range(0.0, 1e3, True), float)
     zero_tol: float = _f(1e-4, "modes with omega at or below this (1/t0) are zero modes and carry no energy "
                                "(left out of both sums, as the spectrum leaves them out)",
                          _range(0.0, 1.0, True), float)

@@ -35,8 +35,12 @@ Cost, n DOF, M non-zero modes (M ~ n), block b, p ranks:
   disk      8 n M bytes in all (4.8 GB at N = 8192), split over the ranks, read W (W + 1) / 2
             blocks' worth in the pair loop (W = M / b windows), mostly from the page cache;
   messages  one Allreduce of 8 D b_P b_Q bytes per pair of blocks.
-Recomputing each window when needed instead of storing it would cost W / 2 spectrum solves; a
-truncation of the Lorentzian's tails is not exact and is not made.
+Recomputing each window when needed instead of storing it would cost W / 2 spectrum solves.
+
+The low-frequency window (``omega_top``): only the modes up to omega_top + TAIL_ETAS eta are
+sliced, M_w of them, and d is returned for those up to omega_top; the cost falls to D n M_w^2 and
+8 n M_w bytes, the spectrum slicing of M_w modes included.  It truncates the Lorentzian's tails at
+TAIL_ETAS eta from omega_top (bounded in :data:`TAIL_ETAS`); without it nothing is truncated.
 
 Collective on the matrix's communicator ``comm``; every rank returns the same arrays, equal on
 1 and 2 ranks to round-off.
@@ -96,11 +100,13 @@ class ModeBlocks:
     ``stored[w]``, this rank's rows (nloc, b_w) of the block's orthonormal eigenvectors on A's
     layout, as an array (Fortran order) or the path of this rank's ``.npy`` scratch file;
     ``settings``: what the windows' EPS used (``options.eps_settings`` of the first window, after
-    setFromOptions; empty for blocks made from arrays)."""
+    setFromOptions; empty for blocks made from arrays); ``zero``: the modes with omega^2 <=
+    zero_tol^2 (zero and negative) that slicing left out (0 for blocks made from arrays)."""
 
     omegas: list
     stored: list
     settings: dict = field(default_factory=dict)
+    zero: int = 0
 
     def __len__(self) -> int:
         return len(self.omegas)
@@ -176,8 +182,9 @@ PREFIX = "transport_"
 
 @profiling.logged("rsAFModes")
 def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block: int = 1000,
-                 scratch=None) -> ModeBlocks:
-    """Every mode of ``dm`` with omega > ``zero_tol`` in slicing windows of at most ~``block``
+                 scratch=None, omega_cut: float | None = None) -> ModeBlocks:
+    """Every mode of ``dm`` with omega > ``zero_tol`` (and omega <= ``omega_cut``, 1/t0, if given:
+    the slicing interval then ends at omega_cut^2) in slicing windows of at most ~``block``
     modes from a start clear of the zero modes (:func:`_clear_start`), each window solved once
     (``spectrum.slicing``'s plan, split and EPS, options prefix :data:`PREFIX`; ``tol`` the default
     that -transport_eps_tol overrides) and its vectors written to ``scratch`` (a directory, rank 0's name used by all;
@@ -200,8 +207,10 @@ def sliced_modes(dm, comm, *, zero_tol: float = 1e-4, tol: float = 1e-12, block:
         hi = largest_omega(dm) ** 2 * (1 + 1e-6)  # as slicing.solve: Lanczos top, Gershgorin if it misses modes
         if slicing.count_below(A, hi) < A.getSize()[0]:
             hi = A.norm(PETSc.NormType.INFINITY) * (1 + 1e-9)
-        zero = slicing.count_below(A, zero_tol**2)
-        if zero == A.getSize()[0]:
+        if omega_cut is not None:
+            hi = min(hi, omega_cut**2)
+        zero = modes.zero = slicing.count_below(A, zero_tol**2)
+        if zero == slicing.count_below(A, hi):  # no mode in (zero_tol^2, hi]
             return modes
         edges, counts, known = slicing.plan_windows(A, _clear_start(A, zero_tol**2, hi, zero), hi, block)
         for w in range(edges.size - 1):
@@ -303,27 +312,52 @@ def _products(X: list, v: np.ndarray, comm) -> list[np.ndarray]:
         dense.destroy()
 
 
+TAIL_ETAS = 20.0
+"""The low-frequency window's margin in Lorentzian half-widths: with ``omega_top`` the modes up to
+omega_top + TAIL_ETAS eta are summed, so a reported mode (omega_n <= omega_top) misses only
+partners at least TAIL_ETAS eta away, whose Lorentzian weight is at most 1 / (pi TAIL_ETAS^2 eta)
+each and, over a smooth spectrum, 1 / (pi TAIL_ETAS) = 1.6 % of the Lorentzian's mass on one side
+(docs/diffusivity.md, section 5)."""
+
+
+def window_cut(omega_top: float, eta: float) -> float:
+    """The highest omega (1/t0) the low-frequency window slices: omega_top + :data:`TAIL_ETAS` eta.
+    Not collective."""
+    return omega_top + TAIL_ETAS * eta
+
+
 def allen_feldman(dm, positions: np.ndarray, box: np.ndarray, eta: float, comm, *, zero_tol: float = 1e-4,
-                  tol: float = 1e-12, block: int = 1000, scratch=None, report: dict | None = None
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  tol: float = 1e-12, block: int = 1000, scratch=None, report: dict | None = None,
+                  omega_top: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(omega (M,) ascending in 1/t0, d (M,) in d0^2/t0) of every mode of ``dm`` with omega >
     ``zero_tol``: :func:`position_operators` of ``positions`` (N, D, packing order) in ``box``,
     :func:`sliced_modes` (windows of ~``block`` modes, EPS tolerance ``tol``, vectors in
     ``scratch`` or in memory; the scratch files are removed at the end, also on an error), :func:`diffusivity` at
-    half-width ``eta``.  ``report``, a dict, receives ``windows`` (their count) and ``settings``
-    (what their EPS used).  Symmetric matrices only (ValueError for a stressed packing's).
-    Collective on ``comm``, the matrix's communicator."""
+    half-width ``eta``.  With ``omega_top`` (1/t0) only the modes up to :func:`window_cut` are
+    sliced and summed, and only those with omega <= omega_top are returned (the low-frequency
+    window: the modes above lack their partners beyond the cut).  ``report``, a dict, receives
+    ``windows`` (their count), ``settings`` (what their EPS used), ``sliced`` (the modes summed)
+    and ``zero`` (the modes with omega <= zero_tol, left out).
+    Symmetric matrices only (ValueError for a stressed packing's).  Collective on ``comm``, the
+    matrix's communicator."""
     if not dm.symmetric:
         raise ValueError("the Allen-Feldman diffusivity needs a symmetric dynamical matrix (not a stressed packing's)")
     if not (math.isfinite(eta) and eta > 0):
         raise ValueError(f"eta must be finite and > 0, not {eta!r}")
+    if omega_top is not None and not (math.isfinite(omega_top) and omega_top > 0):
+        raise ValueError(f"omega_top must be finite and > 0, not {omega_top!r}")
+    cut = None if omega_top is None else window_cut(omega_top, eta)
     X = position_operators(dm, positions, box, comm)
     modes = None
     try:
-        modes = sliced_modes(dm, comm, zero_tol=zero_tol, tol=tol, block=block, scratch=scratch)
+        modes = sliced_modes(dm, comm, zero_tol=zero_tol, tol=tol, block=block, scratch=scratch, omega_cut=cut)
+        omega, d = modes.omega, diffusivity(X, modes, eta, comm)
         if report is not None:
-            report.update(windows=len(modes), settings=modes.settings)
-        return modes.omega, diffusivity(X, modes, eta, comm)
+            report.update(windows=len(modes), settings=modes.settings, sliced=omega.size, zero=modes.zero)
+        if omega_top is None:
+            return omega, d
+        kept = omega <= omega_top
+        return omega[kept], d[kept]
     finally:
         if modes is not None:
             modes.remove_files()

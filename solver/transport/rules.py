@@ -20,7 +20,7 @@ METHODS = ("exact", "kpm")
 kpm, d(omega) per bin from Chebyshev moments with random probes (``kpm_diffusivity``)."""
 DEFAULT_BIN_WIDTH = 0.05
 """Bins of d(omega) (1/t0) without a spectrum section: the spectrum's default bin width."""
-METHOD_KEYS = {"exact": ("tol", "block", "max_scratch_gib"), "kpm": ("probes", "moments")}
+METHOD_KEYS = {"exact": ("tol", "block", "max_scratch_gib", "omega_top"), "kpm": ("probes", "moments")}
 """Keys of each method: written with another method, they would do nothing (refused: :func:`check_given`)."""
 
 
@@ -57,7 +57,8 @@ def bin_width(spec, spectrum) -> float:
 
 def check_scene(spec, spectrum, dashpots: str) -> None:
     """Refuse a transport section ``spec`` whose d(omega) bins differ from the vDOS's
-    (``spectrum``: the spectrum section, None: none) or on a scene with dashpots (``dashpots``: the
+    (``spectrum``: the spectrum section, None: none), whose ``omega_top`` lies below the first
+    bin's top, or on a scene with dashpots (``dashpots``: the
     keys that turn them on, ``ModelSpec.dashpot_keys``; "": none).  Not collective."""
     if spec is None:
         return
@@ -65,6 +66,10 @@ def check_scene(spec, spectrum, dashpots: str) -> None:
         raise InputError(f"transport.bin_width = {spec.bin_width} differs from spectrum.bin_width = "
                          f"{spectrum.bin_width}: d(omega) is kept on the vDOS's bins; drop transport.bin_width "
                          f"(or give both the same)")
+    if spec.omega_top is not None and spec.omega_top < bin_width(spec, spectrum):
+        raise InputError(f"transport.omega_top = {spec.omega_top:g} is below the first bin's top edge "
+                         f"{bin_width(spec, spectrum):g} (the bin width): d(omega) is reported only in the bins wholly "
+                         f"below omega_top, and there would be none; raise transport.omega_top or narrow the bins")
     if dashpots:
         raise InputError(f"transport with {dashpots}: the Allen-Feldman diffusivity is that of the undamped "
                          f"modes of a conserved harmonic energy; with dashpots the energy decays and the modes are "

@@ -69,17 +69,25 @@ def _remove_scratch(folder, comm) -> None:
 
 def _exact(spec, dm, positions, box, *, scratch, **_) -> tuple[dict, dict, str]:
     """Every mode's d_n (``allen_feldman.allen_feldman``, its eigenvectors in the folder ``scratch``,
-    removed at the end): datasets ``omega`` (M,) ascending and ``d`` (M,)."""
+    removed at the end), or with ``spec.omega_top`` those of the low-frequency window: datasets
+    ``omega`` (M,) ascending and ``d`` (M,); with omega_top also the attrs ``omega_top``,
+    ``omega_cut`` (the highest omega sliced) and ``sliced`` (the modes summed)."""
     report: dict = {}
     omega, d = allen_feldman.allen_feldman(dm, positions, box, spec.eta, dm.D.getComm(), zero_tol=spec.zero_tol,
-                                           tol=spec.tol, block=spec.block, scratch=scratch, report=report)
+                                           tol=spec.tol, block=spec.block, scratch=scratch, report=report,
+                                           omega_top=spec.omega_top)
     attrs = {"eta": spec.eta, "zero_tol": spec.zero_tol, "windows": report["windows"],
-             "n_zero_modes": dm.size - omega.size, "solver_settings": json.dumps(report["settings"])}
+             "n_zero_modes": report["zero"], "solver_settings": json.dumps(report["settings"])}
+    window = ""
+    if spec.omega_top is not None:
+        attrs.update(omega_top=spec.omega_top, omega_cut=allen_feldman.window_cut(spec.omega_top, spec.eta),
+                     sliced=report["sliced"])
+        window = f" up to omega_top = {spec.omega_top:g} (of {report['sliced']} sliced to {attrs['omega_cut']:g})"
     plateau = np.median(d[omega > np.median(omega)]) if d.size else float("nan")
     return {"omega": omega, "d": d}, attrs, (
-        f"{omega.size} modes (+{attrs['n_zero_modes']} zero), eta = {spec.eta:g}, d from {d.min(initial=np.inf):.3g} "
-        f"to {d.max(initial=0.0):.3g} d0^2/t0 (median {plateau:.3g} above the median omega), "
-        f"{counted(report['windows'], 'window')}")
+        f"{omega.size} modes{window} (+{attrs['n_zero_modes']} zero), eta = {spec.eta:g}, d from "
+        f"{d.min(initial=np.inf):.3g} to {d.max(initial=0.0):.3g} d0^2/t0 (median {plateau:.3g} above the median "
+        f"omega), {counted(report['windows'], 'window')}")
 
 
 def kpm_edges(omega_max: float, width: float) -> np.ndarray:
@@ -116,8 +124,10 @@ def binned(spec, spectrum, rho: float, units: list[tuple[dict, dict]], edges: np
     modes on ``edges`` (the vDOS's of the same rho; None: bins [0, w), [w, 2w), ... of w =
     ``rules.bin_width(spec, spectrum)``, as the vDOS makes them): datasets ``edges`` (B+1,), ``d``
     (B,) the mean d of each bin's modes (NaN where none), ``d_std`` (B,) their spread (ddof 0),
-    ``count`` (B,) their number.  Binned units (kpm: bins [0, w), [w, 2w), ... of one width, which
-    differ only in how far they reach): on the longest grid, ``count`` the summed estimated counts,
+    ``count`` (B,) their number; with ``spec.omega_top`` (the low-frequency window) the bins not
+    wholly below omega_top hold no mode (count 0, d NaN): the window's modes stop at omega_top.
+    Binned units (kpm: bins [0, w), [w, 2w), ... of one width, which differ only in how far they
+    reach): on the longest grid, ``count`` the summed estimated counts,
     ``d`` = summed totals / summed counts (NaN where the bins hold less than one mode per
     configuration, as a unit's own d is NaN below one mode), ``d_err`` = sqrt(sum (count_i
     d_err_i)^2) / sum count_i (independent configurations).  Not collective."""
@@ -129,6 +139,12 @@ def binned(spec, spectrum, rho: float, units: list[tuple[dict, dict]], edges: np
     d = np.concatenate([datasets["d"] for datasets, _ in units])
     if edges is None:
         edges = modes.vdos([omega], bin_width(spec, spectrum))[0]
+    if spec.omega_top is not None:
+        attrs["omega_top"] = spec.omega_top
+        last = np.searchsorted(edges, spec.omega_top, side="right") - 1
+        if last < edges.size - 1:  # the bin that straddles omega_top holds only some of its modes: dropped
+            kept = omega < edges[last]
+            omega, d = omega[kept], d[kept]
     count = np.histogram(omega, bins=edges)[0]
     mean = modes.bin_average(omega, d, edges)
     spread = np.sqrt(np.maximum(modes.bin_average(omega, d**2, edges) - mean**2, 0.0))

@@ -262,3 +262,51 @@ def test_petsc_objects_are_destroyed_when_a_product_fails(comm, case):
         for Xa in X:
             Xa.destroy()
     assert_all(len(handles) == 3 and handles == [0, 0, 0], f"{name}: handles {handles}")
+
+
+ETA_LOW = 0.05  # 1/t0: the low-frequency window's tests; its margin TAIL_ETAS eta = 1/t0 leaves modes to compare
+TOP = {"2d": 2.0, "3d_rolling": 2.5}  # omega_top (1/t0): about the median omega of each case
+
+
+def test_low_window_is_the_sum_truncated_at_its_cut(comm, case):
+    """With omega_top, the modes up to omega_top (and no others) come back, each with the dense
+    definition's d whose partners stop at omega_top + TAIL_ETAS eta (the window's cut): omega to
+    1e-12, d to rtol 1e-8 (atol 1e-12 of the largest d), as the whole route's own check."""
+    name, p, dm = case
+    report: dict = {}
+    omega, d = af.allen_feldman(dm, p.positions, p.box, ETA_LOW, comm, zero_tol=ZERO_TOL, block=17,
+                                omega_top=TOP[name], report=report)
+    cut = af.window_cut(TOP[name], ETA_LOW)
+    ref_omega, ref_d = references.allen_feldman_dense(dm, p.positions, p.box, ETA_LOW, zero_tol=ZERO_TOL,
+                                                      partners_to=cut)
+    below = ref_omega <= TOP[name]
+    assert_all(report["sliced"] == np.count_nonzero(ref_omega <= cut) < ref_omega.size,
+               f"{name}: {report['sliced']} modes sliced, {np.count_nonzero(ref_omega <= cut)} up to the cut")
+    assert_all(omega.size == np.count_nonzero(below), f"{name}: {omega.size} modes up to omega_top")
+    assert_close(omega, ref_omega[below], rtol=1e-12, what=f"{name} omega of the window")
+    assert_close(d, ref_d[below], rtol=1e-8, atol=1e-12 * ref_d.max(), what=f"{name} d of the window")
+
+
+def test_low_window_equals_the_whole_route_a_margin_below_its_top(comm, case):
+    """Below omega_top - TAIL_ETAS eta a mode's missing partners are at least 2 TAIL_ETAS eta
+    away, a Lorentzian tail of about 1 / (2 pi TAIL_ETAS) = 0.8 % of its mass (more where the
+    weight (omega_n + omega_m)^2 / (4 omega_n omega_m) grows): the window's d equals the whole
+    route's to rtol 2e-2 (atol 1e-12 of the largest d); 1.1 % measured in both cases.  A window
+    cut at omega_top itself misses by 4.4 % (2d) and 5.3 % (3d_rolling), one cut at 10 eta beyond
+    it by 2.1 % and 3.8 %: each fails this."""
+    name, p, dm = case
+    omega, d = af.allen_feldman(dm, p.positions, p.box, ETA_LOW, comm, zero_tol=ZERO_TOL, block=40,
+                                omega_top=TOP[name])
+    whole_omega, whole_d = af.allen_feldman(dm, p.positions, p.box, ETA_LOW, comm, zero_tol=ZERO_TOL, block=40)
+    low = whole_omega <= TOP[name] - af.TAIL_ETAS * ETA_LOW
+    assert_all(np.count_nonzero(low) >= 10, f"{name}: {np.count_nonzero(low)} modes to compare")
+    assert_close(omega[low[:omega.size]], whole_omega[low], rtol=1e-12, what=f"{name} omega")
+    assert_close(d[low[:omega.size]], whole_d[low], rtol=2e-2, atol=1e-12 * whole_d.max(),
+                 what=f"{name} d of the window against the whole route")
+
+
+def test_omega_top_must_be_positive_and_finite(comm, case):
+    _, p, dm = case
+    for top in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="omega_top"):
+            af.allen_feldman(dm, p.positions, p.box, ETA, comm, omega_top=top)

@@ -179,3 +179,37 @@ def test_kpm_scene_pools_its_configurations_within_their_errors(comm, shared_tmp
         written = plots.plot_results(scene.output)
         assert str(shared_tmp / "kpm_diffusivity") in figures, sorted(figures)
         assert_figures(figures, written)
+
+
+def test_a_low_frequency_window_keeps_the_modes_and_bins_below_its_top(comm, shared_tmp):
+    """transport.omega_top through a scene: the unit holds the modes up to omega_top with the
+    definition's d whose partners stop at the window's cut (rtol 1e-8, atol 1e-12 of the largest
+    d), and d(omega) only in the bins wholly below omega_top = 2.3 (bins of 0.25: those up to 2.25;
+    the modes in [2.25, 2.3] are not binned)."""
+    from solver.transport.allen_feldman import window_cut
+
+    eta, top = 0.05, 2.3
+    scene = scene_of(shared_tmp / "window.h5", cache="off", seed=5, packing={"n": 32, "phi": 0.68, "dim": 3},
+                     model={"rho": [0.5], "rho_roll": 0.2, "rho_twist": 0.1},
+                     transport={"eta": eta, "block": 40, "bin_width": 0.25, "omega_top": top})
+    pipeline.run(scene, COMM, [])
+    with results.open_results(scene.output) as f:
+        got = results.diffusivity(f)[0.5]
+        unit = dict(f["diffusivity/r00_p0000"].attrs)
+        pooled_top = f["diffusivity_binned/r00"].attrs["omega_top"]
+    p = jammed_packing(32, 0.68, 5, dim=3)
+    dm = dynmat.assemble(p, ContactModel(0.5, rho_roll=0.2, rho_twist=0.1), comm)
+    try:
+        omega, d = references.allen_feldman_dense(dm, p.positions, p.box, eta, partners_to=window_cut(top, eta))
+    finally:
+        dm.destroy()
+    below = omega <= top
+    assert_close(got.omega, omega[below], rtol=1e-12, what="omega of the window")
+    assert_close(got.d, d[below], rtol=1e-8, atol=1e-12 * d.max(), what="d of the window")
+    binned = got.omega < 2.25
+    assert_all(got.count.sum() == np.count_nonzero(binned) < got.omega.size and np.all(got.count[got.edges[1:] > top] == 0),
+               f"binned {got.count.sum()} of {got.omega.size} window modes, counts {got.count}")
+    assert_close(got.d_binned, modes.bin_average(got.omega[binned], got.d[binned], got.edges), rtol=1e-12,
+                 what="window bin means", equal_nan=True)
+    assert_all(unit["omega_top"] == top == pooled_top and unit["sliced"] == np.count_nonzero(omega <= window_cut(top, eta))
+               and unit["n_zero_modes"] == 3, f"{unit}")
