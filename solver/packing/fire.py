@@ -13,12 +13,11 @@ from typing import Callable
 import numpy as np
 
 
-VERSION = 3
+VERSION = 2
 """The algorithm's version, part of a generated packing's content key (``unit_keys.packing_key``):
 raised whenever FIRE's steps change a bit (its parameters, the order of its sums), so that a packing
 made before is never taken from a units folder or a cache for one made now.  1: one thread (no
-version in the key); 2: the force pass and the sums threaded, in a fixed order (issue 60); 3:
-generated 2D packings with dt_max 0.6 (``jammed.FIRE_2D``, issue 60: fewer steps)."""
+version in the key); 2: the force pass and the sums threaded, in a fixed order (issue 60)."""
 
 
 @dataclass(frozen=True)

@@ -28,11 +28,6 @@ from .configuration import Packing, solid_volume
 from .stressed import TangentialForces
 
 SIZE_RATIO = 1.4
-FIRE_2D = fire.FireParameters(dt_max=0.6)
-"""rotsound's FIRE for a generated 2D packing (issue 60, FIRE version 3): dt_max 0.6 t0 took 27, 49
-and 42 % fewer steps than 0.4 from the random start at N = 65536 (seeds [1..3, 0]), 19 % at 262144
-(docs/decisions_model.md); 3D keeps 0.4 (0.6 took as many steps there), and so do LAMMPS's engine,
-relaxing and shearing."""
 MIN_N = 16
 """Fewest particles of a generated packing (a 50:50 mixture; in 2D that also makes the box exceed two
 diameters; the scene's packing.n is refused below it)."""
@@ -153,7 +148,7 @@ def _minimized(diameters: np.ndarray, box: np.ndarray, phi: float, rng, force_to
     else:
         forces = (mechanics.FrictionlessForces(diameters, cell, law=law) if cohesion is None
                   else wet.WetForces(diameters, cell, cohesion, law))
-        result = fire.minimize(start, forces, force_tol, max_steps, FIRE_2D if dim == 2 else fire.FireParameters())
+        result = fire.minimize(start, forces, force_tol, max_steps)
         if not result.converged:
             raise RuntimeError(f"FIRE did not converge: max |F| = {result.max_force:.3e} > "
                                f"{force_tol:.1e} after {result.steps} steps (n={n}, phi={phi}, dim={dim})")
