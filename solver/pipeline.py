@@ -332,6 +332,7 @@ def run(scene: Scene, comm, petsc_argv: list[str], fresh: bool = False, group_si
         scene, chosen = scene_rules.check_packings(asked, packings)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
+        check_interrupt(comm)  # a SIGTERM in an earlier scene of the file: stop before this one's packings
         store = UnitStore(scene.output, scene.to_yaml(), asked.digest(), comm, fresh=fresh,
                           cache=cache_folder(scene))
         try:

@@ -170,3 +170,18 @@ def test_cli_groups_on_2_and_4_ranks_equal_one_group(rank_runs):
             got = contents(f"{runs[name][1]}_{doc}.h5")
             assert got["@group_size"] == size and ref["@group_size"] == 2, (got["@group_size"], ref["@group_size"])
             assert_within_rank_tolerance(got, ref, fit_change, (name, doc))
+
+
+@pytest.mark.timeout(120)
+def test_a_sigterm_in_an_earlier_scene_stops_the_next_before_its_packings(shared_tmp):
+    """A SIGTERM received during one scene of a file (the flag its handler sets, on rank 0 only)
+    stops the next scene on every rank before it makes a packing or claims its output: the run
+    once went on to generate the next scene's packings (an hour of FIRE near jamming) first."""
+    out = shared_tmp / "next.h5"
+    pipeline._TERMINATE[0] = COMM.rank == 0
+    try:
+        with pytest.raises(Interrupted):
+            pipeline.run(small(out), COMM, [])
+    finally:
+        pipeline._TERMINATE[0] = False
+    assert_all(not out.exists() and not (shared_tmp / "next.h5.units").exists(), "nothing of the scene was made")
