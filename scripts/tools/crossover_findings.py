@@ -8,6 +8,9 @@ low-frequency window, ``transport.omega_top``; docs/crossover.md):
 
 The first form measures every packing and prints its row and the fits; the second fits again from
 the rows of a printed table alone (the committed record: the results files are not committed).
+The first form fits the rows as printed (6 digits), so the second reproduces its fits exactly:
+tests/transport/test_crossover_findings.py checks the committed record so, and that
+docs/crossover.md quotes its fits.
 
 Per packing (one transport unit, its modes up to omega_top):
 
@@ -23,7 +26,7 @@ Per packing (one transport unit, its modes up to omega_top):
   the matrix's DOF and the bin width) over bins of ``BP_BINS`` of the scene's bins merged, above
   the two lowest shells of plane waves (omega > 2 omega_1: below, a finite box has single
   degenerate shells, whose spikes in D / omega^2 are no boson peak); NaN (not resolved) when the
-  maximum is the lowest bin held.
+  maximum is the lowest or the highest bin held.
 
 Fits, with errors from the spread over packings: log omega* = log a + beta log Delta z by least
 squares over every packing (errors of a, beta from the residuals' scatter, np.polyfit's
@@ -77,13 +80,14 @@ def boson_peak(omega: np.ndarray, edges: np.ndarray, dof: int) -> float:
     """omega_BP (module docstring) of the modes ``omega`` (1/t0) of a matrix of ``dof`` DOF on the
     bins ``edges`` merged by :data:`BP_BINS`: the centre of the bin of largest D(omega) / omega^2
     above 2 omega_1; NaN without such a bin, or when the largest is the lowest bin held (D / omega^2
-    still rising towards the box's lowest modes: the peak is not resolved)."""
+    still rising towards the box's lowest modes) or the highest (still rising towards omega_top):
+    the peak is not resolved."""
     coarse = edges[::BP_BINS]
     count = np.histogram(omega, bins=coarse)[0]
     centres = 0.5 * (coarse[1:] + coarse[:-1])
     ratio = count / (dof * np.diff(coarse)) / centres**2
     held = np.flatnonzero(coarse[:-1] > 2 * omega.min(initial=np.inf))
-    if held.size == 0 or np.argmax(ratio[held]) == 0:
+    if held.size == 0 or np.argmax(ratio[held]) in (0, held.size - 1):
         return float("nan")
     return float(centres[held][np.argmax(ratio[held])])
 
@@ -137,6 +141,12 @@ def print_rows(rows: list[dict]) -> None:
     print("|" + "---|" * len(COLUMNS))
     for r in rows:
         print("| " + " | ".join(r[c] if c == "file" else f"{r[c]:.6g}" for c in COLUMNS) + " |")
+
+
+def as_printed(row: dict) -> dict:
+    """``row`` with its numbers rounded as :func:`print_rows` prints them (6 digits), its ``bins``
+    kept: the fits of a measured row and of its printed table are then the same."""
+    return {c: v if c in ("file", "bins") else float(f"{v:.6g}") for c, v in row.items()}
 
 
 def read_table(path: str) -> list[dict]:
@@ -213,7 +223,7 @@ def main(argv=None) -> None:
     parser.add_argument("--table", help="fit again from the per-packing table of a printed findings page")
     parser.add_argument("--figures", help="folder to draw the figures into (with results files)")
     args = parser.parse_args(argv)
-    rows = read_table(args.table) if args.table else [row for path in args.paths for row in measure(path)]
+    rows = read_table(args.table) if args.table else [as_printed(row) for path in args.paths for row in measure(path)]
     print("# The diffusivity crossover near jamming: findings (scripts/tools/crossover_findings.py)\n")
     print_rows(rows)
     print_fits(rows)

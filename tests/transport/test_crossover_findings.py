@@ -64,6 +64,15 @@ def test_a_boson_peak_at_the_lowest_bin_held_is_not_resolved():
     assert_all(np.isnan(findings.boson_peak(omega, np.arange(0.0, 0.5001, WIDTH), 300)), "a boundary maximum")
 
 
+def test_a_boson_peak_at_the_highest_bin_held_is_not_resolved():
+    """Modes per bin growing as omega^3 up to the window's top (D / omega^2 rising as omega: a
+    Debye-like spectrum stiffer than the window): no peak is resolved (NaN), not the highest bin."""
+    edges = np.arange(0.0, 0.5001, WIDTH)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    omega = np.repeat(centres, np.rint(1000 * (centres / 0.5) ** 3).astype(int))
+    assert_all(np.isnan(findings.boson_peak(omega, edges, 3000)), "a boundary maximum")
+
+
 def test_a_crossover_above_half_the_window_is_not_measured():
     """omega0 = 0.4 in a window to 0.5: d already exceeds twice the (overestimated) plateau at
     omega_top / 2, so omega* is not measured (NaN), not extrapolated above it."""
@@ -100,3 +109,4 @@ def test_the_power_law_fit_and_the_table_read_back(capsys):
     for r, b in zip(rows, back):
         assert_close(np.array([b[c] for c in findings.COLUMNS[1:]]), np.array([r[c] for c in findings.COLUMNS[1:]]),
                      rtol=1e-5, what="row read back")
+
