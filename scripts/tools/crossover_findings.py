@@ -42,7 +42,7 @@ import pathlib
 import numpy as np
 
 from solver.io import results
-from solver.plots.common import DPI, plt, series_colour
+from solver.plots.common import DPI, log_ticks, plt, series_colour
 from scripts.tools.diffusivity_findings import crossover_below
 
 BP_BINS = 2  # the scene's bins merged for D(omega) / omega^2
@@ -187,12 +187,16 @@ def print_fits(rows: list[dict]) -> None:
 
 
 def draw(rows: list[dict]) -> dict:
-    """{file name without .png: figure} of measured ``rows`` (with their ``bins``): d(omega) of
-    each packing coloured by Delta z, omega* and omega_BP against Delta z."""
-    rows = sorted(rows, key=lambda r: r["dz"])
+    """{file name without .png: figure} of measured ``rows`` (with their ``bins``): for rho = 0,
+    d(omega) of each packing coloured by phi, and omega* and omega_BP against Delta z (with the
+    fit); with rows of rho > 0, also their d(omega) against the rho = 0 rows of the same phi and N
+    (the same packings, read from one file), and their omega* on the Delta z = z - 4 axis."""
+    frictionless = sorted([r for r in rows if r["rho"] == 0], key=lambda r: r["dz"])
+    springs = [r for r in rows if r["rho"] > 0]
+    large = [r for r in frictionless if not springs or r["N"] > max(s["N"] for s in springs)] or frictionless
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4.2))
-    phis = sorted({r["phi"] for r in rows})
-    for r in rows:
+    phis = sorted({r["phi"] for r in large})
+    for r in large:
         edges, mean, _ = r["bins"]
         colour = series_colour(phis.index(r["phi"]), len(phis))
         ax.plot(0.5 * (edges[1:] + edges[:-1]), mean, "-", color=colour, lw=0.8,
@@ -200,21 +204,41 @@ def draw(rows: list[dict]) -> dict:
         if np.isfinite(r["omega_star"]):
             ax.axvline(r["omega_star"], color=colour, ls=":", lw=0.6)
     ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
-           title=f"frictionless spheres, $N$ = {rows[0]['N']}-{rows[-1]['N']} (non-rattlers)\n"
+           title=f"frictionless spheres, $N$ = {large[0]['N']}-{large[-1]['N']} (non-rattlers)\n"
                  r"$d(\omega)$ per packing, dotted: $\omega^*$")
     ax.legend(fontsize=7)
-    dz = np.array([r["dz"] for r in rows])
+    dz = np.array([r["dz"] for r in large])
     for key, mark, label in (("omega_star", "o", r"$\omega^*$"), ("omega_bp", "s", r"$\omega_{BP}$")):
-        bx.loglog(dz, [r[key] for r in rows], mark, mfc="none", label=label)
-    power = fits(rows)["power"]
+        bx.loglog(dz, [r[key] for r in large], mark, mfc="none", label=label)
+    power = fits(large)["power"]
     if power:
         line = np.geomspace(dz.min(), dz.max(), 20)
         bx.loglog(line, power["a"] * line ** power["beta"], "k--", lw=0.8,
                   label=rf"$\omega^* = {power['a']:.2f}\,\Delta z^{{{power['beta']:.2f}}}$")
     bx.set(xlabel=r"$\Delta z = z - 6$", ylabel=r"$\omega\,t_0$", title=r"crossover and boson peak against $\Delta z$")
     bx.legend(fontsize=8)
+    for axis in (ax.xaxis, ax.yaxis, bx.xaxis, bx.yaxis):
+        log_ticks(axis)
     fig.tight_layout()
-    return {"crossover_spheres": fig}
+    figures = {"crossover_spheres": fig}
+    if springs:
+        fig, ax = plt.subplots(figsize=(5.5, 4.2))
+        for k, s in enumerate(springs):
+            colour = series_colour(k, len(springs))
+            for r, style, label in [(s, "-", rf"$\rho$ = {s['rho']:g}")] + [
+                    (r, "--", r"$\rho$ = 0") for r in frictionless if (r["phi"], r["N"]) == (s["phi"], s["N"])]:
+                edges, mean, _ = r["bins"]
+                ax.plot(0.5 * (edges[1:] + edges[:-1]), mean, style, color=colour, lw=0.9,
+                        label=rf"$\phi$ = {s['phi']:g}, {label}, $\Delta z$ = {r['dz']:.2f}")
+        ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
+               title=f"with and without tangential springs, $N$ = {springs[0]['N']}\n"
+                     r"$\Delta z = z - 4$ with, $z - 6$ without")
+        ax.legend(fontsize=7)
+        log_ticks(ax.xaxis)
+        log_ticks(ax.yaxis)
+        fig.tight_layout()
+        figures["crossover_rotations"] = fig
+    return figures
 
 
 def main(argv=None) -> None:
@@ -228,7 +252,7 @@ def main(argv=None) -> None:
     print_rows(rows)
     print_fits(rows)
     if args.figures and not args.table:
-        for name, fig in draw([r for r in rows if r["rho"] == 0]).items():
+        for name, fig in draw(rows).items():
             path = pathlib.Path(args.figures) / f"{name}.png"
             fig.savefig(path, dpi=DPI)
             plt.close(fig)

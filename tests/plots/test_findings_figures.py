@@ -95,3 +95,25 @@ def test_boxes_figures_pass_the_checks():
     figures = boxes_findings.draw(square, tilted, sheared, walled)
     assert set(figures) == {"boxes_vdos", "boxes_speeds", "boxes_walls"}
     assert_figures(figures)
+
+
+def test_crossover_figures_pass_the_checks():
+    """scripts/tools/crossover_findings.py's figures on made-up rows: five phi of frictionless
+    packings (N = 16000) and one packing with tangential springs (N = 4000) beside its own
+    frictionless row; the springs' panel is drawn only with rows of rho > 0."""
+    from scripts.tools import crossover_findings
+
+    edges = np.arange(0.0, 0.4001, 0.01)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    rows = []
+    for k, (phi, dz, n, rho) in enumerate(((0.65, 0.4, 16000, 0.0), (0.652, 0.6, 16000, 0.0), (0.66, 1.0, 16000, 0.0),
+                                           (0.69, 1.8, 16000, 0.0), (0.76, 3.0, 16000, 0.0), (0.65, 0.4, 4000, 0.0),
+                                           (0.65, 2.4, 4000, 0.5))):
+        star = 0.05 * dz
+        mean = 0.3 * (1 + (star / centres) ** 4)
+        rows.append({"phi": phi, "packing": 0, "rho": rho, "N": n, "dz": dz, "omega_star": star, "pressure": 1e-3, "d_p": 0.3,
+                     "omega_bp": star / 1.2, "bins": (edges, mean, np.full(centres.size, 10))})
+    figures = crossover_findings.draw(rows)
+    assert list(figures) == ["crossover_spheres", "crossover_rotations"]
+    assert_figures(figures)
+    assert list(crossover_findings.draw([r for r in rows if r["rho"] == 0])) == ["crossover_spheres"]
