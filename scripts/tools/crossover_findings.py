@@ -5,6 +5,7 @@ low-frequency window, ``transport.omega_top``; docs/crossover.md):
     python -m scripts.tools.crossover_findings results/crossover_*.h5 [--figures docs/] \
         > scripts/tools/crossover_findings.md
     python -m scripts.tools.crossover_findings --table scripts/tools/crossover_findings.md
+    python -m scripts.tools.crossover_findings results/crossover_pilot_*.h5 --bins   # d(omega) per bin
 
 The first form measures every packing and prints its row and the fits; the second fits again from
 the rows of a printed table alone (the committed record: the results files are not committed).
@@ -143,6 +144,17 @@ def print_rows(rows: list[dict]) -> None:
         print("| " + " | ".join(r[c] if c == "file" else f"{r[c]:.6g}" for c in COLUMNS) + " |")
 
 
+def print_bins(rows: list[dict]) -> None:
+    """Each measured row's d(omega) as Markdown: per bin (edges in 1/t0) its modes and mean d."""
+    for r in rows:
+        edges, mean, count = r["bins"]
+        print(f"\n### {r['file']}, packing {r['packing']:g}, rho = {r['rho']:g}, eta = {r['eta']:g}\n")
+        print("| omega from | to | modes | mean d |")
+        print("|---|---|---|---|")
+        for lo, hi, c, d in zip(edges[:-1], edges[1:], count, mean):
+            print(f"| {lo:.4g} | {hi:.4g} | {c} | {d:.4g} |")
+
+
 def as_printed(row: dict) -> dict:
     """``row`` with its numbers rounded as :func:`print_rows` prints them (6 digits), its ``bins``
     kept: the fits of a measured row and of its printed table are then the same."""
@@ -187,16 +199,17 @@ def print_fits(rows: list[dict]) -> None:
 
 
 def draw(rows: list[dict]) -> dict:
-    """{file name without .png: figure} of measured ``rows`` (with their ``bins``): for rho = 0,
-    d(omega) of each packing coloured by phi, and omega* and omega_BP against Delta z (with the
-    fit); with rows of rho > 0, also their d(omega) against the rho = 0 rows of the same phi and N
-    (the same packings, read from one file), and their omega* on the Delta z = z - 4 axis."""
-    frictionless = sorted([r for r in rows if r["rho"] == 0], key=lambda r: r["dz"])
+    """{file name without .png: figure} of measured ``rows`` (with their ``bins``): with rows of
+    rho > 0, ``crossover_rotations``: their d(omega) beside the rho = 0 rows of the same phi and N
+    (the same packings, read from one file); without, ``crossover_spheres``: d(omega) of each
+    packing coloured by phi, and omega* and omega_BP against Delta z with the fit."""
     springs = [r for r in rows if r["rho"] > 0]
-    large = [r for r in frictionless if not springs or r["N"] > max(s["N"] for s in springs)] or frictionless
+    if springs:
+        return {"crossover_rotations": _draw_rotations(springs, [r for r in rows if r["rho"] == 0])}
+    rows = sorted(rows, key=lambda r: r["dz"])
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4.2))
-    phis = sorted({r["phi"] for r in large})
-    for r in large:
+    phis = sorted({r["phi"] for r in rows})
+    for r in rows:
         edges, mean, _ = r["bins"]
         colour = series_colour(phis.index(r["phi"]), len(phis))
         ax.plot(0.5 * (edges[1:] + edges[:-1]), mean, "-", color=colour, lw=0.8,
@@ -204,13 +217,14 @@ def draw(rows: list[dict]) -> dict:
         if np.isfinite(r["omega_star"]):
             ax.axvline(r["omega_star"], color=colour, ls=":", lw=0.6)
     ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
-           title=f"frictionless spheres, $N$ = {large[0]['N']}-{large[-1]['N']} (non-rattlers)\n"
+           title=f"frictionless spheres, $N$ = {min(r['N'] for r in rows):.0f}-{max(r['N'] for r in rows):.0f}"
+                 " (non-rattlers)\n"
                  r"$d(\omega)$ per packing, dotted: $\omega^*$")
     ax.legend(fontsize=7)
-    dz = np.array([r["dz"] for r in large])
+    dz = np.array([r["dz"] for r in rows])
     for key, mark, label in (("omega_star", "o", r"$\omega^*$"), ("omega_bp", "s", r"$\omega_{BP}$")):
-        bx.loglog(dz, [r[key] for r in large], mark, mfc="none", label=label)
-    power = fits(large)["power"]
+        bx.loglog(dz, [r[key] for r in rows], mark, mfc="none", label=label)
+    power = fits(rows)["power"]
     if power:
         line = np.geomspace(dz.min(), dz.max(), 20)
         bx.loglog(line, power["a"] * line ** power["beta"], "k--", lw=0.8,
@@ -220,25 +234,27 @@ def draw(rows: list[dict]) -> dict:
     for axis in (ax.xaxis, ax.yaxis, bx.xaxis, bx.yaxis):
         log_ticks(axis)
     fig.tight_layout()
-    figures = {"crossover_spheres": fig}
-    if springs:
-        fig, ax = plt.subplots(figsize=(5.5, 4.2))
-        for k, s in enumerate(springs):
-            colour = series_colour(k, len(springs))
-            for r, style, label in [(s, "-", rf"$\rho$ = {s['rho']:g}")] + [
-                    (r, "--", r"$\rho$ = 0") for r in frictionless if (r["phi"], r["N"]) == (s["phi"], s["N"])]:
-                edges, mean, _ = r["bins"]
-                ax.plot(0.5 * (edges[1:] + edges[:-1]), mean, style, color=colour, lw=0.9,
-                        label=rf"$\phi$ = {s['phi']:g}, {label}, $\Delta z$ = {r['dz']:.2f}")
-        ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
-               title=f"with and without tangential springs, $N$ = {springs[0]['N']}\n"
-                     r"$\Delta z = z - 4$ with, $z - 6$ without")
-        ax.legend(fontsize=7)
-        log_ticks(ax.xaxis)
-        log_ticks(ax.yaxis)
-        fig.tight_layout()
-        figures["crossover_rotations"] = fig
-    return figures
+    return {"crossover_spheres": fig}
+
+
+def _draw_rotations(springs: list[dict], frictionless: list[dict]):
+    """:func:`draw`'s figure of the rows with tangential springs ``springs`` and the rho = 0 rows."""
+    fig, ax = plt.subplots(figsize=(5.5, 4.2))
+    for k, s in enumerate(springs):
+        colour = series_colour(k, len(springs))
+        for r, style, label in [(s, "-", rf"$\rho$ = {s['rho']:g}")] + [
+                (r, "--", r"$\rho$ = 0") for r in frictionless if (r["phi"], r["N"]) == (s["phi"], s["N"])]:
+            edges, mean, _ = r["bins"]
+            ax.plot(0.5 * (edges[1:] + edges[:-1]), mean, style, color=colour, lw=0.9,
+                    label=rf"$\phi$ = {s['phi']:g}, {label}, $\Delta z$ = {r['dz']:.2f}")
+    ax.set(xscale="log", yscale="log", xlabel=r"$\omega\,t_0$", ylabel=r"$d(\omega)\;[d_0^2/t_0]$",
+           title=f"with and without tangential springs, $N$ = {springs[0]['N']:.0f}\n"
+                 r"$\Delta z = z - 4$ with, $z - 6$ without")
+    ax.legend(fontsize=7)
+    log_ticks(ax.xaxis)
+    log_ticks(ax.yaxis)
+    fig.tight_layout()
+    return fig
 
 
 def main(argv=None) -> None:
@@ -246,11 +262,15 @@ def main(argv=None) -> None:
     parser.add_argument("paths", nargs="*", help="results files of configs/crossover.yaml")
     parser.add_argument("--table", help="fit again from the per-packing table of a printed findings page")
     parser.add_argument("--figures", help="folder to draw the figures into (with results files)")
+    parser.add_argument("--bins", action="store_true", help="also print each packing's d(omega) per bin (with "
+                                                            "results files)")
     args = parser.parse_args(argv)
     rows = read_table(args.table) if args.table else [as_printed(row) for path in args.paths for row in measure(path)]
     print("# The diffusivity crossover near jamming: findings (scripts/tools/crossover_findings.py)\n")
     print_rows(rows)
     print_fits(rows)
+    if args.bins and not args.table:
+        print_bins(rows)
     if args.figures and not args.table:
         for name, fig in draw(rows).items():
             path = pathlib.Path(args.figures) / f"{name}.png"

@@ -99,8 +99,8 @@ def test_boxes_figures_pass_the_checks():
 
 def test_crossover_figures_pass_the_checks():
     """scripts/tools/crossover_findings.py's figures on made-up rows: five phi of frictionless
-    packings (N = 16000) and one packing with tangential springs (N = 4000) beside its own
-    frictionless row; the springs' panel is drawn only with rows of rho > 0."""
+    packings (N = 16000): the spheres figure; one packing with tangential springs (N = 4000) and
+    its own frictionless row: the rotations figure (drawn instead of it with rows of rho > 0)."""
     from scripts.tools import crossover_findings
 
     edges = np.arange(0.0, 0.4001, 0.01)
@@ -111,9 +111,11 @@ def test_crossover_figures_pass_the_checks():
                                            (0.65, 2.4, 4000, 0.5))):
         star = 0.05 * dz
         mean = 0.3 * (1 + (star / centres) ** 4)
-        rows.append({"phi": phi, "packing": 0, "rho": rho, "N": n, "dz": dz, "omega_star": star, "pressure": 1e-3, "d_p": 0.3,
+        rows.append({"phi": phi, "packing": 0, "rho": rho, "N": n, "dz": dz, "omega_star": star, "pressure": 1e-3,
+                     "d_p": 0.3,
                      "omega_bp": star / 1.2, "bins": (edges, mean, np.full(centres.size, 10))})
-    figures = crossover_findings.draw(rows)
-    assert list(figures) == ["crossover_spheres", "crossover_rotations"]
-    assert_figures(figures)
-    assert list(crossover_findings.draw([r for r in rows if r["rho"] == 0])) == ["crossover_spheres"]
+    spheres = crossover_findings.draw(rows[:5])
+    assert list(spheres) == ["crossover_spheres"]
+    rotations = crossover_findings.draw(rows[5:])
+    assert list(rotations) == ["crossover_rotations"]
+    assert_figures({**spheres, **rotations})

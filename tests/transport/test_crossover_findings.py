@@ -73,6 +73,23 @@ def test_a_boson_peak_at_the_highest_bin_held_is_not_resolved():
     assert_all(np.isnan(findings.boson_peak(omega, edges, 3000)), "a boundary maximum")
 
 
+def test_the_bins_printed_are_the_rows_bins(capsys):
+    """--bins prints each row's bins wholly below omega_top: their edges, counts (3 below omega0,
+    10 above) and mean d (d_p (1 + (omega0 / omega)^4) at the bin's centre) to 4 digits."""
+    f, g, p, edges = _unit(0.06, top=0.2)
+    with f:
+        row = findings.unit_row(g, p, edges, "x.h5")
+    findings.print_bins([row])
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| 0")]
+    assert_all(len(lines) == 20, f"{len(lines)} bins printed, not the 20 below omega_top = 0.2")
+    for k, line in enumerate(lines):
+        lo, hi, count, mean = (float(v) for v in line.strip("|").split("|"))
+        centre = (k + 0.5) * WIDTH
+        expected = 0.2 * (1 + (0.06 / centre) ** 4)
+        assert_all(abs(lo - k * WIDTH) < 1e-12 and count == (3 if centre < 0.06 else 10) and
+                   abs(mean - expected) <= 5e-4 * expected, line)
+
+
 def test_a_crossover_above_half_the_window_is_not_measured():
     """omega0 = 0.4 in a window to 0.5: d already exceeds twice the (overestimated) plateau at
     omega_top / 2, so omega* is not measured (NaN), not extrapolated above it."""
@@ -110,3 +127,38 @@ def test_the_power_law_fit_and_the_table_read_back(capsys):
         assert_close(np.array([b[c] for c in findings.COLUMNS[1:]]), np.array([r[c] for c in findings.COLUMNS[1:]]),
                      rtol=1e-5, what="row read back")
 
+
+
+RECORDS = ("scripts/tools/crossover_findings.md", "scripts/tools/crossover_pilot_findings.md",
+           "scripts/tools/crossover_eta_findings.md")
+"""The committed findings (docs/crossover.md): N = 16384, the pilot with tangential springs, the eta
+check; printed from results files, which are not committed."""
+
+
+@pytest.mark.parametrize("record", RECORDS)
+def test_a_committed_record_fits_again_from_its_rows(record, capsys):
+    """A committed record's fits printed again from its own per-packing table (``--table``) are the
+    record's, line for line (the record's fits are made from its rows as printed): the record was
+    printed by this script, and its fits follow from its rows."""
+    import pathlib
+    text = (pathlib.Path(__file__).resolve().parents[2] / record).read_text(encoding="utf-8")
+    findings.main(["--table", str(pathlib.Path(__file__).resolve().parents[2] / record)])
+    again = capsys.readouterr().out.strip().splitlines()
+    kept = text.split("\n### ")[0]  # --bins' tables, not fits, follow the fits
+    kept = [line for line in kept.strip().splitlines() if not line.startswith("figure:")]
+    while kept and not kept[-1]:
+        kept.pop()
+    assert_all(again == kept, f"{record}: the record's fits differ from those of its own table: print it again")
+
+
+def test_the_manual_quotes_the_n16384_fits():
+    """Every fit line the N = 16384 record prints (omega* = a Delta z^beta, omega* / omega_BP) is
+    quoted word for word in docs/crossover.md, so the manual's figures are the record's."""
+    import pathlib
+    root = pathlib.Path(__file__).resolve().parents[2]
+    record = (root / RECORDS[0]).read_text(encoding="utf-8").splitlines()
+    manual = (root / "docs/crossover.md").read_text(encoding="utf-8")
+    quoted = [line for line in record if line.startswith(("omega* = (", "omega* / omega_BP ="))]
+    assert_all(len(quoted) >= 2, f"the record prints no fit: {quoted}")
+    missing = [line for line in quoted if line not in manual]
+    assert_all(not missing, f"docs/crossover.md does not quote {missing}")
