@@ -40,7 +40,7 @@ test-mpi:
 # The manual (Sphinx + MyST): HTML in docs/_build/html (open index.html); warnings are errors;
 # silent when it builds.
 docs: setup
-	@$(PY) -m sphinx -W --keep-going -q -b html docs docs/_build/html
+	@$(PY) -m sphinx -E -W --keep-going -q -b html docs docs/_build/html
 
 bench: setup
 	$(PY) -m scripts.benchmarks.bench_all
