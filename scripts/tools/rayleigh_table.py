@@ -88,7 +88,8 @@ def table(path: str, fraction: float) -> None:
             k_mid, p = attenuation.local_exponents(k[ok], gamma[ok])
             print("\nlocal exponent d ln gamma / d ln k (resolved points): "
                   + ", ".join(f"{p_i:.2f} at k d0 = {k_i:.3g}" for k_i, p_i in zip(k_mid, p)))
-        print(f"\nIoffe-Regel (omega = 2 pi gamma): k d0 = {attenuation.ioffe_regel_k(k, omega, gamma):.3g}\n")
+        k_ir, omega_ir = attenuation.ioffe_regel(k, omega, gamma)
+        print(f"\nIoffe-Regel (omega = 2 pi gamma): k d0 = {k_ir:.3g}, omega t0 = {omega_ir:.3g}\n")
 
 
 if __name__ == "__main__":

@@ -35,18 +35,21 @@ def local_exponents(k: np.ndarray, gamma: np.ndarray) -> tuple[np.ndarray, np.nd
     return np.exp(0.5 * (lk[1:] + lk[:-1])), np.diff(lg) / np.diff(lk)
 
 
-def ioffe_regel_k(k: np.ndarray, omega: np.ndarray, gamma: np.ndarray) -> float:
-    """The first k (increasing) at which omega / (2 pi gamma) falls to 1, interpolated linearly in
-    ln k and ln of that ratio between the bracketing points; NaN when no consecutive pair brackets
-    it (the ratio stays above 1, or starts below).  Points with a non-finite or non-positive omega
-    or gamma are skipped."""
+def ioffe_regel(k: np.ndarray, omega: np.ndarray, gamma: np.ndarray) -> tuple[float, float]:
+    """(k_IR, omega_IR): the first k (increasing) at which omega / (2 pi gamma) falls to 1,
+    interpolated linearly in ln k and ln of that ratio between the bracketing points, and omega
+    there, linear in ln k and ln omega between the same points; (NaN, NaN) when no consecutive pair
+    brackets it (the ratio stays above 1, or starts below).  Points with a non-finite or
+    non-positive omega or gamma are skipped."""
     k, omega, gamma = (np.asarray(a, dtype=float) for a in (k, omega, gamma))
     with np.errstate(invalid="ignore"):
         keep = np.isfinite(omega) & np.isfinite(gamma) & (omega > 0) & (gamma > 0)
-    k, ratio = k[keep], omega[keep] / (2 * np.pi * gamma[keep])
+    k, omega, ratio = k[keep], omega[keep], omega[keep] / (2 * np.pi * gamma[keep])
     crossing = np.nonzero((ratio[:-1] > 1.0) & (ratio[1:] <= 1.0))[0]
     if crossing.size == 0:
-        return float("nan")
+        return float("nan"), float("nan")
     i = crossing[0]
     a, b = np.log(ratio[i]), np.log(ratio[i + 1])
-    return float(np.exp(np.log(k[i]) + (np.log(k[i + 1]) - np.log(k[i])) * a / (a - b)))
+    share = a / (a - b)
+    return (float(np.exp(np.log(k[i]) + (np.log(k[i + 1]) - np.log(k[i])) * share)),
+            float(np.exp(np.log(omega[i]) + (np.log(omega[i + 1]) - np.log(omega[i])) * share)))

@@ -40,9 +40,9 @@ def plot_attenuation_regimes(fits: dict, stem: str, dim: int = 2) -> list[str]:
             early = np.isfinite(gamma) & (gamma > 0) & ~resolved
         ax.loglog(k[resolved], gamma[resolved], marker + ls, color=color, ms=4, lw=0.8, label=label)
         ax.loglog(k[early], gamma[early], marker, color=color, ms=4, mfc="none", lw=0)
-        k_ir = attenuation.ioffe_regel_k(k, omega, gamma)
+        k_ir, omega_ir = attenuation.ioffe_regel(k, omega, gamma)
         if np.isfinite(k_ir):
-            ax.loglog([k_ir], [np.interp(np.log(k_ir), np.log(k), omega) / (2 * np.pi)], "*", color=color, ms=11,
+            ax.loglog([k_ir], [omega_ir / (2 * np.pi)], "*", color=color, ms=11,
                       mec="k", mew=0.5)
         if resolved.sum() >= 2:
             k_mid, p = attenuation.local_exponents(k[resolved], gamma[resolved])

@@ -43,8 +43,9 @@ def test_ioffe_regel_of_power_laws_is_their_closed_form():
     interpolation of two power laws is exact."""
     c, a = 1.05, 0.05
     k = np.geomspace(0.1, 3.0, 7)
-    k_ir = attenuation.ioffe_regel_k(k, c * k, a * k**3)
+    k_ir, omega_ir = attenuation.ioffe_regel(k, c * k, a * k**3)
     assert k_ir == pytest.approx(np.sqrt(c / (2 * np.pi * a)), rel=1e-12)
+    assert omega_ir == pytest.approx(c * np.sqrt(c / (2 * np.pi * a)), rel=1e-12)
 
 
 def test_ioffe_regel_skips_failed_fits_and_reports_no_crossing():
@@ -52,12 +53,14 @@ def test_ioffe_regel_skips_failed_fits_and_reports_no_crossing():
     omega = np.array([0.1, np.nan, 0.4, 0.8])
     gamma = np.array([1e-4, 0.1, -1.0, 1.0])  # the last point is past Ioffe-Regel: 0.8 / 2 pi < 1
     # kept points k = 0.1, 0.8: ratios 159 and 0.127, so the crossing lies between them
-    k_ir = attenuation.ioffe_regel_k(k, omega, gamma)
+    k_ir, omega_ir = attenuation.ioffe_regel(k, omega, gamma)
     r0, r1 = 0.1 / (2 * np.pi * 1e-4), 0.8 / (2 * np.pi)
-    assert k_ir == pytest.approx(np.exp(np.log(0.1) + np.log(8) * np.log(r0) / (np.log(r0) - np.log(r1))), rel=1e-12)
-    assert np.isnan(attenuation.ioffe_regel_k(k[:1], omega[:1], gamma[:1]))
-    assert np.isnan(attenuation.ioffe_regel_k(k, k, 1e-6 * k))  # always below Ioffe-Regel
-    assert np.isnan(attenuation.ioffe_regel_k(k, k, 10 * k))  # past it from the first point
+    share = np.log(r0) / (np.log(r0) - np.log(r1))
+    assert k_ir == pytest.approx(np.exp(np.log(0.1) + np.log(8) * share), rel=1e-12)
+    assert omega_ir == pytest.approx(np.exp(np.log(0.1) + np.log(8) * share), rel=1e-12)  # omega = k here
+    assert np.isnan(attenuation.ioffe_regel(k[:1], omega[:1], gamma[:1])[0])
+    assert np.isnan(attenuation.ioffe_regel(k, k, 1e-6 * k)[1])  # always below Ioffe-Regel
+    assert np.isnan(attenuation.ioffe_regel(k, k, 10 * k)[0])  # past it from the first point
 
 
 def test_regimes_figure_draws_acoustic_fits_only(tmp_path, monkeypatch):
