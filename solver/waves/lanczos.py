@@ -131,6 +131,37 @@ class Recurrences:
             self.Y.destroy()
 
 
+def cos_sqrt(theta: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """(len(theta), len(times)): cos(sqrt(theta) t), continued as cosh(sqrt(-theta) t) for theta < 0
+    (cos(t sqrt(lambda)) is an entire function of lambda: the linear dynamics of a direction of
+    negative curvature, which a marginal packing near jamming can hold, and the same function the
+    Chebyshev path expands).  Not collective."""
+    theta = np.asarray(theta, dtype=float)
+    root = np.sqrt(np.abs(theta))
+    out = np.cos(np.outer(root, times))
+    negative = theta < 0
+    out[negative] = np.cosh(np.outer(root[negative], times))
+    return out
+
+
+def refuse_unstable(alpha, beta, t_end: float) -> None:
+    """Raise RuntimeError when the m x m tridiagonal T (diagonal ``alpha`` (m,), off-diagonal
+    ``beta`` (m - 1,)) has a Ritz value theta < 0 along which the linear dynamics grows by more than
+    e within ``t_end``: sqrt(-theta) t_end > 1 (T's lowest eigenvalue by bisection, O(m)).  Such a
+    packing is not at an energy minimum (FIRE stopped near a saddle: measured near jamming at
+    force_tol 1e-6, docs/crossover.md), and its waves would be the instability's.  Not collective."""
+    from scipy.linalg import eigvalsh_tridiagonal
+
+    alpha = np.asarray(alpha, dtype=float)
+    low = (eigvalsh_tridiagonal(alpha, np.asarray(beta, dtype=float), select="i", select_range=(0, 0),
+                                lapack_driver="stebz")[0] if alpha.size > 1 else alpha[0])
+    if low < 0 and np.sqrt(-low) * t_end > 1.0:
+        raise RuntimeError(f"waves: the matrix has a direction of negative curvature (Ritz value {low:.3g}/t0^2): "
+                           f"a wave grows along it by e^{np.sqrt(-low) * t_end:.1f} within t_end = {t_end:g} t0; "
+                           f"the packing is not at an energy minimum: minimise it further (a smaller "
+                           f"packing.force_tol, or packing.relax with a packing file)")
+
+
 def tridiagonal_eigen(alpha, beta) -> tuple[np.ndarray, np.ndarray]:
     """(theta, S): the eigenpairs of the symmetric tridiagonal T with diagonal ``alpha`` (m,) and
     off-diagonal ``beta`` (m - 1,).  MRRR (O(m^2)); it can fail on the clustered Ritz values that

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.operators import largest_omega
-from .lanczos import Recurrences, operator, scaled_starts, tridiagonal_eigen
+from .lanczos import Recurrences, cos_sqrt, operator, refuse_unstable, scaled_starts, tridiagonal_eigen
 from .spectral import BATCH
 
 
@@ -85,11 +85,12 @@ def gauss_correlation(alpha, beta, times: np.ndarray, exact: bool = False) -> tu
     inf for m <= 20).  Not collective."""
     def c_of(m):
         theta, S = tridiagonal_eigen(alpha[:m], beta[:m - 1])
-        omega, weights = np.sqrt(np.clip(theta, 0.0, None)), S[0] ** 2
-        return np.concatenate([weights @ np.cos(np.outer(omega, times[start:start + 1024]))
+        weights = S[0] ** 2
+        return np.concatenate([weights @ cos_sqrt(theta, times[start:start + 1024])
                                for start in range(0, len(times), 1024)])  # (m, 1024) cosines at a time
 
     m = len(alpha)
+    refuse_unstable(alpha, beta[:m - 1], float(np.max(times)))
     c = c_of(m)
     if exact:
         return c, 0.0

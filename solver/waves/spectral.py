@@ -10,7 +10,7 @@ import numpy as np
 from .. import profiling
 from ..model.operators import largest_omega
 from .excitation import channel, runs, start_velocity
-from .lanczos import Recurrences, operator, scaled_starts, tridiagonal_eigen
+from .lanczos import Recurrences, cos_sqrt, operator, refuse_unstable, scaled_starts, tridiagonal_eigen
 from .sampling import WaveSeries
 
 
@@ -104,17 +104,25 @@ def _side_by_side(dm, positions, waves: list[tuple[str, int, float]], *, amplitu
 
 def _z_chebyshev(alpha, beta, w, norm_a: float, times, lam_max: float) -> np.ndarray:
     """z(t) = norm_a w^T cos(sqrt(T) t) e_1 without eigenvectors, O(m^2 + S m log m) for the m x m
-    tridiagonal T (diagonal ``alpha`` (m,), off-diagonal ``beta`` (m - 1,)) whose spectrum lies in
-    [0, ``lam_max``]: the Chebyshev series of cos(t sqrt(lambda)) on that interval to degree m - 1
-    (the degrees m Lanczos steps make exact for the bilinear form).  With lambda = lam_max
-    cos^2(phi / 2), x = cos(phi), the coefficients are 2 (-1)^n J_2n(sqrt(lam_max) t) (Jacobi-Anger):
-    negligible past n ~ sqrt(lam_max) t / 2, where the step count starts; they are taken by a DCT at
-    m + 64 nodes.  Moments mu_n = w^T T_n(X) e_1, X = 2 T / lam_max - I, by the three-term
-    recurrence (|mu_n| <= |w| while the spectrum is inside: checked)."""
+    tridiagonal T (diagonal ``alpha`` (m,), off-diagonal ``beta`` (m - 1,)): the Chebyshev series of
+    cos(t sqrt(lambda)) (``lanczos.cos_sqrt``: cosh below 0) on [lo, hi] to degree m - 1 (the
+    degrees m Lanczos steps make exact for the bilinear form), with [lo, hi] = [0, ``lam_max``]
+    widened to T's own extreme Ritz values (bisection, O(m) each) where they fall outside: a
+    marginal packing's negative-curvature direction, or a Ritz value above the ``wmax_`` estimate,
+    would otherwise make the moments grow.  Coefficients by a DCT at m + 64 nodes; negligible past
+    n ~ sqrt(hi) t / 2, where the step count starts.  Moments mu_n = w^T T_n(X) e_1,
+    X = (2 T - (hi + lo)) / (hi - lo), by the three-term recurrence (|mu_n| <= |w|: checked).
+    (:func:`_z_and_estimate` has refused a T whose negative Ritz value grows by more than e.)"""
     from scipy.fft import dct
+    from scipy.linalg import eigvalsh_tridiagonal
 
     m = alpha.size
-    diag, off = 2.0 * np.asarray(alpha) / lam_max - 1.0, 2.0 * np.asarray(beta) / lam_max
+    alpha, beta = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
+    ends = [eigvalsh_tridiagonal(alpha, beta, select="i", select_range=(i, i), lapack_driver="stebz")[0]
+            for i in (0, m - 1)] if m > 1 else [alpha[0], alpha[0]]
+    lo, hi = min(0.0, ends[0]), max(lam_max, ends[1])
+    lo, hi = lo - 1e-12 * (hi - lo), hi + 1e-12 * (hi - lo)  # bisection's own error
+    diag, off = (2.0 * alpha - (hi + lo)) / (hi - lo), 2.0 * beta / (hi - lo)
 
     def x_times(v):
         out = diag * v
@@ -131,13 +139,13 @@ def _z_chebyshev(alpha, beta, w, norm_a: float, times, lam_max: float) -> np.nda
         previous, current = current, nxt
         mu[n] = w @ current
     if np.abs(mu).max() > 10.0 * np.linalg.norm(w):
-        raise RuntimeError(f"spectral: T has Ritz values above omega_max^2 = {lam_max:.6g} (Chebyshev moments grow)")
+        raise RuntimeError(f"spectral: the Chebyshev moments of T on [{lo:.6g}, {hi:.6g}] grow")
     nodes = m + 64
-    frequency = np.sqrt(lam_max) * np.cos(0.5 * np.pi * (np.arange(nodes) + 0.5) / nodes)  # sqrt(lambda) at the nodes
+    lam = lo + 0.5 * (hi - lo) * (1.0 + np.cos(np.pi * (np.arange(nodes) + 0.5) / nodes))  # lambda at the nodes
     z = np.empty(len(times), dtype=complex)
     for start in range(0, len(times), 256):  # (256, nodes) samples at a time
         block = np.asarray(times[start:start + 256])
-        c = dct(np.cos(np.outer(block, frequency)), type=2, axis=1)[:, :m] / nodes
+        c = dct(cos_sqrt(lam, block).T, type=2, axis=1)[:, :m] / nodes
         c[:, 0] *= 0.5
         z[start:start + 256] = norm_a * (c @ mu)
     return z
@@ -162,8 +170,9 @@ def _z_and_estimate(alpha, beta, w, norm_a: float, times, size: int, exact: bool
             except np.linalg.LinAlgError:
                 return _z_chebyshev(alpha[:m], beta[:m - 1], w[:m], norm_a, times, lam_max)
         weights = (w[:m] @ S) * S[0]
-        return norm_a * (weights @ np.cos(np.outer(np.sqrt(np.clip(theta, 0, None)), times)))
+        return norm_a * (weights @ cos_sqrt(theta, times))
 
+    refuse_unstable(alpha[:size], beta[:size - 1], float(np.max(times)))
     z = z_of(size)
     if exact:
         return z, 0.0
@@ -238,7 +247,7 @@ def velocity_field(dm, positions, mode: str, run: int, k: float | np.ndarray, *,
             for size in (m, max(m - 10, 1)):
                 theta, S = tridiagonal_eigen(alpha[:size], beta[:size - 1])
                 c = np.zeros((len(times), m))
-                c[:, :size] = norm_a * (np.cos(np.outer(times, np.sqrt(np.clip(theta, 0, None)))) * S[0]) @ S.T
+                c[:, :size] = norm_a * (cos_sqrt(theta, times).T * S[0]) @ S.T
                 coefficients.append(c)
             fields = np.zeros((2, len(times), len(a)))
 

@@ -11,7 +11,7 @@ from lattices import DIAMETER, L, N_X, N_Y, bloch_matrix, crystal
 from solver.contact_law import ContactModel
 from solver.model import dynmat
 from solver.packing import jammed
-from solver.waves import spectral
+from solver.waves import quadrature, spectral
 from solver.waves.excitation import runs
 
 AMPLITUDE = 1e-3
@@ -83,7 +83,11 @@ def test_chebyshev_moments_give_the_same_z_when_mrrr_fails(comm, monkeypatch):
     reference = spectral.spectral(dm, p.positions, "RT", 0, k, amplitude=AMPLITUDE, times=times, tol=1e-10)
     calls = []
 
-    def failing(*args, **kwargs):
+    original = scipy.linalg.eigh_tridiagonal
+
+    def failing(*args, **kwargs):  # MRRR's eigenpairs fail; the bisection for T's ends does not
+        if kwargs.get("eigvals_only"):
+            return original(*args, **kwargs)
         calls.append(1)
         raise np.linalg.LinAlgError("forced by the test")
 
@@ -116,8 +120,37 @@ def test_chebyshev_moments_of_a_diagonal_t_are_its_cosines():
     beta2 = np.r_[b, np.zeros(pad)]
     z2 = spectral._z_chebyshev(alpha2, beta2, np.r_[w, np.zeros(pad)], 1.0, times, lam_max)
     assert_close(z2, expected, rtol=0.0, atol=1e-12, what="2 x 2 T")
-    with pytest.raises(RuntimeError, match="above omega_max"):
-        spectral._z_chebyshev(alpha2, beta2, np.r_[w, np.zeros(pad)], 1.0, times, 2.0)
+    # an omega_max^2 below T's top Ritz value (3.0) widens the interval to it: the same z
+    z3 = spectral._z_chebyshev(alpha2, beta2, np.r_[w, np.zeros(pad)], 1.0, times, 2.0)
+    assert_close(z3, expected, rtol=0.0, atol=1e-12, what="2 x 2 T, lam_max below its spectrum")
+
+
+def test_chebyshev_moments_follow_a_negative_ritz_value_as_cosh():
+    """A T with a negative eigenvalue (-2e-4: a marginal packing's negative curvature; m = 150,
+    its spectrum in [-2e-4, 4.2]): z from the Chebyshev path equals the dense eigenpairs' sum with
+    cos(sqrt(theta) t) continued as cosh(sqrt(-theta) t), to 1e-10 of max |z| (rtol 0), where the
+    interval [0, lam_max] alone made the moments grow; the MRRR path (``_z_and_estimate``) gives the
+    same function.  To t = 100 (growth e^1.41) it is refused: the packing is not at a minimum."""
+    rng = np.random.default_rng(5)
+    m = 150
+    alpha, beta = rng.uniform(1.0, 3.0, m), rng.uniform(0.1, 0.5, m - 1)
+    theta, S = np.linalg.eigh(np.diag(alpha) + np.diag(beta, 1) + np.diag(beta, -1))
+    alpha = alpha - theta[0] - 2e-4  # shift: the lowest eigenvalue is now -2e-4
+    theta = theta - theta[0] - 2e-4
+    w = rng.standard_normal(m) + 1j * rng.standard_normal(m)
+    times = np.linspace(0.0, 30.0, 121)  # sqrt(4.2) 30 / 2 = 31 << m: the series has converged
+    expected = ((w @ S) * S[0]) @ (np.where(theta[:, None] >= 0, np.cos(np.outer(np.sqrt(np.abs(theta)), times)),
+                                            np.cosh(np.outer(np.sqrt(np.abs(theta)), times))))
+    scale = np.abs(expected).max()
+    z = spectral._z_chebyshev(alpha, beta, w, 1.0, times, theta[-1])
+    assert_close(z, expected, rtol=0.0, atol=1e-10 * scale, what="Chebyshev z with a negative Ritz value")
+    mrrr, _ = spectral._z_and_estimate(alpha, beta, w, 1.0, times, m, False, theta[-1])
+    assert_close(mrrr, expected, rtol=0.0, atol=1e-10 * scale, what="MRRR z with a negative Ritz value")
+    # the same T to t = 100: sqrt(2e-4) 100 = 1.41 > 1, refused on both paths, naming the remedy
+    for call in (lambda t: spectral._z_and_estimate(alpha, beta, w, 1.0, t, m, False, theta[-1]),
+                 lambda t: quadrature.gauss_correlation(alpha, beta, t)):
+        with pytest.raises(RuntimeError, match="negative curvature.*force_tol"):
+            call(np.linspace(0.0, 100.0, 11))
 
 
 def test_a_batch_of_waves_closing_at_different_steps_gives_each_its_exact_cosines(comm, crystal_packing):
