@@ -119,3 +119,26 @@ def test_crossover_figures_pass_the_checks():
     rotations = crossover_findings.draw(rows[5:])
     assert list(rotations) == ["crossover_rotations"]
     assert_figures({**spheres, **rotations})
+
+
+def test_crossover_waves_figure_passes_the_checks():
+    """scripts/tools/crossover_waves.py's figure on made-up rows: three phi, two packings each, TR
+    waves with omega = c k, gamma = a k^3 / Delta z (an Ioffe-Regel point inside the k's at the two
+    larger Delta z, below them at the smallest: NaN omega_IR, drawn as no marker), joined with
+    Allen-Feldman columns of which some are NaN."""
+    from scripts.tools import crossover_waves
+
+    k = 2 * np.pi * np.arange(1, 8) / 24.0
+    rows = []
+    for phi, dz in ((0.66, 0.8), (0.69, 1.7), (0.76, 3.0)):
+        for packing in range(2):
+            row = {"phi": phi, "packing": packing, "N": 16000, "dz": dz, "pressure": 1e-3, "t_end": 1000.0, "curves": {},
+                   "omega_star": 0.04 * dz if dz > 1 else np.nan,
+                   "omega_bp": 0.05 * dz if dz < 2 else np.nan}
+            for mode, c, a in (("TR", 0.2 * dz**0.5, 0.4), ("L", 0.7, 0.05)):
+                omega, gamma = c * k, a * k**3 / dz
+                row["curves"][mode] = (k, omega, gamma)
+                row.update(crossover_waves.mode_columns(mode, k, omega, gamma))
+            rows.append(row)
+    assert np.isnan(rows[0]["omega_ir_TR"]) and np.isfinite(rows[-1]["omega_ir_TR"]), "the rows' premise"
+    assert_figures({"crossover_waves": crossover_waves.draw(rows)})
