@@ -136,12 +136,12 @@ def _mean_err(values: np.ndarray) -> tuple[float, float]:
     return float(values.mean()), float(err)
 
 
-def print_rows(rows: list[dict]) -> None:
-    """The per-packing table (:data:`COLUMNS`) as Markdown."""
-    print("| " + " | ".join(COLUMNS) + " |")
-    print("|" + "---|" * len(COLUMNS))
+def print_rows(rows: list[dict], columns: tuple[str, ...] = COLUMNS) -> None:
+    """The per-packing table of ``columns`` (a "file" name, then numbers) as Markdown."""
+    print("| " + " | ".join(columns) + " |")
+    print("|" + "---|" * len(columns))
     for r in rows:
-        print("| " + " | ".join(r[c] if c == "file" else f"{r[c]:.6g}" for c in COLUMNS) + " |")
+        print("| " + " | ".join(r[c] if c == "file" else f"{r[c]:.6g}" for c in columns) + " |")
 
 
 def print_bins(rows: list[dict]) -> None:
@@ -155,24 +155,24 @@ def print_bins(rows: list[dict]) -> None:
             print(f"| {lo:.4g} | {hi:.4g} | {c} | {d:.4g} |")
 
 
-def as_printed(row: dict) -> dict:
-    """``row`` with its numbers rounded as :func:`print_rows` prints them (6 digits), its ``bins``
-    kept: the fits of a measured row and of its printed table are then the same."""
-    return {c: v if c in ("file", "bins") else float(f"{v:.6g}") for c, v in row.items()}
+def as_printed(row: dict, kept: tuple[str, ...] = ("file", "bins")) -> dict:
+    """``row`` with its numbers rounded as :func:`print_rows` prints them (6 digits), the entries
+    ``kept`` as they are: the fits of a measured row and of its printed table are then the same."""
+    return {c: v if c in kept else float(f"{v:.6g}") for c, v in row.items()}
 
 
-def read_table(path: str) -> list[dict]:
-    """The rows of the first table of :data:`COLUMNS` in the Markdown file ``path`` (a printed
+def read_table(path: str, columns: tuple[str, ...] = COLUMNS) -> list[dict]:
+    """The rows of the first table of ``columns`` in the Markdown file ``path`` (a printed
     findings page), numbers as floats."""
     rows, inside = [], False
     for line in open(path, encoding="utf-8"):
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if tuple(cells) == COLUMNS:
+        if tuple(cells) == columns:
             inside = True
         elif inside and line.startswith("|---"):
             continue
         elif inside and line.startswith("|"):
-            rows.append({c: v if c == "file" else float(v) for c, v in zip(COLUMNS, cells)})
+            rows.append({c: v if c == "file" else float(v) for c, v in zip(columns, cells)})
         elif inside:
             break
     return rows

@@ -132,32 +132,17 @@ def joined(rows: list[dict], af_rows: list[dict]) -> list[dict]:
 
 def print_rows(rows: list[dict]) -> None:
     """The per-packing table (:data:`COLUMNS`) as Markdown."""
-    print("| " + " | ".join(COLUMNS) + " |")
-    print("|" + "---|" * len(COLUMNS))
-    for r in rows:
-        print("| " + " | ".join(r[c] if c == "file" else f"{r[c]:.6g}" for c in COLUMNS) + " |")
+    crossover_findings.print_rows(rows, COLUMNS)
 
 
 def as_printed(row: dict) -> dict:
-    """``row`` with its numbers rounded as :func:`print_rows` prints them (6 digits), its ``curves``
-    kept."""
-    return {c: v if c in ("file", "curves") else float(f"{v:.6g}") for c, v in row.items()}
+    """``row`` with its numbers rounded as printed (6 digits), its ``curves`` kept."""
+    return crossover_findings.as_printed(row, ("file", "curves"))
 
 
 def read_table(path: str) -> list[dict]:
     """The rows of the first table of :data:`COLUMNS` in the Markdown file ``path``."""
-    rows, inside = [], False
-    for line in open(path, encoding="utf-8"):
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if tuple(cells) == COLUMNS:
-            inside = True
-        elif inside and line.startswith("|---"):
-            continue
-        elif inside and line.startswith("|"):
-            rows.append({c: v if c == "file" else float(v) for c, v in zip(COLUMNS, cells)})
-        elif inside:
-            break
-    return rows
+    return crossover_findings.read_table(path, COLUMNS)
 
 
 def print_fits(rows: list[dict]) -> None:
