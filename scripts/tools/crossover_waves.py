@@ -49,7 +49,7 @@ from scripts.tools import crossover_findings
 MODES = ("TR", "L")
 Q_EDGE = 1.1
 """Q at the smallest k below which omega_IR is not read (module docstring)."""
-COLUMNS = ("file", "phi", "packing", "N", "dz", "pressure", "t_end",
+COLUMNS = ("file", "phi", "packing", "rho", "N", "dz", "pressure", "t_end",
            "c_TR", "omega_1_TR", "q_1_TR", "omega_ir_TR", "c_L", "omega_1_L", "q_1_L", "omega_ir_L")
 """The per-packing table's columns, in print order (:func:`print_rows`, :func:`read_table`)."""
 
@@ -77,18 +77,22 @@ def mode_columns(mode: str, k: np.ndarray, omega: np.ndarray, gamma: np.ndarray)
 
 
 def measure(path: str) -> list[dict]:
-    """Every packing's row of the results file ``path``, with its fits per mode (``curves``:
-    mode -> (k, omega, gamma))."""
+    """Every (rho, packing)'s row of the results file ``path``, with its fits per mode (``curves``:
+    mode -> (k, omega, gamma)).  Delta z = z - 2 D without tangential springs, z - (D + 1) with
+    (rho > 0: the isostatic counts of crossover_findings)."""
     rows = []
     with results.open_results(path) as f:
         groups = [f["waves"][name] for name in sorted(f["waves"])]
-        for index in sorted({int(g.attrs["packing"]) for g in groups}):
-            pack = f["packings"][f"{index:04d}"].attrs
-            row = {"file": path.split("/")[-1], "phi": float(pack["phi"]), "packing": index,
-                   "N": int(np.count_nonzero(~f["packings"][f"{index:04d}"]["rattler"][()])), "dz": float(pack["z"]) - 6.0,
-                   "pressure": float(pack["pressure"]), "curves": {}}
+        for rho, index in sorted({(float(g.attrs["rho"]), int(g.attrs["packing"])) for g in groups}):
+            packing = f["packings"][f"{index:04d}"]
+            dim = packing["positions"].shape[1]
+            row = {"file": path.split("/")[-1], "phi": float(packing.attrs["phi"]), "packing": index, "rho": rho,
+                   "N": int(np.count_nonzero(~packing["rattler"][()])),
+                   "dz": float(packing.attrs["z"]) - (dim + 1 if rho > 0 else 2 * dim),
+                   "pressure": float(packing.attrs["pressure"]), "curves": {}}
             for mode in MODES:
-                (g,) = [g for g in groups if int(g.attrs["packing"]) == index and g.attrs["mode"] == mode]
+                (g,) = [g for g in groups if (float(g.attrs["rho"]), int(g.attrs["packing"]), g.attrs["mode"]) ==
+                        (rho, index, mode)]
                 t = g["t"][()]
                 omega, gamma = fit_waves(t, g["C"][()])
                 row["t_end"] = float(t[-1])
@@ -99,32 +103,33 @@ def measure(path: str) -> list[dict]:
 
 
 def fits(rows: list[dict]) -> dict:
-    """Per mode: {"n", "power": {"a", "a_err", "beta", "beta_err"} or None (fewer than 3)} of
-    omega_IR = a Delta z^beta; "by_phi": per phi {column: (mean, standard error)}."""
+    """Per mode: {"n", "power": {"a", "a_err", "beta", "beta_err"} or None (fewer than 3 packings,
+    or one phi)} of omega_IR = a Delta z^beta over ``rows`` (of one rho); "by_phi": per phi
+    {column: (mean, standard error)}."""
     out: dict = {}
     for mode in MODES:
         held = [r for r in rows if np.isfinite(r[f"omega_ir_{mode}"]) and r["dz"] > 0]
         power = None
-        if len(held) >= 3:
+        if len(held) >= 3 and len({r["phi"] for r in held}) >= 2:
             dz, ir = (np.array([r[key] for r in held]) for key in ("dz", f"omega_ir_{mode}"))
             (beta, log_a), cov = np.polyfit(np.log(dz), np.log(ir), 1, cov=True)
             power = {"a": float(np.exp(log_a)), "a_err": float(np.exp(log_a) * np.sqrt(cov[1, 1])),
                      "beta": float(beta), "beta_err": float(np.sqrt(cov[0, 0]))}
         out[mode] = {"n": len(held), "power": power}
     out["by_phi"] = {phi: {key: crossover_findings._mean_err(np.array([r[key] for r in rows if r["phi"] == phi]))
-                           for key in COLUMNS[3:]} | {"n": sum(r["phi"] == phi for r in rows)}
+                           for key in COLUMNS[4:]} | {"n": sum(r["phi"] == phi for r in rows)}
                      for phi in sorted({r["phi"] for r in rows})}
     return out
 
 
 def joined(rows: list[dict], af_rows: list[dict]) -> list[dict]:
-    """``rows`` (rho = 0) each with the Allen-Feldman record's ``omega_star``, ``omega_bp`` and
-    ``eta`` of the same packing: the same (phi, packing) and Delta z within 1e-3 (a re-minimised
+    """``rows`` each with the Allen-Feldman record's ``omega_star``, ``omega_bp`` and ``eta`` of the
+    same packing and rho: the same (phi, packing, rho) and Delta z within 1e-3 (a re-minimised
     packing has moved: NaN, as when the record lacks it)."""
-    af = {(r["phi"], int(r["packing"])): r for r in af_rows if r["rho"] == 0}
+    af = {(r["phi"], int(r["packing"]), r["rho"]): r for r in af_rows}
     out = []
     for r in rows:
-        other = af.get((r["phi"], int(r["packing"])), {})
+        other = af.get((r["phi"], int(r["packing"]), r["rho"]), {})
         same = other and abs(other["dz"] - r["dz"]) < 1e-3
         out.append(r | {key: other[key] if same else float("nan") for key in ("omega_star", "omega_bp", "eta")})
     return out
@@ -146,7 +151,15 @@ def read_table(path: str) -> list[dict]:
 
 
 def print_fits(rows: list[dict]) -> None:
-    """The per-phi summary, the power laws and, with joined Allen-Feldman columns, the comparison."""
+    """Per rho: the per-phi summary, the power laws and, with joined Allen-Feldman columns, the
+    comparison."""
+    for rho in sorted({r["rho"] for r in rows}):
+        print(f"\n## rho = {rho:g}")
+        _print_fits([r for r in rows if r["rho"] == rho])
+
+
+def _print_fits(rows: list[dict]) -> None:
+    """:func:`print_fits` for ``rows`` of one rho."""
     got = fits(rows)
     print("\n| phi | packings | Delta z | c_TR | omega_1_TR | Q_1 TR | omega_IR TR | c_L | omega_IR L |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -159,11 +172,14 @@ def print_fits(rows: list[dict]) -> None:
             print(f"\n{mode}: omega_IR = ({p['a']:.3g} ± {p['a_err']:.2g}) Delta z^({p['beta']:.3f} ± "
                   f"{p['beta_err']:.3f}) over {n} packings (least squares in logs; errors from their scatter)")
         else:
-            print(f"\n{mode}: omega_IR measured on {n} packings: too few for the power law (3 or more)")
+            print(f"\n{mode}: omega_IR measured on {n} packings: too few for the power law (3 or more, at 2 or "
+                  f"more phi)")
     if "omega_bp" in rows[0]:
         ratio = np.array([r["omega_ir_TR"] / r["omega_bp"] for r in rows])
         star = np.array([r["omega_ir_TR"] / r["omega_star"] for r in rows])
         for name, values in (("omega_IR^TR / omega_BP", ratio), ("omega_IR^TR / omega* (Allen-Feldman)", star)):
+            if not np.isfinite(values).any():
+                continue
             mean, err = crossover_findings._mean_err(values)
             print(f"\n{name} = {mean:.3g} ± {err:.2g} over {np.isfinite(values).sum()} packings with both")
 
@@ -171,16 +187,18 @@ def print_fits(rows: list[dict]) -> None:
 def draw(rows: list[dict]):
     """Q(omega) per packing and mode (left), omega_IR against Delta z with the fits (right)."""
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4.2))
+    springs = [r for r in rows if r["rho"] > 0]
+    rows = [r for r in rows if r["rho"] == 0]
     phis = sorted({r["phi"] for r in rows})
     for r in rows:
         colour = series_colour(phis.index(r["phi"]), len(phis))
         for mode, style in zip(MODES, ("o-", "s--")):
             k, omega, gamma = r["curves"][mode]
             ax.loglog(omega, omega / (2 * np.pi * gamma), style, color=colour, ms=3, lw=0.7, mfc="none",
-                      label=rf"$\phi$ = {r['phi']:g}, {mode}" if r["packing"] == 0 else None)
+                      label=rf"$\phi$ = {r['phi']:g}" if r["packing"] == 0 and mode == "TR" else None)
     ax.axhline(1.0, color="k", lw=0.6)
     ax.set(xlabel=r"$\omega\,t_0$ (fitted)", ylabel=r"$Q = \omega / 2\pi\gamma$",
-           title="standing waves, per packing: TR (circles), L (squares)\n$Q$ = 1: Ioffe-Regel")
+           title="standing waves per packing, $\\rho$ = 0: TR (circles),\nL (squares, dashed); $Q$ = 1: Ioffe-Regel")
     ax.legend(fontsize=7, ncol=2)
     dz = np.array([r["dz"] for r in rows])
     got = fits(rows)
@@ -197,7 +215,11 @@ def draw(rows: list[dict]):
     if "omega_star" in rows[0]:
         bx.loglog(dz, [r["omega_star"] for r in rows], "x", label=r"$\omega^*$ Allen-Feldman")
         bx.loglog(dz, [r["omega_bp"] for r in rows], "+", ms=9, label=r"$\omega_{BP}$")
-    bx.set(xlabel=r"$\Delta z = z - 6$", ylabel=r"$\omega\,t_0$", title="Ioffe-Regel frequencies against $\\Delta z$")
+    for rho in sorted({r["rho"] for r in springs}):
+        held = [r for r in springs if r["rho"] == rho]
+        bx.loglog([r["dz"] for r in held], [r["omega_ir_TR"] for r in held], "D", ms=5, color="k",
+                  label=rf"$\omega_{{IR}}$ TR, $\rho$ = {rho:g}")
+    bx.set(xlabel=r"$\Delta z = z - 6$" + (r" ($z - 4$ with $\rho > 0$)" if springs else ""), ylabel=r"$\omega\,t_0$", title="Ioffe-Regel frequencies against $\\Delta z$")
     low, high = bx.get_ylim()
     bx.set_ylim(low, high * 4)  # room above the points for the legend
     bx.legend(fontsize=7, loc="upper left", ncol=2)
@@ -215,7 +237,7 @@ def main(argv=None) -> None:
     parser.add_argument("--figure", help="the figure's path (.png; with results files)")
     args = parser.parse_args(argv)
     rows = read_table(args.table) if args.table else [as_printed(r) for path in args.paths for r in measure(path)]
-    rows = sorted(rows, key=lambda r: (-r["phi"], r["packing"]))
+    rows = sorted(rows, key=lambda r: (r["rho"], -r["phi"], r["packing"]))
     if args.allen_feldman:
         rows = joined(rows, crossover_findings.read_table(args.allen_feldman))
     print("# The crossover from the standing waves: findings (scripts/tools/crossover_waves.py)\n")

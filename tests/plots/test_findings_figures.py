@@ -132,7 +132,7 @@ def test_crossover_waves_figure_passes_the_checks():
     rows = []
     for phi, dz in ((0.66, 0.8), (0.69, 1.7), (0.76, 3.0)):
         for packing in range(2):
-            row = {"phi": phi, "packing": packing, "N": 16000, "dz": dz, "pressure": 1e-3, "t_end": 1000.0, "curves": {},
+            row = {"phi": phi, "packing": packing, "rho": 0.0, "N": 16000, "dz": dz, "pressure": 1e-3, "t_end": 1000.0, "curves": {},
                    "omega_star": 0.04 * dz if dz > 1 else np.nan,
                    "omega_bp": 0.05 * dz if dz < 2 else np.nan}
             for mode, c, a in (("TR", 0.2 * dz**0.5, 0.4), ("L", 0.7, 0.05)):
@@ -141,4 +141,6 @@ def test_crossover_waves_figure_passes_the_checks():
                 row.update(crossover_waves.mode_columns(mode, k, omega, gamma))
             rows.append(row)
     assert np.isnan(rows[0]["omega_ir_TR"]) and np.isfinite(rows[-1]["omega_ir_TR"]), "the rows' premise"
+    springs = dict(rows[-1], rho=0.5, dz=5.0, omega_ir_TR=0.4)  # drawn as its own marker
+    rows.append(springs)
     assert_figures({"crossover_waves": crossover_waves.draw(rows)})

@@ -19,8 +19,8 @@ SPEEDS = {"TR": (0.1, 0.04), "L": (0.3, 0.1)}
 """mode -> (c, a): omega = c k, gamma = a k^3 in the synthetic files."""
 
 
-def _results(path, dz: float, ks: np.ndarray) -> None:
-    """A results file with one packing (z = 6 + dz) whose TR and L waves are exactly
+def _results(path, dz: float, ks: np.ndarray, rho: float = 0.0) -> None:
+    """A results file with one packing (z = 6 + dz) whose TR and L waves (at ``rho``) are exactly
     exp(-gamma t) cos(omega t) with omega = c k and gamma = a k^3 (:data:`SPEEDS`)."""
     t = np.arange(0.0, 2000.0, 0.25)
     with h5py.File(path, "w") as f:
@@ -28,11 +28,12 @@ def _results(path, dz: float, ks: np.ndarray) -> None:
         p = f.create_group("packings/0000")
         p.attrs.update(phi=0.66, z=6.0 + dz, pressure=1e-3)
         p["rattler"] = np.array([False] * 99 + [True])
+        p["positions"] = np.zeros((100, 3))
         for mode, (c, a) in SPEEDS.items():
             g = f.create_group(f"waves/r00_{mode}_p0000")
             g["k"], g["t"] = ks, t
             g["C"] = np.exp(-np.outer(a * ks**3, t)) * np.cos(np.outer(c * ks, t))
-            g.attrs.update(packing=0, mode=mode, rho=0.0)
+            g.attrs.update(packing=0, mode=mode, rho=rho)
 
 
 def test_the_ioffe_regel_frequency_of_known_waves(tmp_path):
@@ -50,6 +51,14 @@ def test_the_ioffe_regel_frequency_of_known_waves(tmp_path):
         assert_close(row[f"c_{mode}"], c, rtol=1e-6, atol=0.0, what=f"{mode} c")
         assert_close(row[f"q_1_{mode}"], c / (2 * np.pi * a * ks[0] ** 2), rtol=1e-6, atol=0.0, what=f"{mode} Q_1")
     assert_all(row["N"] == 99 and row["dz"] == pytest.approx(0.8, abs=1e-12) and row["t_end"] == 1999.75, f"{row}")
+
+
+def test_delta_z_with_tangential_springs_counts_from_four(tmp_path):
+    """With rho > 0 the isostatic count of spheres is D + 1 = 4, not 2 D = 6: the same packing
+    (z = 6.8) has Delta z = 2.8, and its row carries its rho."""
+    _results(tmp_path / "w.h5", 0.8, 2 * np.pi * np.arange(1, 9) / 20.0, rho=0.5)
+    (row,) = waves.measure(str(tmp_path / "w.h5"))
+    assert_all(row["rho"] == 0.5 and row["dz"] == pytest.approx(2.8, abs=1e-12), f"{row}")
 
 
 def test_a_crossover_below_the_smallest_k_is_not_measured(tmp_path):
@@ -80,7 +89,7 @@ def _rows(rng):
     rows = []
     for phi, dz in zip((0.65, 0.652, 0.66, 0.69, 0.76), (0.3, 0.6, 1.0, 1.8, 3.0)):
         for k in range(3):
-            rows.append({"file": "x.h5", "phi": phi, "packing": k, "N": 16000, "dz": dz, "pressure": 1e-3 * dz**2,
+            rows.append({"file": "x.h5", "phi": phi, "packing": k, "rho": 0.0, "N": 16000, "dz": dz, "pressure": 1e-3 * dz**2,
                          "t_end": 1000.0, "c_TR": 0.2, "omega_1_TR": 0.05, "q_1_TR": 2.0,
                          "omega_ir_TR": 0.05 * dz * (1 + 0.05 * rng.standard_normal()), "c_L": 0.7,
                          "omega_1_L": 0.2, "q_1_L": 2.0, "omega_ir_L": 0.2 * dz**0.5 * (1 + 0.05 * rng.standard_normal())})
@@ -96,6 +105,8 @@ def test_the_power_law_fit_and_the_table_read_back(capsys, tmp_path):
     for mode, beta in (("TR", 1.0), ("L", 0.5)):
         p = got[mode]["power"]
         assert_all(0 < p["beta_err"] < 0.1 and abs(p["beta"] - beta) < 2 * p["beta_err"], f"{mode}: {p}")
+    one_phi = [r for r in rows if r["phi"] == 0.76]
+    assert_all(waves.fits(one_phi)["TR"]["power"] is None, "a power law over one phi")
     waves.print_rows(rows)
     (tmp_path / "t.md").write_text("# page\n\n" + capsys.readouterr().out + "\nafter\n")
     back = waves.read_table(str(tmp_path / "t.md"))
