@@ -243,6 +243,7 @@ def velocity_field(dm, positions, mode: str, run: int, k: float | np.ndarray, *,
         while True:
             alpha, beta = _lanczos_pass(A, start, steps, 1e-13 * omega_max**2)
             m = len(alpha)
+            refuse_unstable(alpha, beta[:m - 1], float(times.max()))  # alpha, beta: the same on every rank
             coefficients = []
             for size in (m, max(m - 10, 1)):
                 theta, S = tridiagonal_eigen(alpha[:size], beta[:size - 1])

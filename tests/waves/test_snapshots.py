@@ -49,6 +49,24 @@ def test_velocity_field_equals_the_modal_solution(comm, dim, mode):
     dm.destroy()
 
 
+def test_a_matrix_with_negative_curvature_is_refused_on_every_path(comm):
+    """D shifted by -0.01 I: A = M^-1/2 D M^-1/2 gains eigenvalues near -0.01 / m, along which a wave
+    grows by about e^4 within t = 40.  The snapshot pass, the spectral z and the unshifted matrix's
+    control: the first two refuse it on every rank, naming the remedy; the control runs."""
+    p = jammed_packing(64, 0.9, 31)
+    k = 2 * np.pi / p.box[0]
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    spectral.velocity_field(dm, p.positions, "L", 0, k, amplitude=1e-3, times=TIMES, tol=1e-10)  # control
+    dm.destroy()
+    dm = dynmat.assemble(p, ContactModel(0.5), comm)
+    dm.D.shift(-0.01)
+    with pytest.raises(RuntimeError, match="negative curvature.*force_tol"):
+        spectral.velocity_field(dm, p.positions, "L", 0, k, amplitude=1e-3, times=TIMES, tol=1e-10)
+    with pytest.raises(RuntimeError, match="negative curvature.*force_tol"):
+        spectral.spectral(dm, p.positions, "L", 0, k, amplitude=1e-3, times=TIMES, tol=1e-10)
+    dm.destroy()
+
+
 def test_snapshots_through_a_scene(comm, shared_tmp, monkeypatch):
     waves = {"n": [2, 1], "method": "spectral", "t_end": 20, "modes": ["L", "RT"], "snapshots": [0.0, 5.0]}
     scene = scene_of(shared_tmp / "snap.h5", cache="off", seed=7, packing={"n": 64, "phi": 0.9},
